@@ -1,0 +1,1 @@
+"""Recordings, readers, preprocessing, modalities, the compiled cache and splits."""

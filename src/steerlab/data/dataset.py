@@ -1,0 +1,141 @@
+"""The compiled dataset cache (`steerlab compile`).
+
+A Recording plus a PreprocessConfig is decoded, preprocessed and turned into its modalities once, into
+memory-mapped .npy arrays under `<cache>/<key>/`, where the key hashes the source files and the config.
+A second run with the same source and config reuses the arrays at once. Work is done in chunks on a pool of
+threads (OpenCV releases the GIL), written straight into the memory maps, so the decoded recording is never
+held in RAM. A cache entry is built in a temporary folder and renamed into place when complete, so an
+interrupted compile never leaves a half-written cache behind.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from steerlab.data.modalities import frame_difference, optical_flow
+from steerlab.data.preprocess import PreprocessConfig, preprocess
+from steerlab.data.recording import Recording
+
+DEFAULT_CACHE = Path(os.environ.get("STEERLAB_CACHE", ".steerlab-cache"))
+CHUNK = 64
+
+
+def source_key(rec: Recording, camera: str) -> str:
+    """Hash of what the cache depends on: image files (path, size, mtime) and every label."""
+    h = hashlib.sha1()
+    for p in rec.frames[camera]:
+        st = os.stat(p)
+        h.update(f"{p}|{st.st_size}|{st.st_mtime_ns}\n".encode())
+    for name, arr in sorted(_labels(rec).items()):
+        h.update(name.encode())
+        h.update(np.ascontiguousarray(arr).tobytes())
+    return h.hexdigest()[:16]
+
+
+def _labels(rec: Recording) -> dict[str, np.ndarray]:
+    out = {"steering": rec.steering, "timestamps_ns": rec.timestamps_ns, "frame_ids": rec.frame_ids,
+           "segment": rec.segment_ids()}
+    for name in ("speed", "throttle", "brake"):
+        if getattr(rec, name) is not None:
+            out[name] = getattr(rec, name)
+    out.update(rec.extra)
+    return out
+
+
+@dataclass
+class CompiledDataset:
+    """Memory-mapped arrays of one compiled recording.
+
+    arrays: modality -> (N, H, W, C) array (image/diff uint8, flow float16).
+    labels: per-frame columns (steering, segment, timestamps_ns, frame_ids, speed, ...).
+    """
+
+    path: Path
+    config: PreprocessConfig
+    arrays: dict[str, np.ndarray]
+    labels: dict[str, np.ndarray]
+    meta: dict
+
+    def __len__(self) -> int:
+        return len(self.labels["steering"])
+
+    @property
+    def steering(self) -> np.ndarray:
+        return self.labels["steering"]
+
+    @classmethod
+    def load(cls, path: str | Path) -> "CompiledDataset":
+        path = Path(path)
+        meta = json.loads((path / "meta.json").read_text())
+        cfg = PreprocessConfig.from_dict(meta["preprocess"])
+        arrays = {m: np.load(path / f"{m}.npy", mmap_mode="r") for m in cfg.modalities}
+        with np.load(path / "labels.npz") as z:
+            labels = {k: z[k] for k in z.files}
+        return cls(path, cfg, arrays, labels, meta)
+
+
+def compile_recording(rec: Recording, cfg: PreprocessConfig, cache_dir: str | Path = DEFAULT_CACHE,
+                      camera: str = "center", workers: int | None = None, progress: bool = True) -> CompiledDataset:
+    """Compile (or reuse) the cached arrays for `rec` under `cfg`."""
+    key = f"{rec.name}-{camera}-{source_key(rec, camera)}-{cfg.key()}"
+    final = Path(cache_dir) / key
+    if (final / "meta.json").exists():
+        return CompiledDataset.load(final)
+    tmp = Path(cache_dir) / f".{key}.tmp-{os.getpid()}"
+    shutil.rmtree(tmp, ignore_errors=True)
+    tmp.mkdir(parents=True)
+    n, h, w = len(rec), cfg.height, cfg.width
+    ch = cfg.channels()
+    arrays = {m: np.lib.format.open_memmap(tmp / f"{m}.npy", mode="w+", shape=(n, h, w, c),
+                                           dtype=np.float16 if m == "flow" else np.uint8)
+              for m, c in ch.items()}
+    seg = rec.segment_ids()
+
+    def work(start: int) -> int:
+        stop = min(start + CHUNK, n)
+        prev_img = prev_gray = None
+        if start > 0 and seg[start - 1] == seg[start]:  # predecessor within the same segment
+            prev_img, prev_gray = preprocess(rec.load_frame(start - 1, camera), cfg)
+        for i in range(start, stop):
+            img, gray = preprocess(rec.load_frame(i, camera), cfg)
+            if prev_img is None or seg[i - 1] != seg[i]:
+                prev_img, prev_gray = img, gray
+            arrays["image"][i] = img
+            if "diff" in arrays:
+                arrays["diff"][i] = frame_difference(prev_img, img)
+            if "flow" in arrays:
+                arrays["flow"][i] = optical_flow(prev_gray, gray, cfg.flow)
+            prev_img, prev_gray = img, gray
+        return stop - start
+
+    workers = workers or min(2, os.cpu_count() or 1)
+    try:
+        with ThreadPoolExecutor(workers) as pool, tqdm(total=n, desc=f"compile {rec.name}", unit="frame",
+                                                       disable=not progress) as bar:
+            for done in pool.map(work, range(0, n, CHUNK)):
+                bar.update(done)
+        for a in arrays.values():
+            a.flush()
+        del arrays
+        np.savez(tmp / "labels.npz", **_labels(rec))
+        meta = {"preprocess": cfg.as_dict(), "source": str(rec.source), "name": rec.name, "camera": camera,
+                "frames": n, "convention": rec.convention.as_dict(), "preset": rec.preset,
+                "frame_rate": rec.frame_rate()}
+        (tmp / "meta.json").write_text(json.dumps(meta, indent=1))
+        if final.exists():  # another process finished the same entry first
+            shutil.rmtree(tmp)
+        else:
+            tmp.rename(final)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return CompiledDataset.load(final)

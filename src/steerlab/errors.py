@@ -1,0 +1,19 @@
+"""One exception type for every problem a user can fix, with the file and row that caused it."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+
+class SteerlabError(Exception):
+    """A problem with user input (files, configs, arguments). The CLI prints it without a traceback."""
+
+
+class DataError(SteerlabError):
+    """Bad input data. The message names the file, the row (1-based, as an editor shows it) and what was expected."""
+
+    def __init__(self, path: str | Path, message: str, row: int | None = None):
+        where = str(path) if row is None else f"{path}, row {row}"
+        super().__init__(f"{where}: {message}")
+        self.path = Path(path)
+        self.row = row

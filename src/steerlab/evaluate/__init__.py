@@ -1,0 +1,1 @@
+"""Metrics, leaderboard scoring, plots and reports."""

@@ -1,0 +1,42 @@
+"""Steering metrics. Angles come in radians; MAE and gamma are reported in degrees as the papers do."""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def mse(pred, target) -> float:
+    return float(np.mean((np.asarray(pred, float) - np.asarray(target, float)) ** 2))
+
+
+def rmse(pred, target) -> float:
+    return float(np.sqrt(mse(pred, target)))
+
+
+def mae_deg(pred, target) -> float:
+    return float(np.degrees(np.mean(np.abs(np.asarray(pred, float) - np.asarray(target, float)))))
+
+
+def gamma_deg(series) -> float:
+    """Smoothness gamma (paper 000 Eq. 2): standard deviation of successive differences, in degrees."""
+    y = np.asarray(series, float)
+    if len(y) < 2:
+        return float("nan")
+    return float(np.degrees(np.std(np.diff(y))))
+
+
+def exponential_smoothing(series, alpha: float = 0.2) -> np.ndarray:
+    """s_t = alpha * y_t + (1 - alpha) * s_{t-1}, s_0 = y_0 (paper 002 Eq. 2)."""
+    y = np.asarray(series, float)
+    out = np.empty_like(y)
+    s = y[0] if len(y) else 0.0
+    for i, v in enumerate(y):
+        s = alpha * v + (1 - alpha) * s
+        out[i] = s
+    return out
+
+
+def steering_metrics(pred, target) -> dict[str, float]:
+    """MSE, RMSE (rad), MAE (deg), gamma of prediction and of target (deg)."""
+    return {"mse": mse(pred, target), "rmse": rmse(pred, target), "mae_deg": mae_deg(pred, target),
+            "gamma_deg": gamma_deg(pred), "target_gamma_deg": gamma_deg(target), "frames": int(len(target))}

@@ -1,0 +1,8 @@
+"""Model registry: `create_model(name, **cfg)`, `list_models()`."""
+
+from steerlab.models.registry import create_model, list_models, register
+
+# Importing the modules registers their models.
+from steerlab.models import baselines, pilotnet  # noqa: E402,F401
+
+__all__ = ["create_model", "list_models", "register"]

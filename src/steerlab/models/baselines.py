@@ -1,0 +1,36 @@
+"""Baselines every model must beat: always straight, and always the training split's mean steering."""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+import torch.nn as nn
+
+from steerlab.models.registry import register
+
+
+class _Constant(nn.Module):
+    trainable = False
+
+    def __init__(self, in_channels: int = 1, height: int = 66, width: int = 200, **_):
+        super().__init__()
+        self.register_buffer("value", torch.zeros(()))
+
+    def fit(self, steering: np.ndarray) -> None:
+        pass
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.value.expand(x.shape[0]).clone()
+
+
+@register("zero")
+class Zero(_Constant):
+    """Predicts 0 rad (straight ahead) for every frame."""
+
+
+@register("train-mean")
+class TrainMean(_Constant):
+    """Predicts the mean steering of the training split for every frame."""
+
+    def fit(self, steering: np.ndarray) -> None:
+        self.value.fill_(float(np.mean(steering)))

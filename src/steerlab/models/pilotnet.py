@@ -1,0 +1,40 @@
+"""NVIDIA PilotNet as specified in paper 000 IV-B1 (and paper 003's "NVIDIA" model).
+
+Five convolutions: 24, 36, 48 channels with 5x5 kernels and stride 2, then 64, 64 with 3x3 kernels and
+stride 1; fully connected 1164, 100, 50, 10, 1. Dropout on every fully connected layer (paper 000 IV-D).
+For a 66x200 input the flattened convolution output has 64 x 1 x 18 = 1152 features.
+"""
+
+from __future__ import annotations
+
+import torch
+import torch.nn as nn
+
+from steerlab.models.registry import register
+
+
+def pilotnet_convs(in_channels: int) -> nn.Sequential:
+    layers, c = [], in_channels
+    for out, k, s in [(24, 5, 2), (36, 5, 2), (48, 5, 2), (64, 3, 1), (64, 3, 1)]:
+        layers += [nn.Conv2d(c, out, k, s), nn.ReLU(inplace=True)]
+        c = out
+    return nn.Sequential(*layers)
+
+
+@register("pilotnet")
+class PilotNet(nn.Module):
+    trainable = True
+
+    def __init__(self, in_channels: int = 1, height: int = 66, width: int = 200, dropout: float = 0.5):
+        super().__init__()
+        self.features = pilotnet_convs(in_channels)
+        with torch.no_grad():
+            n = self.features(torch.zeros(1, in_channels, height, width)).numel()
+        sizes = [n, 1164, 100, 50, 10]
+        head = []
+        for a, b in zip(sizes[:-1], sizes[1:]):
+            head += [nn.Linear(a, b), nn.ReLU(inplace=True), nn.Dropout(dropout)]
+        self.head = nn.Sequential(*head, nn.Linear(10, 1))
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.head(self.features(x).flatten(1)).squeeze(1)

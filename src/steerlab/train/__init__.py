@@ -1,0 +1,1 @@
+"""Training: config, batches from the compiled cache, the loop, checkpoints."""

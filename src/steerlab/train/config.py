@@ -1,0 +1,76 @@
+"""Training configuration: a YAML file plus `section.key=value` overrides from the command line."""
+
+from __future__ import annotations
+
+import copy
+from pathlib import Path
+
+import yaml
+
+from steerlab.errors import SteerlabError
+
+DEFAULTS = {
+    "data": None,            # recording folder or driving_log.csv
+    "range": None,           # frames of the recording to use, "a:b"
+    "labels": None,          # CH2: label CSV when the folder holds several
+    "camera": "center",
+    "cache": ".steerlab-cache",
+    "preprocess": {},        # PreprocessConfig fields; "preset" defaults to the recording's
+    "split": {"protocol": "paper", "k": 3, "length": 1000},
+    "model": {"name": "pilotnet", "dropout": 0.5},  # split, model and preprocess are replaced whole
+    "train": {
+        "epochs": 30, "batch_size": 100, "lr": 1e-4, "patience": 5, "flip": False, "seed": 0,
+        "exclude_episodes": [],  # e.g. [drift-out] to train on the recovery half of drift episodes only
+    },
+    "out": "runs/train",
+}
+
+
+def _merge(base: dict, new: dict) -> dict:
+    out = copy.deepcopy(base)
+    for k, v in (new or {}).items():
+        if isinstance(v, dict) and isinstance(out.get(k), dict) and k == "train":
+            out[k] = _merge(out[k], v)
+        else:
+            out[k] = copy.deepcopy(v)
+    return out
+
+
+def apply_override(cfg: dict, text: str) -> None:
+    if "=" not in text:
+        raise SteerlabError(f"override {text!r} must look like section.key=value, e.g. train.epochs=5")
+    key, value = text.split("=", 1)
+    parts = key.strip().split(".")
+    node = cfg
+    for p in parts[:-1]:
+        node = node.setdefault(p, {})
+        if not isinstance(node, dict):
+            raise SteerlabError(f"override {text!r}: {p!r} is not a section")
+    node[parts[-1]] = yaml.safe_load(value)
+
+
+def load_config(path: str | Path | None = None, overrides: list[str] = (), base: dict | None = None) -> dict:
+    """Defaults <- YAML file <- overrides. Relative data paths are taken relative to the working directory."""
+    user = {}
+    if path is not None:
+        path = Path(path)
+        if not path.is_file():
+            raise SteerlabError(f"{path}: config file not found")
+        try:
+            user = yaml.safe_load(path.read_text()) or {}
+        except yaml.YAMLError as e:
+            raise SteerlabError(f"{path}: not valid YAML: {e}") from None
+        if not isinstance(user, dict):
+            raise SteerlabError(f"{path}: expected a mapping of sections (data, split, model, train, ...)")
+    cfg = _merge(_merge(DEFAULTS, base or {}), user)
+    for o in overrides:
+        apply_override(cfg, o)
+    unknown = set(cfg) - set(DEFAULTS)
+    if unknown:
+        raise SteerlabError(f"unknown config sections {sorted(unknown)}; known: {sorted(DEFAULTS)}")
+    unknown = set(cfg["train"]) - set(DEFAULTS["train"])
+    if unknown:
+        raise SteerlabError(f"unknown train options {sorted(unknown)}; known: {sorted(DEFAULTS['train'])}")
+    if not cfg["data"]:
+        raise SteerlabError("the config names no data (set data: PATH or pass data=PATH)")
+    return cfg

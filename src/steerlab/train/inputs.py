@@ -1,0 +1,54 @@
+"""Turning compiled arrays into standardised network input: shared by training and the streaming Pilot."""
+
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from steerlab.data.preprocess import PreprocessConfig
+
+
+def stack_modalities(arrays: dict[str, np.ndarray], cfg: PreprocessConfig) -> np.ndarray:
+    """(..., H, W, C_m) per modality -> (..., H, W, C) float32 in the config's modality order."""
+    return np.concatenate([np.asarray(arrays[m], dtype=np.float32) for m in cfg.modalities], axis=-1)
+
+
+def channel_stats(arrays: dict[str, np.ndarray], cfg: PreprocessConfig, indices: np.ndarray,
+                  chunk: int = 512) -> dict[str, list[float]]:
+    """Per-channel mean and std over the given frames (the training split only), computed in chunks."""
+    total = sq = None
+    count = 0
+    for i in range(0, len(indices), chunk):
+        idx = np.sort(indices[i: i + chunk])
+        x = stack_modalities({m: arrays[m][idx] for m in cfg.modalities}, cfg).astype(np.float64)
+        s, q = x.sum(axis=(0, 1, 2)), (x ** 2).sum(axis=(0, 1, 2))
+        total, sq = (s, q) if total is None else (total + s, sq + q)
+        count += x.shape[0] * x.shape[1] * x.shape[2]
+    mean = total / count
+    std = np.sqrt(np.maximum(sq / count - mean ** 2, 0.0))
+    return {"mean": mean.tolist(), "std": np.maximum(std, 1e-3).tolist()}
+
+
+class Standardizer:
+    """x -> (x - mean) / std per channel, and NHWC -> NCHW."""
+
+    def __init__(self, stats: dict[str, list[float]]):
+        self.mean = torch.tensor(stats["mean"], dtype=torch.float32)
+        self.std = torch.tensor(stats["std"], dtype=torch.float32)
+
+    def __call__(self, x_nhwc: np.ndarray) -> torch.Tensor:
+        x = torch.from_numpy(np.ascontiguousarray(x_nhwc, dtype=np.float32))
+        return ((x - self.mean) / self.std).permute(0, 3, 1, 2).contiguous()
+
+
+def flip_horizontal(x_nhwc: np.ndarray, cfg: PreprocessConfig) -> np.ndarray:
+    """Mirror left-right. The flow's horizontal component changes sign with the mirror."""
+    x = x_nhwc[:, :, ::-1, :].copy()
+    if "flow" in cfg.modalities:
+        c = 0
+        for m, n in cfg.channels().items():
+            if m == "flow":
+                break
+            c += n
+        x[..., c] *= -1  # the flow's dx channel
+    return x

@@ -1,0 +1,165 @@
+"""The training loop: `train(cfg)` reads as prepare data -> train_one_epoch / evaluate -> checkpoints.
+
+Batches are gathered from the memory-mapped cache; validation uses the same cache. The best checkpoint
+(lowest validation RMSE) is `best.pt`; `last.pt` also holds the optimiser and RNG state, so a run that is
+interrupted continues where it stopped when started again with the same config.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+from tqdm import tqdm
+
+from steerlab.data.dataset import CompiledDataset, compile_recording
+from steerlab.data.preprocess import PreprocessConfig
+from steerlab.data.readers import open_recording
+from steerlab.data.recording import SteeringConvention
+from steerlab.data.splits import make_split
+from steerlab.errors import SteerlabError
+from steerlab.evaluate.metrics import steering_metrics
+from steerlab.models import create_model
+from steerlab.train.checkpoint import save_checkpoint
+from steerlab.train.inputs import Standardizer, channel_stats, flip_horizontal, stack_modalities
+
+LOG_FIELDS = ["epoch", "train_loss", "val_mse", "val_rmse", "val_mae_deg", "val_gamma_deg", "seconds"]
+
+
+def prepare_dataset(cfg: dict, progress: bool = True) -> CompiledDataset:
+    rec = open_recording(cfg["data"], cfg.get("range"), cfg.get("labels"))
+    pre_cfg = dict(cfg.get("preprocess") or {})
+    if "crop" not in pre_cfg:
+        pre_cfg.setdefault("preset", rec.preset)
+    return compile_recording(rec, PreprocessConfig.from_dict(pre_cfg), cfg["cache"], cfg.get("camera", "center"),
+                             progress=progress)
+
+
+def training_indices(ds: CompiledDataset, idx: np.ndarray, exclude_episodes) -> np.ndarray:
+    if exclude_episodes:
+        if "episode" not in ds.labels:
+            raise SteerlabError("exclude_episodes needs a recording with episode labels (the synthetic world's)")
+        idx = idx[~np.isin(ds.labels["episode"][idx], list(exclude_episodes))]
+    if len(idx) == 0:
+        raise SteerlabError("the training split is empty")
+    return idx
+
+
+class Batches:
+    """Gathers standardised batches from the cache: sorted indices make the memory-mapped reads sequential."""
+
+    def __init__(self, ds: CompiledDataset, stats: dict):
+        self.ds, self.cfg, self.standardize = ds, ds.config, Standardizer(stats)
+
+    def get(self, idx: np.ndarray, flip_mask: np.ndarray | None = None) -> tuple[torch.Tensor, torch.Tensor]:
+        idx = np.sort(idx)
+        x = stack_modalities({m: self.ds.arrays[m][idx] for m in self.cfg.modalities}, self.cfg)
+        y = self.ds.steering[idx].astype(np.float32).copy()
+        if flip_mask is not None and flip_mask.any():
+            x[flip_mask] = flip_horizontal(x[flip_mask], self.cfg)
+            y[flip_mask] *= -1
+        return self.standardize(x), torch.from_numpy(y)
+
+
+def train_one_epoch(model, opt, batches: Batches, idx: np.ndarray, batch_size: int, flip: bool,
+                    rng: np.random.Generator, progress: bool = True, desc: str = "") -> float:
+    model.train()
+    order = rng.permutation(idx)
+    total, count = 0.0, 0
+    steps = range(0, len(order), batch_size)
+    for s in tqdm(steps, desc=desc, unit="batch", leave=False, disable=not progress):
+        b = order[s: s + batch_size]
+        flips = rng.random(len(b)) < 0.5 if flip else None
+        x, y = batches.get(b, flips)
+        loss = torch.mean((model(x) - y) ** 2)
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        opt.step()
+        total += float(loss.detach()) * len(b)
+        count += len(b)
+    return total / count
+
+
+@torch.inference_mode()
+def predict(model, batches: Batches, idx: np.ndarray, batch_size: int = 256) -> np.ndarray:
+    model.eval()
+    out = [model(batches.get(idx[s: s + batch_size])[0]).numpy() for s in range(0, len(idx), batch_size)]
+    return np.concatenate(out).astype(np.float64)
+
+
+def train(cfg: dict, progress: bool = True) -> dict:
+    """Train one model as configured; returns the best validation metrics. Resumes from `out/last.pt`."""
+    out = Path(cfg["out"])
+    out.mkdir(parents=True, exist_ok=True)
+    tc = cfg["train"]
+    cfg_file = out / "config.json"
+    if (out / "last.pt").exists():
+        if not cfg_file.exists() or json.loads(cfg_file.read_text()) != json.loads(json.dumps(cfg)):
+            raise SteerlabError(f"{out} holds a run with another config; choose a new out directory or delete it")
+    cfg_file.write_text(json.dumps(cfg, indent=1))
+
+    ds = prepare_dataset(cfg, progress)
+    train_idx, val_idx = make_split(cfg["split"], len(ds))
+    train_idx = training_indices(ds, train_idx, tc.get("exclude_episodes"))
+    stats = channel_stats(ds.arrays, ds.config, train_idx)
+    batches = Batches(ds, stats)
+    torch.manual_seed(int(tc["seed"]))
+    model_cfg = {k: v for k, v in cfg["model"].items() if k != "name"}
+    model_cfg.update(in_channels=sum(ds.config.channels().values()), height=ds.config.height, width=ds.config.width)
+    model = create_model(cfg["model"]["name"], **model_cfg)
+    convention = SteeringConvention(**ds.meta["convention"])
+    y_val = ds.steering[val_idx]
+
+    def checkpoint(path, metrics, **extra):
+        save_checkpoint(path, model, model_cfg, ds.config, stats, convention, metrics,
+                        preset=ds.meta["preset"], frame_rate=ds.meta["frame_rate"], **extra)
+
+    if not getattr(model, "trainable", True):
+        model.fit(ds.steering[train_idx])
+        metrics = steering_metrics(predict(model, batches, val_idx), y_val)
+        checkpoint(out / "best.pt", {**metrics, "epoch": 0})
+        return metrics
+
+    opt = torch.optim.Adam(model.parameters(), lr=float(tc["lr"]))
+    start, best, since_best, history = 1, None, 0, []
+    if (out / "last.pt").exists():
+        state = torch.load(out / "last.pt", map_location="cpu", weights_only=False)
+        model.load_state_dict(state["state_dict"])
+        opt.load_state_dict(state["optimizer"])
+        start, best, since_best, history = state["epoch"] + 1, state["best"], state["since_best"], state["history"]
+        torch.set_rng_state(state["torch_rng"])
+        print(f"resuming {out} after epoch {state['epoch']}")
+    log_path = out / "log.csv"
+    with open(log_path, "w", newline="") as f:  # rewritten from history so a resumed log has no duplicates
+        w = csv.DictWriter(f, LOG_FIELDS)
+        w.writeheader()
+        w.writerows(history)
+
+    for epoch in range(start, int(tc["epochs"]) + 1):
+        if since_best >= int(tc["patience"]):
+            break
+        t0 = time.time()
+        rng = np.random.default_rng([int(tc["seed"]), epoch])
+        loss = train_one_epoch(model, opt, batches, train_idx, int(tc["batch_size"]), bool(tc["flip"]), rng,
+                               progress, desc=f"epoch {epoch}")
+        m = steering_metrics(predict(model, batches, val_idx), y_val)
+        row = {"epoch": epoch, "train_loss": loss, "val_mse": m["mse"], "val_rmse": m["rmse"],
+               "val_mae_deg": m["mae_deg"], "val_gamma_deg": m["gamma_deg"], "seconds": round(time.time() - t0, 2)}
+        history.append(row)
+        with open(log_path, "a", newline="") as f:
+            csv.DictWriter(f, LOG_FIELDS).writerow(row)
+        if progress:
+            print(f"epoch {epoch}: train mse {loss:.5f}  val rmse {m['rmse']:.4f}  mae {m['mae_deg']:.2f} deg  "
+                  f"gamma {m['gamma_deg']:.3f} (target {m['target_gamma_deg']:.3f})")
+        if best is None or m["rmse"] < best["rmse"]:
+            best, since_best = {**m, "epoch": epoch}, 0
+            checkpoint(out / "best.pt", best)
+        else:
+            since_best += 1
+        checkpoint(out / "last.pt", best, optimizer=opt.state_dict(), epoch=epoch, best=best,
+                   since_best=since_best, history=history, torch_rng=torch.get_rng_state())
+    return best
