@@ -26,3 +26,34 @@ def plot_steering(path: str | Path, t_s: np.ndarray, target: np.ndarray, preds: 
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
+
+
+def plot_trajectory(path: str | Path, road, traj: np.ndarray, result: dict) -> None:
+    """Top-down view of a closed-loop run against the lane, and the lateral offset over time.
+
+    traj columns: time_s, x, y, s, lateral_offset_m, steering, speed."""
+    from steerlab.sim.road import EDGE, LANE_CENTER
+
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 5), dpi=100, gridspec_kw={"width_ratios": [1, 1.4]})
+    a, b = road.index(traj[:, 3].min() - 20), road.index(traj[:, 3].max() + 20) + 1
+    for d, style in [(EDGE, "k-"), (-EDGE, "k-"), (0.0, "k--")]:
+        ax.plot(road.x[a:b] - d * np.sin(road.psi[a:b]), road.y[a:b] + d * np.cos(road.psi[a:b]), style, lw=0.7)
+    ax.plot(road.x[a:b] - LANE_CENTER * np.sin(road.psi[a:b]), road.y[a:b] + LANE_CENTER * np.cos(road.psi[a:b]),
+            color="0.7", lw=0.7, label="lane centre")
+    ax.plot(traj[:, 1], traj[:, 2], color="tab:red", lw=1.0, label="car")
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.legend(fontsize=8)
+    ax.set_title(f"{result['label']} on {result['road']} road, seed {result['seed']}")
+    ax2.plot(traj[:, 0], traj[:, 4], lw=0.8)
+    ax2.axhline(1.0, color="tab:red", ls=":", lw=0.8)
+    ax2.axhline(-1.0, color="tab:red", ls=":", lw=0.8)
+    ax2.set_xlabel("time [s]")
+    ax2.set_ylabel("offset from lane centre [m]")
+    ax2.set_title(f"autonomy {result['autonomy']:.1f}%, {result['interventions']} interventions, "
+                  f"mean |offset| {result['mean_abs_offset_m']:.2f} m")
+    ax2.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)

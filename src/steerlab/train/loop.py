@@ -30,13 +30,15 @@ from steerlab.train.inputs import Standardizer, channel_stats, flip_horizontal, 
 LOG_FIELDS = ["epoch", "train_loss", "val_mse", "val_rmse", "val_mae_deg", "val_gamma_deg", "seconds"]
 
 
-def prepare_dataset(cfg: dict, progress: bool = True) -> CompiledDataset:
+def prepare_dataset(cfg: dict, progress: bool = True, camera: str | None = None) -> CompiledDataset:
     rec = open_recording(cfg["data"], cfg.get("range"), cfg.get("labels"))
+    camera = camera or cfg.get("camera", "center")
+    if camera not in rec.frames:
+        raise SteerlabError(f"{rec.source} has no {camera!r} camera (it has {', '.join(rec.cameras)})")
     pre_cfg = dict(cfg.get("preprocess") or {})
     if "crop" not in pre_cfg:
         pre_cfg.setdefault("preset", rec.preset)
-    return compile_recording(rec, PreprocessConfig.from_dict(pre_cfg), cfg["cache"], cfg.get("camera", "center"),
-                             progress=progress)
+    return compile_recording(rec, PreprocessConfig.from_dict(pre_cfg), cfg["cache"], camera, progress=progress)
 
 
 def training_indices(ds: CompiledDataset, idx: np.ndarray, exclude_episodes) -> np.ndarray:
@@ -50,19 +52,41 @@ def training_indices(ds: CompiledDataset, idx: np.ndarray, exclude_episodes) -> 
 
 
 class Batches:
-    """Gathers standardised batches from the cache: sorted indices make the memory-mapped reads sequential."""
+    """Gathers standardised batches from the cache.
 
-    def __init__(self, ds: CompiledDataset, stats: dict):
-        self.ds, self.cfg, self.standardize = ds, ds.config, Standardizer(stats)
+    Each source is a compiled camera stream with its own steering labels (the centre camera, and with
+    side-camera synthesis the left and right ones); a sample is coded as source * N + frame. Indices are
+    sorted per source so that the memory-mapped reads run forward."""
 
-    def get(self, idx: np.ndarray, flip_mask: np.ndarray | None = None) -> tuple[torch.Tensor, torch.Tensor]:
-        idx = np.sort(idx)
-        x = stack_modalities({m: self.ds.arrays[m][idx] for m in self.cfg.modalities}, self.cfg)
-        y = self.ds.steering[idx].astype(np.float32).copy()
-        if flip_mask is not None and flip_mask.any():
-            x[flip_mask] = flip_horizontal(x[flip_mask], self.cfg)
-            y[flip_mask] *= -1
+    def __init__(self, sources: list[tuple[CompiledDataset, np.ndarray]], stats: dict):
+        self.sources, self.cfg, self.standardize = sources, sources[0][0].config, Standardizer(stats)
+        self.n = len(sources[0][0])
+
+    def get(self, codes: np.ndarray, flip: np.ndarray | None = None) -> tuple[torch.Tensor, torch.Tensor]:
+        codes = np.sort(codes)
+        xs, ys = [], []
+        for k, (ds, steering) in enumerate(self.sources):
+            idx = codes[(codes // self.n) == k] % self.n
+            if len(idx):
+                xs.append(stack_modalities({m: ds.arrays[m][idx] for m in self.cfg.modalities}, self.cfg))
+                ys.append(steering[idx].astype(np.float32))
+        x, y = np.concatenate(xs), np.concatenate(ys)
+        if flip is not None and flip.any():
+            x[flip] = flip_horizontal(x[flip], self.cfg)
+            y[flip] *= -1
         return self.standardize(x), torch.from_numpy(y)
+
+
+def side_camera_labels(ds: CompiledDataset, offset_m: float, recovery_s: float, ratio: float) -> np.ndarray:
+    """Paper 002 Eq. 3: a camera d_y metres to the LEFT sees the view of a car that must steer back right:
+    theta_f = theta_r - arctan(d_y / (speed * t_r)) as a road-wheel angle (positive left); converted back to
+    the recording's convention (steering-wheel recordings use the vehicle's steering ratio)."""
+    if "speed" not in ds.labels:
+        raise SteerlabError("side-camera synthesis needs the speed signal (paper 002 Eq. 3)")
+    conv = SteeringConvention(**ds.meta["convention"])
+    speed = np.maximum(ds.labels["speed"], 1.0)
+    correction = -np.arctan(offset_m / (speed * recovery_s))
+    return ds.steering + conv.from_road_wheel_left(correction, ratio)
 
 
 def train_one_epoch(model, opt, batches: Batches, idx: np.ndarray, batch_size: int, flip: bool,
@@ -106,7 +130,14 @@ def train(cfg: dict, progress: bool = True) -> dict:
     train_idx, val_idx = make_split(cfg["split"], len(ds))
     train_idx = training_indices(ds, train_idx, tc.get("exclude_episodes"))
     stats = channel_stats(ds.arrays, ds.config, train_idx)
-    batches = Batches(ds, stats)
+    sources = [(ds, ds.steering)]
+    if tc.get("side_cameras"):
+        for cam, sign in (("left", 1.0), ("right", -1.0)):
+            side = prepare_dataset(cfg, progress, camera=cam)
+            sources.append((side, side_camera_labels(side, sign * float(tc["side_offset_m"]),
+                                                     float(tc["recovery_s"]), float(tc["steering_ratio"]))))
+        train_idx = np.concatenate([train_idx + k * len(ds) for k in range(3)])
+    batches = Batches(sources, stats)
     torch.manual_seed(int(tc["seed"]))
     model_cfg = {k: v for k, v in cfg["model"].items() if k != "name"}
     model_cfg.update(in_channels=sum(ds.config.channels().values()), height=ds.config.height, width=ds.config.width)
