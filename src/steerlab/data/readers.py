@@ -34,6 +34,8 @@ def parse_range(text: str | None) -> tuple[int | None, int | None] | None:
     """Parse "a:b" (either side may be empty) into a tuple; None stays None."""
     if text is None:
         return None
+    if not isinstance(text, str):
+        raise DataError("<range>", f"frame range {text!r} must be text like \"0:1800\" (quote it in YAML files)")
     parts = str(text).split(":")
     if len(parts) != 2:
         raise DataError("<range>", f"frame range {text!r} must look like START:STOP, e.g. 0:1800")

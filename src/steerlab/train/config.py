@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import re
 from pathlib import Path
 
 import yaml
@@ -48,7 +49,8 @@ def apply_override(cfg: dict, text: str) -> None:
         node = node.setdefault(p, {})
         if not isinstance(node, dict):
             raise SteerlabError(f"override {text!r}: {p!r} is not a section")
-    node[parts[-1]] = yaml.safe_load(value)
+    # a frame range such as 0:1800 stays text (YAML 1.1 would read it as a base-60 number)
+    node[parts[-1]] = value if re.fullmatch(r"\s*\d*:\d*\s*", value) else yaml.safe_load(value)
 
 
 def load_config(path: str | Path | None = None, overrides: list[str] = (), base: dict | None = None) -> dict:

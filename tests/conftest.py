@@ -1,0 +1,40 @@
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+
+SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "data"
+CH2 = SHARED / "udacity-ch2"
+SIM = SHARED / "udacity-sim-track1"
+
+needs_ch2 = pytest.mark.skipif(not (CH2 / "CH2_final_evaluation.csv").exists(), reason="../shared/data absent")
+needs_sim = pytest.mark.skipif(not (SIM / "driving_log.csv").exists(), reason="../shared/data absent")
+
+
+def write_jpeg(path: Path, value: int = 128, size=(160, 320)) -> None:
+    img = np.full((*size, 3), value, np.uint8)
+    img[::7, ::5] = 255 - value  # some texture
+    cv2.imwrite(str(path), img)
+
+
+@pytest.fixture
+def ch2_folder(tmp_path):
+    """A tiny CH2-layout folder: 6 frames of 640x480, answer-file labels."""
+    (tmp_path / "center").mkdir()
+    ids = [1_000_000_000 + i * 50_000_000 for i in range(6)]
+    for i, fid in enumerate(ids):
+        write_jpeg(tmp_path / "center" / f"{fid}.jpg", 40 * i, (480, 640))
+    lines = ["frame_id,steering_angle,public"] + [f"{fid},{0.01 * i},{i % 2}" for i, fid in enumerate(ids)]
+    (tmp_path / "labels.csv").write_text("\n".join(lines) + "\n")
+    return tmp_path
+
+
+@pytest.fixture(scope="session")
+def tiny_recording(tmp_path_factory):
+    """A short synthetic recording with all three cameras (shared by several tests)."""
+    from steerlab.sim.world import record
+
+    out = tmp_path_factory.mktemp("rec") / "rec"
+    record(out, seed=3, minutes=0.25, progress=False)
+    return out

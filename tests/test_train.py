@@ -1,0 +1,99 @@
+import csv
+
+import numpy as np
+import pytest
+
+from steerlab.errors import SteerlabError
+from steerlab.evaluate.offline import evaluate
+from steerlab.train import loop
+from steerlab.train.config import load_config
+
+
+def _cfg(rec, tmp_path, **train):
+    return load_config(None, base={
+        "data": str(rec), "cache": str(tmp_path / "cache"), "out": str(tmp_path / "run"),
+        "split": {"train": "0:240", "val": "240:300"},
+        "model": {"name": "pilotnet", "dropout": 0.0},
+        "train": {"epochs": 4, "lr": 1e-3, "batch_size": 32, "patience": 10, **train},
+    })
+
+
+def _log(tmp_path):
+    with open(tmp_path / "run" / "log.csv") as f:
+        return list(csv.DictReader(f))
+
+
+def test_training_lowers_loss_and_checkpoint_reproduces(tiny_recording, tmp_path):
+    best = loop.train(_cfg(tiny_recording, tmp_path), progress=False)
+    rows = _log(tmp_path)
+    assert len(rows) == 4
+    assert float(rows[-1]["train_loss"]) < float(rows[0]["train_loss"])
+    # the streaming evaluation of the best checkpoint reproduces its validation predictions in batch
+    m = evaluate(tmp_path / "run" / "best.pt", tiny_recording, "240:300", tmp_path / "eval", progress=False)
+    assert m["frames"] == 60
+    assert m["rmse"] == pytest.approx(best["rmse"], rel=1e-3)
+    assert (tmp_path / "eval" / "steering.png").stat().st_size > 10_000
+    with open(tmp_path / "eval" / "predictions.csv") as f:
+        assert next(csv.reader(f)) == ["frame_id", "steering_angle"]
+
+
+def test_side_cameras_and_episode_filter(tiny_recording, tmp_path):
+    cfg = _cfg(tiny_recording, tmp_path, epochs=1, side_cameras=True, exclude_episodes=["drift-out"])
+    loop.train(cfg, progress=False)
+    assert len(_log(tmp_path)) == 1
+
+
+def test_side_camera_labels_hand_computed(tiny_recording, tmp_path):
+    ds = loop.prepare_dataset(_cfg(tiny_recording, tmp_path), progress=False, camera="left")
+    y = loop.side_camera_labels(ds, 0.5, 1.0, 10.0)
+    v = ds.labels["speed"][0]
+    # left camera: steer right by arctan(0.5 / v) at the road wheel = 10x that at the steering wheel
+    assert y[0] == pytest.approx(ds.steering[0] - 10 * np.arctan(0.5 / v))
+
+
+def test_resume_after_interruption(tiny_recording, tmp_path, monkeypatch):
+    cfg = _cfg(tiny_recording, tmp_path, epochs=3)
+    real = loop.train_one_epoch
+    calls = []
+
+    def interrupted(*a, **k):
+        calls.append(1)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return real(*a, **k)
+
+    monkeypatch.setattr(loop, "train_one_epoch", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        loop.train(cfg, progress=False)
+    assert [r["epoch"] for r in _log(tmp_path)] == ["1"]
+    monkeypatch.setattr(loop, "train_one_epoch", real)
+    loop.train(cfg, progress=False)
+    assert [r["epoch"] for r in _log(tmp_path)] == ["1", "2", "3"]
+    other = _cfg(tiny_recording, tmp_path, epochs=3, lr=0.1)
+    with pytest.raises(SteerlabError, match="another config"):
+        loop.train(other, progress=False)
+
+
+def test_baselines(tiny_recording, tmp_path):
+    cfg = _cfg(tiny_recording, tmp_path)
+    cfg["model"] = {"name": "train-mean"}
+    m = loop.train(cfg, progress=False)
+    ds = loop.prepare_dataset(cfg, progress=False)
+    mean = ds.steering[:240].mean()
+    assert m["rmse"] == pytest.approx(np.sqrt(np.mean((ds.steering[240:300] - mean) ** 2)))
+
+
+def test_config_errors(tmp_path):
+    with pytest.raises(SteerlabError, match="config file not found"):
+        load_config(tmp_path / "x.yaml")
+    with pytest.raises(SteerlabError, match="names no data"):
+        load_config(None)
+    with pytest.raises(SteerlabError, match="unknown train options"):
+        load_config(None, ["data=x", "train.epoch=3"])
+    cfg = load_config(None, ["data=x", "train.epochs=3", "split.train=0:10"])
+    assert cfg["train"]["epochs"] == 3 and cfg["train"]["batch_size"] == 100
+    assert cfg["split"]["train"] == "0:10"
+    (tmp_path / "c.yaml").write_text("data: x\nsplit: {train: 10:20, val: 20:30}\n")
+    from steerlab.data.splits import make_split
+    with pytest.raises(SteerlabError, match="quote it"):
+        make_split(load_config(tmp_path / "c.yaml")["split"], 2400)
