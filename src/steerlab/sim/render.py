@@ -16,7 +16,7 @@ import cv2
 import numpy as np
 
 from steerlab.errors import SteerlabError
-from steerlab.sim.road import DS, EDGE, LANE, VERGE, Road
+from steerlab.sim.road import DS, EDGE, LANE, LINE_WIDTH, VERGE, Road
 
 MAX_RANGE = 250.0   # m: ground further away is drawn as haze
 SIDE_OFFSET = 0.508  # m: left/right cameras sit 20 inches beside the centre one (paper 002 V-D)
@@ -107,8 +107,9 @@ class Renderer:
         self.horizon = c.cy - c.focal * np.tan(th)
         rows = slice(self.first_row, c.height)
         self.fwd = fwd[rows].astype(np.float32)
+        self.ray = t[rows].astype(np.float32)  # ground point = camera + ray * (x_c, y_c, 1) in camera axes
         xc = (np.arange(c.width) + 0.5 - c.width / 2) / c.focal
-        self.lateral = (-t[rows, None] * xc[None, :]).astype(np.float32)  # left positive, metres
+        self.lateral = (-self.ray[:, None] * xc[None, :]).astype(np.float32)  # left positive, metres
         sky_v = np.clip((np.arange(self.first_row) - (self.horizon - 80)) / 80.0, 0, 1)[:, None]
         sky = np.array(SKY_TOP, np.float32) * (1 - sky_v) + np.array(SKY_HORIZON, np.float32) * sky_v
         self.sky = np.repeat(sky[:, None, :], c.width, axis=1)
@@ -134,8 +135,8 @@ class Renderer:
         ad = np.abs(d)
         # classes: 0 grass, 1 verge, 2 asphalt, 3 marking
         cls = np.where(ad < EDGE, 2, np.where(ad < VERGE, 1, 0)).astype(np.uint8)
-        edge = (ad > EDGE - 0.15) & (ad < EDGE)
-        dash = (ad < 0.075) & (np.mod(s, 12.0) < 4.0)
+        edge = (ad > EDGE - LINE_WIDTH) & (ad < EDGE)
+        dash = (ad < LINE_WIDTH / 2) & (np.mod(s, 12.0) < 4.0)
         cls[edge | dash] = 3
         cls[beyond] = 0
         palette = np.array([GRASS, VERGE_C, ASPHALT, MARKING], np.float32)

@@ -15,7 +15,8 @@ from steerlab.errors import SteerlabError
 
 DS = 0.5          # sampling step along the road [m]
 LANE = 3.6        # lane width [m]
-EDGE = LANE       # solid edge lines at |d| = LANE
+EDGE = LANE       # solid edge lines: outer border at |d| = LANE
+LINE_WIDTH = 0.15  # m, painted lines
 VERGE = LANE + 1.5
 LANE_CENTER = -LANE / 2
 
