@@ -120,7 +120,7 @@ def compile_recording(rec: Recording, cfg: PreprocessConfig, cache_dir: str | Pa
     workers = workers or min(2, os.cpu_count() or 1)
     try:
         with ThreadPoolExecutor(workers) as pool, tqdm(total=n, desc=f"compile {rec.name}", unit="frame",
-                                                       disable=not progress) as bar:
+                                                       disable=None if progress else True) as bar:
             for done in pool.map(work, range(0, n, CHUNK)):
                 bar.update(done)
         for a in arrays.values():

@@ -24,7 +24,7 @@ def evaluate(checkpoint: str | Path, data: str | Path, frame_range: str | None, 
     pilot = Pilot(checkpoint)
     seg = rec.segment_ids()
     pred = np.empty(len(rec))
-    for i in tqdm(range(len(rec)), desc="evaluate", unit="frame", disable=not progress):
+    for i in tqdm(range(len(rec)), desc="evaluate", unit="frame", disable=None if progress else True):
         if i > 0 and seg[i] != seg[i - 1]:
             pilot.reset()
         pred[i] = pilot.step(rec.load_frame(i, camera))

@@ -60,7 +60,7 @@ def record(out: str | Path, seed: int = 0, minutes: float = 1.0, road: str = "co
         (img_dir if layout == "udacity-sim" else out / cam).mkdir(parents=True, exist_ok=True)
     rows = []
     s = 5.0
-    for i in tqdm(range(n), desc=f"record seed {seed}", unit="frame", disable=not progress):
+    for i in tqdm(range(n), desc=f"record seed {seed}", unit="frame", disable=None if progress else True):
         st = car.state
         s, d, road_psi = rd.project(st.x, st.y, s)
         offset = d - LANE_CENTER
@@ -123,7 +123,7 @@ def drive(steer_fn, reset_fn, out: str | Path | None, seed: int = 100, minutes: 
     s, interventions, dist = 5.0, 0, 0.0
     traj = []
     strip = []
-    for i in tqdm(range(n), desc=f"drive seed {seed}", unit="tick", disable=not progress):
+    for i in tqdm(range(n), desc=f"drive seed {seed}", unit="tick", disable=None if progress else True):
         st = car.state
         s, d, road_psi = rd.project(st.x, st.y, s)
         offset = d - LANE_CENTER

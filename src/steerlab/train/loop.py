@@ -95,7 +95,7 @@ def train_one_epoch(model, opt, batches: Batches, idx: np.ndarray, batch_size: i
     order = rng.permutation(idx)
     total, count = 0.0, 0
     steps = range(0, len(order), batch_size)
-    for s in tqdm(steps, desc=desc, unit="batch", leave=False, disable=not progress):
+    for s in tqdm(steps, desc=desc, unit="batch", leave=False, disable=None if progress else True):
         b = order[s: s + batch_size]
         flips = rng.random(len(b)) < 0.5 if flip else None
         x, y = batches.get(b, flips)
@@ -151,8 +151,8 @@ def train(cfg: dict, progress: bool = True) -> dict:
 
     if not getattr(model, "trainable", True):
         model.fit(ds.steering[train_idx])
-        metrics = steering_metrics(predict(model, batches, val_idx), y_val)
-        checkpoint(out / "best.pt", {**metrics, "epoch": 0})
+        metrics = {**steering_metrics(predict(model, batches, val_idx), y_val), "epoch": 0}
+        checkpoint(out / "best.pt", metrics)
         return metrics
 
     opt = torch.optim.Adam(model.parameters(), lr=float(tc["lr"]))
