@@ -1,5 +1,7 @@
 """Epoch time of PilotNet training from the compiled cache vs. (a) a naive loader that decodes and
-preprocesses the JPEGs in every step, and (b) tensors already in memory (the floor for data loading).
+preprocesses the JPEGs (and computes the optical flow, when the model takes it) in every step, and (b) tensors
+already in memory (the floor for data loading). Two inputs: gray (paper 000 "spatial") and gray + Farneback
+flow (paper 000 "spatial + optical flow").
 
 python benchmarks/bench_training.py
 Targets: cache >= 5x faster than naive; cache within 15% of in-memory.
@@ -14,18 +16,19 @@ import torch
 from _common import CH2, machine, need_ch2
 
 from steerlab.data.dataset import compile_recording
+from steerlab.data.modalities import optical_flow
 from steerlab.data.preprocess import PreprocessConfig, preprocess
 from steerlab.data.readers import open_recording
 from steerlab.models import create_model
-from steerlab.train.inputs import Standardizer, channel_stats
+from steerlab.train.inputs import Standardizer, channel_stats, stack_modalities
 from steerlab.train.loop import Batches
 
 N, BATCH = 1200, 100
 
 
-def epoch(get_batch, order) -> float:
+def epoch(get_batch, order, channels: int) -> float:
     torch.manual_seed(0)
-    model = create_model("pilotnet", in_channels=1)
+    model = create_model("pilotnet", in_channels=channels).to(memory_format=torch.channels_last)
     opt = torch.optim.Adam(model.parameters(), 1e-4)
     model.train()
     t = time.perf_counter()
@@ -38,31 +41,46 @@ def epoch(get_batch, order) -> float:
     return time.perf_counter() - t
 
 
+def bench(rec, modalities: list[str], cache: str) -> None:
+    cfg = PreprocessConfig.from_dict({"preset": "ch2", "modalities": modalities})
+    channels = sum(cfg.channels().values())
+    ds = compile_recording(rec, cfg, cache, progress=False)
+    stats = channel_stats(ds.arrays, cfg, np.arange(N))
+    batches = Batches([(ds, ds.steering)], stats)
+    standardize = Standardizer(stats)
+    order = np.random.default_rng(0).permutation(N)
+    x_all = standardize(stack_modalities({m: ds.arrays[m][:] for m in modalities}, cfg)).contiguous(
+        memory_format=torch.channels_last)
+    y_all = torch.from_numpy(ds.steering.astype(np.float32))
+
+    def naive(idx):  # decode + preprocess (+ flow against the previous frame) for every sample of every step
+        xs = []
+        for i in idx:
+            img, gray = preprocess(rec.load_frame(int(i)), cfg)
+            arrays = {"image": img}
+            if "flow" in modalities:
+                _, prev = preprocess(rec.load_frame(max(int(i) - 1, 0)), cfg)
+                arrays["flow"] = optical_flow(prev, gray)
+            xs.append(stack_modalities(arrays, cfg))
+        return standardize(np.stack(xs)), torch.from_numpy(rec.steering[idx].astype(np.float32))
+
+    epoch(batches.get, order, channels)  # warm-up: page cache and oneDNN kernels
+    t_mem = epoch(lambda idx: (x_all[idx], y_all[idx]), order, channels)
+    t_cache = epoch(batches.get, order, channels)
+    t_naive = epoch(naive, order, channels)
+    print(f"input {'+'.join(modalities)} ({channels} channels)")
+    print(f"  in-memory tensors : {t_mem:6.2f} s/epoch")
+    print(f"  compiled cache    : {t_cache:6.2f} s/epoch   ({t_cache / t_mem - 1:+.1%} vs in-memory; target within 15%)")
+    print(f"  naive JPEG loader : {t_naive:6.2f} s/epoch   (cache is x{t_naive / t_cache:.2f} faster; target >= 5x)")
+
+
 def main() -> None:
     need_ch2()
     rec = open_recording(CH2, f"0:{N}", CH2 / "CH2_final_evaluation.csv")
-    cfg = PreprocessConfig.from_dict({"preset": "ch2"})
-    with tempfile.TemporaryDirectory() as cache:
-        ds = compile_recording(rec, cfg, cache, progress=False)
-        stats = channel_stats(ds.arrays, cfg, np.arange(N))
-        batches = Batches([(ds, ds.steering)], stats)
-        standardize = Standardizer(stats)
-        order = np.random.default_rng(0).permutation(N)
-        x_all = standardize(np.asarray(ds.arrays["image"], np.float32))
-        y_all = torch.from_numpy(ds.steering.astype(np.float32))
-
-        def naive(idx):  # decode + preprocess every JPEG in every step
-            x = np.stack([preprocess(rec.load_frame(int(i)), cfg)[0] for i in idx]).astype(np.float32)
-            return standardize(x), torch.from_numpy(rec.steering[idx].astype(np.float32))
-
-        epoch(batches.get, order)  # warm-up: page cache and oneDNN kernels
-        t_mem = epoch(lambda idx: (x_all[idx], y_all[idx]), order)
-        t_cache = epoch(batches.get, order)
-        t_naive = epoch(naive, order)
     print(f"machine: {machine()}; PilotNet, {N} CH2 frames, batch {BATCH}")
-    print(f"in-memory tensors : {t_mem:6.2f} s/epoch")
-    print(f"compiled cache    : {t_cache:6.2f} s/epoch   ({t_cache / t_mem - 1:+.1%} vs in-memory; target within 15%)")
-    print(f"naive JPEG loader : {t_naive:6.2f} s/epoch   (cache is x{t_naive / t_cache:.2f} faster; target >= 5x)")
+    with tempfile.TemporaryDirectory() as cache:
+        bench(rec, ["image"], cache)
+        bench(rec, ["image", "flow"], cache)
 
 
 if __name__ == "__main__":

@@ -141,7 +141,7 @@ def train(cfg: dict, progress: bool = True) -> dict:
     torch.manual_seed(int(tc["seed"]))
     model_cfg = {k: v for k, v in cfg["model"].items() if k != "name"}
     model_cfg.update(in_channels=sum(ds.config.channels().values()), height=ds.config.height, width=ds.config.width)
-    model = create_model(cfg["model"]["name"], **model_cfg)
+    model = create_model(cfg["model"]["name"], **model_cfg).to(memory_format=torch.channels_last)
     convention = SteeringConvention(**ds.meta["convention"])
     y_val = ds.steering[val_idx]
 
