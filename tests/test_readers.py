@@ -110,3 +110,23 @@ def test_missing_recording_and_bad_range(tmp_path, ch2_folder):
         open_recording(tmp_path / "nope")
     with pytest.raises(DataError, match="outside"):
         open_recording(ch2_folder, "0:99", labels=ch2_folder / "labels.csv")
+
+
+def test_ch2_interpolated_layout_with_side_cameras(tmp_path):
+    lines = ["index,timestamp,width,height,frame_id,filename,angle,torque,speed,lat,long,alt"]
+    for cam in ("center", "left", "right"):
+        (tmp_path / cam).mkdir()
+    k = 0
+    for i in range(4):
+        for j, cam in enumerate(("left", "center", "right")):
+            ts = 1_000_000_000 + i * 50_000_000 + (j - 1) * 3_000_000  # side cameras a few ms apart
+            write_jpeg(tmp_path / cam / f"{ts}.jpg")
+            lines.append(f"{k},{ts},640,480,{cam}_camera,{cam}/{ts}.jpg,{0.1 * i},0.0,{5 + i},37.4,-122.1,0")
+            k += 1
+    (tmp_path / "interpolated.csv").write_text("\n".join(lines) + "\n")
+    rec = open_recording(tmp_path)
+    assert len(rec) == 4 and rec.cameras == ["center", "left", "right"]
+    np.testing.assert_allclose(rec.steering, [0, 0.1, 0.2, 0.3])
+    np.testing.assert_allclose(rec.speed, [5, 6, 7, 8])
+    assert rec.frames["left"][2].name == f"{1_000_000_000 + 100_000_000 - 3_000_000}.jpg"
+    assert rec.frames["center"][2].name == f"{rec.frame_ids[2]}.jpg"

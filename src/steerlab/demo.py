@@ -30,7 +30,7 @@ def run_demo(out: str | Path = "runs/demo", minutes: float = 5.0, epochs: int = 
         "preprocess": {"preset": "sim", "color": "gray"},
         "split": {"train": f"0:{split}", "val": f"{split}:{n}"},
         "model": {"name": "pilotnet", "dropout": 0.3},
-        "train": {"epochs": epochs, "patience": 3, "flip": True, "exclude_episodes": ["drift-out"],
+        "train": {"epochs": epochs, "patience": 4, "flip": True, "exclude_episodes": ["drift-out"],
                   "side_cameras": True},
     })
     ckpt = Path(cfg["out"]) / "best.pt"
