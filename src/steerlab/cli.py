@@ -162,9 +162,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     q = sub.add_parser("demo", help="the whole pipeline on synthetic data: record, train, evaluate, drive, report")
     q.add_argument("--out", default="runs/demo")
-    q.add_argument("--minutes", type=float, default=5.0, help="minutes of expert driving to train on")
-    q.add_argument("--epochs", type=int, default=10)
-    q.add_argument("--drive-seeds", type=int, nargs="+", default=[101, 102, 103])
+    q.add_argument("--minutes", type=float, default=8.0, help="minutes of expert driving to train on")
+    q.add_argument("--epochs", type=int, default=12)
+    q.add_argument("--drive-seeds", type=int, nargs="+", default=[101, 102, 103, 104, 105])
     q.add_argument("--drive-minutes", type=float, default=1.5)
     q.set_defaults(func=cmd_demo)
     return p

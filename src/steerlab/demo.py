@@ -15,8 +15,9 @@ from steerlab.train.loop import train
 TRAIN_SEED = 1
 
 
-def run_demo(out: str | Path = "runs/demo", minutes: float = 5.0, epochs: int = 10,
-             drive_seeds=(101, 102, 103), drive_minutes: float = 1.5, progress: bool = True) -> Path:
+def run_demo(out: str | Path, minutes: float, epochs: int, drive_seeds, drive_minutes: float,
+             progress: bool = True) -> Path:
+    """Defaults live in the `steerlab demo` command (cli.py); configs/synthetic_pilotnet.yaml is the same run."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     rec_dir = out / "recording"

@@ -1,0 +1,41 @@
+import json
+
+import pytest
+
+from steerlab.cli import build_parser, main
+
+
+def test_every_subcommand_has_help(capsys):
+    for argv in (["--help"], ["compile", "--help"], ["train", "--help"], ["evaluate", "--help"], ["score", "--help"],
+                 ["sim", "record", "--help"], ["sim", "drive", "--help"], ["demo", "--help"], ["models", "--help"]):
+        with pytest.raises(SystemExit) as e:
+            build_parser().parse_args(argv)
+        assert e.value.code == 0
+        assert "usage: steerlab" in capsys.readouterr().out
+
+
+def test_compile_train_evaluate_drive(tiny_recording, tmp_path, capsys):
+    cache = str(tmp_path / "cache")
+    assert main(["compile", "--data", str(tiny_recording), "--modalities", "image,diff", "--cache", cache]) == 0
+    assert "diff: (300, 66, 200, 1) uint8" in capsys.readouterr().out
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(f"data: {tiny_recording}\ncache: {cache}\nsplit: {{train: '0:240', val: '240:300'}}\n")
+    run = tmp_path / "run"
+    assert main(["train", str(cfg), "train.epochs=1", f"out={run}"]) == 0
+    assert "best checkpoint" in capsys.readouterr().out
+    assert main(["evaluate", str(run / "best.pt"), "--data", str(tiny_recording), "--range", "240:300",
+                 "--out", str(tmp_path / "eval")]) == 0
+    assert main(["score", "--truth", str(tmp_path / "eval" / "predictions.csv"),
+                 "--pred", str(tmp_path / "eval" / "predictions.csv")]) == 2  # no 'public' column
+    assert "needs a 'public' column" in capsys.readouterr().err
+    assert main(["sim", "drive", str(run / "best.pt"), "--minutes", "0.05", "--out", str(tmp_path / "drive")]) == 0
+    result = json.loads((tmp_path / "drive" / "drive.json").read_text())
+    assert result["label"] == "pilotnet" and 0 <= result["mean_abs_offset_m"]
+    assert (tmp_path / "drive" / "frames.jpg").exists()
+
+
+def test_train_errors_are_one_line(tmp_path, capsys):
+    assert main(["train", str(tmp_path / "none.yaml")]) == 2
+    assert "config file not found" in capsys.readouterr().err
+    assert main(["evaluate", str(tmp_path / "x.pt"), "--data", str(tmp_path)]) == 2
+    assert capsys.readouterr().err.startswith("error: ")
