@@ -45,7 +45,7 @@ def bench(rec, modalities: list[str], cache: str) -> None:
     cfg = PreprocessConfig.from_dict({"preset": "ch2", "modalities": modalities})
     channels = sum(cfg.channels().values())
     ds = compile_recording(rec, cfg, cache, progress=False)
-    stats = channel_stats(ds.arrays, cfg, np.arange(N))
+    stats = channel_stats(ds.arrays, cfg, np.arange(N), np.zeros(N, int))
     batches = Batches([(ds, ds.steering)], stats)
     standardize = Standardizer(stats)
     order = np.random.default_rng(0).permutation(N)

@@ -31,7 +31,7 @@ def test_compile_train_evaluate_drive(tiny_recording, tmp_path, capsys):
     assert main(["sim", "drive", str(run / "best.pt"), "--minutes", "0.05", "--out", str(tmp_path / "drive")]) == 0
     result = json.loads((tmp_path / "drive" / "drive.json").read_text())
     assert result["label"] == "pilotnet" and 0 <= result["mean_abs_offset_m"]
-    assert (tmp_path / "drive" / "frames.jpg").exists()
+    assert (tmp_path / "drive" / "frames.png").exists()
 
 
 def test_train_errors_are_one_line(tmp_path, capsys):

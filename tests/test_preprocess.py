@@ -99,7 +99,20 @@ def test_channel_stats_use_given_frames_only(ch2_folder, tmp_path):
     rec = open_recording(ch2_folder, labels=ch2_folder / "labels.csv")
     cfg = PreprocessConfig()
     ds = compile_recording(rec, cfg, tmp_path / "cache", progress=False)
-    stats = channel_stats(ds.arrays, cfg, np.arange(0, 3))
+    stats = channel_stats(ds.arrays, cfg, np.arange(0, 3), np.zeros(6, int))
     x = stack_modalities({"image": ds.arrays["image"][:3]}, cfg)
     assert stats["mean"][0] == pytest.approx(float(x.mean()), rel=1e-6)
     assert stats["std"][0] == pytest.approx(float(x.std()), rel=1e-4)
+
+
+def test_stacked_frames_never_cross_a_segment_start():
+    from steerlab.train.inputs import gather, segment_starts
+
+    cfg = PreprocessConfig(stack=3)
+    arrays = {"image": np.arange(6, dtype=np.uint8).reshape(6, 1, 1, 1)}
+    starts = segment_starts(np.array([0, 0, 0, 1, 1, 1]))
+    assert starts.tolist() == [0, 0, 0, 3, 3, 3]
+    x = gather(arrays, cfg, np.arange(6), starts)["image"]
+    assert x.shape == (6, 1, 1, 3)
+    assert x[:, 0, 0].tolist() == [[0, 0, 0], [0, 0, 1], [0, 1, 2], [3, 3, 3], [3, 3, 4], [3, 4, 5]]
+    assert cfg.channels() == {"image": 3}

@@ -79,7 +79,7 @@ def cmd_sim_drive(a) -> None:
     r = drive(pilot.step, pilot.reset, a.out, a.seed, a.minutes, a.road, camera, a.fps,
               convention=pilot.convention, label=pilot.name)
     _print_table(r)
-    print(f"wrote {a.out}/trajectory.csv, path.png, frames.jpg, drive.json")
+    print(f"wrote {a.out}/trajectory.csv, path.png, frames.png, drive.json")
 
 
 def _checkpoint_camera(path) -> str:

@@ -8,6 +8,8 @@ measured is what runs.
 
 from __future__ import annotations
 
+from collections import deque
+
 import numpy as np
 import torch
 
@@ -29,6 +31,7 @@ class Pilot:
     def reset(self) -> None:
         """Forget the past: the next frame is treated as the first of a segment."""
         self._prev_img = self._prev_gray = None
+        self._history: deque = deque(maxlen=self.config.stack)
         self._smoothed = None
 
     @torch.inference_mode()
@@ -37,7 +40,10 @@ class Pilot:
         img, gray = preprocess(bgr, self.config)
         prev_img = img if self._prev_img is None else self._prev_img
         prev_gray = gray if self._prev_gray is None else self._prev_gray
-        arrays = {"image": img}
+        while len(self._history) < self.config.stack - 1:  # a segment's first frame stands in for its past
+            self._history.append(img)
+        self._history.append(img)
+        arrays = {"image": np.concatenate(self._history, axis=-1)}
         if "diff" in self.config.modalities:
             arrays["diff"] = frame_difference(prev_img, img)
         if "flow" in self.config.modalities:

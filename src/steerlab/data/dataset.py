@@ -15,7 +15,7 @@ import json
 import os
 import shutil
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -85,11 +85,15 @@ class CompiledDataset:
 
 def compile_recording(rec: Recording, cfg: PreprocessConfig, cache_dir: str | Path = DEFAULT_CACHE,
                       camera: str = "center", workers: int | None = None, progress: bool = True) -> CompiledDataset:
-    """Compile (or reuse) the cached arrays for `rec` under `cfg`."""
+    """Compile (or reuse) the cached arrays for `rec` under `cfg`.
+
+    Frame stacking happens when batches are gathered, so the cache holds single frames whatever `cfg.stack`
+    is; the returned dataset carries `cfg` itself."""
+    user_cfg, cfg = cfg, replace(cfg, stack=1)
     key = f"{rec.name}-{camera}-{source_key(rec, camera)}-{cfg.key()}"
     final = Path(cache_dir) / key
     if (final / "meta.json").exists():
-        return CompiledDataset.load(final)
+        return replace(CompiledDataset.load(final), config=user_cfg)
     tmp = Path(cache_dir) / f".{key}.tmp-{os.getpid()}"
     shutil.rmtree(tmp, ignore_errors=True)
     tmp.mkdir(parents=True)
@@ -138,4 +142,4 @@ def compile_recording(rec: Recording, cfg: PreprocessConfig, cache_dir: str | Pa
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
-    return CompiledDataset.load(final)
+    return replace(CompiledDataset.load(final), config=user_cfg)

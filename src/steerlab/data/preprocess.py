@@ -35,6 +35,7 @@ class PreprocessConfig:
     color: str = "gray"
     modalities: tuple[str, ...] = ("image",)
     flow: str = "farneback"
+    stack: int = 1  # consecutive frames stacked as image channels (oldest first)
 
     def __post_init__(self):
         object.__setattr__(self, "crop", tuple(int(c) for c in self.crop))
@@ -46,6 +47,8 @@ class PreprocessConfig:
             raise SteerlabError(f"modalities must start with 'image' and use only {MODALITIES}, got {self.modalities}")
         if self.flow not in FLOW_METHODS:
             raise SteerlabError(f"unknown flow method {self.flow!r}; choose one of {FLOW_METHODS}")
+        if int(self.stack) < 1:
+            raise SteerlabError(f"stack must be at least 1 frame, got {self.stack}")
         if len(self.crop) != 4 or min(self.crop) < 0:
             raise SteerlabError(f"crop must be four non-negative numbers (top, bottom, left, right), got {self.crop}")
 
@@ -77,7 +80,7 @@ class PreprocessConfig:
 
     def channels(self) -> dict[str, int]:
         """Channels per modality, in input order."""
-        per = {"image": self.image_channels, "diff": self.image_channels, "flow": 2}
+        per = {"image": self.image_channels * self.stack, "diff": self.image_channels, "flow": 2}
         return {m: per[m] for m in self.modalities}
 
 

@@ -160,6 +160,6 @@ def drive(steer_fn, reset_fn, out: str | Path | None, seed: int = 100, minutes: 
             w.writerows([[f"{v:.4f}" for v in row] for row in traj])
         plot_trajectory(out / "path.png", rd, t, result)
         rows = [np.hstack(strip[k:k + 4]) for k in range(0, len(strip) - 3, 4)] or [np.hstack(strip)]
-        cv2.imwrite(str(out / "frames.jpg"), np.vstack(rows))  # one frame every 5 s
+        cv2.imwrite(str(out / "frames.png"), np.vstack(rows))  # one frame every 5 s
         (out / "drive.json").write_text(json.dumps(result, indent=1))
     return result

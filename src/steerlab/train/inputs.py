@@ -13,14 +13,34 @@ def stack_modalities(arrays: dict[str, np.ndarray], cfg: PreprocessConfig) -> np
     return np.concatenate([np.asarray(arrays[m], dtype=np.float32) for m in cfg.modalities], axis=-1)
 
 
-def channel_stats(arrays: dict[str, np.ndarray], cfg: PreprocessConfig, indices: np.ndarray,
+def segment_starts(segment_ids: np.ndarray) -> np.ndarray:
+    """For every frame, the index of the first frame of its segment."""
+    first = np.flatnonzero(np.diff(segment_ids, prepend=-1))
+    return first[np.searchsorted(first, np.arange(len(segment_ids)), side="right") - 1]
+
+
+def gather(arrays: dict[str, np.ndarray], cfg: PreprocessConfig, idx: np.ndarray, starts: np.ndarray) -> dict:
+    """The modalities of frames `idx` from compiled arrays. With `stack` = N the image is the N frames ending
+    at each index, oldest first; before the start of a segment the segment's first frame is repeated."""
+    out = {m: arrays[m][idx] for m in cfg.modalities if m != "image"}
+    if cfg.stack == 1:
+        out["image"] = arrays["image"][idx]
+        return out
+    hist = np.maximum(idx[:, None] + np.arange(1 - cfg.stack, 1), starts[idx][:, None])
+    imgs = np.asarray(arrays["image"][hist.ravel()])
+    b, (h, w, c) = len(idx), imgs.shape[1:]
+    out["image"] = imgs.reshape(b, cfg.stack, h, w, c).transpose(0, 2, 3, 1, 4).reshape(b, h, w, cfg.stack * c)
+    return out
+
+
+def channel_stats(arrays: dict[str, np.ndarray], cfg: PreprocessConfig, indices: np.ndarray, starts: np.ndarray,
                   chunk: int = 512) -> dict[str, list[float]]:
     """Per-channel mean and std over the given frames (the training split only), computed in chunks."""
     total = sq = None
     count = 0
     for i in range(0, len(indices), chunk):
         idx = np.sort(indices[i: i + chunk])
-        x = stack_modalities({m: arrays[m][idx] for m in cfg.modalities}, cfg).astype(np.float64)
+        x = stack_modalities(gather(arrays, cfg, idx, starts), cfg).astype(np.float64)
         s, q = x.sum(axis=(0, 1, 2)), (x ** 2).sum(axis=(0, 1, 2))
         total, sq = (s, q) if total is None else (total + s, sq + q)
         count += x.shape[0] * x.shape[1] * x.shape[2]

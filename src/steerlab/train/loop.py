@@ -25,7 +25,8 @@ from steerlab.errors import SteerlabError
 from steerlab.evaluate.metrics import steering_metrics
 from steerlab.models import create_model
 from steerlab.train.checkpoint import save_checkpoint
-from steerlab.train.inputs import Standardizer, channel_stats, flip_horizontal, stack_modalities
+from steerlab.train.inputs import (Standardizer, channel_stats, flip_horizontal, gather, segment_starts,
+                                   stack_modalities)
 
 LOG_FIELDS = ["epoch", "train_loss", "val_mse", "val_rmse", "val_mae_deg", "val_gamma_deg", "seconds"]
 
@@ -61,6 +62,7 @@ class Batches:
     def __init__(self, sources: list[tuple[CompiledDataset, np.ndarray]], stats: dict):
         self.sources, self.cfg, self.standardize = sources, sources[0][0].config, Standardizer(stats)
         self.n = len(sources[0][0])
+        self.starts = segment_starts(sources[0][0].labels["segment"])  # all sources share the timeline
 
     def get(self, codes: np.ndarray, flip: np.ndarray | None = None) -> tuple[torch.Tensor, torch.Tensor]:
         codes = np.sort(codes)
@@ -68,7 +70,7 @@ class Batches:
         for k, (ds, steering) in enumerate(self.sources):
             idx = codes[(codes // self.n) == k] % self.n
             if len(idx):
-                xs.append(stack_modalities({m: ds.arrays[m][idx] for m in self.cfg.modalities}, self.cfg))
+                xs.append(stack_modalities(gather(ds.arrays, self.cfg, idx, self.starts), self.cfg))
                 ys.append(steering[idx].astype(np.float32))
         x, y = np.concatenate(xs), np.concatenate(ys)
         if flip is not None and flip.any():
@@ -129,7 +131,7 @@ def train(cfg: dict, progress: bool = True) -> dict:
     ds = prepare_dataset(cfg, progress)
     train_idx, val_idx = make_split(cfg["split"], len(ds))
     train_idx = training_indices(ds, train_idx, tc.get("exclude_episodes"))
-    stats = channel_stats(ds.arrays, ds.config, train_idx)
+    stats = channel_stats(ds.arrays, ds.config, train_idx, segment_starts(ds.labels["segment"]))
     sources = [(ds, ds.steering)]
     if tc.get("side_cameras"):
         for cam, sign in (("left", 1.0), ("right", -1.0)):
