@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from steerlab.errors import SteerlabError
+from steerlab.models import list_models, model_class
 from steerlab.evaluate.offline import evaluate
 from steerlab.train import loop
 from steerlab.train.config import load_config
@@ -35,6 +36,15 @@ def test_training_lowers_loss_and_checkpoint_reproduces(tiny_recording, tmp_path
     assert (tmp_path / "eval" / "steering.png").stat().st_size > 10_000
     with open(tmp_path / "eval" / "predictions.csv") as f:
         assert next(csv.reader(f)) == ["frame_id", "steering_angle"]
+
+
+@pytest.mark.parametrize("name", [n for n in list_models() if n != "pilotnet" and model_class(n).trainable])
+def test_every_trainable_model_learns(name, tiny_recording, tmp_path):
+    cfg = _cfg(tiny_recording, tmp_path, epochs=3)
+    cfg["model"] = {"name": name, "dropout": 0.0}
+    loop.train(cfg, progress=False)
+    rows = _log(tmp_path)
+    assert float(rows[-1]["train_loss"]) < float(rows[0]["train_loss"])
 
 
 def test_side_cameras_and_episode_filter(tiny_recording, tmp_path):

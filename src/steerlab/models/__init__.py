@@ -1,8 +1,8 @@
 """Model registry: `create_model(name, **cfg)`, `list_models()`."""
 
-from steerlab.models.registry import create_model, list_models, register
+from steerlab.models.registry import create_model, list_models, model_class, register
 
 # Importing the modules registers their models.
-from steerlab.models import baselines, pilotnet  # noqa: E402,F401
+from steerlab.models import baselines, motion, pilotnet  # noqa: E402,F401
 
-__all__ = ["create_model", "list_models", "register"]
+__all__ = ["create_model", "list_models", "model_class", "register"]

@@ -21,20 +21,26 @@ def pilotnet_convs(in_channels: int) -> nn.Sequential:
     return nn.Sequential(*layers)
 
 
+def pilotnet_head(n_features: int, dropout: float) -> nn.Sequential:
+    """Fully connected 1164, 100, 50, 10, 1 with ReLU and dropout after each hidden layer."""
+    sizes = [n_features, 1164, 100, 50, 10]
+    layers = []
+    for a, b in zip(sizes[:-1], sizes[1:]):
+        layers += [nn.Linear(a, b), nn.ReLU(inplace=True), nn.Dropout(dropout)]
+    return nn.Sequential(*layers, nn.Linear(10, 1))
+
+
 @register("pilotnet")
 class PilotNet(nn.Module):
     trainable = True
+    inputs: dict = {}  # any colour space and modalities
 
     def __init__(self, in_channels: int = 1, height: int = 66, width: int = 200, dropout: float = 0.5):
         super().__init__()
         self.features = pilotnet_convs(in_channels)
         with torch.no_grad():
             n = self.features(torch.zeros(1, in_channels, height, width)).numel()
-        sizes = [n, 1164, 100, 50, 10]
-        head = []
-        for a, b in zip(sizes[:-1], sizes[1:]):
-            head += [nn.Linear(a, b), nn.ReLU(inplace=True), nn.Dropout(dropout)]
-        self.head = nn.Sequential(*head, nn.Linear(10, 1))
+        self.head = pilotnet_head(n, dropout)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         return self.head(self.features(x).flatten(1)).squeeze(1)

@@ -23,7 +23,7 @@ from steerlab.data.recording import SteeringConvention
 from steerlab.data.splits import make_split
 from steerlab.errors import SteerlabError
 from steerlab.evaluate.metrics import steering_metrics
-from steerlab.models import create_model
+from steerlab.models import create_model, model_class
 from steerlab.train.checkpoint import save_checkpoint
 from steerlab.train.inputs import (Standardizer, channel_stats, flip_horizontal, gather, segment_starts,
                                    stack_modalities)
@@ -40,6 +40,16 @@ def prepare_dataset(cfg: dict, progress: bool = True, camera: str | None = None)
     if "crop" not in pre_cfg:
         pre_cfg.setdefault("preset", rec.preset)
     return compile_recording(rec, PreprocessConfig.from_dict(pre_cfg), cfg["cache"], camera, progress=progress)
+
+
+def model_preprocess(name: str, preprocess: dict | None) -> dict:
+    """The config's preprocessing completed with what the model needs (its `inputs`)."""
+    pre = dict(preprocess or {})
+    for key, value in getattr(model_class(name), "inputs", {}).items():
+        if key in pre and pre[key] != value:
+            raise SteerlabError(f"model {name!r} needs preprocess {key}={value}, the config sets {pre[key]}")
+        pre[key] = value
+    return pre
 
 
 def training_indices(ds: CompiledDataset, idx: np.ndarray, exclude_episodes) -> np.ndarray:
@@ -101,7 +111,7 @@ def train_one_epoch(model, opt, batches: Batches, idx: np.ndarray, batch_size: i
         b = order[s: s + batch_size]
         flips = rng.random(len(b)) < 0.5 if flip else None
         x, y = batches.get(b, flips)
-        loss = torch.mean((model(x) - y) ** 2)
+        loss = model.loss(x, y) if hasattr(model, "loss") else torch.mean((model(x) - y) ** 2)
         opt.zero_grad(set_to_none=True)
         loss.backward()
         opt.step()
@@ -128,6 +138,7 @@ def train(cfg: dict, progress: bool = True) -> dict:
             raise SteerlabError(f"{out} holds a run with another config; choose a new out directory or delete it")
     cfg_file.write_text(json.dumps(cfg, indent=1))
 
+    cfg = {**cfg, "preprocess": model_preprocess(cfg["model"]["name"], cfg.get("preprocess"))}
     ds = prepare_dataset(cfg, progress)
     train_idx, val_idx = make_split(cfg["split"], len(ds))
     train_idx = training_indices(ds, train_idx, tc.get("exclude_episodes"))
@@ -143,7 +154,9 @@ def train(cfg: dict, progress: bool = True) -> dict:
     torch.manual_seed(int(tc["seed"]))
     model_cfg = {k: v for k, v in cfg["model"].items() if k != "name"}
     model_cfg.update(in_channels=sum(ds.config.channels().values()), height=ds.config.height, width=ds.config.width)
-    model = create_model(cfg["model"]["name"], **model_cfg).to(memory_format=torch.channels_last)
+    model = create_model(cfg["model"]["name"], **model_cfg)
+    if all(p.dim() != 5 for p in model.parameters()):  # channels-last exists for 2-D convolutions only
+        model = model.to(memory_format=torch.channels_last)
     convention = SteeringConvention(**ds.meta["convention"])
     y_val = ds.steering[val_idx]
 
@@ -152,7 +165,7 @@ def train(cfg: dict, progress: bool = True) -> dict:
                         preset=ds.meta["preset"], frame_rate=ds.meta["frame_rate"], **extra)
 
     if not getattr(model, "trainable", True):
-        model.fit(ds.steering[train_idx])
+        model.fit(np.concatenate([labels for _, labels in sources])[train_idx])
         metrics = {**steering_metrics(predict(model, batches, val_idx), y_val), "epoch": 0}
         checkpoint(out / "best.pt", metrics)
         return metrics
