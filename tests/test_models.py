@@ -21,7 +21,11 @@ def _model_config(name: str, **pre) -> PreprocessConfig:
 def test_forward_shapes(name, color):
     channels = sum(_model_config(name, color=color).channels().values())
     model = create_model(name, in_channels=channels, height=66, width=200).eval()
-    assert model(torch.zeros(4, channels, 66, 200)).shape == (4,)
+    if getattr(model, "recurrent", False):
+        y, (h, c) = model(torch.zeros(4, 2, channels, 66, 200))
+        assert y.shape == (4, 2) and h.shape == (1, 4, 100)
+    else:
+        assert model(torch.zeros(4, channels, 66, 200)).shape == (4,)
 
 
 def test_cnn3d_keeps_temporal_size():
@@ -56,6 +60,23 @@ def test_pilotnet_layers_as_in_paper():
         (24, (5, 5), (2, 2)), (36, (5, 5), (2, 2)), (48, (5, 5), (2, 2)), (64, (3, 3), (1, 1)), (64, (3, 3), (1, 1))]
     fcs = [l for l in m.head if isinstance(l, torch.nn.Linear)]
     assert [(f.in_features, f.out_features) for f in fcs] == [(1152, 1164), (1164, 100), (100, 50), (50, 10), (10, 1)]
+
+
+def test_lstm_layers_as_in_paper():
+    m = create_model("lstm", in_channels=1)
+    assert m.fc[0].in_features == 1152 and m.fc[0].out_features == 512
+    assert (m.lstm.input_size, m.lstm.hidden_size) == (512, 100) and m.out.in_features == 100
+
+
+def test_recurrent_state_carries_across_calls():
+    torch.manual_seed(0)
+    m = create_model("lstm", in_channels=1, dropout=0.0).eval()
+    x = torch.randn(1, 6, 1, 66, 200)
+    with torch.no_grad():
+        whole, _ = m(x)
+        first, state = m(x[:, :2])
+        rest, _ = m(x[:, 2:], state)
+    assert torch.allclose(whole, torch.cat([first, rest], 1), atol=1e-6)
 
 
 def test_unknown_model():
@@ -93,7 +114,8 @@ def test_checkpoint_round_trip_and_pilot(name, tmp_path):
     x = stack_modalities(first, cfg)
     x = (x - np.array(stats["mean"], np.float32)) / np.array(stats["std"], np.float32)
     with torch.no_grad():
-        direct = float(model(torch.from_numpy(x).permute(2, 0, 1)[None])[0])
+        xt = torch.from_numpy(x).permute(2, 0, 1)[None]
+        direct = float(model(xt[None])[0][0, 0] if getattr(model, "recurrent", False) else model(xt)[0])
     assert out1[0] == pytest.approx(direct, abs=1e-5)
 
 

@@ -40,7 +40,7 @@ def test_training_lowers_loss_and_checkpoint_reproduces(tiny_recording, tmp_path
 
 @pytest.mark.parametrize("name", [n for n in list_models() if n != "pilotnet" and model_class(n).trainable])
 def test_every_trainable_model_learns(name, tiny_recording, tmp_path):
-    cfg = _cfg(tiny_recording, tmp_path, epochs=3)
+    cfg = _cfg(tiny_recording, tmp_path, epochs=3, batch_size=8)  # recurrent: 8 windows of 10 frames
     cfg["model"] = {"name": name, "dropout": 0.0}
     loop.train(cfg, progress=False)
     rows = _log(tmp_path)
@@ -109,20 +109,23 @@ def test_config_errors(tmp_path):
         make_split(load_config(tmp_path / "c.yaml")["split"], 2400)
 
 
-def test_streaming_equals_batch_for_every_modality(tiny_recording, tmp_path):
-    """Stacked frames, difference and flow: the Pilot, fed raw frames one by one, reproduces the batch path."""
-    cfg = _cfg(tiny_recording, tmp_path, epochs=1)
-    cfg["preprocess"] = {"modalities": ["image", "diff", "flow"], "stack": 3, "color": "yuv"}
-    best = loop.train(cfg, progress=False)
-    m = evaluate(tmp_path / "run" / "best.pt", tiny_recording, "240:300", tmp_path / "eval", progress=False)
-    # the evaluated range starts a new segment for the Pilot; skip the first frames whose context differs
-    pred = np.loadtxt(tmp_path / "eval" / "predictions.csv", delimiter=",", skiprows=1)[:, 1]
-    ds = loop.prepare_dataset(cfg, progress=False)
-    from steerlab.train.checkpoint import load_checkpoint
+@pytest.mark.parametrize("model, pre", [
+    ("pilotnet", {"modalities": ["image", "diff", "flow"], "stack": 3, "color": "yuv"}),
+    ("multimodal-lstm", {}),
+])
+def test_streaming_equals_batch(model, pre, tiny_recording, tmp_path):
+    """Stacked frames, difference, flow and LSTM state: the Pilot, fed the raw frames of the whole recording
+    one by one, reproduces the batch path (which runs recurrent models statefully through the range)."""
+    from steerlab.train.checkpoint import load_checkpoint, model_from_checkpoint
+
+    cfg = _cfg(tiny_recording, tmp_path, epochs=1, batch_size=4)
+    cfg["model"] = {"name": model}
+    cfg["preprocess"] = pre
+    loop.train(cfg, progress=False)
+    evaluate(tmp_path / "run" / "best.pt", tiny_recording, None, tmp_path / "eval", progress=False)
+    streamed = np.loadtxt(tmp_path / "eval" / "predictions.csv", delimiter=",", skiprows=1)[:, 1]
     ckpt = load_checkpoint(tmp_path / "run" / "best.pt")
+    ds = loop.prepare_dataset({**cfg, "preprocess": loop.model_preprocess(model, pre)}, progress=False)
     batches = loop.Batches([(ds, ds.steering)], ckpt["stats"])
-    from steerlab.train.checkpoint import model_from_checkpoint
-    model = model_from_checkpoint(ckpt)[0]
-    batch_pred = loop.predict(model, batches, np.arange(240, 300))
-    np.testing.assert_allclose(pred[3:], batch_pred[3:], atol=1e-4)
-    assert m["frames"] == 60 and best["epoch"] == 1
+    batch = loop.predict(model_from_checkpoint(ckpt)[0], batches, np.arange(len(ds)), batch_size=64)
+    np.testing.assert_allclose(streamed, batch, atol=1e-4)

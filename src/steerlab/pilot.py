@@ -33,6 +33,7 @@ class Pilot:
         self._prev_img = self._prev_gray = None
         self._history: deque = deque(maxlen=self.config.stack)
         self._smoothed = None
+        self._state = None
 
     @torch.inference_mode()
     def step(self, bgr: np.ndarray) -> float:
@@ -50,7 +51,11 @@ class Pilot:
             arrays["flow"] = optical_flow(prev_gray, gray, self.config.flow).astype(np.float16)
         self._prev_img, self._prev_gray = img, gray
         x = self.standardize(stack_modalities(arrays, self.config)[None])
-        y = float(self.model(x)[0])
+        if getattr(self.model, "recurrent", False):
+            y_seq, self._state = self.model(x[None], self._state)
+            y = float(y_seq[0, 0])
+        else:
+            y = float(self.model(x)[0])
         if self.smoothing is not None:
             self._smoothed = y if self._smoothed is None else self.smoothing * y + (1 - self.smoothing) * self._smoothed
             y = self._smoothed

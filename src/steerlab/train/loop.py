@@ -66,8 +66,8 @@ class Batches:
     """Gathers standardised batches from the cache.
 
     Each source is a compiled camera stream with its own steering labels (the centre camera, and with
-    side-camera synthesis the left and right ones); a sample is coded as source * N + frame. Indices are
-    sorted per source so that the memory-mapped reads run forward."""
+    side-camera synthesis the left and right ones); a sample is coded as source * N + frame. Samples come back
+    in the order asked for; each source is read in sorted order so that the memory-mapped reads run forward."""
 
     def __init__(self, sources: list[tuple[CompiledDataset, np.ndarray]], stats: dict):
         self.sources, self.cfg, self.standardize = sources, sources[0][0].config, Standardizer(stats)
@@ -75,14 +75,16 @@ class Batches:
         self.starts = segment_starts(sources[0][0].labels["segment"])  # all sources share the timeline
 
     def get(self, codes: np.ndarray, flip: np.ndarray | None = None) -> tuple[torch.Tensor, torch.Tensor]:
-        codes = np.sort(codes)
-        xs, ys = [], []
+        order = np.argsort(codes, kind="stable")
+        x = y = None
         for k, (ds, steering) in enumerate(self.sources):
-            idx = codes[(codes // self.n) == k] % self.n
-            if len(idx):
-                xs.append(stack_modalities(gather(ds.arrays, self.cfg, idx, self.starts), self.cfg))
-                ys.append(steering[idx].astype(np.float32))
-        x, y = np.concatenate(xs), np.concatenate(ys)
+            pos = order[(codes[order] // self.n) == k]
+            if len(pos):
+                idx = codes[pos] % self.n
+                part = stack_modalities(gather(ds.arrays, self.cfg, idx, self.starts), self.cfg)
+                if x is None:
+                    x, y = np.empty((len(codes),) + part.shape[1:], np.float32), np.empty(len(codes), np.float32)
+                x[pos], y[pos] = part, steering[idx]
         if flip is not None and flip.any():
             x[flip] = flip_horizontal(x[flip], self.cfg)
             y[flip] *= -1
@@ -101,17 +103,41 @@ def side_camera_labels(ds: CompiledDataset, offset_m: float, recovery_s: float, 
     return ds.steering + conv.from_road_wheel_left(correction, ratio)
 
 
-def train_one_epoch(model, opt, batches: Batches, idx: np.ndarray, batch_size: int, flip: bool,
+def sequence_windows(codes: np.ndarray, n: int, starts: np.ndarray, length: int) -> np.ndarray:
+    """Windows (M, length) of consecutive frames that lie inside the sample set and inside one segment,
+    starting every `length` frames, so an epoch sees each frame about once."""
+    all_codes = np.sort(codes)
+    codes = all_codes[(all_codes % n) % length == 0]
+    w = codes[:, None] + np.arange(length)
+    inside = np.isin(w, all_codes).all(axis=1)
+    frame = w % n
+    same = (w // n == w[:, :1] // n).all(axis=1) & (starts[frame] == starts[frame[:, :1]]).all(axis=1)
+    return w[inside & same]
+
+
+def objective(model, x: torch.Tensor, y: torch.Tensor) -> torch.Tensor:
+    """The model's own loss when it has one, otherwise the MSE of its steering."""
+    if hasattr(model, "loss"):
+        return model.loss(x, y)
+    pred = model(x)
+    pred = pred[0] if isinstance(pred, tuple) else pred  # recurrent models also return their state
+    return torch.mean((pred - y) ** 2)
+
+
+def train_one_epoch(model, opt, batches: Batches, samples: np.ndarray, batch_size: int, flip: bool,
                     rng: np.random.Generator, progress: bool = True, desc: str = "") -> float:
+    """One pass over `samples`: frame codes (M,), or windows (M, T) of frame codes for recurrent models."""
     model.train()
-    order = rng.permutation(idx)
+    order = rng.permutation(len(samples))
     total, count = 0.0, 0
     steps = range(0, len(order), batch_size)
     for s in tqdm(steps, desc=desc, unit="batch", leave=False, disable=None if progress else True):
-        b = order[s: s + batch_size]
-        flips = rng.random(len(b)) < 0.5 if flip else None
-        x, y = batches.get(b, flips)
-        loss = model.loss(x, y) if hasattr(model, "loss") else torch.mean((model(x) - y) ** 2)
+        b = samples[order[s: s + batch_size]]
+        flips = np.repeat(rng.random(len(b)) < 0.5, b[0].size) if flip else None
+        x, y = batches.get(b.ravel(), flips)
+        if b.ndim == 2:  # windows: (B*T, C, H, W) -> (B, T, C, H, W)
+            x, y = x.view(len(b), b.shape[1], *x.shape[1:]), y.view(len(b), b.shape[1])
+        loss = objective(model, x, y)
         opt.zero_grad(set_to_none=True)
         loss.backward()
         opt.step()
@@ -122,8 +148,20 @@ def train_one_epoch(model, opt, batches: Batches, idx: np.ndarray, batch_size: i
 
 @torch.inference_mode()
 def predict(model, batches: Batches, idx: np.ndarray, batch_size: int = 256) -> np.ndarray:
+    """Predictions for frames `idx` (in time order). Recurrent models run statefully through each contiguous
+    run of frames, from a zero state at the start of the run and at every segment start, as the Pilot does."""
     model.eval()
-    out = [model(batches.get(idx[s: s + batch_size])[0]).numpy() for s in range(0, len(idx), batch_size)]
+    if not getattr(model, "recurrent", False):
+        out = [model(batches.get(idx[s: s + batch_size])[0]).numpy() for s in range(0, len(idx), batch_size)]
+        return np.concatenate(out).astype(np.float64)
+    out = []
+    breaks = np.flatnonzero((np.diff(idx) != 1) | (batches.starts[idx[1:]] == idx[1:])) + 1
+    for run in np.split(idx, breaks):
+        state = None
+        for s in range(0, len(run), batch_size):
+            x = batches.get(run[s: s + batch_size])[0]
+            y, state = model(x[None], state)
+            out.append(y[0].numpy())
     return np.concatenate(out).astype(np.float64)
 
 
@@ -152,9 +190,14 @@ def train(cfg: dict, progress: bool = True) -> dict:
         train_idx = np.concatenate([train_idx + k * len(ds) for k in range(3)])
     batches = Batches(sources, stats)
     torch.manual_seed(int(tc["seed"]))
+    samples = train_idx
     model_cfg = {k: v for k, v in cfg["model"].items() if k != "name"}
     model_cfg.update(in_channels=sum(ds.config.channels().values()), height=ds.config.height, width=ds.config.width)
     model = create_model(cfg["model"]["name"], **model_cfg)
+    if getattr(model, "recurrent", False):
+        samples = sequence_windows(train_idx, len(ds), batches.starts, model.seq_len)
+        if len(samples) == 0:
+            raise SteerlabError(f"no training window of {model.seq_len} consecutive frames in one segment")
     if all(p.dim() != 5 for p in model.parameters()):  # channels-last exists for 2-D convolutions only
         model = model.to(memory_format=torch.channels_last)
     convention = SteeringConvention(**ds.meta["convention"])
@@ -190,7 +233,7 @@ def train(cfg: dict, progress: bool = True) -> dict:
             break
         t0 = time.time()
         rng = np.random.default_rng([int(tc["seed"]), epoch])
-        loss = train_one_epoch(model, opt, batches, train_idx, int(tc["batch_size"]), bool(tc["flip"]), rng,
+        loss = train_one_epoch(model, opt, batches, samples, int(tc["batch_size"]), bool(tc["flip"]), rng,
                                progress, desc=f"epoch {epoch}")
         m = steering_metrics(predict(model, batches, val_idx), y_val)
         row = {"epoch": epoch, "train_loss": loss, "val_mse": m["mse"], "val_rmse": m["rmse"],
