@@ -39,3 +39,25 @@ def test_train_errors_are_one_line(tmp_path, capsys):
     assert "config file not found" in capsys.readouterr().err
     assert main(["evaluate", str(tmp_path / "x.pt"), "--data", str(tmp_path)]) == 2
     assert capsys.readouterr().err.startswith("error: ")
+
+
+def test_experiment_table(tiny_recording, tmp_path, capsys):
+    cfg = tmp_path / "exp.yaml"
+    cfg.write_text(f"""
+data: {tiny_recording}
+cache: {tmp_path / 'cache'}
+split: {{train: "0:240", val: "240:300"}}
+train: {{epochs: 1, batch_size: 16}}
+out: {tmp_path / 'exp'}
+models:
+  - {{model: {{name: zero}}}}
+  - {{model: {{name: pilotnet-flow}}, label: flow}}
+""")
+    assert main(["experiment", str(cfg), "--seeds", "2"]) == 0
+    text = (tmp_path / "exp" / "table.md").read_text()
+    assert "| zero | image (gray) | 1@200x66 |" in text and "| flow | image+flow (gray) | 3@200x66 |" in text
+    assert (tmp_path / "exp" / "flow" / "seed1" / "best.pt").exists()
+    assert (tmp_path / "exp" / "predictions.png").exists()
+    import csv
+    rows = list(csv.DictReader(open(tmp_path / "exp" / "table.csv")))
+    assert rows[0]["seeds"] == "2" and float(rows[0]["mse_std"]) == 0.0  # zero predicts the same every seed

@@ -41,6 +41,14 @@ def cmd_train(a) -> None:
     _print_table(best, ["mse", "rmse", "mae_deg", "gamma_deg", "target_gamma_deg"])
 
 
+def cmd_experiment(a) -> None:
+    from steerlab.experiment import run_experiment
+
+    table = run_experiment(a.config, a.overrides, a.seeds)
+    print(table.read_text())
+    print(f"wrote {table}, {table.parent / 'table.csv'}, {table.parent / 'predictions.png'}")
+
+
 def cmd_evaluate(a) -> None:
     from steerlab.evaluate.offline import evaluate
 
@@ -122,6 +130,13 @@ def build_parser() -> argparse.ArgumentParser:
     q.add_argument("config", help="YAML config (see configs/)")
     q.add_argument("overrides", nargs="*", help="section.key=value overrides, e.g. train.lr=3e-4")
     q.set_defaults(func=cmd_train)
+
+    q = sub.add_parser("experiment", help="train several models with several seeds and tabulate them",
+                       epilog="example: steerlab experiment configs/experiment_ch2.yaml --seeds 3")
+    q.add_argument("config", help="YAML config with a 'models' list (see configs/experiment_ch2.yaml)")
+    q.add_argument("overrides", nargs="*", help="section.key=value overrides for every run")
+    q.add_argument("--seeds", type=int, default=3, help="runs per model, seeds 0..N-1 (default 3)")
+    q.set_defaults(func=cmd_experiment)
 
     q = sub.add_parser("evaluate", help="open-loop evaluation of a checkpoint, frame by frame")
     q.add_argument("checkpoint")

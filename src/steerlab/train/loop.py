@@ -23,6 +23,7 @@ from steerlab.data.recording import SteeringConvention
 from steerlab.data.splits import make_split
 from steerlab.errors import SteerlabError
 from steerlab.evaluate.metrics import steering_metrics
+from steerlab.evaluate.scoring import write_predictions
 from steerlab.models import create_model, model_class
 from steerlab.train.checkpoint import save_checkpoint
 from steerlab.train.inputs import (Standardizer, channel_stats, flip_horizontal, gather, segment_starts,
@@ -209,8 +210,10 @@ def train(cfg: dict, progress: bool = True) -> dict:
 
     if not getattr(model, "trainable", True):
         model.fit(np.concatenate([labels for _, labels in sources])[train_idx])
-        metrics = {**steering_metrics(predict(model, batches, val_idx), y_val), "epoch": 0}
+        pred = predict(model, batches, val_idx)
+        metrics = {**steering_metrics(pred, y_val), "epoch": 0}
         checkpoint(out / "best.pt", metrics)
+        write_predictions(out / "val_predictions.csv", ds.labels["frame_ids"][val_idx], pred)
         return metrics
 
     opt = torch.optim.Adam(model.parameters(), lr=float(tc["lr"]))
@@ -235,7 +238,8 @@ def train(cfg: dict, progress: bool = True) -> dict:
         rng = np.random.default_rng([int(tc["seed"]), epoch])
         loss = train_one_epoch(model, opt, batches, samples, int(tc["batch_size"]), bool(tc["flip"]), rng,
                                progress, desc=f"epoch {epoch}")
-        m = steering_metrics(predict(model, batches, val_idx), y_val)
+        pred = predict(model, batches, val_idx)
+        m = steering_metrics(pred, y_val)
         row = {"epoch": epoch, "train_loss": loss, "val_mse": m["mse"], "val_rmse": m["rmse"],
                "val_mae_deg": m["mae_deg"], "val_gamma_deg": m["gamma_deg"], "seconds": round(time.time() - t0, 2)}
         history.append(row)
@@ -247,6 +251,7 @@ def train(cfg: dict, progress: bool = True) -> dict:
         if best is None or m["rmse"] < best["rmse"]:
             best, since_best = {**m, "epoch": epoch}, 0
             checkpoint(out / "best.pt", best)
+            write_predictions(out / "val_predictions.csv", ds.labels["frame_ids"][val_idx], pred)
         else:
             since_best += 1
         checkpoint(out / "last.pt", best, optimizer=opt.state_dict(), epoch=epoch, best=best,
