@@ -129,7 +129,7 @@ def compile_recording(rec: Recording, cfg: PreprocessConfig, cache_dir: str | Pa
                 bar.update(done)
         for a in arrays.values():
             a.flush()
-        del arrays
+        arrays.clear()  # close the memory maps before the folder is renamed
         np.savez(tmp / "labels.npz", **_labels(rec))
         meta = {"preprocess": cfg.as_dict(), "source": str(rec.source), "name": rec.name, "camera": camera,
                 "frames": n, "convention": rec.convention.as_dict(), "preset": rec.preset,

@@ -4,9 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 
-SPEED_COMMANDS = ("decelerating", "maintaining", "accelerating")  # class 0, 1, 2
-
-
 def speed_commands(speed: np.ndarray, timestamps_ns: np.ndarray, interval_s: float = 1.0,
                    threshold: float = 0.25) -> np.ndarray:
     """Paper 002 IV-B2: acceleration = (speed at the end - speed at the start of a 1 s interval) / interval;

@@ -148,7 +148,7 @@ def read_ch2(folder: str | Path, frame_range=None, labels: str | Path | None = N
     ids, steer = ids[cut], steer[cut]
     speed = None if speed is None else speed[cut]
     frames = {cam: [folder / p for p in names[cut]] for cam, names in cams.items()}
-    for cam, paths in frames.items():
+    for paths in frames.values():
         _check_images(paths, label_path, first_row)
     return Recording(
         name=folder.name, source=folder, frames=frames, timestamps_ns=ids.astype(np.int64), steering=steer,
@@ -270,7 +270,7 @@ def read_sim_log(log: str | Path, frame_range=None) -> Recording:
     frames = {c: p for c, p in frames.items() if len(p) == len(rows)}
     stamps_a = np.array(stamps, dtype=np.int64)
     _check_unique(stamps_a, log, first)
-    for cam, paths in frames.items():
+    for paths in frames.values():
         _check_images(paths, log, first)
     return Recording(
         name=log.parent.name, source=log, frames=frames, timestamps_ns=stamps_a,
@@ -324,7 +324,7 @@ def read_native(folder: str | Path, frame_range=None) -> Recording:
         episodes.append(ep)
     stamps_a = np.array(stamps, dtype=np.int64)
     _check_unique(stamps_a, log, first)
-    for c, paths in frames.items():
+    for paths in frames.values():
         _check_images(paths, log, first)
     conv = meta.get("steering", {})
     return Recording(

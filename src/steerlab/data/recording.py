@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import cv2
@@ -121,24 +121,6 @@ class Recording:
     def load_frame(self, index: int, camera: str = "center") -> np.ndarray:
         """Decode one frame as a BGR uint8 array (OpenCV order)."""
         return read_image(self.frames[camera][index])
-
-    def select(self, start: int, stop: int) -> "Recording":
-        """The frames [start, stop) as a new Recording (lazy: no image is read)."""
-        if not (0 <= start < stop <= len(self)):
-            raise DataError(self.source, f"frame range {start}:{stop} is outside the recording's 0:{len(self)}")
-        cut = slice(start, stop)
-        opt = lambda a: None if a is None else a[cut]  # noqa: E731
-        return replace(
-            self,
-            frames={cam: paths[cut] for cam, paths in self.frames.items()},
-            timestamps_ns=self.timestamps_ns[cut],
-            steering=self.steering[cut],
-            frame_ids=self.frame_ids[cut],
-            speed=opt(self.speed),
-            throttle=opt(self.throttle),
-            brake=opt(self.brake),
-            extra={k: v[cut] for k, v in self.extra.items()},
-        )
 
 
 def read_image(path: Path) -> np.ndarray:

@@ -41,7 +41,7 @@ def read_steering_csv(path: str | Path, need_public: bool = False) -> tuple[np.n
         try:
             v = float(row[i_st])
         except (ValueError, IndexError):
-            raise DataError(path, f"steering_angle must be a number", r) from None
+            raise DataError(path, "steering_angle must be a number", r) from None
         if not math.isfinite(v):
             raise DataError(path, f"steering_angle is {row[i_st]!r} for frame {fid}; a finite number is expected", r)
         ids.append(fid)
