@@ -61,3 +61,4 @@ models:
     import csv
     rows = list(csv.DictReader(open(tmp_path / "exp" / "table.csv")))
     assert rows[0]["seeds"] == "2" and float(rows[0]["mse_std"]) == 0.0  # zero predicts the same every seed
+    assert float(rows[0]["smoothed_rmse_mean"]) == pytest.approx(float(rows[0]["rmse_mean"]))  # smoothing 0 is 0
