@@ -97,7 +97,7 @@ def _check_images(paths: list[Path], source: Path, first_row: int) -> None:
     for i, p in enumerate(paths):
         if not p.is_file():
             raise DataError(source, f"image {p} is missing (use a frame range that covers only the frames that exist, "
-                                    f"e.g. --range 0:{i} )" if i else f"image {p} is missing", first_row + i)
+                                    f"e.g. --range 0:{i})" if i else f"image {p} is missing", first_row + i)
 
 
 def _check_unique(ids: np.ndarray, path: Path, first_row: int) -> None:
@@ -158,8 +158,7 @@ def read_ch2(folder: str | Path, frame_range=None, labels: str | Path | None = N
 
 def _ch2_answer_rows(path: Path, header: list[str], body: list[list[str]]):
     i_id, i_st = header.index("frame_id"), header.index("steering_angle")
-    i_pub = header.index("public") if "public" in header else None
-    ids, steer, public = [], [], []
+    ids, steer = [], []
     for r, row in enumerate(body, start=2):
         if len(row) <= max(i_id, i_st):
             raise DataError(path, f"expected {len(header)} columns, got {len(row)}", r)
@@ -168,8 +167,6 @@ def _ch2_answer_rows(path: Path, header: list[str], body: list[list[str]]):
         except ValueError:
             raise DataError(path, f"frame_id must be an integer (nanoseconds), got {row[i_id]!r}", r) from None
         steer.append(_number(path, r, "steering_angle", row[i_st]))
-        if i_pub is not None:
-            public.append(int(_number(path, r, "public", row[i_pub])))
     ids_a = np.array(ids, dtype=np.int64)
     names = np.array([f"center/{i}.jpg" for i in ids], dtype=object)
     return ids_a, np.array(steer, dtype=np.float64), None, {"center": names}

@@ -11,6 +11,7 @@ from steerlab.sim.vehicle import VehicleParams, VehicleState
 DRIFT_TARGET = 0.85   # m beside the lane centre the driver aims for while drifting out
 DRIFT_TURN = 0.7      # m: the driver notices and starts to steer back
 RECOVERED = 0.15      # m: back to normal driving
+_CAR = VehicleParams()  # the car whose throttle and brake the cruise controller scales to
 
 
 def pure_pursuit(road: Road, state: VehicleState, s: float, d_target: float, wheelbase: float) -> float:
@@ -26,8 +27,7 @@ def cruise(road: Road, s: float, v: float, gain: float = 0.8) -> tuple[float, fl
     """Throttle and brake that follow the road's speed profile (used by the expert and the closed loop)."""
     target = road.speed_limit[road.index(s + 2.0 * v)]
     acc = float(np.clip(gain * (target - v), -2.5, 1.5))
-    p = VehicleParams()
-    return (acc / p.max_accel, 0.0) if acc >= 0 else (0.0, -acc / p.max_decel)
+    return (acc / _CAR.max_accel, 0.0) if acc >= 0 else (0.0, -acc / _CAR.max_decel)
 
 
 class ExpertDriver:

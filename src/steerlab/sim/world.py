@@ -38,6 +38,13 @@ def start_state(road: Road, s: float = 5.0, v: float | None = None) -> VehicleSt
     return VehicleState(x, y, psi, road.speed_limit[road.index(s)] if v is None else v)
 
 
+def _world(seed: int, road: str, camera: str, seconds: float):
+    """A road long enough for `seconds` of driving, its renderer, and a car on its lane at the start."""
+    rd = Road(seed, road, length_m=seconds * 35 + 400)
+    params = VehicleParams()
+    return rd, Renderer(rd, camera), params, Vehicle(start_state(rd), params)
+
+
 def record(out: str | Path, seed: int = 0, minutes: float = 1.0, road: str = "country", camera: str = "sim",
            fps: float = 20.0, drift: bool = True, side_cameras: bool = True, layout: str = "steerlab",
            progress: bool = True) -> Path:
@@ -49,10 +56,7 @@ def record(out: str | Path, seed: int = 0, minutes: float = 1.0, road: str = "co
     if out.exists() and any(out.iterdir()):
         raise SteerlabError(f"{out} exists and is not empty; choose a new output folder")
     dt = 1.0 / fps
-    rd = Road(seed, road, length_m=n * dt * 35 + 400)
-    renderer = Renderer(rd, camera)
-    params = VehicleParams()
-    car = Vehicle(start_state(rd), params)
+    rd, renderer, params, car = _world(seed, road, camera, n * dt)
     driver = ExpertDriver(rd, seed, params, dt, drift_every_s=25.0 if drift else None)
     cams = {"center": 0.0, **({"left": SIDE_OFFSET, "right": -SIDE_OFFSET} if side_cameras else {})}
     img_dir = out / ("IMG" if layout == "udacity-sim" else "")
@@ -116,10 +120,7 @@ def drive(steer_fn, reset_fn, out: str | Path | None, seed: int = 100, minutes: 
     back on the lane centre and `reset_fn()` clears the pilot's memory."""
     n = _check(minutes, fps)
     dt = 1.0 / fps
-    rd = Road(seed, road, length_m=n * dt * 35 + 400)
-    renderer = Renderer(rd, camera)
-    params = VehicleParams()
-    car = Vehicle(start_state(rd), params)
+    rd, renderer, params, car = _world(seed, road, camera, n * dt)
     s, interventions, dist = 5.0, 0, 0.0
     traj = []
     strip = []
