@@ -49,15 +49,22 @@ cache: {tmp_path / 'cache'}
 split: {{train: "0:240", val: "240:300"}}
 train: {{epochs: 1, batch_size: 16}}
 out: {tmp_path / 'exp'}
+closed_loop: {{roads: [101], minutes: 0.05}}
 models:
   - {{model: {{name: zero}}}}
   - {{model: {{name: pilotnet-flow}}, label: flow}}
+  - {{model: {{name: multitask-speed}}}}
 """)
     assert main(["experiment", str(cfg), "--seeds", "2"]) == 0
     text = (tmp_path / "exp" / "table.md").read_text()
     assert "| zero | image (gray) | 1@200x66 |" in text and "| flow | image+flow (gray) | 3@200x66 |" in text
     assert (tmp_path / "exp" / "flow" / "seed1" / "best.pt").exists()
     assert (tmp_path / "exp" / "predictions.png").exists()
+    assert (tmp_path / "exp" / "flow" / "seed1" / "closed-loop" / "road101" / "path.png").exists()
+    assert "| autonomy [%] | command gamma [deg] |" in text
+    speed_row = next(line for line in text.splitlines() if line.startswith("| multitask-speed | ") and "+-" in line
+                     and "@" not in line)  # the paper 002 table: steering MAE, speed MAE, command accuracy
+    assert speed_row.split("|")[3].strip() != "-" and speed_row.split("|")[4].strip() == "-"
     import csv
     rows = list(csv.DictReader(open(tmp_path / "exp" / "table.csv")))
     assert rows[0]["seeds"] == "2" and float(rows[0]["mse_std"]) == 0.0  # zero predicts the same every seed

@@ -1,10 +1,10 @@
 import numpy as np
 import pytest
 
-from steerlab.data.labels import speed_commands
+from steerlab.data.labels import speed_commands, speed_targets
 from steerlab.data.splits import make_split, paper_protocol
 from steerlab.errors import DataError, SteerlabError
-from steerlab.evaluate.metrics import exponential_smoothing, gamma_deg, steering_metrics
+from steerlab.evaluate.metrics import all_metrics, exponential_smoothing, gamma_deg, steering_metrics
 from steerlab.evaluate.scoring import score, write_predictions
 
 from conftest import CH2, needs_ch2
@@ -26,6 +26,23 @@ def test_speed_commands_hand_made_series():
     v = np.array([10, 10, 10.1, 11, 12, 12, 11, 10.0])
     # acc over [t, t+1 s]: 0.1, 1.0, 1.9, 1.0, -1.0, -2.0, then -2.0 over the last 0.5 s, 0 at the end
     assert speed_commands(v, t).tolist() == [1, 2, 2, 2, 0, 0, 0, 1]
+
+
+def test_speed_targets_stay_inside_segments():
+    t = np.arange(6) * 500_000_000
+    v = np.array([10, 11, 12, 5, 5, 4.0])
+    out = speed_targets(v, t, np.array([0, 0, 0, 1, 1, 1]))
+    assert out["speed"].tolist() == [11, 12, 12, 5, 4, 4]  # next frame's speed; a segment's last keeps its own
+    # segment 0: +2 m/s over 1 s, then +1 over the last 0.5 s; segment 1: -1 m/s over 1 s, -2 m/s^2, end
+    assert out["command"].tolist() == [2, 2, 1, 0, 0, 1]
+
+
+def test_speed_metrics_hand_computed():
+    pred = {"steering": np.zeros(4), "speed": np.array([10, 11, 12, 13.0]), "command": np.array([0, 1, 1, 2])}
+    truth = {"steering": np.zeros(4), "speed": np.array([10, 12, 12, 12.5]), "command": np.array([0, 1, 2, 0])}
+    m = all_metrics(pred, truth)
+    assert m["speed_mae"] == pytest.approx(1.5 / 4) and m["command_accuracy"] == 0.5
+    assert "speed_mae" not in all_metrics({"steering": np.zeros(4)}, truth)
 
 
 def test_splits():

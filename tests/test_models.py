@@ -6,6 +6,7 @@ from steerlab.data.preprocess import PreprocessConfig
 from steerlab.data.recording import SteeringConvention
 from steerlab.errors import SteerlabError
 from steerlab.models import create_model, list_models, model_class
+from steerlab.models.multitask import weighted_mae
 from steerlab.pilot import Pilot
 from steerlab.train.checkpoint import load_checkpoint, save_checkpoint
 from steerlab.train.inputs import stack_modalities
@@ -16,16 +17,33 @@ def _model_config(name: str, **pre) -> PreprocessConfig:
     return PreprocessConfig.from_dict(model_preprocess(name, {"preset": "sim", **pre}))
 
 
+def _inputs(name: str, channels: int, cfg: PreprocessConfig, batch: int = 4, steps: int = 2) -> dict:
+    """Zero images of the model's size (with a time axis for recurrent models) and constant speeds."""
+    model = model_class(name)
+    shape = (batch, steps) if getattr(model, "recurrent", False) else (batch,)
+    inputs = {"x": torch.zeros(*shape, channels, cfg.height, cfg.width)}
+    if getattr(model, "speed_history", 0):
+        inputs["speeds"] = torch.full((batch, model.speed_history), 8.0)
+    return inputs
+
+
 @pytest.mark.parametrize("name, color", [(n, c) for n in list_models() for c in ("gray", "yuv")
                                          if c == "gray" or "color" not in getattr(model_class(n), "inputs", {})])
 def test_forward_shapes(name, color):
-    channels = sum(_model_config(name, color=color).channels().values())
-    model = create_model(name, in_channels=channels, height=66, width=200).eval()
+    cfg = _model_config(name, color=color)
+    channels = sum(cfg.channels().values())
+    model = create_model(name, in_channels=channels, height=cfg.height, width=cfg.width).eval()
+    with torch.no_grad():
+        out = model(**_inputs(name, channels, cfg))
     if getattr(model, "recurrent", False):
-        y, (h, c) = model(torch.zeros(4, 2, channels, 66, 200))
-        assert y.shape == (4, 2) and h.shape == (1, 4, 100)
+        out, (h, c) = out
+        assert out["steering"].shape == (4, 2) and h.shape[:2] == (1, 4)
+        if "command" in out:
+            assert out["command"].shape == (4, 2, 3)
     else:
-        assert model(torch.zeros(4, channels, 66, 200)).shape == (4,)
+        assert out["steering"].shape == (4,)
+        if "speed" in out:
+            assert out["speed"].shape == (4,)
 
 
 def test_cnn3d_keeps_temporal_size():
@@ -39,12 +57,50 @@ def test_two_stream_combined_loss_hand_computed():
     m = create_model("two-stream-flow", in_channels=3, dropout=0.0).eval()
     x, y = torch.randn(5, 3, 66, 200), torch.randn(5)
     with torch.no_grad():
-        loss = float(m.loss(x, y))
-        y_img, y_flow = m.image(x[:, :1]), m.flow(x[:, 1:])
-        mean = m(x)
+        out = m(x)
+        loss = float(m.loss(out, {"steering": y}))
+        y_img, y_flow = m.image(x[:, :1])["steering"], m.flow(x[:, 1:])["steering"]
     expected = sum(float((a - b) ** 2 + (c - b) ** 2) for a, b, c in zip(y_img, y, y_flow)) / 5
     assert loss == pytest.approx(expected, rel=1e-5)
-    assert torch.allclose(mean, (y_img + y_flow) / 2)
+    assert torch.allclose(out["steering"], (y_img + y_flow) / 2)
+
+
+def test_weighted_mae_hand_computed():
+    pred, y = torch.tensor([0.0, 0.0, 0.5]), torch.tensor([0.0, 0.2, 0.4])
+    # mean |y| = 0.2 -> weights 1, 2, 3; errors 0, 0.2, 0.1 -> (0 + 0.4 + 0.3) / 6
+    assert float(weighted_mae(pred, y)) == pytest.approx(0.7 / 6)
+    assert float(weighted_mae(pred, y, gain=0.0)) == pytest.approx(0.1)  # plain MAE
+    assert float(weighted_mae(torch.tensor([0.1, -0.1]), torch.zeros(2))) == pytest.approx(0.1)  # all straight
+
+
+def test_multitask_losses_hand_computed():
+    out = {"steering": torch.tensor([0.0, 0.5]), "speed": torch.tensor([10.0, 12.0])}
+    targets = {"steering": torch.tensor([0.0, 0.2]), "speed": torch.tensor([11.0, 12.5])}
+    m = create_model("multitask-speed", speed_weight=0.5)
+    # steering: weights 1, 3 (mean |y| 0.1) -> 3 * 0.3 / 4; speed MAE 0.75
+    assert float(m.loss(out, targets)) == pytest.approx(0.9 / 4 + 0.5 * 0.75)
+    logits = torch.tensor([[[2.0, 0.0, 0.0], [0.0, 0.0, 0.0]]])  # (B=1, T=2, 3)
+    out = {"steering": torch.tensor([[0.1, 0.1]]), "command": logits}
+    targets = {"steering": torch.tensor([[0.1, 0.1]]), "command": torch.tensor([[0, 2]])}
+    ce = (-np.log(np.exp(2) / (np.exp(2) + 2)) - np.log(1 / 3)) / 2
+    m = create_model("speed-command", command_weight=0.25)
+    assert float(m.loss(out, targets)) == pytest.approx(0.25 * ce, rel=1e-5)
+
+
+def test_multitask_speed_starts_from_the_current_speed():
+    """The speed head predicts a change to the latest measured speed (the last of the history)."""
+    m = create_model("multitask-speed").eval()
+    with torch.no_grad():
+        for p in m.speed_head[-1].parameters():
+            p.zero_()
+        speeds = torch.tensor([[5.0] * 9 + [7.0], [3.0] * 10])
+        assert m(torch.zeros(2, 3, 96, 96), speeds)["speed"].tolist() == [7.0, 3.0]
+
+
+def test_paper_002_input_is_square():
+    for name in ("yang-base", "speed-command", "multitask-speed"):
+        cfg = _model_config(name)
+        assert cfg.width == cfg.height == 96
 
 
 def test_model_inputs_fill_and_guard_the_config():
@@ -76,7 +132,7 @@ def test_recurrent_state_carries_across_calls():
         whole, _ = m(x)
         first, state = m(x[:, :2])
         rest, _ = m(x[:, 2:], state)
-    assert torch.allclose(whole, torch.cat([first, rest], 1), atol=1e-6)
+    assert torch.allclose(whole["steering"], torch.cat([first["steering"], rest["steering"]], 1), atol=1e-6)
 
 
 def test_unknown_model():
@@ -90,7 +146,7 @@ def test_checkpoint_round_trip_and_pilot(name, tmp_path):
     pre = {} if getattr(model_class(name), "inputs", {}) else {"modalities": ["image", "diff", "flow"]}
     cfg = _model_config(name, **pre)
     channels = cfg.channels()
-    model_cfg = {"in_channels": sum(channels.values()), "height": 66, "width": 200}
+    model_cfg = {"in_channels": sum(channels.values()), "height": cfg.height, "width": cfg.width}
     model = create_model(name, **model_cfg).eval()
     if name == "train-mean":
         model.fit(np.array([0.1, 0.3]))
@@ -101,11 +157,11 @@ def test_checkpoint_round_trip_and_pilot(name, tmp_path):
     save_checkpoint(path, model, model_cfg, cfg, stats, SteeringConvention(), {"rmse": 0.1})
     frames = [np.random.default_rng(i).integers(0, 255, (160, 320, 3), dtype=np.uint8) for i in range(3)]
     p1, p2 = Pilot(path), Pilot(load_checkpoint(path))
-    out1 = [p1.step(f) for f in frames]
-    out2 = [p2.step(f) for f in frames]
+    out1 = [p1.step(f, speed=8.0) for f in frames]
+    out2 = [p2.step(f, speed=8.0) for f in frames]
     assert out1 == out2
     if name == "train-mean":
-        assert out1[0] == pytest.approx(0.2)
+        assert out1[0].steering == pytest.approx(0.2)
     # the pilot gives what the model gives on the same standardised input of the first frame
     from steerlab.data.preprocess import preprocess
     img, _ = preprocess(frames[0], cfg)
@@ -113,10 +169,17 @@ def test_checkpoint_round_trip_and_pilot(name, tmp_path):
              "flow": np.zeros(img.shape[:2] + (2,), np.float32)}  # a segment's first frame
     x = stack_modalities(first, cfg)
     x = (x - np.array(stats["mean"], np.float32)) / np.array(stats["std"], np.float32)
+    inputs = _inputs(name, model_cfg["in_channels"], cfg, batch=1, steps=1)
+    xt = torch.from_numpy(x).permute(2, 0, 1)
+    inputs["x"] = xt.expand_as(inputs["x"])
     with torch.no_grad():
-        xt = torch.from_numpy(x).permute(2, 0, 1)[None]
-        direct = float(model(xt[None])[0][0, 0] if getattr(model, "recurrent", False) else model(xt)[0])
-    assert out1[0] == pytest.approx(direct, abs=1e-5)
+        out = model(**inputs)
+    out = out[0] if getattr(model, "recurrent", False) else out
+    assert out1[0].steering == pytest.approx(float(out["steering"].flatten()[0]), abs=1e-5)
+    if "speed" in out:
+        assert out1[0].speed == pytest.approx(float(out["speed"][0]), abs=1e-5)
+    if "command" in out:
+        assert out1[0].command == int(out["command"].flatten(0, -2)[0].argmax())
 
 
 def test_pilot_smoothing(tmp_path):
@@ -128,7 +191,7 @@ def test_pilot_smoothing(tmp_path):
                     {"mean": [0.0], "std": [1.0]}, SteeringConvention(), {})
     pilot = Pilot(path, smoothing=0.2)
     frame = np.zeros((160, 320, 3), np.uint8)
-    assert [pilot.step(frame) for _ in range(2)] == pytest.approx([1.0, 1.0])
+    assert [pilot.step(frame).steering for _ in range(2)] == pytest.approx([1.0, 1.0])
 
 
 def test_missing_and_bad_checkpoint(tmp_path):
@@ -138,3 +201,12 @@ def test_missing_and_bad_checkpoint(tmp_path):
     bad.write_text("hello")
     with pytest.raises(SteerlabError, match="not a readable checkpoint"):
         Pilot(bad)
+
+
+def test_pilot_needs_speed_for_speed_models(tmp_path):
+    cfg = _model_config("multitask-speed")
+    model_cfg = {"in_channels": 1, "height": cfg.height, "width": cfg.width}
+    save_checkpoint(tmp_path / "m.pt", create_model("multitask-speed", **model_cfg), model_cfg, cfg,
+                    {"mean": [0.0], "std": [1.0]}, SteeringConvention(), {})
+    with pytest.raises(SteerlabError, match="needs the measured speed"):
+        Pilot(tmp_path / "m.pt").step(np.zeros((160, 320, 3), np.uint8))

@@ -38,15 +38,6 @@ def test_training_lowers_loss_and_checkpoint_reproduces(tiny_recording, tmp_path
         assert next(csv.reader(f)) == ["frame_id", "steering_angle"]
 
 
-@pytest.mark.parametrize("name", [n for n in list_models() if n != "pilotnet" and model_class(n).trainable])
-def test_every_trainable_model_learns(name, tiny_recording, tmp_path):
-    cfg = _cfg(tiny_recording, tmp_path, epochs=3, batch_size=8)  # recurrent: 8 windows of 10 frames
-    cfg["model"] = {"name": name, "dropout": 0.0}
-    loop.train(cfg, progress=False)
-    rows = _log(tmp_path)
-    assert float(rows[-1]["train_loss"]) < float(rows[0]["train_loss"])
-
-
 def test_side_cameras_and_episode_filter(tiny_recording, tmp_path):
     cfg = _cfg(tiny_recording, tmp_path, epochs=1, side_cameras=True, exclude_episodes=["drift-out"])
     loop.train(cfg, progress=False)
@@ -59,6 +50,55 @@ def test_side_camera_labels_hand_computed(tiny_recording, tmp_path):
     v = ds.labels["speed"][0]
     # left camera: steer right by arctan(0.5 / v) at the road wheel = 10x that at the steering wheel
     assert y[0] == pytest.approx(ds.steering[0] - 10 * np.arctan(0.5 / v))
+
+
+def test_balanced_sampling_thins_straight_driving():
+    steering = np.concatenate([np.zeros(1000), np.linspace(-1, -0.1, 25), np.linspace(0.1, 1, 25)])
+    codes = np.arange(len(steering))
+    kept = loop.balanced(codes, steering, np.random.default_rng(0))
+    # 25 bins of 0.08: 1000 straight frames in the middle one, 1-2 turning frames in 22 others; the cap is
+    # the mean count of the non-empty bins, 1050 / 23 = 46: every turning frame stays, ~46 straight ones do
+    assert np.isin(codes[1000:], kept).all()
+    assert 20 < np.isin(codes[:1000], kept).sum() < 70
+
+
+def test_augmentation_hand_computed():
+    from steerlab.data.preprocess import PreprocessConfig
+    from steerlab.train.inputs import augment
+
+    cfg = PreprocessConfig(modalities=("image", "flow"))
+    x = np.zeros((1, 10, 20, 3), np.float32)
+    x[..., 0], x[..., 1] = 100.0, 1.0  # uniform image, flow (1, 0) everywhere
+    angle, factor = (lambda r: (r.uniform(-10, 10), r.uniform(0.8, 1.2)))(np.random.default_rng(5))
+    out = augment(x.copy(), cfg, np.random.default_rng(5), rotation_deg=10, brightness=0.2)
+    a = np.radians(angle)
+    np.testing.assert_allclose(out[0, 5, 10], [100 * factor, np.cos(a), -np.sin(a)], rtol=1e-5)
+    x[..., 0] = 250.0
+    assert augment(x.copy(), cfg, np.random.default_rng(1), 0, 0.5)[..., 0].max() <= 255
+
+
+def test_min_speed_drops_slow_frames(tiny_recording, tmp_path):
+    ds = loop.prepare_dataset(_cfg(tiny_recording, tmp_path), progress=False)
+    v = ds.labels["speed"]
+    idx = loop.usable_frames(ds, np.arange(len(ds)), "training", min_speed=np.median(v))
+    assert (v[idx] >= np.median(v)).all() and len(idx) < len(ds)
+    with pytest.raises(SteerlabError, match="split is empty once frames slower than 1000"):
+        loop.usable_frames(ds, np.arange(len(ds)), "validation", min_speed=1000)
+
+
+def test_balance_refuses_recurrent_models(tiny_recording, tmp_path):
+    cfg = _cfg(tiny_recording, tmp_path, balance=True)
+    cfg["model"] = {"name": "lstm"}
+    with pytest.raises(SteerlabError, match="balanced sampling picks single frames"):
+        loop.train(cfg, progress=False)
+
+
+@pytest.mark.parametrize("model", ["speed-command", "multitask-speed"])
+def test_speed_models_need_speed(model, ch2_folder, tmp_path):
+    cfg = load_config(None, base={"data": str(ch2_folder), "cache": str(tmp_path / "cache"), "out": str(tmp_path / "r"),
+                                  "split": {"train": "0:4", "val": "4:6"}, "model": {"name": model}})
+    with pytest.raises(SteerlabError, match=f"model '{model}' needs a recording with speed"):
+        loop.train(cfg, progress=False)
 
 
 def test_resume_after_interruption(tiny_recording, tmp_path, monkeypatch):
@@ -109,23 +149,30 @@ def test_config_errors(tmp_path):
         make_split(load_config(tmp_path / "c.yaml")["split"], 2400)
 
 
-@pytest.mark.parametrize("model, pre", [
-    ("pilotnet", {"modalities": ["image", "diff", "flow"], "stack": 3, "color": "yuv"}),
-    ("multimodal-lstm", {}),
-])
-def test_streaming_equals_batch(model, pre, tiny_recording, tmp_path):
-    """Stacked frames, difference, flow and LSTM state: the Pilot, fed the raw frames of the whole recording
-    one by one, reproduces the batch path (which runs recurrent models statefully through the range)."""
+@pytest.mark.parametrize("model, pre", [(n, {}) for n in list_models()] + [
+    ("pilotnet", {"modalities": ["image", "diff", "flow"], "stack": 3, "color": "yuv"})])
+def test_every_model_learns_and_streams_as_in_batch(model, pre, tiny_recording, tmp_path):
+    """A few epochs lower the training loss; then the Pilot, fed the raw frames (and speeds) of the whole
+    recording one by one, reproduces the batch path (which runs recurrent models statefully through the range)
+    for every output: stacked frames, difference, flow, speed history and LSTM state."""
     from steerlab.train.checkpoint import load_checkpoint, model_from_checkpoint
 
-    cfg = _cfg(tiny_recording, tmp_path, epochs=1, batch_size=4)
-    cfg["model"] = {"name": model}
+    cfg = _cfg(tiny_recording, tmp_path, epochs=4, batch_size=5)  # recurrent: 5 windows of 10 frames
+    cfg["split"] = {"train": "0:100", "val": "100:140"}
+    cfg["model"] = {"name": model, "dropout": 0.0}
     cfg["preprocess"] = pre
     loop.train(cfg, progress=False)
-    evaluate(tmp_path / "run" / "best.pt", tiny_recording, None, tmp_path / "eval", progress=False)
-    streamed = np.loadtxt(tmp_path / "eval" / "predictions.csv", delimiter=",", skiprows=1)[:, 1]
+    if model_class(model).trainable:
+        rows = _log(tmp_path)
+        assert float(rows[-1]["train_loss"]) < float(rows[0]["train_loss"])
+    evaluate(tmp_path / "run" / "best.pt", tiny_recording, "0:140", tmp_path / "eval", progress=False)
+    with open(tmp_path / "eval" / "predictions.csv") as f:
+        streamed = list(csv.DictReader(f))
     ckpt = load_checkpoint(tmp_path / "run" / "best.pt")
+    net = model_from_checkpoint(ckpt)[0]
     ds = loop.prepare_dataset({**cfg, "preprocess": loop.model_preprocess(model, pre)}, progress=False)
-    batches = loop.Batches([(ds, ds.steering)], ckpt["stats"])
-    batch = loop.predict(model_from_checkpoint(ckpt)[0], batches, np.arange(len(ds)), batch_size=64)
-    np.testing.assert_allclose(streamed, batch, atol=1e-4)
+    batches = loop.Batches([(ds, ds.steering)], ckpt["stats"], getattr(net, "speed_history", 0))
+    batch = loop.predict(net, batches, np.arange(140), batch_size=64)
+    np.testing.assert_allclose([float(r["steering_angle"]) for r in streamed], batch["steering"], atol=1e-4)
+    for k in set(batch) - {"steering"}:
+        np.testing.assert_allclose([float(r[k]) for r in streamed], batch[k], atol=1e-3)

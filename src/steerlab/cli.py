@@ -83,19 +83,9 @@ def cmd_sim_drive(a) -> None:
     from steerlab.sim.world import drive
 
     pilot = Pilot(a.checkpoint, smoothing=a.smoothing)
-    camera = a.camera or _checkpoint_camera(a.checkpoint)
-    r = drive(pilot.step, pilot.reset, a.out, a.seed, a.minutes, a.road, camera, a.fps,
-              convention=pilot.convention, label=pilot.name)
+    r = drive(pilot, a.out, a.seed, a.minutes, a.road, a.camera, a.fps)
     _print_table(r)
     print(f"wrote {a.out}/trajectory.csv, path.png, frames.png, drive.json")
-
-
-def _checkpoint_camera(path) -> str:
-    from steerlab.sim.render import CAMERAS
-    from steerlab.train.checkpoint import load_checkpoint
-
-    preset = load_checkpoint(path).get("preset", "sim")
-    return preset if preset in CAMERAS else "sim"
 
 
 def cmd_demo(a) -> None:

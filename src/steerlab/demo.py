@@ -44,9 +44,8 @@ def run_demo(out: str | Path, minutes: float, epochs: int, drive_seeds, drive_mi
     print(f"[4/4] closed-loop driving on unseen roads {list(drive_seeds)}")
     runs = []
     for seed in drive_seeds:
-        pilot = Pilot(ckpt)
-        runs.append(drive(pilot.step, pilot.reset, out / f"closed-loop-seed{seed}", seed=seed, minutes=drive_minutes,
-                          convention=pilot.convention, label="pilotnet", progress=progress))
+        runs.append(drive(Pilot(ckpt), out / f"closed-loop-seed{seed}", seed=seed, minutes=drive_minutes,
+                          progress=progress))
     report = out / "report.md"
     report.write_text(_report(offline, runs, split, n))
     (out / "summary.json").write_text(json.dumps({"open_loop": offline, "closed_loop": runs}, indent=1))

@@ -1,40 +1,47 @@
 """`steerlab experiment`: train several models, several seeds each, on identical splits, and tabulate them in
-the form of paper 000 Table I (model, input, input shape, MSE mean +- std, gamma, target gamma)."""
+the form of paper 000 Table I (model, input, input shape, MSE mean +- std, gamma, target gamma) and of paper
+002 Tables I-II (steering MAE, speed MAE, speed-command accuracy), optionally with a closed-loop column
+(autonomy and command gamma in the synthetic world) and the streaming latency of every model."""
 
 from __future__ import annotations
 
 import copy
 import csv
 import json
+import time
 from pathlib import Path
 
 import numpy as np
 import yaml
 
 from steerlab.data.preprocess import PreprocessConfig
+from steerlab.data.readers import open_recording
+from steerlab.data.splits import make_split
 from steerlab.errors import SteerlabError
 from steerlab.evaluate.metrics import exponential_smoothing, steering_metrics
 from steerlab.evaluate.plots import plot_steering
 from steerlab.evaluate.scoring import read_steering_csv
+from steerlab.pilot import Pilot
 from steerlab.train.config import load_config
 from steerlab.train.loop import model_preprocess, prepare_dataset, train
 
-FIELDS = ["label", "model", "input", "shape", "seeds", "mse_mean", "mse_std", "rmse_mean", "mae_deg_mean",
-          "gamma_deg_mean", "target_gamma_deg", "smoothed_rmse_mean", "smoothed_gamma_deg_mean", "epochs_mean",
-          "train_s_mean"]
 ALPHA = 0.2  # exponential smoothing of paper 002 Eq. 2, reported beside the raw predictions
+LATENCY_FRAMES = 200
 
 
 def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: bool = True) -> Path:
     """Every entry of the config's `models` list is a training config fragment (`model`, and optionally
-    `label`, `preprocess`, `train`) applied on top of the shared config. Finished runs are reused."""
+    `label`, `preprocess`, `train`) applied on top of the shared config. An optional `closed_loop` section
+    ({roads: [seeds], minutes, road}) drives every trained model in the synthetic world. Finished runs and
+    drives are reused, so an interrupted experiment continues where it stopped."""
     raw = yaml.safe_load(Path(path).read_text()) if Path(path).is_file() else None
     if not isinstance(raw, dict) or not isinstance(raw.get("models"), list) or not raw["models"]:
         raise SteerlabError(f"{path}: an experiment config needs a non-empty 'models' list")
     entries = raw.pop("models")
+    closed = raw.pop("closed_loop", None)
     out = Path(raw.get("out", "runs/experiment"))
     rows, preds = [], {}
-    labels = None
+    labels = frames = None
     for entry in entries:
         label = entry.get("label", entry["model"]["name"])
         runs = []
@@ -45,33 +52,45 @@ def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: boo
             base["train"] = {**raw.get("train", {}), **entry.get("train", {}), "seed": seed}
             base["out"] = str(out / label / f"seed{seed}")
             cfg = load_config(None, list(overrides), base=base)
-            done = Path(cfg["out"]) / "metrics.json"
+            run_dir = Path(cfg["out"])
+            done = run_dir / "metrics.json"
             if not done.exists():
                 if progress:
                     print(f"== {label}, seed {seed}")
                 metrics = train(cfg, progress=progress)
-                log = Path(cfg["out"]) / "log.csv"
-                metrics["train_s"] = sum(float(r["seconds"]) for r in csv.DictReader(open(log))) if log.exists() else 0.0
+                metrics["train_s"] = 0.0  # baselines fit without epochs and write no log
+                if (run_dir / "log.csv").exists():
+                    with open(run_dir / "log.csv") as f:
+                        metrics["train_s"] = sum(float(r["seconds"]) for r in csv.DictReader(f))
                 done.write_text(json.dumps(metrics, indent=1))
             if labels is None:
                 labels = prepare_dataset(cfg, progress=False).labels
-            runs.append({**json.loads(done.read_text()), **_smoothed(Path(cfg["out"]), labels)})
+            run = {**json.loads(done.read_text()), **_smoothed(run_dir, labels)}
+            if closed:
+                run.update(_closed_loop(run_dir, closed, progress))
+            runs.append(run)
+        if frames is None:
+            frames = _latency_frames(cfg)
         pre = PreprocessConfig.from_dict(model_preprocess(entry["model"]["name"], base["preprocess"]))
-        mse = np.array([r["mse"] for r in runs])
-        rows.append({
-            "label": label, "model": entry["model"]["name"],
-            "input": "+".join(pre.modalities) + (f" x{pre.stack} frames" if pre.stack > 1 else "") + f" ({pre.color})",
-            "shape": f"{sum(pre.channels().values())}@{pre.width}x{pre.height}", "seeds": seeds,
-            "mse_mean": mse.mean(), "mse_std": mse.std(), "rmse_mean": np.mean([r["rmse"] for r in runs]),
-            "mae_deg_mean": np.mean([r["mae_deg"] for r in runs]),
-            "gamma_deg_mean": np.mean([r["gamma_deg"] for r in runs]), "target_gamma_deg": runs[0]["target_gamma_deg"],
-            "smoothed_rmse_mean": np.mean([r["smoothed_rmse"] for r in runs]),
-            "smoothed_gamma_deg_mean": np.mean([r["smoothed_gamma_deg"] for r in runs]),
-            "epochs_mean": np.mean([r["epoch"] for r in runs]), "train_s_mean": np.mean([r["train_s"] for r in runs]),
-        })
+        rows.append(_row(label, entry["model"]["name"], pre, runs, _latency(out / label / "seed0", frames)))
         preds[label] = read_steering_csv(out / label / "seed0" / "val_predictions.csv")
-    _write(out, rows, preds, cfg)
+    _write(out, rows, preds, cfg, seeds)
     return out / "table.md"
+
+
+def _row(label: str, model: str, pre: PreprocessConfig, runs: list[dict], latency: dict) -> dict:
+    def stat(key):
+        v = np.array([r[key] for r in runs if key in r], float)
+        return (v.mean(), v.std()) if len(v) else (np.nan, np.nan)
+
+    row = {"label": label, "model": model,
+           "input": "+".join(pre.modalities) + (f" x{pre.stack} frames" if pre.stack > 1 else "") + f" ({pre.color})",
+           "shape": f"{sum(pre.channels().values())}@{pre.width}x{pre.height}", "seeds": len(runs),
+           "target_gamma_deg": runs[0]["target_gamma_deg"], **latency}
+    for key in ("mse", "rmse", "mae_deg", "gamma_deg", "smoothed_rmse", "smoothed_gamma_deg", "speed_mae",
+                "command_accuracy", "epoch", "train_s", "autonomy", "command_gamma_deg"):
+        row[f"{key}_mean"], row[f"{key}_std"] = stat(key)
+    return row
 
 
 def _smoothed(run: Path, labels: dict) -> dict:
@@ -86,21 +105,75 @@ def _smoothed(run: Path, labels: dict) -> dict:
     return {"smoothed_rmse": m["rmse"], "smoothed_gamma_deg": m["gamma_deg"]}
 
 
-def _write(out: Path, rows: list[dict], preds: dict, cfg: dict) -> None:
+def _closed_loop(run: Path, closed: dict, progress: bool) -> dict:
+    """Mean autonomy and command gamma of the run's best checkpoint over the configured synthetic roads."""
+    from steerlab.sim.world import drive
+
+    results = []
+    for road_seed in closed.get("roads", [101, 102, 103]):
+        path = run / "closed-loop" / f"road{road_seed}" / "drive.json"
+        if not path.exists():
+            drive(Pilot(run / "best.pt"), path.parent, seed=road_seed, minutes=float(closed.get("minutes", 1.5)),
+                  road=closed.get("road", "country"), progress=progress)
+        results.append(json.loads(path.read_text()))
+    return {"autonomy": float(np.mean([r["autonomy"] for r in results])),
+            "command_gamma_deg": float(np.mean([r["command_gamma_deg"] for r in results]))}
+
+
+def _latency_frames(cfg: dict) -> list[tuple]:
+    """Raw frames (and speeds) of the start of the validation split, for the latency column."""
+    rec = open_recording(cfg["data"], cfg.get("range"), cfg.get("labels"))
+    idx = make_split(cfg["split"], len(rec))[1][:LATENCY_FRAMES]
+    return [(rec.load_frame(i), None if rec.speed is None else rec.speed[i]) for i in idx]
+
+
+def _latency(run: Path, frames: list[tuple]) -> dict:
+    """p50 and p99 of the Pilot's time per decoded frame (preprocessing, flow, model), in milliseconds."""
+    pilot = Pilot(run / "best.pt")
+    times = []
+    for frame, speed in frames:
+        t = time.perf_counter()
+        pilot.step(frame, speed)
+        times.append(time.perf_counter() - t)
+    ms = np.array(times[10:]) * 1000
+    return {"latency_p50_ms": float(np.percentile(ms, 50)), "latency_p99_ms": float(np.percentile(ms, 99))}
+
+
+def _fmt(value: float, digits: int, std: float | None = None) -> str:
+    if value is None or np.isnan(value):
+        return "-"
+    return f"{value:.{digits}f}" + (f" +- {std:.{digits}f}" if std is not None else "")
+
+
+def _write(out: Path, rows: list[dict], preds: dict, cfg: dict, seeds: int) -> None:
+    fields = list(rows[0])
     with open(out / "table.csv", "w", newline="") as f:
-        w = csv.DictWriter(f, FIELDS)
+        w = csv.DictWriter(f, fields)
         w.writeheader()
         w.writerows(rows)
-    lines = ["| model | input | input shape | MSE (mean +- std) | RMSE | MAE [deg] | gamma [deg] | target gamma [deg] "
-             f"| RMSE smoothed a={ALPHA} | gamma smoothed [deg] | best epoch | train time [s] |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    closed = not np.isnan(rows[0]["autonomy_mean"])
+    lines = [f"{seeds} seed(s) per model (mean +- std over seeds); validation split {cfg['split']}; plot: "
+             "predictions.png (seed 0).", "", "Paper 000 Table I form:", "",
+             "| model | input | input shape | MSE | gamma [deg] | target gamma [deg] | RMSE | RMSE smoothed "
+             f"a={ALPHA} | gamma smoothed [deg] | best epoch | train time [s] | latency p50 / p99 [ms] |"
+             + (" autonomy [%] | command gamma [deg] |" if closed else ""),
+             "|---" * (12 + 2 * closed) + "|"]
     for r in rows:
-        lines.append(f"| {r['label']} | {r['input']} | {r['shape']} | {r['mse_mean']:.6f} +- {r['mse_std']:.6f} | "
-                     f"{r['rmse_mean']:.4f} | {r['mae_deg_mean']:.2f} | {r['gamma_deg_mean']:.3f} | "
-                     f"{r['target_gamma_deg']:.3f} | {r['smoothed_rmse_mean']:.4f} | {r['smoothed_gamma_deg_mean']:.3f} | "
-                     f"{r['epochs_mean']:.1f} | {r['train_s_mean']:.0f} |")
-    lines.append(f"\n{rows[0]['seeds']} seed(s) per model; validation split {cfg['split']}; plot: predictions.png (seed 0)\n")
-    (out / "table.md").write_text("\n".join(lines))
+        lines.append(
+            f"| {r['label']} | {r['input']} | {r['shape']} | {_fmt(r['mse_mean'], 6, r['mse_std'])} | "
+            f"{_fmt(r['gamma_deg_mean'], 3)} | {_fmt(r['target_gamma_deg'], 3)} | {_fmt(r['rmse_mean'], 4)} | "
+            f"{_fmt(r['smoothed_rmse_mean'], 4)} | {_fmt(r['smoothed_gamma_deg_mean'], 3)} | "
+            f"{_fmt(r['epoch_mean'], 1)} | {_fmt(r['train_s_mean'], 0)} | "
+            f"{r['latency_p50_ms']:.2f} / {r['latency_p99_ms']:.2f} |"
+            + (f" {_fmt(r['autonomy_mean'], 1, r['autonomy_std'])} | {_fmt(r['command_gamma_deg_mean'], 3)} |"
+               if closed else ""))
+    lines += ["", "Paper 002 Tables I-II form:", "",
+              "| model | steering MAE [deg] | speed MAE [m/s] | speed-command accuracy |", "|---|---|---|---|"]
+    for r in rows:
+        lines.append(f"| {r['label']} | {_fmt(r['mae_deg_mean'], 2, r['mae_deg_std'])} | "
+                     f"{_fmt(r['speed_mae_mean'], 3, r['speed_mae_std'])} | "
+                     f"{_fmt(r['command_accuracy_mean'], 3, r['command_accuracy_std'])} |")
+    (out / "table.md").write_text("\n".join(lines) + "\n")
     ds = prepare_dataset(cfg, progress=False)
     ids = next(iter(preds.values()))[0]
     pos = {int(f): i for i, f in enumerate(ds.labels["frame_ids"])}

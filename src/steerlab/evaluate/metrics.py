@@ -40,3 +40,23 @@ def steering_metrics(pred, target) -> dict[str, float]:
     """MSE, RMSE (rad), MAE (deg), gamma of prediction and of target (deg)."""
     return {"mse": mse(pred, target), "rmse": rmse(pred, target), "mae_deg": mae_deg(pred, target),
             "gamma_deg": gamma_deg(pred), "target_gamma_deg": gamma_deg(target), "frames": int(len(target))}
+
+
+def speed_mae(pred, target) -> float:
+    """Mean absolute error of predicted speeds, m/s (paper 002 Table II)."""
+    return float(np.mean(np.abs(np.asarray(pred, float) - np.asarray(target, float))))
+
+
+def accuracy(pred, target) -> float:
+    """Fraction of frames whose predicted class is the labelled one (speed commands, paper 002 V-B)."""
+    return float(np.mean(np.asarray(pred) == np.asarray(target)))
+
+
+def all_metrics(pred: dict, truth: dict) -> dict[str, float]:
+    """Steering metrics, plus speed MAE and speed-command accuracy for models that predict them."""
+    m = steering_metrics(pred["steering"], truth["steering"])
+    if "speed" in pred:
+        m["speed_mae"] = speed_mae(pred["speed"], truth["speed"])
+    if "command" in pred:
+        m["command_accuracy"] = accuracy(pred["command"], truth["command"])
+    return m

@@ -3,6 +3,6 @@
 from steerlab.models.registry import create_model, list_models, model_class, register
 
 # Importing the modules registers their models.
-from steerlab.models import baselines, motion, pilotnet, recurrent  # noqa: E402,F401
+from steerlab.models import baselines, motion, multitask, pilotnet, recurrent  # noqa: E402,F401
 
 __all__ = ["create_model", "list_models", "model_class", "register"]

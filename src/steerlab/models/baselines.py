@@ -19,8 +19,8 @@ class _Constant(nn.Module):
     def fit(self, steering: np.ndarray) -> None:
         pass
 
-    def forward(self, x: torch.Tensor) -> torch.Tensor:
-        return self.value.expand(x.shape[0]).clone()
+    def forward(self, x: torch.Tensor) -> dict[str, torch.Tensor]:
+        return {"steering": self.value.expand(x.shape[0]).clone()}
 
 
 @register("zero")

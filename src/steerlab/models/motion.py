@@ -53,8 +53,8 @@ class CNN3D(nn.Module):
             n = self.features(torch.zeros(1, 1, in_channels, height, width)).numel()
         self.head = pilotnet_head(n, dropout)
 
-    def forward(self, x: torch.Tensor) -> torch.Tensor:
-        return self.head(self.features(x.unsqueeze(1)).flatten(1)).squeeze(1)  # channels = time
+    def forward(self, x: torch.Tensor) -> dict[str, torch.Tensor]:
+        return {"steering": self.head(self.features(x.unsqueeze(1)).flatten(1)).squeeze(1)}  # channels = time
 
 
 @register("two-stream-flow")
@@ -68,14 +68,12 @@ class TwoStreamFlow(nn.Module):
         self.image = PilotNet(self.image_channels, height, width, dropout)
         self.flow = PilotNet(2, height, width, dropout)
 
-    def heads(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        return self.image(x[:, : self.image_channels]), self.flow(x[:, self.image_channels:])
+    def forward(self, x: torch.Tensor) -> dict[str, torch.Tensor]:
+        y_img = self.image(x[:, : self.image_channels])["steering"]
+        y_flow = self.flow(x[:, self.image_channels:])["steering"]
+        return {"steering": (y_img + y_flow) / 2, "steering_image": y_img, "steering_flow": y_flow}
 
-    def forward(self, x: torch.Tensor) -> torch.Tensor:
-        y_img, y_flow = self.heads(x)
-        return (y_img + y_flow) / 2
-
-    def loss(self, x: torch.Tensor, y: torch.Tensor) -> torch.Tensor:
+    def loss(self, out: dict, targets: dict) -> torch.Tensor:
         """Paper 003: mean over the batch of (y_img - y)^2 + (y_flow - y)^2."""
-        y_img, y_flow = self.heads(x)
-        return torch.mean((y_img - y) ** 2 + (y_flow - y) ** 2)
+        y = targets["steering"]
+        return torch.mean((out["steering_image"] - y) ** 2 + (out["steering_flow"] - y) ** 2)

@@ -42,5 +42,5 @@ class PilotNet(nn.Module):
             n = self.features(torch.zeros(1, in_channels, height, width)).numel()
         self.head = pilotnet_head(n, dropout)
 
-    def forward(self, x: torch.Tensor) -> torch.Tensor:
-        return self.head(self.features(x).flatten(1)).squeeze(1)
+    def forward(self, x: torch.Tensor) -> dict[str, torch.Tensor]:
+        return {"steering": self.head(self.features(x).flatten(1)).squeeze(1)}

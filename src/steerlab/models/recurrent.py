@@ -1,10 +1,16 @@
-"""Recurrent models (paper 000 IV-B5/6, Fig. 3): PilotNet's five convolutions, FC 1152 -> 512, an LSTM of 100
-hidden units and one output.
+"""Recurrent models: a convolutional encoder per frame, an LSTM over time, a steering output per frame.
 
-A recurrent model takes (B, T, C, H, W) and an optional state and returns (steering (B, T), state). Training
-uses windows of `seq_len` consecutive frames of one segment, each starting from a zero state (truncated
-back-propagation through time); evaluation and the Pilot run it statefully over a whole range, one frame after
-another, resetting at segment starts.
+- `lstm` (paper 000 IV-B5, Fig. 3): PilotNet's five convolutions, FC 1152 -> 512, an LSTM of 100 hidden units
+  and one output; gray image.
+- `multimodal-lstm` (paper 000 IV-B6): the same network on gray + Farneback flow.
+- `flow-lstm` (paper 003, CNN+OptF+LSTM): the two-stream encoder of `two-stream-flow` (one PilotNet
+  convolution stack on the image, one on the flow), features concatenated, FC -> 512, LSTM 100, one output;
+  MSE loss (paper 003's loss_lstm).
+
+A recurrent model takes (B, T, C, H, W) and an optional state and returns ({"steering": (B, T)}, state).
+Training uses windows of `seq_len` consecutive frames of one segment, each starting from a zero state
+(truncated back-propagation through time); evaluation and the Pilot run it statefully over a whole range, one
+frame after another, resetting at segment starts.
 """
 
 from __future__ import annotations
@@ -14,6 +20,11 @@ import torch.nn as nn
 
 from steerlab.models.pilotnet import pilotnet_convs
 from steerlab.models.registry import register
+
+
+def n_features(module: nn.Module, channels: int, height: int, width: int) -> int:
+    with torch.no_grad():
+        return module(torch.zeros(1, channels, height, width)).numel()
 
 
 @register("lstm")
@@ -27,17 +38,19 @@ class ConvLSTM(nn.Module):
         super().__init__()
         self.seq_len = seq_len
         self.features = pilotnet_convs(in_channels)
-        with torch.no_grad():
-            n = self.features(torch.zeros(1, in_channels, height, width)).numel()
+        n = n_features(self.features, in_channels, height, width)
         self.fc = nn.Sequential(nn.Linear(n, 512), nn.ReLU(inplace=True), nn.Dropout(dropout))
         self.lstm = nn.LSTM(512, hidden, batch_first=True)
         self.out = nn.Linear(hidden, 1)
 
+    def encode(self, frames: torch.Tensor) -> torch.Tensor:
+        """(N, C, H, W) -> (N, 512)"""
+        return self.fc(self.features(frames).flatten(1))
+
     def forward(self, x: torch.Tensor, state=None):
         b, t = x.shape[:2]
-        f = self.fc(self.features(x.flatten(0, 1)).flatten(1)).view(b, t, -1)
-        h, state = self.lstm(f, state)
-        return self.out(h).squeeze(-1), state
+        h, state = self.lstm(self.encode(x.flatten(0, 1)).view(b, t, -1), state)
+        return {"steering": self.out(h).squeeze(-1)}, state
 
 
 @register("multimodal-lstm")
@@ -48,3 +61,23 @@ class MultimodalLSTM(ConvLSTM):
 
     def __init__(self, in_channels: int = 3, **kw):
         super().__init__(in_channels, **kw)
+
+
+@register("flow-lstm")
+class FlowLSTM(ConvLSTM):
+    """Paper 003's CNN+OptF+LSTM: image and flow through separate PilotNet convolution stacks."""
+
+    inputs = {"modalities": ["image", "flow"]}
+
+    def __init__(self, in_channels: int = 3, height: int = 66, width: int = 200, dropout: float = 0.5,
+                 hidden: int = 100, seq_len: int = 10):
+        super().__init__(in_channels - 2, height, width, dropout, hidden, seq_len)  # self.features: the image
+        self.image_channels = in_channels - 2
+        self.flow_features = pilotnet_convs(2)
+        n = n_features(self.features, self.image_channels, height, width) + n_features(self.flow_features, 2, height, width)
+        self.fc = nn.Sequential(nn.Linear(n, 512), nn.ReLU(inplace=True), nn.Dropout(dropout))
+
+    def encode(self, frames: torch.Tensor) -> torch.Tensor:
+        c = self.image_channels
+        f = torch.cat([self.features(frames[:, :c]).flatten(1), self.flow_features(frames[:, c:]).flatten(1)], 1)
+        return self.fc(f)

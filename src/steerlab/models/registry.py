@@ -1,10 +1,21 @@
 """Every model is a torch.nn.Module class registered by name.
 
 A model is built from `in_channels` (set from the preprocessing config), `height`, `width` and its own
-options. It maps a batch (B, C, H, W) of standardised inputs to steering (B,) in the recording's units.
-Models whose output is not learned by gradient descent set `trainable = False` and implement `fit(y)`.
-`inputs` names the preprocessing options a model needs (modalities, colour, stacked frames); a model with its
-own training objective defines `loss(x, y)` (otherwise training minimises the MSE).
+options, and maps standardised inputs to a dict of named outputs:
+
+- `forward(x)` with x (B, C, H, W) returns {"steering": (B,)} in the recording's units; multi-task models
+  add "speed" (B,), the next frame's speed in m/s, or "command" (B, 3), logits of the speed command
+  (decelerate, maintain, accelerate).
+- A model with `speed_history = K > 0` is called `forward(x, speeds)` with the K most recent speeds (B, K),
+  oldest first, in m/s.
+- A recurrent model (`recurrent = True`) takes (B, T, C, H, W) and a state, `forward(x, state=None)`, and
+  returns (outputs with a time axis (B, T, ...), state).
+- `loss(out, targets)` is the model's training objective (targets: "steering", and "speed"/"command" where the
+  recording has speed); without one, training minimises the MSE of the steering.
+- `targets` names the labels a model trains on beyond the steering ("speed", "command"); such models need a
+  recording with speed.
+- `inputs` names the preprocessing options a model needs (modalities, colour, size, stacked frames).
+- Models whose output is not learned by gradient descent set `trainable = False` and implement `fit(y)`.
 """
 
 from __future__ import annotations

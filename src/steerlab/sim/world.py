@@ -16,7 +16,7 @@ from steerlab.data.recording import SteeringConvention
 from steerlab.errors import SteerlabError
 from steerlab.evaluate.plots import plot_trajectory
 from steerlab.sim.driver import ExpertDriver, cruise
-from steerlab.sim.render import SIDE_OFFSET, Renderer
+from steerlab.sim.render import CAMERAS, SIDE_OFFSET, Renderer
 from steerlab.sim.road import LANE_CENTER, Road
 from steerlab.sim.vehicle import Vehicle, VehicleParams, VehicleState
 
@@ -112,14 +112,16 @@ def autonomy(interventions: int, elapsed_s: float) -> float:
     return (1.0 - interventions * 6.0 / elapsed_s) * 100.0
 
 
-def drive(steer_fn, reset_fn, out: str | Path | None, seed: int = 100, minutes: float = 1.0, road: str = "country",
-          camera: str = "sim", fps: float = 20.0, limit_m: float = 1.0, progress: bool = True,
-          convention: SteeringConvention = CONVENTION, label: str = "model") -> dict:
-    """Closed loop: each tick renders the centre camera, asks `steer_fn(frame)` for a steering command in
-    `convention`, and applies it. Off the lane centre by more than `limit_m` is an intervention: the car is put
-    back on the lane centre and `reset_fn()` clears the pilot's memory."""
+def drive(pilot, out: str | Path | None, seed: int = 100, minutes: float = 1.0, road: str = "country",
+          camera: str | None = None, fps: float = 20.0, limit_m: float = 1.0, progress: bool = True) -> dict:
+    """Closed loop: each tick renders the centre camera (by default the geometry the pilot was trained on),
+    asks `pilot.step(frame, speed)` for controls and
+    applies their steering (in `pilot.convention`); the speed follows the cruise controller. Off the lane centre
+    by more than `limit_m` is an intervention: the car is put back on the lane centre and `pilot.reset()`
+    clears the pilot's memory."""
     n = _check(minutes, fps)
     dt = 1.0 / fps
+    camera = camera or (pilot.preset if pilot.preset in CAMERAS else "sim")
     rd, renderer, params, car = _world(seed, road, camera, n * dt)
     s, interventions, dist = 5.0, 0, 0.0
     traj = []
@@ -131,22 +133,22 @@ def drive(steer_fn, reset_fn, out: str | Path | None, seed: int = 100, minutes: 
         if abs(offset) > limit_m:
             interventions += 1
             car.state = start_state(rd, s, st.v)
-            reset_fn()
+            pilot.reset()
             st = car.state
             s, d, _ = rd.project(st.x, st.y, s)
             offset = d - LANE_CENTER
         frame = renderer.render(st.x, st.y, st.psi, s)
         if out is not None and i % int(fps * 5) == 0 and len(strip) < 12:
             strip.append(frame)
-        command = float(steer_fn(frame))
+        command = pilot.step(frame, st.v).steering
         throttle, brake = cruise(rd, s, st.v)
         traj.append((i * dt, st.x, st.y, s, offset, command, st.v))
-        car.step(convention.to_road_wheel_left(command, params.steering_ratio), throttle, brake, dt)
+        car.step(pilot.convention.to_road_wheel_left(command, params.steering_ratio), throttle, brake, dt)
         dist += st.v * dt
     t = np.array(traj)
     elapsed = n * dt
     result = {
-        "label": label, "seed": seed, "road": road, "minutes": minutes,
+        "label": pilot.name, "seed": seed, "road": road, "minutes": minutes,
         "autonomy": autonomy(interventions, elapsed), "interventions": interventions,
         "mean_abs_offset_m": float(np.mean(np.abs(t[:, 4]))), "max_abs_offset_m": float(np.max(np.abs(t[:, 4]))),
         "command_gamma_deg": float(np.degrees(np.std(np.diff(t[:, 5])))), "distance_km": dist / 1000,

@@ -24,6 +24,10 @@ DEFAULTS = {
         "exclude_episodes": [],  # e.g. [drift-out] to train on the recovery half of drift episodes only
         # side-camera recovery synthesis (paper 002 Eq. 3): left/right frames with a recovery angle added
         "side_cameras": False, "side_offset_m": 0.508, "recovery_s": 1.0, "steering_ratio": 14.8,
+        "min_speed": 0.0,     # m/s; frames slower are dropped from both splits (paper 002 V-A uses 4)
+        "balance": False,     # thin out straight driving, redrawn every epoch (paper 003)
+        "rotation_deg": 0.0,  # augmentation (paper 002 IV-B1): random rotation within +-rotation_deg,
+        "brightness": 0.0,    # and brightness scaled by a random factor within 1 +- brightness
     },
     "out": "runs/train",
 }

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 import torch
 
@@ -19,15 +20,20 @@ def segment_starts(segment_ids: np.ndarray) -> np.ndarray:
     return first[np.searchsorted(first, np.arange(len(segment_ids)), side="right") - 1]
 
 
+def history(idx: np.ndarray, starts: np.ndarray, n: int) -> np.ndarray:
+    """(B, n) indices of the n frames ending at each index, oldest first; before the start of a segment the
+    segment's first frame is repeated (as the Pilot does at a segment's first frame)."""
+    return np.maximum(idx[:, None] + np.arange(1 - n, 1), starts[idx][:, None])
+
+
 def gather(arrays: dict[str, np.ndarray], cfg: PreprocessConfig, idx: np.ndarray, starts: np.ndarray) -> dict:
     """The modalities of frames `idx` from compiled arrays. With `stack` = N the image is the N frames ending
-    at each index, oldest first; before the start of a segment the segment's first frame is repeated."""
+    at each index, oldest first (see `history`)."""
     out = {m: arrays[m][idx] for m in cfg.modalities if m != "image"}
     if cfg.stack == 1:
         out["image"] = arrays["image"][idx]
         return out
-    hist = np.maximum(idx[:, None] + np.arange(1 - cfg.stack, 1), starts[idx][:, None])
-    imgs = np.asarray(arrays["image"][hist.ravel()])
+    imgs = np.asarray(arrays["image"][history(idx, starts, cfg.stack).ravel()])
     b, (h, w, c) = len(idx), imgs.shape[1:]
     out["image"] = imgs.reshape(b, cfg.stack, h, w, c).transpose(0, 2, 3, 1, 4).reshape(b, h, w, cfg.stack * c)
     return out
@@ -62,14 +68,44 @@ class Standardizer:
         return ((x - self.mean) / self.std).permute(0, 3, 1, 2)
 
 
+def _first_channel(cfg: PreprocessConfig, modality: str) -> int:
+    c = 0
+    for m, n in cfg.channels().items():
+        if m == modality:
+            return c
+        c += n
+    raise KeyError(modality)
+
+
 def flip_horizontal(x_nhwc: np.ndarray, cfg: PreprocessConfig) -> np.ndarray:
     """Mirror left-right. The flow's horizontal component changes sign with the mirror."""
     x = x_nhwc[:, :, ::-1, :].copy()
     if "flow" in cfg.modalities:
-        c = 0
-        for m, n in cfg.channels().items():
-            if m == "flow":
-                break
-            c += n
-        x[..., c] *= -1  # the flow's dx channel
+        x[..., _first_channel(cfg, "flow")] *= -1  # the flow's dx channel
     return x
+
+
+LUMA = {"gray": [0], "rgb": [0, 1, 2], "yuv": [0], "hsv": [2]}  # the channels that carry brightness
+
+
+def augment(x_nhwc: np.ndarray, cfg: PreprocessConfig, rng: np.random.Generator, rotation_deg: float,
+            brightness: float) -> np.ndarray:
+    """Training augmentation of paper 002 IV-B1, in place on unstandardised inputs:
+
+    - rotation: every sample is turned about the image centre by an angle drawn from +-rotation_deg (camera
+      vibration); every channel turns with it, and flow vectors are turned by the same angle;
+    - brightness: the brightness channels of the image (gray, RGB, Y of YUV, V of HSV) are scaled by a factor
+      drawn from 1 +- brightness, clipped to 0..255."""
+    h, w = x_nhwc.shape[1:3]
+    flow = _first_channel(cfg, "flow") if "flow" in cfg.modalities else None
+    luma = [f * cfg.image_channels + c for f in range(cfg.stack) for c in LUMA[cfg.color]]
+    for i in range(len(x_nhwc)):
+        if rotation_deg:
+            m = cv2.getRotationMatrix2D((w / 2, h / 2), rng.uniform(-rotation_deg, rotation_deg), 1.0)
+            turned = cv2.warpAffine(x_nhwc[i], m, (w, h), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+            x_nhwc[i] = turned.reshape(x_nhwc[i].shape)
+            if flow is not None:
+                x_nhwc[i, ..., flow: flow + 2] = x_nhwc[i, ..., flow: flow + 2] @ m[:, :2].T.astype(np.float32)
+        if brightness:
+            x_nhwc[i, ..., luma] = np.clip(x_nhwc[i, ..., luma] * rng.uniform(1 - brightness, 1 + brightness), 0, 255)
+    return x_nhwc
