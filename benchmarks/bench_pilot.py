@@ -28,7 +28,7 @@ FRAMES = 300
 def checkpoint(name: str, flow: str) -> dict:
     cfg = PreprocessConfig.from_dict(model_preprocess(name, {"preset": "ch2", "flow": flow}))
     c = sum(cfg.channels().values())
-    model_cfg = {"in_channels": c, "height": 66, "width": 200}
+    model_cfg = {"in_channels": c, "height": cfg.height, "width": cfg.width}
     model = create_model(name, **model_cfg)
     return {"format": "steerlab-checkpoint-1", "model": name, "model_cfg": model_cfg,
             "state_dict": model.state_dict(), "preprocess": cfg.as_dict(),
@@ -40,7 +40,7 @@ def run(name: str, jpegs: list[np.ndarray], flow: str = "farneback") -> np.ndarr
     times = []
     for data in jpegs:
         t = time.perf_counter()
-        pilot.step(cv2.imdecode(data, cv2.IMREAD_COLOR))
+        pilot.step(cv2.imdecode(data, cv2.IMREAD_COLOR), speed=10.0)  # speed: used by multitask-speed only
         times.append(time.perf_counter() - t)
     return np.array(times[20:]) * 1000  # skip warm-up
 

@@ -34,6 +34,13 @@ def test_compile_train_evaluate_drive(tiny_recording, tmp_path, capsys):
     assert (tmp_path / "drive" / "frames.png").exists()
 
 
+def test_models_lists_every_model_with_its_needs(capsys):
+    assert main(["models"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert [line.split()[0] for line in lines] == list_models()
+    assert "recurrent, predicts command, needs speed" in next(x for x in lines if x.startswith("speed-command"))
+
+
 def test_train_errors_are_one_line(tmp_path, capsys):
     assert main(["train", str(tmp_path / "none.yaml")]) == 2
     assert "config file not found" in capsys.readouterr().err

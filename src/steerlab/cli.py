@@ -8,8 +8,11 @@ import sys
 from steerlab.errors import SteerlabError
 
 
+SPEED_METRICS = ["speed_mae", "command_accuracy"]  # printed when the model predicts speed or speed commands
+
+
 def _print_table(metrics: dict, keys=None) -> None:
-    for k in keys or metrics:
+    for k in [k for k in keys if k in metrics] if keys else metrics:
         v = metrics[k]
         if isinstance(v, float):
             print(f"  {k:<18} {v:.6f}")
@@ -38,7 +41,7 @@ def cmd_train(a) -> None:
     cfg = load_config(a.config, a.overrides)
     best = train(cfg)
     print(f"best checkpoint: {cfg['out']}/best.pt (epoch {best.get('epoch')})")
-    _print_table(best, ["mse", "rmse", "mae_deg", "gamma_deg", "target_gamma_deg"])
+    _print_table(best, ["mse", "rmse", "mae_deg", "gamma_deg", "target_gamma_deg", *SPEED_METRICS])
 
 
 def cmd_experiment(a) -> None:
@@ -53,7 +56,7 @@ def cmd_evaluate(a) -> None:
     from steerlab.evaluate.offline import evaluate
 
     m = evaluate(a.checkpoint, a.data, a.range, a.out, a.labels, a.camera)
-    _print_table(m, ["frames", "mse", "rmse", "mae_deg", "gamma_deg", "target_gamma_deg"])
+    _print_table(m, ["frames", "mse", "rmse", "mae_deg", "gamma_deg", "target_gamma_deg", *SPEED_METRICS])
     print(f"with exponential smoothing a=0.2: rmse {m['smoothed_a0.2']['rmse']:.6f}, "
           f"gamma {m['smoothed_a0.2']['gamma_deg']:.4f} deg")
     print(f"wrote {a.out}/predictions.csv, {a.out}/steering.png, {a.out}/metrics.json")
@@ -66,9 +69,14 @@ def cmd_score(a) -> None:
 
 
 def cmd_models(a) -> None:
-    from steerlab.models import list_models
+    from steerlab.models import list_models, model_class
 
-    print("\n".join(list_models()))
+    for name in list_models():
+        cls = model_class(name)
+        notes = [f"{k}={v}" for k, v in getattr(cls, "inputs", {}).items()]
+        notes += ["recurrent"] * getattr(cls, "recurrent", False) + ["not trained"] * (not cls.trainable)
+        notes += [f"predicts {t}, needs speed" for t in getattr(cls, "targets", ())]
+        print(f"{name:<18} {', '.join(notes)}")
 
 
 def cmd_sim_record(a) -> None:
