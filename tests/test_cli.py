@@ -3,6 +3,7 @@ import json
 import pytest
 
 from steerlab.cli import build_parser, main
+from steerlab.models import list_models
 
 
 def test_every_subcommand_has_help(capsys):
