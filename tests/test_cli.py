@@ -69,7 +69,7 @@ models:
     assert (tmp_path / "exp" / "flow" / "seed1" / "best.pt").exists()
     assert (tmp_path / "exp" / "predictions.png").exists()
     assert (tmp_path / "exp" / "flow" / "seed1" / "closed-loop" / "road101" / "path.png").exists()
-    assert "| autonomy [%] | command gamma [deg] |" in text
+    assert "| autonomy [%] | command gamma [deg] |" in text and "holding the current speed" in text
     speed_row = next(line for line in text.splitlines() if line.startswith("| multitask-speed | ") and "+-" in line
                      and "@" not in line)  # the paper 002 table: steering MAE, speed MAE, command accuracy
     assert speed_row.split("|")[3].strip() != "-" and speed_row.split("|")[4].strip() == "-"

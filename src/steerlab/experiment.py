@@ -18,7 +18,8 @@ from steerlab.data.preprocess import PreprocessConfig
 from steerlab.data.readers import open_recording
 from steerlab.data.splits import make_split
 from steerlab.errors import SteerlabError
-from steerlab.evaluate.metrics import exponential_smoothing, steering_metrics
+from steerlab.data.labels import speed_targets
+from steerlab.evaluate.metrics import accuracy, exponential_smoothing, speed_mae, steering_metrics
 from steerlab.evaluate.plots import plot_steering
 from steerlab.evaluate.scoring import read_steering_csv
 from steerlab.pilot import Pilot
@@ -74,8 +75,21 @@ def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: boo
         pre = PreprocessConfig.from_dict(model_preprocess(entry["model"]["name"], base["preprocess"]))
         rows.append(_row(label, entry["model"]["name"], pre, runs, _latency(out / label / "seed0", frames)))
         preds[label] = read_steering_csv(out / label / "seed0" / "val_predictions.csv")
-    _write(out, rows, preds, cfg, seeds)
+    _write(out, rows, preds, cfg, seeds, _speed_references(labels, next(iter(preds.values()))[0]))
     return out / "table.md"
+
+
+def _speed_references(labels: dict, val_ids: np.ndarray) -> str:
+    """What the speed columns must beat on the validation frames: holding the current speed as the next
+    frame's, and always predicting 'maintain'."""
+    if "speed" not in labels:
+        return ""
+    pos = {int(f): i for i, f in enumerate(labels["frame_ids"])}
+    idx = np.array([pos[int(f)] for f in val_ids])
+    truth = speed_targets(labels["speed"], labels["timestamps_ns"], labels["segment"])
+    return (f"\nReferences on the same validation frames: holding the current speed as the next frame's scores a "
+            f"speed MAE of {speed_mae(labels['speed'][idx], truth['speed'][idx]):.3f} m/s; always predicting "
+            f"'maintain' scores a command accuracy of {accuracy(np.ones(len(idx)), truth['command'][idx]):.3f}.\n")
 
 
 def _row(label: str, model: str, pre: PreprocessConfig, runs: list[dict], latency: dict) -> dict:
@@ -145,7 +159,7 @@ def _fmt(value: float, digits: int, std: float | None = None) -> str:
     return f"{value:.{digits}f}" + (f" +- {std:.{digits}f}" if std is not None else "")
 
 
-def _write(out: Path, rows: list[dict], preds: dict, cfg: dict, seeds: int) -> None:
+def _write(out: Path, rows: list[dict], preds: dict, cfg: dict, seeds: int, references: str) -> None:
     fields = list(rows[0])
     with open(out / "table.csv", "w", newline="") as f:
         w = csv.DictWriter(f, fields)
@@ -173,7 +187,7 @@ def _write(out: Path, rows: list[dict], preds: dict, cfg: dict, seeds: int) -> N
         lines.append(f"| {r['label']} | {_fmt(r['mae_deg_mean'], 2, r['mae_deg_std'])} | "
                      f"{_fmt(r['speed_mae_mean'], 3, r['speed_mae_std'])} | "
                      f"{_fmt(r['command_accuracy_mean'], 3, r['command_accuracy_std'])} |")
-    (out / "table.md").write_text("\n".join(lines) + "\n")
+    (out / "table.md").write_text("\n".join(lines) + "\n" + references)
     ds = prepare_dataset(cfg, progress=False)
     ids = next(iter(preds.values()))[0]
     pos = {int(f): i for i, f in enumerate(ds.labels["frame_ids"])}
