@@ -64,8 +64,9 @@ class Standardizer:
         self.std = torch.tensor(stats["std"], dtype=torch.float32)
 
     def __call__(self, x_nhwc: np.ndarray) -> torch.Tensor:
+        """Standardises in place when given a contiguous float32 array: the array is consumed."""
         x = torch.from_numpy(np.ascontiguousarray(x_nhwc, dtype=np.float32))
-        return ((x - self.mean) / self.std).permute(0, 3, 1, 2)
+        return x.sub_(self.mean).div_(self.std).permute(0, 3, 1, 2)
 
 
 def _first_channel(cfg: PreprocessConfig, modality: str) -> int:

@@ -88,9 +88,10 @@ class Batches:
         self.speed = labels.get("speed")
         self.targets = speed_targets(self.speed, labels["timestamps_ns"], labels["segment"]) if self.speed is not None else {}
         self.speed_history = speed_history
+        self._steering = np.concatenate([s for _, s in sources])
 
     def steering(self, codes: np.ndarray) -> np.ndarray:
-        return np.concatenate([s for _, s in self.sources])[codes]
+        return self._steering[codes]
 
     def get(self, codes: np.ndarray, flip: np.ndarray | None = None, transform=None) -> tuple[dict, dict]:
         """`flip` marks samples to mirror (steering negated); `transform(x)` alters raw inputs (augmentation)."""
