@@ -162,13 +162,6 @@ def objective(model, out: dict, targets: dict) -> torch.Tensor:
     return torch.mean((out["steering"] - targets["steering"]) ** 2)
 
 
-def run(model, inputs: dict, state=None):
-    """Outputs of a model on a batch, and for a recurrent model its new state."""
-    if getattr(model, "recurrent", False):
-        return model(**inputs, state=state)
-    return model(**inputs), None
-
-
 def train_one_epoch(model, opt, batches: Batches, samples: np.ndarray, batch_size: int, flip: bool,
                     rng: np.random.Generator, transform=None, progress: bool = True, desc: str = "") -> float:
     """One pass over `samples`: frame codes (M,), or windows (M, T) of frame codes for recurrent models."""
@@ -183,7 +176,8 @@ def train_one_epoch(model, opt, batches: Batches, samples: np.ndarray, batch_siz
         if b.ndim == 2:  # windows: (B*T, ...) -> (B, T, ...)
             inputs, targets = ({k: v.view(len(b), b.shape[1], *v.shape[1:]) for k, v in d.items()}
                                for d in (inputs, targets))
-        loss = objective(model, run(model, inputs)[0], targets)
+        out = model(**inputs)
+        loss = objective(model, out[0] if getattr(model, "recurrent", False) else out, targets)  # (out, state)
         opt.zero_grad(set_to_none=True)
         loss.backward()
         opt.step()
