@@ -18,7 +18,7 @@ from steerlab.data.preprocess import PreprocessConfig
 from steerlab.data.readers import open_recording
 from steerlab.data.splits import make_split
 from steerlab.errors import SteerlabError
-from steerlab.data.labels import speed_targets
+from steerlab.data.labels import COMMANDS, speed_targets
 from steerlab.evaluate.metrics import accuracy, exponential_smoothing, speed_mae, steering_metrics
 from steerlab.evaluate.plots import plot_steering
 from steerlab.evaluate.scoring import read_steering_csv
@@ -81,15 +81,18 @@ def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: boo
 
 def _speed_references(labels: dict, val_ids: np.ndarray) -> str:
     """What the speed columns must beat on the validation frames: holding the current speed as the next
-    frame's, and always predicting 'maintain'."""
+    frame's, and always predicting the validation frames' most frequent speed command."""
     if "speed" not in labels:
         return ""
     pos = {int(f): i for i, f in enumerate(labels["frame_ids"])}
     idx = np.array([pos[int(f)] for f in val_ids])
     truth = speed_targets(labels["speed"], labels["timestamps_ns"], labels["segment"])
+    commands = truth["command"][idx]
+    majority = int(np.bincount(commands, minlength=3).argmax())
     return (f"\nReferences on the same validation frames: holding the current speed as the next frame's scores a "
             f"speed MAE of {speed_mae(labels['speed'][idx], truth['speed'][idx]):.3f} m/s; always predicting "
-            f"'maintain' scores a command accuracy of {accuracy(np.ones(len(idx)), truth['command'][idx]):.3f}.\n")
+            f"'{COMMANDS[majority]}', the most frequent command there, scores a command accuracy of "
+            f"{accuracy(np.full(len(idx), majority), commands):.3f}.\n")
 
 
 def _row(label: str, model: str, pre: PreprocessConfig, runs: list[dict], latency: dict) -> dict:
