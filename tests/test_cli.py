@@ -45,6 +45,8 @@ def test_models_lists_every_model_with_its_needs(capsys):
 def test_train_errors_are_one_line(tmp_path, capsys):
     assert main(["train", str(tmp_path / "none.yaml")]) == 2
     assert "config file not found" in capsys.readouterr().err
+    assert main(["experiment", str(tmp_path / "none.yaml")]) == 2
+    assert "none.yaml: config file not found" in capsys.readouterr().err
     assert main(["evaluate", str(tmp_path / "x.pt"), "--data", str(tmp_path)]) == 2
     assert capsys.readouterr().err.startswith("error: ")
 

@@ -35,7 +35,12 @@ def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: boo
     `label`, `preprocess`, `train`) applied on top of the shared config. An optional `closed_loop` section
     ({roads: [seeds], minutes, road}) drives every trained model in the synthetic world. Finished runs and
     drives are reused, so an interrupted experiment continues where it stopped."""
-    raw = yaml.safe_load(Path(path).read_text()) if Path(path).is_file() else None
+    if not Path(path).is_file():
+        raise SteerlabError(f"{path}: config file not found")
+    try:
+        raw = yaml.safe_load(Path(path).read_text())
+    except yaml.YAMLError as e:
+        raise SteerlabError(f"{path}: not valid YAML: {e}") from None
     if not isinstance(raw, dict) or not isinstance(raw.get("models"), list) or not raw["models"]:
         raise SteerlabError(f"{path}: an experiment config needs a non-empty 'models' list")
     entries = raw.pop("models")

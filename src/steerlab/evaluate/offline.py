@@ -11,6 +11,7 @@ from tqdm import tqdm
 from steerlab.data.labels import speed_targets
 from steerlab.data.readers import open_recording
 from steerlab.evaluate.metrics import all_metrics, exponential_smoothing, steering_metrics
+from steerlab.errors import SteerlabError
 from steerlab.evaluate.plots import plot_steering
 from steerlab.evaluate.scoring import write_predictions
 from steerlab.pilot import Pilot
@@ -24,6 +25,8 @@ def evaluate(checkpoint: str | Path, data: str | Path, frame_range: str | None, 
     out.mkdir(parents=True, exist_ok=True)
     rec = open_recording(data, frame_range, labels)
     pilot = Pilot(checkpoint)
+    if pilot.speed_history and rec.speed is None:
+        raise SteerlabError(f"model {pilot.name!r} needs the measured speed with every frame; {rec.source} has none")
     seg = rec.segment_ids()
     controls = []
     for i in tqdm(range(len(rec)), desc="evaluate", unit="frame", disable=None if progress else True):

@@ -16,13 +16,17 @@ def plot_steering(path: str | Path, t_s: np.ndarray, target: np.ndarray, preds: 
     """Target vs prediction(s) over time, in degrees (paper 000 Fig. 7)."""
     fig, ax = plt.subplots(figsize=(11, 3.6), dpi=110)
     ax.plot(t_s, np.degrees(target), color="black", lw=1.4, label="target")
-    for name, p in preds.items():
-        ax.plot(t_s, np.degrees(p), lw=1.0, label=name)
+    colors = plt.get_cmap("tab20").colors  # distinct colours for up to 20 models
+    for (name, p), color in zip(preds.items(), colors[::2] + colors[1::2]):
+        ax.plot(t_s, np.degrees(p), lw=1.0, label=name, color=color)
     ax.set_xlabel("time [s]")
     ax.set_ylabel("steering [deg]")
     ax.set_title(title)
     ax.grid(alpha=0.3)
-    ax.legend(loc="upper right", fontsize=8)
+    if len(preds) > 3:  # many models: the legend goes beside the plot, not over the curves
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
+    else:
+        ax.legend(loc="upper right", fontsize=8)
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
