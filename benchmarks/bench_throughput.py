@@ -19,7 +19,7 @@ from steerlab.data.dataset import compile_recording
 from steerlab.data.preprocess import PreprocessConfig
 from steerlab.data.readers import open_recording
 from steerlab.models import create_model, list_models, model_class
-from steerlab.train.inputs import channel_stats
+from steerlab.data.inputs import channel_stats
 from steerlab.train.loop import Batches, model_preprocess, sequence_windows, train_one_epoch
 
 SIM = SHARED / "udacity-sim-track1"
@@ -35,7 +35,7 @@ def throughput(name: str, rec, cache: str) -> float:
     model = create_model(name, in_channels=sum(cfg.channels().values()), height=cfg.height, width=cfg.width)
     batches = Batches([(ds, ds.steering)], stats, getattr(model, "speed_history", 0))
     recurrent = getattr(model, "recurrent", False)
-    samples = sequence_windows(idx, len(ds), batches.starts, model.seq_len) if recurrent else idx
+    samples = sequence_windows(idx, batches.starts, model.seq_len) if recurrent else idx
     batch = 8 if recurrent else 64
     if all(p.dim() != 5 for p in model.parameters()):
         model = model.to(memory_format=torch.channels_last)

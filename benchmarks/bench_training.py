@@ -20,7 +20,7 @@ from steerlab.data.modalities import optical_flow
 from steerlab.data.preprocess import PreprocessConfig, preprocess
 from steerlab.data.readers import open_recording
 from steerlab.models import create_model
-from steerlab.train.inputs import Standardizer, channel_stats, stack_modalities
+from steerlab.data.inputs import Standardizer, channel_stats, stack_modalities
 from steerlab.train.loop import Batches
 
 N, BATCH = 1200, 100

@@ -38,3 +38,16 @@ def tiny_recording(tmp_path_factory):
     out = tmp_path_factory.mktemp("rec") / "rec"
     record(out, seed=3, minutes=0.25, progress=False)
     return out
+
+
+@pytest.fixture(scope="session")
+def tiny_checkpoint(tiny_recording, tmp_path_factory):
+    """PilotNet trained for one epoch on the tiny recording: a real checkpoint for the closed-loop tests."""
+    from steerlab.train.config import load_config
+    from steerlab.train.loop import train
+
+    out = tmp_path_factory.mktemp("ckpt") / "run"
+    train(load_config(None, base={"data": str(tiny_recording), "cache": str(out.parent / "cache"), "out": str(out),
+                                  "split": {"train": "0:240", "val": "240:300"},
+                                  "train": {"epochs": 1, "batch_size": 32}}), progress=False)
+    return out / "best.pt"

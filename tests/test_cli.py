@@ -59,7 +59,7 @@ cache: {tmp_path / 'cache'}
 split: {{train: "0:240", val: "240:300"}}
 train: {{epochs: 1, batch_size: 16}}
 out: {tmp_path / 'exp'}
-closed_loop: {{roads: [101], minutes: 0.05}}
+closed_loop: {{suite: v1, minutes: 0.01, workers: 1}}
 models:
   - {{model: {{name: zero}}}}
   - {{model: {{name: pilotnet-flow}}, label: flow}}
@@ -70,8 +70,10 @@ models:
     assert "| zero | image (gray) | 1@200x66 |" in text and "| flow | image+flow (gray) | 3@200x66 |" in text
     assert (tmp_path / "exp" / "flow" / "seed1" / "best.pt").exists()
     assert (tmp_path / "exp" / "predictions.png").exists()
-    assert (tmp_path / "exp" / "flow" / "seed1" / "closed-loop" / "road101" / "path.png").exists()
-    assert "| autonomy [%] | command gamma [deg] |" in text and "holding the current speed" in text
+    assert (tmp_path / "exp" / "flow" / "seed1" / "suite" / "roads" / "twisty-9301.png").exists()
+    assert "| autonomy [%] | country / highway / twisty [%] | interventions/km | command gamma [deg] |" in text
+    assert "holding the current speed" in text and "Rank correlation (Spearman)" in text
+    assert (tmp_path / "exp" / "open_vs_closed.png").exists()
     speed_row = next(line for line in text.splitlines() if line.startswith("| multitask-speed | ") and "+-" in line
                      and "@" not in line)  # the paper 002 table: steering MAE, speed MAE, command accuracy
     assert speed_row.split("|")[3].strip() != "-" and speed_row.split("|")[4].strip() == "-"

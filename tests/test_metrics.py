@@ -89,3 +89,14 @@ def test_score_refuses_bad_predictions(tmp_path):
     pred.write_text("frame_id,steering_angle\n3,0.3\n1,0.1\n2,0.2\n")
     s = score(truth, pred)
     assert s["rmse"] == 0 and s["rmse_public"] == 0
+
+
+def test_drift_episodes_and_rank_correlation():
+    from steerlab.evaluate.plots import episodes_of, rank_correlation
+
+    labels = np.array(["normal", "drift-out", "drift-out", "recover", "normal", "drift-out", "recover", "recover"])
+    assert episodes_of(labels) == [(1, 3, 4), (5, 6, 8)]
+    assert episodes_of(np.array(["normal", "drift-out"])) == []  # cut off before the driver corrects
+    assert rank_correlation([1, 2, 3, 4], [10, 20, 30, 40]) == pytest.approx(1.0)
+    assert rank_correlation([1, 2, 3, 4], [0.4, 0.3, 0.2, 0.1]) == pytest.approx(-1.0)
+    assert rank_correlation([1, 2, 3, 4], [1, 3, 2, 4]) == pytest.approx(0.8)

@@ -8,8 +8,8 @@ from steerlab.errors import SteerlabError
 from steerlab.models import create_model, list_models, model_class
 from steerlab.models.multitask import weighted_mae
 from steerlab.pilot import Pilot
-from steerlab.train.checkpoint import load_checkpoint, save_checkpoint
-from steerlab.train.inputs import stack_modalities
+from steerlab.checkpoint import load_checkpoint, save_checkpoint
+from steerlab.data.inputs import stack_modalities
 from steerlab.train.loop import model_preprocess
 
 

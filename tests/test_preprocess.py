@@ -6,7 +6,7 @@ from steerlab.data.modalities import frame_difference, optical_flow
 from steerlab.data.preprocess import PreprocessConfig, crop_resize, preprocess
 from steerlab.data.readers import open_recording
 from steerlab.errors import SteerlabError
-from steerlab.train.inputs import channel_stats, flip_horizontal, stack_modalities
+from steerlab.data.inputs import channel_stats, flip_horizontal, stack_modalities
 
 
 def test_ch2_crop_and_area_resize_hand_computed():
@@ -106,7 +106,7 @@ def test_channel_stats_use_given_frames_only(ch2_folder, tmp_path):
 
 
 def test_stacked_frames_never_cross_a_segment_start():
-    from steerlab.train.inputs import gather, segment_starts
+    from steerlab.data.inputs import gather, segment_starts
 
     cfg = PreprocessConfig(stack=3)
     arrays = {"image": np.arange(6, dtype=np.uint8).reshape(6, 1, 1, 1)}

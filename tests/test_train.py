@@ -46,10 +46,14 @@ def test_side_cameras_and_episode_filter(tiny_recording, tmp_path):
 
 def test_side_camera_labels_hand_computed(tiny_recording, tmp_path):
     ds = loop.prepare_dataset(_cfg(tiny_recording, tmp_path), progress=False, camera="left")
-    y = loop.side_camera_labels(ds, 0.5, 1.0, 10.0)
+    tc = {"recovery_s": 1.0, "steering_ratio": 10.0}
+    y = loop.recovery_labels(ds, ds.steering, 0.5, 0.0, tc)
     v = ds.labels["speed"][0]
     # left camera: steer right by arctan(0.5 / v) at the road wheel = 10x that at the steering wheel
     assert y[0] == pytest.approx(ds.steering[0] - 10 * np.arctan(0.5 / v))
+    # turned 2 degrees to the left as well: 2 more degrees to the right at the road wheel
+    y = loop.recovery_labels(ds, ds.steering, 0.5, 2.0, tc)
+    assert y[0] == pytest.approx(ds.steering[0] - 10 * (np.arctan(0.5 / v) + np.radians(2.0)))
 
 
 def test_balanced_sampling_thins_straight_driving():
@@ -64,7 +68,7 @@ def test_balanced_sampling_thins_straight_driving():
 
 def test_augmentation_hand_computed():
     from steerlab.data.preprocess import PreprocessConfig
-    from steerlab.train.inputs import augment
+    from steerlab.data.inputs import augment
 
     cfg = PreprocessConfig(modalities=("image", "flow"))
     x = np.zeros((1, 10, 20, 3), np.float32)
@@ -155,7 +159,7 @@ def test_every_model_learns_and_streams_as_in_batch(model, pre, tiny_recording, 
     """A few epochs lower the training loss; then the Pilot, fed the raw frames (and speeds) of the whole
     recording one by one, reproduces the batch path (which runs recurrent models statefully through the range)
     for every output: stacked frames, difference, flow, speed history and LSTM state."""
-    from steerlab.train.checkpoint import load_checkpoint, model_from_checkpoint
+    from steerlab.checkpoint import load_checkpoint, model_from_checkpoint
 
     cfg = _cfg(tiny_recording, tmp_path, epochs=4, batch_size=5)  # recurrent: 5 windows of 10 frames
     cfg["split"] = {"train": "0:100", "val": "100:140"}

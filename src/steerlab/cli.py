@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 from steerlab.errors import SteerlabError
 
@@ -39,6 +40,8 @@ def cmd_train(a) -> None:
     from steerlab.train.loop import train
 
     cfg = load_config(a.config, a.overrides)
+    if cfg.get("dagger"):
+        raise SteerlabError(f"{a.config} has a dagger section: run it with `steerlab sim dagger {a.config}`")
     best = train(cfg)
     print(f"best checkpoint: {cfg['out']}/best.pt (epoch {best.get('epoch')})")
     _print_table(best, ["mse", "rmse", "mae_deg", "gamma_deg", "target_gamma_deg", *SPEED_METRICS])
@@ -55,11 +58,12 @@ def cmd_experiment(a) -> None:
 def cmd_evaluate(a) -> None:
     from steerlab.evaluate.offline import evaluate
 
-    m = evaluate(a.checkpoint, a.data, a.range, a.out, a.labels, a.camera)
+    m = evaluate(a.checkpoint, a.data, a.range, a.out, a.labels, a.camera, a.video)
     _print_table(m, ["frames", "mse", "rmse", "mae_deg", "gamma_deg", "target_gamma_deg", *SPEED_METRICS])
     print(f"with exponential smoothing a=0.2: rmse {m['smoothed_a0.2']['rmse']:.6f}, "
           f"gamma {m['smoothed_a0.2']['gamma_deg']:.4f} deg")
-    print(f"wrote {a.out}/predictions.csv, {a.out}/steering.png, {a.out}/metrics.json")
+    print(f"wrote {a.out}/predictions.csv, {a.out}/steering.png, {a.out}/metrics.json"
+          + (f", {a.video}" if a.video else ""))
 
 
 def cmd_score(a) -> None:
@@ -82,7 +86,8 @@ def cmd_models(a) -> None:
 def cmd_sim_record(a) -> None:
     from steerlab.sim.world import record
 
-    out = record(a.out, a.seed, a.minutes, a.road, a.camera, a.fps, not a.no_drift, not a.no_side_cameras, a.layout)
+    out = record(a.out, a.seed, a.minutes, a.road, a.camera, a.fps, not a.no_drift, not a.no_side_cameras, a.layout,
+                 a.chunk_minutes)
     print(f"wrote {out}")
 
 
@@ -91,9 +96,27 @@ def cmd_sim_drive(a) -> None:
     from steerlab.sim.world import drive
 
     pilot = Pilot(a.checkpoint, smoothing=a.smoothing)
-    r = drive(pilot, a.out, a.seed, a.minutes, a.road, a.camera, a.fps)
+    r = drive(pilot, a.out, a.seed, a.minutes, a.road, a.camera, a.fps, video=a.video)
     _print_table(r)
-    print(f"wrote {a.out}/trajectory.csv, path.png, frames.png, drive.json")
+    print(f"wrote {a.out}/trajectory.csv, path.png, frames.png, drive.json" + (f", {a.video}" if a.video else ""))
+
+
+def cmd_sim_bench(a) -> None:
+    from steerlab.sim.bench import run_suite
+
+    run_suite(a.checkpoints, a.out, a.suite, a.minutes, a.workers, a.smoothing, a.roads)
+    print((Path(a.out) / "suite.md").read_text())
+    print(f"wrote {a.out}/suite.md, suite.csv (one row per drive), summary.csv, roads/*.png")
+
+
+def cmd_sim_dagger(a) -> None:
+    from steerlab.sim.dagger import run_dagger
+    from steerlab.train.config import load_config
+
+    cfg = load_config(a.config, a.overrides)
+    final = run_dagger(cfg)
+    print((Path(cfg["out"]) / "dagger.csv").read_text())
+    print(f"final checkpoint: {final}; autonomy per round: {Path(cfg['out']) / 'dagger.png'}")
 
 
 def cmd_demo(a) -> None:
@@ -140,6 +163,7 @@ def build_parser() -> argparse.ArgumentParser:
     q.add_argument("checkpoint")
     data_args(q)
     q.add_argument("--out", default="runs/eval", help="output folder (default runs/eval)")
+    q.add_argument("--video", help="also write an MP4 of the frames with predicted and recorded steering")
     q.set_defaults(func=cmd_evaluate)
 
     q = sub.add_parser("score", help="score predictions like the Udacity Challenge 2 leaderboard")
@@ -155,7 +179,10 @@ def build_parser() -> argparse.ArgumentParser:
     q.add_argument("--seed", type=int, default=0)
     q.add_argument("--minutes", type=float, default=1.0)
     q.add_argument("--out", required=True)
-    q.add_argument("--road", default="country", help="road preset: highway, country, twisty")
+    q.add_argument("--road", default="country",
+                   help="road preset: highway, country, twisty, mixed (all three), or a comma list")
+    q.add_argument("--chunk-minutes", type=float, default=1.0,
+                   help="with several road types: minutes before the recording turns to the next one (default 1)")
     q.add_argument("--camera", default="sim", help="camera preset: sim (320x160) or ch2 (640x480)")
     q.add_argument("--fps", type=float, default=20.0)
     q.add_argument("--no-drift", action="store_true", help="no drift-and-recover episodes")
@@ -171,7 +198,23 @@ def build_parser() -> argparse.ArgumentParser:
     q.add_argument("--fps", type=float, default=20.0)
     q.add_argument("--smoothing", type=float, help="exponential smoothing factor a (paper 002: 0.2)")
     q.add_argument("--out", default="runs/drive")
+    q.add_argument("--video", help="also write an MP4 of the drive with the model's and the expert's steering")
     q.set_defaults(func=cmd_sim_drive)
+    q = sim.add_parser("bench", help="drive checkpoints on the fixed closed-loop benchmark roads",
+                       epilog="example: steerlab sim bench runs/a/best.pt runs/b/best.pt --out runs/bench")
+    q.add_argument("checkpoints", nargs="+", help="checkpoints to compare")
+    q.add_argument("--out", default="runs/bench", help="output folder (default runs/bench)")
+    q.add_argument("--suite", default="v1", help="suite version (default v1: 5 country, 3 highway, 3 twisty roads)")
+    q.add_argument("--minutes", type=float, help="minutes per road (default: the suite's, 3 for v1)")
+    q.add_argument("--roads", help="comma list of the suite's road types to drive (default: all)")
+    q.add_argument("--workers", type=int, default=2, help="roads driven in parallel (default 2)")
+    q.add_argument("--smoothing", type=float, help="exponential smoothing factor a (paper 002: 0.2)")
+    q.set_defaults(func=cmd_sim_bench)
+    q = sim.add_parser("dagger", help="DAgger: train, roll the model out, let the expert label, aggregate, retrain",
+                       epilog="example: steerlab sim dagger configs/dagger_pilotnet.yaml dagger.iterations=2")
+    q.add_argument("config", help="training config with a 'dagger' section (see configs/dagger_pilotnet.yaml)")
+    q.add_argument("overrides", nargs="*", help="section.key=value overrides, e.g. dagger.minutes=2")
+    q.set_defaults(func=cmd_sim_dagger)
 
     q = sub.add_parser("demo", help="the whole pipeline on synthetic data: record, train, evaluate, drive, report")
     q.add_argument("--out", default="runs/demo")

@@ -67,11 +67,11 @@ def _report(m: dict, runs: list[dict], split: int, n: int) -> str:
         "![steering](open-loop/steering.png)", "",
         "## Closed loop (unseen roads)", "",
         "| road seed | minutes | autonomy [%] | interventions | mean abs offset [m] | max abs offset [m] | "
-        "command gamma [deg] | departures/km |", "|---|---|---|---|---|---|---|---|",
+        "command gamma [deg] | interventions/km |", "|---|---|---|---|---|---|---|---|",
     ]
     for r in runs:
         lines.append(f"| {r['seed']} | {r['minutes']} | {r['autonomy']:.1f} | {r['interventions']} | "
                      f"{r['mean_abs_offset_m']:.3f} | {r['max_abs_offset_m']:.3f} | {r['command_gamma_deg']:.3f} | "
-                     f"{r['departures_per_km']:.2f} |")
+                     f"{r['interventions_per_km']:.2f} |")
     lines += [""] + [f"![seed {r['seed']}](closed-loop-seed{r['seed']}/path.png)" for r in runs] + [""]
     return "\n".join(lines)

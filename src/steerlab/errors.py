@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 
@@ -17,3 +18,8 @@ class DataError(SteerlabError):
         super().__init__(f"{where}: {message}")
         self.path = Path(path)
         self.row = row
+
+
+def warn(message: str) -> None:
+    """Tell the user about something that works but probably not as they intend."""
+    print(f"warning: {message}", file=sys.stderr)

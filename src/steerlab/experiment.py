@@ -1,7 +1,10 @@
 """`steerlab experiment`: train several models, several seeds each, on identical splits, and tabulate them in
 the form of paper 000 Table I (model, input, input shape, MSE mean +- std, gamma, target gamma) and of paper
-002 Tables I-II (steering MAE, speed MAE, speed-command accuracy), optionally with a closed-loop column
-(autonomy and command gamma in the synthetic world) and the streaming latency of every model."""
+002 Tables I-II (steering MAE, speed MAE, speed-command accuracy), optionally with closed-loop columns (every
+run drives the closed-loop suite: autonomy per road type, interventions per km, command gamma) and the
+streaming latency of every model. With closed-loop columns the experiment also plots open-loop error against
+autonomy and says how well each open-loop metric ranks the models' driving; when the validation frames hold
+drift-and-recover episodes it plots them in the form of paper 000 Fig. 6."""
 
 from __future__ import annotations
 
@@ -20,9 +23,11 @@ from steerlab.data.splits import make_split
 from steerlab.errors import SteerlabError
 from steerlab.data.labels import COMMANDS, speed_targets
 from steerlab.evaluate.metrics import accuracy, exponential_smoothing, speed_mae, steering_metrics
-from steerlab.evaluate.plots import plot_steering
+from steerlab.evaluate.plots import plot_open_vs_closed, plot_recovery, plot_steering, rank_correlation
 from steerlab.evaluate.scoring import read_steering_csv
 from steerlab.pilot import Pilot
+from steerlab.sim.bench import run_suite
+from steerlab.sim.dagger import run_dagger
 from steerlab.train.config import load_config
 from steerlab.train.loop import model_preprocess, prepare_dataset, train
 
@@ -32,9 +37,10 @@ LATENCY_FRAMES = 200
 
 def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: bool = True) -> Path:
     """Every entry of the config's `models` list is a training config fragment (`model`, and optionally
-    `label`, `preprocess`, `train`) applied on top of the shared config. An optional `closed_loop` section
-    ({roads: [seeds], minutes, road}) drives every trained model in the synthetic world. Finished runs and
-    drives are reused, so an interrupted experiment continues where it stopped."""
+    `label`, `preprocess`, `train`, `dagger`) applied on top of the shared config; an entry or the shared
+    config with a `dagger` section trains by DAgger. An optional `closed_loop` section ({suite: v1, minutes,
+    workers}) drives every trained model on the closed-loop suite. Finished runs and drives are reused, so an
+    interrupted experiment continues where it stopped."""
     if not Path(path).is_file():
         raise SteerlabError(f"{path}: config file not found")
     try:
@@ -56,6 +62,8 @@ def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: boo
             base["model"] = entry["model"]
             base["preprocess"] = {**raw.get("preprocess", {}), **entry.get("preprocess", {})}
             base["train"] = {**raw.get("train", {}), **entry.get("train", {}), "seed": seed}
+            if "dagger" in entry or "dagger" in raw:
+                base["dagger"] = {**(raw.get("dagger") or {}), **(entry.get("dagger") or {})}
             base["out"] = str(out / label / f"seed{seed}")
             cfg = load_config(None, list(overrides), base=base)
             run_dir = Path(cfg["out"])
@@ -63,11 +71,16 @@ def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: boo
             if not done.exists():
                 if progress:
                     print(f"== {label}, seed {seed}")
-                metrics = train(cfg, progress=progress)
+                if cfg.get("dagger"):
+                    run_dagger(cfg, progress=progress)
+                    metrics = json.loads((run_dir / "metrics.json").read_text())
+                else:
+                    metrics = train(cfg, progress=progress)
                 metrics["train_s"] = 0.0  # baselines fit without epochs and write no log
-                if (run_dir / "log.csv").exists():
-                    with open(run_dir / "log.csv") as f:
-                        metrics["train_s"] = sum(float(r["seconds"]) for r in csv.DictReader(f))
+                for log in sorted(run_dir.glob("round*/log.csv")) or [run_dir / "log.csv"]:  # DAgger: every round
+                    if log.exists():
+                        with open(log) as f:
+                            metrics["train_s"] += sum(float(r["seconds"]) for r in csv.DictReader(f))
                 done.write_text(json.dumps(metrics, indent=1))
             if labels is None:
                 labels = prepare_dataset(cfg, progress=False).labels
@@ -110,7 +123,7 @@ def _row(label: str, model: str, pre: PreprocessConfig, runs: list[dict], latenc
            "shape": f"{sum(pre.channels().values())}@{pre.width}x{pre.height}", "seeds": len(runs),
            "target_gamma_deg": runs[0]["target_gamma_deg"], **latency}
     for key in ("mse", "rmse", "mae_deg", "gamma_deg", "smoothed_rmse", "smoothed_gamma_deg", "speed_mae",
-                "command_accuracy", "epoch", "train_s", "autonomy", "command_gamma_deg"):
+                "command_accuracy", "epoch", "train_s", *CLOSED_LOOP):
         row[f"{key}_mean"], row[f"{key}_std"] = stat(key)
     return row
 
@@ -127,19 +140,19 @@ def _smoothed(run: Path, labels: dict) -> dict:
     return {"smoothed_rmse": m["rmse"], "smoothed_gamma_deg": m["gamma_deg"]}
 
 
-def _closed_loop(run: Path, closed: dict, progress: bool) -> dict:
-    """Mean autonomy and command gamma of the run's best checkpoint over the configured synthetic roads."""
-    from steerlab.sim.world import drive
+CLOSED_LOOP = ("autonomy", "autonomy_country", "autonomy_highway", "autonomy_twisty", "interventions_per_km",
+               "command_gamma_deg")
 
-    results = []
-    for road_seed in closed.get("roads", [101, 102, 103]):
-        path = run / "closed-loop" / f"road{road_seed}" / "drive.json"
-        if not path.exists():
-            drive(Pilot(run / "best.pt"), path.parent, seed=road_seed, minutes=float(closed.get("minutes", 1.5)),
-                  road=closed.get("road", "country"), progress=progress)
-        results.append(json.loads(path.read_text()))
-    return {"autonomy": float(np.mean([r["autonomy"] for r in results])),
-            "command_gamma_deg": float(np.mean([r["command_gamma_deg"] for r in results]))}
+
+def _closed_loop(run: Path, closed: dict, progress: bool) -> dict:
+    """The run's best checkpoint on the closed-loop suite: autonomy over all roads and per road type,
+    interventions per km and command gamma."""
+    summary = run_suite([run / "best.pt"], run / "suite", closed.get("suite", "v1"), closed.get("minutes"),
+                        int(closed.get("workers", 2)), progress=progress)
+    out = {f"autonomy_{s['road_type']}": s["autonomy"] for s in summary}
+    overall = next(s for s in summary if s["road_type"] == "all")
+    return {**out, "autonomy": overall["autonomy"], "interventions_per_km": overall["interventions_per_km"],
+            "command_gamma_deg": overall["command_gamma_deg"]}
 
 
 def _latency_frames(cfg: dict) -> list[tuple]:
@@ -178,8 +191,9 @@ def _write(out: Path, rows: list[dict], preds: dict, cfg: dict, seeds: int, refe
              "predictions.png (seed 0).", "", "Paper 000 Table I form:", "",
              "| model | input | input shape | MSE | gamma [deg] | target gamma [deg] | RMSE | RMSE smoothed "
              f"a={ALPHA} | gamma smoothed [deg] | best epoch | train time [s] | latency p50 / p99 [ms] |"
-             + (" autonomy [%] | command gamma [deg] |" if closed else ""),
-             "|---" * (12 + 2 * closed) + "|"]
+             + (" autonomy [%] | country / highway / twisty [%] | interventions/km | command gamma [deg] |"
+                if closed else ""),
+             "|---" * (12 + 4 * closed) + "|"]
     for r in rows:
         lines.append(
             f"| {r['label']} | {r['input']} | {r['shape']} | {_fmt(r['mse_mean'], 6, r['mse_std'])} | "
@@ -187,7 +201,9 @@ def _write(out: Path, rows: list[dict], preds: dict, cfg: dict, seeds: int, refe
             f"{_fmt(r['smoothed_rmse_mean'], 4)} | {_fmt(r['smoothed_gamma_deg_mean'], 3)} | "
             f"{_fmt(r['epoch_mean'], 1)} | {_fmt(r['train_s_mean'], 0)} | "
             f"{r['latency_p50_ms']:.2f} / {r['latency_p99_ms']:.2f} |"
-            + (f" {_fmt(r['autonomy_mean'], 1, r['autonomy_std'])} | {_fmt(r['command_gamma_deg_mean'], 3)} |"
+            + (f" {_fmt(r['autonomy_mean'], 1, r['autonomy_std'])} | "
+               + " / ".join(_fmt(r[f'autonomy_{t}_mean'], 1) for t in ('country', 'highway', 'twisty'))
+               + f" | {_fmt(r['interventions_per_km_mean'], 2)} | {_fmt(r['command_gamma_deg_mean'], 3)} |"
                if closed else ""))
     lines += ["", "Paper 002 Tables I-II form:", "",
               "| model | steering MAE [deg] | speed MAE [m/s] | speed-command accuracy |", "|---|---|---|---|"]
@@ -195,11 +211,28 @@ def _write(out: Path, rows: list[dict], preds: dict, cfg: dict, seeds: int, refe
         lines.append(f"| {r['label']} | {_fmt(r['mae_deg_mean'], 2, r['mae_deg_std'])} | "
                      f"{_fmt(r['speed_mae_mean'], 3, r['speed_mae_std'])} | "
                      f"{_fmt(r['command_accuracy_mean'], 3, r['command_accuracy_std'])} |")
-    (out / "table.md").write_text("\n".join(lines) + "\n" + references)
+    if closed:
+        lines += ["", _open_vs_closed(out, rows)]
     ds = prepare_dataset(cfg, progress=False)
     ids = next(iter(preds.values()))[0]
     pos = {int(f): i for i, f in enumerate(ds.labels["frame_ids"])}
     idx = np.array([pos[int(f)] for f in ids])
     t = (ds.labels["timestamps_ns"][idx] - ds.labels["timestamps_ns"][idx[0]]) / 1e9
-    plot_steering(out / "predictions.png", t, ds.steering[idx], {k: v[1] for k, v in preds.items()},
-                  title="validation predictions, seed 0")
+    preds = {k: v[1] for k, v in preds.items()}
+    plot_steering(out / "predictions.png", t, ds.steering[idx], preds, title="validation predictions, seed 0")
+    if "episode" in ds.labels and plot_recovery(out / "recovery.png", t, ds.steering[idx], preds,
+                                                ds.labels["episode"][idx]):
+        lines += ["", "Drift-and-recover episodes of the validation frames (paper 000 Fig. 6 form): recovery.png"]
+    (out / "table.md").write_text("\n".join(lines) + "\n" + references)
+
+
+def _open_vs_closed(out: Path, rows: list[dict]) -> str:
+    """How well each open-loop metric ranks the trained models by autonomy, and the scatter plot."""
+    trained = [r for r in rows if r["epoch_mean"] > 0]
+    plot_open_vs_closed(out / "open_vs_closed.png", {"models": trained})
+    keys = [("mse", "MSE"), ("mae_deg", "MAE"), ("gamma_deg", "gamma"), ("smoothed_rmse", "smoothed RMSE"),
+            ("smoothed_gamma_deg", "smoothed gamma")]
+    rho = ", ".join(f"{name} {rank_correlation([r[f'{k}_mean'] for r in trained], [r['autonomy_mean'] for r in trained]):+.2f}"
+                    for k, name in keys)
+    return (f"Rank correlation (Spearman) of each open-loop metric with autonomy over the {len(trained)} trained "
+            f"models (-1: lower error always drives better): {rho}. Plot: open_vs_closed.png.")

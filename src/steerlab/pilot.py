@@ -18,8 +18,8 @@ import torch
 from steerlab.data.modalities import frame_difference, optical_flow
 from steerlab.data.preprocess import preprocess
 from steerlab.errors import SteerlabError
-from steerlab.train.checkpoint import load_checkpoint, model_from_checkpoint
-from steerlab.train.inputs import Standardizer, stack_modalities
+from steerlab.checkpoint import load_checkpoint, model_from_checkpoint
+from steerlab.data.inputs import Standardizer, stack_modalities
 
 
 @dataclass(frozen=True)

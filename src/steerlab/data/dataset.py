@@ -21,6 +21,8 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
+from steerlab.data.geometry import camera as geometry_of
+from steerlab.data.geometry import shift_view
 from steerlab.data.modalities import frame_difference, optical_flow
 from steerlab.data.preprocess import PreprocessConfig, preprocess
 from steerlab.data.recording import Recording
@@ -84,13 +86,17 @@ class CompiledDataset:
 
 
 def compile_recording(rec: Recording, cfg: PreprocessConfig, cache_dir: str | Path = DEFAULT_CACHE,
-                      camera: str = "center", workers: int | None = None, progress: bool = True) -> CompiledDataset:
+                      camera: str = "center", workers: int | None = None, progress: bool = True,
+                      view: tuple[float, float] | None = None) -> CompiledDataset:
     """Compile (or reuse) the cached arrays for `rec` under `cfg`.
 
-    Frame stacking happens when batches are gathered, so the cache holds single frames whatever `cfg.stack`
-    is; the returned dataset carries `cfg` itself."""
+    `view` = (shift_m, yaw_deg) compiles a virtual camera instead: every frame as seen from the camera moved
+    shift_m to the left and turned yaw_deg to the left (`geometry.shift_view`, with the camera geometry of
+    the recording's preset). Frame stacking happens when batches are gathered, so the cache holds single
+    frames whatever `cfg.stack` is; the returned dataset carries `cfg` itself."""
     user_cfg, cfg = cfg, replace(cfg, stack=1)
-    key = f"{rec.name}-{camera}-{source_key(rec, camera)}-{cfg.key()}"
+    name = camera if view is None else f"{camera}@{view[0]:+g}m{view[1]:+g}deg"
+    key = f"{rec.name}-{name}-{source_key(rec, camera)}-{cfg.key()}"
     final = Path(cache_dir) / key
     if (final / "meta.json").exists():
         return replace(CompiledDataset.load(final), config=user_cfg)
@@ -103,14 +109,19 @@ def compile_recording(rec: Recording, cfg: PreprocessConfig, cache_dir: str | Pa
                                            dtype=np.float16 if m == "flow" else np.uint8)
               for m, c in ch.items()}
     seg = rec.segment_ids()
+    geometry = None if view is None else geometry_of(rec.preset)
+
+    def load(i: int) -> np.ndarray:
+        frame = rec.load_frame(i, camera)
+        return frame if view is None else shift_view(frame, geometry, *view)
 
     def work(start: int) -> int:
         stop = min(start + CHUNK, n)
         prev_img = prev_gray = None
         if start > 0 and seg[start - 1] == seg[start]:  # predecessor within the same segment
-            prev_img, prev_gray = preprocess(rec.load_frame(start - 1, camera), cfg)
+            prev_img, prev_gray = preprocess(load(start - 1), cfg)
         for i in range(start, stop):
-            img, gray = preprocess(rec.load_frame(i, camera), cfg)
+            img, gray = preprocess(load(i), cfg)
             if prev_img is None or seg[i - 1] != seg[i]:
                 prev_img, prev_gray = img, gray
             arrays["image"][i] = img
@@ -123,7 +134,7 @@ def compile_recording(rec: Recording, cfg: PreprocessConfig, cache_dir: str | Pa
 
     workers = workers or min(2, os.cpu_count() or 1)
     try:
-        with ThreadPoolExecutor(workers) as pool, tqdm(total=n, desc=f"compile {rec.name}", unit="frame",
+        with ThreadPoolExecutor(workers) as pool, tqdm(total=n, desc=f"compile {rec.name} {name}", unit="frame",
                                                        disable=None if progress else True) as bar:
             for done in pool.map(work, range(0, n, CHUNK)):
                 bar.update(done)
@@ -132,6 +143,7 @@ def compile_recording(rec: Recording, cfg: PreprocessConfig, cache_dir: str | Pa
         arrays.clear()  # close the memory maps before the folder is renamed
         np.savez(tmp / "labels.npz", **_labels(rec))
         meta = {"preprocess": cfg.as_dict(), "source": str(rec.source), "name": rec.name, "camera": camera,
+                "view": view,
                 "frames": n, "convention": rec.convention.as_dict(), "preset": rec.preset,
                 "frame_rate": rec.frame_rate()}
         (tmp / "meta.json").write_text(json.dumps(meta, indent=1))

@@ -27,7 +27,7 @@ CH2_CONVENTION = SteeringConvention("steering_wheel", "left")
 SIM_CONVENTION = SteeringConvention("road_wheel", "right")
 NATIVE_COLUMNS = ["frame", "timestamp_ns", "center", "left", "right", "steering", "speed", "throttle", "brake",
                   "lateral_offset", "heading_error", "curvature", "episode"]
-EPISODES = ("normal", "drift-out", "recover")
+EPISODES = ("normal", "drift-out", "recover", "rollout")  # rollout: a DAgger frame, labelled by the expert
 
 
 def parse_range(text: str | None) -> tuple[int | None, int | None] | None:

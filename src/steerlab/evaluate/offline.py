@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from contextlib import nullcontext
 from pathlib import Path
 
 import numpy as np
@@ -11,28 +12,48 @@ from tqdm import tqdm
 from steerlab.data.labels import speed_targets
 from steerlab.data.readers import open_recording
 from steerlab.evaluate.metrics import all_metrics, exponential_smoothing, steering_metrics
-from steerlab.errors import SteerlabError
+from steerlab.errors import SteerlabError, warn
 from steerlab.evaluate.plots import plot_steering
 from steerlab.evaluate.scoring import write_predictions
 from steerlab.pilot import Pilot
+from steerlab.video import DriveVideo
+
+RATIO = 14.8  # steering ratio for showing road-wheel conventions as a steering wheel
 
 
 def evaluate(checkpoint: str | Path, data: str | Path, frame_range: str | None, out: str | Path,
-             labels: str | Path | None = None, camera: str = "center", progress: bool = True) -> dict:
+             labels: str | Path | None = None, camera: str = "center", video: str | Path | None = None,
+             progress: bool = True) -> dict:
     """Run the Pilot over every frame (resetting at segment starts, feeding the recorded speed); write
-    metrics (with speed MAE and command accuracy for speed models), predictions and a plot."""
+    metrics (with speed MAE and command accuracy for speed models), predictions and a plot, and optionally a
+    video of the frames with the predicted and the recorded steering."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     rec = open_recording(data, frame_range, labels)
+    if camera not in rec.frames:
+        raise SteerlabError(f"{rec.source} has no {camera!r} camera (it has {', '.join(rec.cameras)})")
     pilot = Pilot(checkpoint)
     if pilot.speed_history and rec.speed is None:
         raise SteerlabError(f"model {pilot.name!r} needs the measured speed with every frame; {rec.source} has none")
+    if pilot.preset != rec.preset:
+        warn(f"{checkpoint} was trained on the {pilot.preset!r} camera geometry and {rec.source} has the "
+             f"{rec.preset!r} geometry: expect worse predictions than the model can make")
     seg = rec.segment_ids()
+    offsets = rec.extra.get("lateral_offset")
+
+    def wheel(conv, y):  # steering-wheel angle, positive left, for the video
+        return conv.to_road_wheel_left(y, RATIO) * RATIO
+
     controls = []
-    for i in tqdm(range(len(rec)), desc="evaluate", unit="frame", disable=None if progress else True):
-        if i > 0 and seg[i] != seg[i - 1]:
-            pilot.reset()
-        controls.append(pilot.step(rec.load_frame(i, camera), None if rec.speed is None else rec.speed[i]))
+    with DriveVideo(video, rec.frame_rate(), reference="recorded") if video else nullcontext() as movie:
+        for i in tqdm(range(len(rec)), desc="evaluate", unit="frame", disable=None if progress else True):
+            if i > 0 and seg[i] != seg[i - 1]:
+                pilot.reset()
+            frame = rec.load_frame(i, camera)
+            controls.append(pilot.step(frame, None if rec.speed is None else rec.speed[i]))
+            if movie:
+                movie.add(frame, wheel(pilot.convention, controls[-1].steering), wheel(rec.convention, rec.steering[i]),
+                          None if offsets is None else float(offsets[i]), f"{rec.name}  frame {i}")
     pred = {"steering": np.array([c.steering for c in controls])}
     for k in ("speed", "command"):
         if getattr(controls[0], k) is not None:

@@ -32,32 +32,87 @@ def plot_steering(path: str | Path, t_s: np.ndarray, target: np.ndarray, preds: 
     plt.close(fig)
 
 
-def plot_trajectory(path: str | Path, road, traj: np.ndarray, result: dict) -> None:
-    """Top-down view of a closed-loop run against the lane, and the lateral offset over time.
+def episodes_of(labels: np.ndarray) -> list[tuple[int, int, int]]:
+    """Drift-and-recover episodes as (first drift-out frame, first recover frame, end) index triples."""
+    out = []
+    i, n = 0, len(labels)
+    while i < n:
+        if labels[i] == "drift-out":
+            a = i
+            while i < n and labels[i] == "drift-out":
+                i += 1
+            b = i
+            while i < n and labels[i] == "recover":
+                i += 1
+            if i > b:
+                out.append((a, b, i))
+        else:
+            i += 1
+    return out
 
-    traj columns: time_s, x, y, s, lateral_offset_m, steering, speed."""
-    from steerlab.sim.road import EDGE, LANE_CENTER
 
-    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(12, 5), dpi=100, gridspec_kw={"width_ratios": [1, 1.4]})
-    a, b = road.index(traj[:, 3].min() - 20), road.index(traj[:, 3].max() + 20) + 1
-    for d, style in [(EDGE, "k-"), (-EDGE, "k-"), (0.0, "k--")]:
-        ax.plot(road.x[a:b] - d * np.sin(road.psi[a:b]), road.y[a:b] + d * np.cos(road.psi[a:b]), style, lw=0.7)
-    ax.plot(road.x[a:b] - LANE_CENTER * np.sin(road.psi[a:b]), road.y[a:b] + LANE_CENTER * np.cos(road.psi[a:b]),
-            color="0.7", lw=0.7, label="lane centre")
-    ax.plot(traj[:, 1], traj[:, 2], color="tab:red", lw=1.0, label="car")
-    ax.set_aspect("equal")
-    ax.set_xlabel("x [m]")
-    ax.set_ylabel("y [m]")
-    ax.legend(fontsize=8)
-    ax.set_title(f"{result['label']} on {result['road']} road, seed {result['seed']}")
-    ax2.plot(traj[:, 0], traj[:, 4], lw=0.8)
-    ax2.axhline(1.0, color="tab:red", ls=":", lw=0.8)
-    ax2.axhline(-1.0, color="tab:red", ls=":", lw=0.8)
-    ax2.set_xlabel("time [s]")
-    ax2.set_ylabel("offset from lane centre [m]")
-    ax2.set_title(f"autonomy {result['autonomy']:.1f}%, {result['interventions']} interventions, "
-                  f"mean |offset| {result['mean_abs_offset_m']:.2f} m")
-    ax2.grid(alpha=0.3)
+def plot_recovery(path: str | Path, t_s: np.ndarray, target: np.ndarray, preds: dict[str, np.ndarray],
+                  episodes: np.ndarray, max_panels: int = 6) -> int:
+    """Drift-and-recover episodes in the form of paper 000 Fig. 6: the recorded steering (the driver steers
+    out, then back), every model's prediction, a circle where the driver starts to correct and the correction
+    dashed. Returns the number of episodes drawn."""
+    found = episodes_of(episodes)[:max_panels]
+    if not found:
+        return 0
+    cols = min(3, len(found))
+    rows = -(-len(found) // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(4.6 * cols, 3.2 * rows), dpi=100, squeeze=False)
+    colors = plt.get_cmap("tab10").colors
+    for ax, (a, b, c) in zip(axes.ravel(), found):
+        pad = int(round(2.0 / max(np.median(np.diff(t_s)), 1e-3)))
+        w = slice(max(a - pad, 0), min(c + pad, len(t_s)))
+        ax.plot(t_s[w], np.degrees(target[w]), color="black", lw=1.4, label="driver")
+        ax.plot(t_s[b:c], np.degrees(target[b:c]), color="white", lw=1.0, ls="--")
+        ax.plot(t_s[b], np.degrees(target[b]), "o", mfc="none", mec="black", ms=9)
+        for (name, p), color in zip(preds.items(), colors * 3):
+            ax.plot(t_s[w], np.degrees(p[w]), lw=1.0, color=color, label=name)
+        ax.axvspan(t_s[a], t_s[b], color="tab:red", alpha=0.08)
+        ax.set_xlabel("time [s]")
+        ax.set_ylabel("steering [deg]")
+        ax.grid(alpha=0.3)
+    for ax in axes.ravel()[len(found):]:
+        ax.axis("off")
+    axes[0, 0].legend(fontsize=7)
+    fig.suptitle("drift out (shaded) and back: the circle marks where the driver starts to correct, the correction "
+                 "is dashed", fontsize=9)
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
+    return len(found)
+
+
+def plot_open_vs_closed(path: str | Path, tables: dict[str, list[dict]], metric: str = "rmse") -> None:
+    """Each model's open-loop validation error against its closed-loop autonomy, one marker per table (e.g.
+    before and after a training recipe), with an arrow from a model's first table to its last."""
+    fig, ax = plt.subplots(figsize=(8, 5.5), dpi=100)
+    markers = "osD^v"
+    points: dict[str, list[tuple[float, float]]] = {}
+    for (name, rows), marker in zip(tables.items(), markers):
+        x = [float(r[f"{metric}_mean"]) for r in rows]
+        y = [float(r["autonomy_mean"]) for r in rows]
+        ax.scatter(x, y, marker=marker, s=40, label=name, zorder=3)
+        for r, xi, yi in zip(rows, x, y):
+            points.setdefault(r["label"], []).append((xi, yi))
+            ax.annotate(r["label"], (xi, yi), fontsize=7, xytext=(4, 3), textcoords="offset points")
+    if len(tables) > 1:
+        for pts in points.values():
+            if len(pts) > 1:
+                ax.annotate("", pts[-1], pts[0], arrowprops={"arrowstyle": "->", "color": "0.6", "lw": 0.8})
+    ax.set_xlabel(f"open-loop validation {metric.upper()} [rad]")
+    ax.set_ylabel("closed-loop autonomy, all suite roads [%]")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def rank_correlation(x, y) -> float:
+    """Spearman's rank correlation (ties broken by order; fine for continuous metrics)."""
+    rx, ry = (np.argsort(np.argsort(np.asarray(v, float))) for v in (x, y))
+    return float(np.corrcoef(rx, ry)[0, 1]) if len(rx) > 2 else float("nan")

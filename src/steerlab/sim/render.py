@@ -10,44 +10,19 @@ drawn on top, far to near, so that motion is visible to optical flow.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import cv2
 import numpy as np
 
-from steerlab.errors import SteerlabError
-from steerlab.sim.road import DS, EDGE, LANE, LINE_WIDTH, VERGE, Road
+from steerlab.data.geometry import Camera, camera
+from steerlab.sim.road import DS, EDGE, LANE, LINE_WIDTH, PRESETS, VERGE, Road
 
 MAX_RANGE = 250.0   # m: ground further away is drawn as haze
 SIDE_OFFSET = 0.508  # m: left/right cameras sit 20 inches beside the centre one (paper 002 V-D)
 
 
-@dataclass(frozen=True)
-class Camera:
-    width: int
-    height: int
-    focal: float      # px
-    cy: float         # principal point row
-    mount_height: float  # m above the ground
-    pitch_deg: float  # down positive
-
-
-# Geometry chosen so that a preprocessed synthetic frame looks like a preprocessed real one of the dataset
-# whose steerlab preprocessing preset has the same name (see docs/ARCHITECTURE.md for the side-by-side).
-CAMERAS = {
-    "sim": Camera(320, 160, 277.0, 80.0, 1.3, 4.0),
-    "ch2": Camera(640, 480, 554.0, 240.0, 1.45, -1.0),
-}
-
 # (B, G, R) base colours
 ASPHALT, MARKING, VERGE_C, GRASS = (92, 96, 100), (225, 230, 232), (120, 150, 170), (60, 125, 80)
 SKY_TOP, SKY_HORIZON, HAZE = (200, 150, 110), (235, 215, 195), (190, 190, 185)
-
-
-def camera(name: str) -> Camera:
-    if name not in CAMERAS:
-        raise SteerlabError(f"unknown camera preset {name!r}; choose one of {', '.join(CAMERAS)}")
-    return CAMERAS[name]
 
 
 class Scenery:
@@ -88,6 +63,11 @@ class Scenery:
         self.obj_x = road.x[idx] - objs[:, 1] * np.sin(road.psi[idx])
         self.obj_y = road.y[idx] + objs[:, 1] * np.cos(road.psi[idx])
         self.obj_size = rng.uniform(0.8, 1.3, len(objs))
+        # the look of the place differs from road to road: shades of grass, verge, asphalt and paint
+        look = np.random.default_rng([road.seed, 6, list(PRESETS).index(road.preset)])
+        shade = np.concatenate([look.uniform(0.75, 1.25, (3, 1)) * look.uniform(0.9, 1.1, (3, 3)),
+                                look.uniform(0.85, 1.0, (1, 1)) * np.ones((1, 3))])
+        self.palette = np.array([GRASS, VERGE_C, ASPHALT, MARKING], np.float32) * shade.astype(np.float32)
 
 
 class Renderer:
@@ -96,15 +76,15 @@ class Renderer:
         self.scenery = Scenery(road)
         c = self.cam
         th = np.radians(c.pitch_deg)
-        self.cos_t, self.sin_t = np.cos(th), np.sin(th)
+        cos_t, sin_t = np.cos(th), np.sin(th)
         v = np.arange(c.height) + 0.5
         yc = (v - c.cy) / c.focal
-        denom = self.sin_t + yc * self.cos_t
+        denom = sin_t + yc * cos_t
         ground = denom > 1e-4
         t = np.where(ground, c.mount_height / np.where(ground, denom, 1), np.inf)
-        fwd = t * (self.cos_t + yc * self.sin_t)
+        fwd = t * (cos_t - yc * sin_t)
         self.first_row = int(np.argmax(ground & (fwd < MAX_RANGE)))  # rows above show sky or haze
-        self.horizon = c.cy - c.focal * np.tan(th)
+        self.horizon = c.horizon
         rows = slice(self.first_row, c.height)
         self.fwd = fwd[rows].astype(np.float32)
         self.ray = t[rows].astype(np.float32)  # ground point = camera + ray * (x_c, y_c, 1) in camera axes
@@ -139,8 +119,7 @@ class Renderer:
         dash = (ad < LINE_WIDTH / 2) & (np.mod(s, 12.0) < 4.0)
         cls[edge | dash] = 3
         cls[beyond] = 0
-        palette = np.array([GRASS, VERGE_C, ASPHALT, MARKING], np.float32)
-        img = palette[cls]
+        img = sc.palette[cls]
         ti = ((s * 6.0).astype(np.int32) & 255, (d * 6.0).astype(np.int32) & 255)
         light = sc.texture[ti]
         si = np.clip((s / DS).astype(np.int32), 0, len(road.s) - 1)
@@ -172,8 +151,8 @@ class Renderer:
                 continue
             kind, size = sc.obj_kind[a + k], sc.obj_size[a + k]
             top_h = 1.0 if kind == 0 else 2.5 * size
-            u0, v0 = self._project(f, left[k], 0.0)
-            u1, v1 = self._project(f, left[k], top_h)
+            u0, v0 = c.project(f, left[k], -c.mount_height)
+            u1, v1 = c.project(f, left[k], top_h - c.mount_height)
             w = max(1, int(round((0.12 if kind == 0 else 0.3) * c.focal / f)))
             if u0 < -60 or u0 > c.width + 60:
                 continue
@@ -184,10 +163,3 @@ class Renderer:
                 r = max(1, int(1.6 * size * c.focal / f))
                 crown = tuple(int(min(255, ch * light)) for ch in (35, 95, 45))
                 cv2.circle(img, (int(u1), int(v1 - r * 0.6)), r, crown, -1)
-
-    def _project(self, fwd: float, left: float, up: float) -> tuple[float, float]:
-        c = self.cam
-        dz = up - c.mount_height
-        zc = fwd * self.cos_t - dz * self.sin_t
-        yc = fwd * self.sin_t - dz * self.cos_t
-        return c.width / 2 - c.focal * left / zc, c.cy + c.focal * yc / zc

@@ -1,4 +1,8 @@
-"""Recording the expert (`steerlab sim record`) and letting a trained model drive (`steerlab sim drive`)."""
+"""Recording the expert (`steerlab sim record`), letting a trained model drive (`steerlab sim drive`) and
+rolling a model out with the expert labelling every visited state (DAgger, `steerlab sim dagger`).
+
+All three run the same `World`: a car on one procedural road, rendered by one camera, stepped at the frame
+rate. More than `limit_m` off the lane centre is an intervention: the car is put back on the lane centre."""
 
 from __future__ import annotations
 
@@ -11,21 +15,25 @@ import cv2
 import numpy as np
 from tqdm import tqdm
 
+from steerlab.data.geometry import CAMERAS
 from steerlab.data.readers import EPISODES, MPH_TO_MS, NATIVE_COLUMNS, SIM_CONVENTION, SIM_FULL_LOCK_RAD
 from steerlab.data.recording import SteeringConvention
-from steerlab.errors import SteerlabError
-from steerlab.evaluate.plots import plot_trajectory
-from steerlab.sim.driver import ExpertDriver, cruise
-from steerlab.sim.render import CAMERAS, SIDE_OFFSET, Renderer
-from steerlab.sim.road import LANE_CENTER, Road
+from steerlab.errors import SteerlabError, warn
+from steerlab.sim.driver import ExpertDriver, cruise, pure_pursuit
+from steerlab.sim.plots import plot_trajectory
+from steerlab.sim.render import SIDE_OFFSET, Renderer
+from steerlab.sim.road import LANE_CENTER, PRESETS, Road
 from steerlab.sim.vehicle import Vehicle, VehicleParams, VehicleState
+from steerlab.video import DriveVideo
 
 CONVENTION = SteeringConvention("steering_wheel", "left")  # like CH2: steering-wheel angle, positive left
 EPOCH = datetime(2020, 1, 1, tzinfo=timezone.utc)
 JPEG = [cv2.IMWRITE_JPEG_QUALITY, 92]
+RESERVED_SEEDS = range(9000, 10000)  # the roads of the closed-loop benchmark (sim/bench.py): never recorded
+CHUNK_GAP_NS = 1_000_000_000  # between the chunks of a mixed recording: a new segment
 
 
-def _check(minutes: float, fps: float) -> int:
+def _frames(minutes: float, fps: float) -> int:
     if not minutes > 0:
         raise SteerlabError(f"minutes must be positive, got {minutes}")
     if not fps > 0:
@@ -33,78 +41,165 @@ def _check(minutes: float, fps: float) -> int:
     return int(round(minutes * 60 * fps))
 
 
+def road_types(road: str) -> list[str]:
+    """"country", "mixed" (every preset) or a comma list such as "country,twisty"."""
+    types = list(PRESETS) if road == "mixed" else [t.strip() for t in road.split(",") if t.strip()]
+    bad = [t for t in types if t not in PRESETS]
+    if bad or not types:
+        raise SteerlabError(f"unknown road preset {','.join(bad) or road!r}; choose one of "
+                            f"{', '.join(PRESETS)}, mixed, or a comma list")
+    return types
+
+
 def start_state(road: Road, s: float = 5.0, v: float | None = None) -> VehicleState:
     x, y, psi = road.pose(s, LANE_CENTER)
     return VehicleState(x, y, psi, road.speed_limit[road.index(s)] if v is None else v)
 
 
-def _world(seed: int, road: str, camera: str, seconds: float):
-    """A road long enough for `seconds` of driving, its renderer, and a car on its lane at the start."""
-    rd = Road(seed, road, length_m=seconds * 35 + 400)
-    params = VehicleParams()
-    return rd, Renderer(rd, camera), params, Vehicle(start_state(rd), params)
+def make_road(seed: int, road: str, seconds: float) -> Road:
+    """The road made from `seed`, long enough for `seconds` of driving."""
+    return Road(seed, road, length_m=seconds * 35 + 400)
+
+
+class World:
+    """A car on its lane at the start of a road made from `seed`, long enough for `seconds` of driving."""
+
+    def __init__(self, seed: int, road: str, camera: str, seconds: float, fps: float = 20.0):
+        self.road = make_road(seed, road, seconds)
+        self.renderer = Renderer(self.road, camera)
+        self.params = VehicleParams()
+        self.car = Vehicle(start_state(self.road), self.params)
+        self.dt = 1.0 / fps
+        self.s = 5.0
+
+    @property
+    def state(self) -> VehicleState:
+        return self.car.state
+
+    def observe(self) -> tuple[float, float]:
+        """(lateral offset from the lane centre [m, left positive], heading error [rad]) of the car now."""
+        st = self.car.state
+        self.s, d, road_psi = self.road.project(st.x, st.y, self.s)
+        return d - LANE_CENTER, (st.psi - road_psi + np.pi) % (2 * np.pi) - np.pi
+
+    def put_back(self) -> None:
+        """An intervention: the car is set on the lane centre, along the road, at its current speed."""
+        self.car.state = start_state(self.road, self.s, self.car.state.v)
+        self.observe()
+
+    def render(self, shift: float = 0.0) -> np.ndarray:
+        st = self.car.state
+        return self.renderer.render(st.x, st.y, st.psi, self.s, shift)
+
+    def expert_steering(self) -> float:
+        """The expert's road-wheel angle (rad, positive left) in this state: pure pursuit of the lane centre."""
+        return pure_pursuit(self.road, self.car.state, self.s, LANE_CENTER, self.params.wheelbase)
+
+    def step(self, road_wheel: float) -> None:
+        """Apply a road-wheel angle for one frame; the speed follows the road's speed profile."""
+        throttle, brake = cruise(self.road, self.s, self.car.state.v)
+        self.car.step(road_wheel, throttle, brake, self.dt)
+
+
+class RecordingWriter:
+    """Writes frames and per-frame rows as a steerlab recording (`recording.json`, `log.csv`, one folder of
+    JPEGs per camera) or in the Udacity simulator's `driving_log.csv` layout."""
+
+    def __init__(self, out: str | Path, cameras: list[str], layout: str = "steerlab"):
+        if layout not in ("steerlab", "udacity-sim"):
+            raise SteerlabError(f"unknown layout {layout!r}; choose steerlab or udacity-sim")
+        self.out, self.cameras, self.layout = Path(out), cameras, layout
+        if self.out.exists() and any(self.out.iterdir()):
+            raise SteerlabError(f"{self.out} exists and is not empty; choose a new output folder")
+        for cam in cameras:
+            (self.out / ("IMG" if layout == "udacity-sim" else cam)).mkdir(parents=True, exist_ok=True)
+        self.rows: list[dict] = []
+
+    def add(self, frames: dict[str, np.ndarray], row: dict) -> None:
+        """row: timestamp_ns, steering (CONVENTION), speed, throttle, brake, lateral_offset, heading_error,
+        curvature, episode."""
+        i, ts = len(self.rows), row["timestamp_ns"]
+        names = {}
+        for cam in self.cameras:
+            if self.layout == "udacity-sim":
+                t = EPOCH + timedelta(microseconds=ts // 1000)
+                names[cam] = f"IMG/{cam}_{t.strftime('%Y_%m_%d_%H_%M_%S_')}{(ts // 1_000_000) % 1000:03d}.jpg"
+            else:
+                names[cam] = f"{cam}/{i:06d}.jpg"
+            cv2.imwrite(str(self.out / names[cam]), frames[cam], JPEG)
+        self.rows.append({"frame": i, **{c: names.get(c, "") for c in ("center", "left", "right")}, **row})
+
+    def close(self, meta: dict, ratio: float) -> Path:
+        if self.layout == "udacity-sim":
+            with open(self.out / "driving_log.csv", "w", newline="") as f:
+                w = csv.writer(f)
+                for r in self.rows:  # the simulator's units: steering +-1 = +-25 deg road wheel, positive right; mph
+                    road_wheel = CONVENTION.to_road_wheel_left(r["steering"], ratio)
+                    steer = SIM_CONVENTION.from_road_wheel_left(road_wheel, ratio) / SIM_FULL_LOCK_RAD
+                    w.writerow([r["center"], r["left"], r["right"], f"{steer:.6f}", f"{r['throttle']:.6f}",
+                                f"{r['brake']:.6f}", f"{r['speed'] / MPH_TO_MS:.6f}"])
+            return self.out
+        with open(self.out / "log.csv", "w", newline="") as f:
+            w = csv.DictWriter(f, NATIVE_COLUMNS)
+            w.writeheader()
+            for r in self.rows:
+                w.writerow({k: (f"{v:.6f}" if isinstance(v, float) else v) for k, v in r.items()})
+        (self.out / "recording.json").write_text(json.dumps(
+            {"format": "steerlab-recording-1", **meta, "steering": CONVENTION.as_dict(), "steering_ratio": ratio,
+             "episodes": list(EPISODES)}, indent=1))
+        return self.out
+
+
+def _row(world: World, ts: int, steering_road_wheel: float, offset: float, heading: float, episode: str) -> dict:
+    throttle, brake = cruise(world.road, world.s, world.state.v)
+    return {"timestamp_ns": ts, "steering": CONVENTION.from_road_wheel_left(steering_road_wheel, world.params.steering_ratio),
+            "speed": world.state.v, "throttle": throttle, "brake": brake, "lateral_offset": offset,
+            "heading_error": heading, "curvature": world.road.kappa[world.road.index(world.s)], "episode": episode}
+
+
+def _check_seed(seed: int) -> None:
+    if seed in RESERVED_SEEDS:
+        raise SteerlabError(f"road seeds {RESERVED_SEEDS.start}-{RESERVED_SEEDS.stop - 1} are reserved for the "
+                            "closed-loop benchmark roads and never recorded; choose another seed")
 
 
 def record(out: str | Path, seed: int = 0, minutes: float = 1.0, road: str = "country", camera: str = "sim",
            fps: float = 20.0, drift: bool = True, side_cameras: bool = True, layout: str = "steerlab",
-           progress: bool = True) -> Path:
-    """Drive the expert on a road made from `seed` and write a labelled recording. Same arguments, same bytes."""
-    n = _check(minutes, fps)
-    if layout not in ("steerlab", "udacity-sim"):
-        raise SteerlabError(f"unknown layout {layout!r}; choose steerlab or udacity-sim")
-    out = Path(out)
-    if out.exists() and any(out.iterdir()):
-        raise SteerlabError(f"{out} exists and is not empty; choose a new output folder")
-    dt = 1.0 / fps
-    rd, renderer, params, car = _world(seed, road, camera, n * dt)
-    driver = ExpertDriver(rd, seed, params, dt, drift_every_s=25.0 if drift else None)
+           chunk_minutes: float = 1.0, progress: bool = True) -> Path:
+    """Drive the expert on roads made from `seed` and write a labelled recording. Same arguments, same bytes.
+
+    With several road types (`road="mixed"` or a comma list) the expert drives one road of each type and
+    the recording takes turns between them every `chunk_minutes`, each chunk its own segment, so that any
+    contiguous block of the recording (a validation split, say) mixes the road types."""
+    _check_seed(seed)
+    n = _frames(minutes, fps)
+    types = road_types(road)
+    chunk = n if len(types) == 1 else _frames(chunk_minutes, fps)
+    per_type = -(-n // len(types))
+    seconds = (per_type + (chunk if len(types) > 1 else 0)) / fps
+    worlds = {t: World(seed, t, camera, seconds, fps) for t in types}
+    drivers = {t: ExpertDriver(w.road, seed, w.params, w.dt, drift_every_s=25.0 if drift else None)
+               for t, w in worlds.items()}
+    clocks = dict.fromkeys(types, 0)
     cams = {"center": 0.0, **({"left": SIDE_OFFSET, "right": -SIDE_OFFSET} if side_cameras else {})}
-    img_dir = out / ("IMG" if layout == "udacity-sim" else "")
-    for cam in cams:
-        (img_dir if layout == "udacity-sim" else out / cam).mkdir(parents=True, exist_ok=True)
-    rows = []
-    s = 5.0
+    writer = RecordingWriter(out, list(cams), layout)
+    ts = 0
     for i in tqdm(range(n), desc=f"record seed {seed}", unit="frame", disable=None if progress else True):
-        st = car.state
-        s, d, road_psi = rd.project(st.x, st.y, s)
-        offset = d - LANE_CENTER
-        heading_err = (st.psi - road_psi + np.pi) % (2 * np.pi) - np.pi
-        delta, throttle, brake, episode = driver.act(st, s, offset, i * dt)
-        ts = int(round(i * dt * 1e9))
-        names = {}
-        for cam, shift in cams.items():
-            frame = renderer.render(st.x, st.y, st.psi, s, shift)
-            if layout == "udacity-sim":
-                stamp = (EPOCH + timedelta(microseconds=ts // 1000)).strftime("%Y_%m_%d_%H_%M_%S_") + f"{(ts // 1_000_000) % 1000:03d}"
-                names[cam] = f"IMG/{cam}_{stamp}.jpg"
-            else:
-                names[cam] = f"{cam}/{i:06d}.jpg"
-            cv2.imwrite(str(out / names[cam]), frame, JPEG)
-        rows.append({"frame": i, "timestamp_ns": ts, **{c: names.get(c, "") for c in ("center", "left", "right")},
-                     "steering": CONVENTION.from_road_wheel_left(delta, params.steering_ratio), "speed": st.v,
-                     "throttle": throttle, "brake": brake, "lateral_offset": offset, "heading_error": heading_err,
-                     "curvature": rd.kappa[rd.index(s)], "episode": episode})
-        car.step(delta, throttle, brake, dt)
-    if layout == "udacity-sim":
-        with open(out / "driving_log.csv", "w", newline="") as f:
-            w = csv.writer(f)
-            for r in rows:  # the simulator's own units: steering +-1 = +-25 deg road wheel, positive right; mph
-                road_wheel = CONVENTION.to_road_wheel_left(r["steering"], params.steering_ratio)
-                steer = SIM_CONVENTION.from_road_wheel_left(road_wheel, params.steering_ratio) / SIM_FULL_LOCK_RAD
-                w.writerow([r["center"], r["left"], r["right"], f"{steer:.6f}", f"{r['throttle']:.6f}",
-                            f"{r['brake']:.6f}", f"{r['speed'] / MPH_TO_MS:.6f}"])
-        return out
-    with open(out / "log.csv", "w", newline="") as f:
-        w = csv.DictWriter(f, NATIVE_COLUMNS)
-        w.writeheader()
-        for r in rows:
-            w.writerow({k: (f"{v:.6f}" if isinstance(v, float) else v) for k, v in r.items()})
-    meta = {"format": "steerlab-recording-1", "seed": seed, "road": road, "camera": camera, "preset": camera,
-            "fps": fps, "minutes": minutes, "steering": CONVENTION.as_dict(),
-            "steering_ratio": params.steering_ratio, "wheelbase": params.wheelbase, "episodes": list(EPISODES),
-            "side_camera_offset_m": SIDE_OFFSET if side_cameras else None}
-    (out / "recording.json").write_text(json.dumps(meta, indent=1))
-    return out
+        kind = types[(i // chunk) % len(types)]
+        if i and i % chunk == 0:
+            ts += CHUNK_GAP_NS  # a new chunk is a new segment
+        world, driver = worlds[kind], drivers[kind]
+        offset, heading = world.observe()
+        delta, _, _, episode = driver.act(world.state, world.s, offset, clocks[kind] / fps)
+        writer.add({c: world.render(shift) for c, shift in cams.items()},
+                   _row(world, ts, delta, offset, heading, episode))
+        world.step(delta)
+        clocks[kind] += 1
+        ts += int(round(1e9 / fps))
+    p = VehicleParams()
+    return writer.close({"seed": seed, "road": road, "roads": types, "camera": camera, "preset": camera,
+                         "fps": fps, "minutes": minutes, "wheelbase": p.wheelbase,
+                         "side_camera_offset_m": SIDE_OFFSET if side_cameras else None}, p.steering_ratio)
 
 
 def autonomy(interventions: int, elapsed_s: float) -> float:
@@ -112,48 +207,68 @@ def autonomy(interventions: int, elapsed_s: float) -> float:
     return (1.0 - interventions * 6.0 / elapsed_s) * 100.0
 
 
+def drive_metrics(offset: np.ndarray, command: np.ndarray, speed: np.ndarray, dt: float, interventions: int) -> dict:
+    """Closed-loop metrics of one drive from its per-tick lateral offsets (m), steering commands (rad) and
+    speeds (m/s): autonomy, interventions per km, mean and max |offset|, command gamma, km driven."""
+    km = float(np.sum(speed) * dt / 1000)
+    return {"autonomy": autonomy(interventions, len(offset) * dt), "interventions": int(interventions),
+            "interventions_per_km": interventions / max(km, 1e-9),
+            "mean_abs_offset_m": float(np.mean(np.abs(offset))), "max_abs_offset_m": float(np.max(np.abs(offset))),
+            "command_gamma_deg": float(np.degrees(np.std(np.diff(command)))) if len(command) > 1 else 0.0,
+            "distance_km": km}
+
+
+def camera_for(pilot, camera: str | None) -> str:
+    """The camera geometry to drive a pilot with: by default the one it was trained on; warns on a mismatch."""
+    if camera is None:
+        if pilot.preset in CAMERAS:
+            return pilot.preset
+        warn(f"the checkpoint was trained on the {pilot.preset!r} camera geometry, which the synthetic world "
+             "does not render; driving with the 'sim' camera")
+        return "sim"
+    if camera != pilot.preset:
+        warn(f"the checkpoint was trained on the {pilot.preset!r} camera geometry and is driven with the "
+             f"{camera!r} camera: expect it to drive worse than it can")
+    return camera
+
+
 def drive(pilot, out: str | Path | None, seed: int = 100, minutes: float = 1.0, road: str = "country",
-          camera: str | None = None, fps: float = 20.0, limit_m: float = 1.0, progress: bool = True) -> dict:
-    """Closed loop: each tick renders the centre camera (by default the geometry the pilot was trained on),
-    asks `pilot.step(frame, speed)` for controls and
-    applies their steering (in `pilot.convention`); the speed follows the cruise controller. Off the lane centre
-    by more than `limit_m` is an intervention: the car is put back on the lane centre and `pilot.reset()`
-    clears the pilot's memory."""
-    n = _check(minutes, fps)
-    dt = 1.0 / fps
-    camera = camera or (pilot.preset if pilot.preset in CAMERAS else "sim")
-    rd, renderer, params, car = _world(seed, road, camera, n * dt)
-    s, interventions, dist = 5.0, 0, 0.0
-    traj = []
-    strip = []
-    for i in tqdm(range(n), desc=f"drive seed {seed}", unit="tick", disable=None if progress else True):
-        st = car.state
-        s, d, road_psi = rd.project(st.x, st.y, s)
-        offset = d - LANE_CENTER
+          camera: str | None = None, fps: float = 20.0, limit_m: float = 1.0, video: str | Path | None = None,
+          progress: bool = True, on_tick=None) -> dict:
+    """Closed loop: each tick renders the centre camera, asks `pilot.step(frame, speed)` for controls and
+    applies their steering (in `pilot.convention`); the speed follows the road's speed profile. Off the lane
+    centre by more than `limit_m` is an intervention: the car is put back on the lane centre and
+    `pilot.reset()` clears the pilot's memory. `on_tick(k)` is called every 100 ticks (progress of the suite)."""
+    n = _frames(minutes, fps)
+    world = World(seed, road, camera_for(pilot, camera), n / fps, fps)
+    ratio = world.params.steering_ratio
+    interventions, traj, strip = 0, [], []
+    movie = DriveVideo(video, fps) if video else None
+    for i in tqdm(range(n), desc=f"drive {road} {seed}", unit="tick", disable=None if progress else True):
+        offset, _ = world.observe()
         if abs(offset) > limit_m:
             interventions += 1
-            car.state = start_state(rd, s, st.v)
+            world.put_back()
             pilot.reset()
-            st = car.state
-            s, d, _ = rd.project(st.x, st.y, s)
-            offset = d - LANE_CENTER
-        frame = renderer.render(st.x, st.y, st.psi, s)
+            offset, _ = world.observe()
+        frame = world.render()
         if out is not None and i % int(fps * 5) == 0 and len(strip) < 12:
             strip.append(frame)
+        st = world.state
         command = pilot.step(frame, st.v).steering
-        throttle, brake = cruise(rd, s, st.v)
-        traj.append((i * dt, st.x, st.y, s, offset, command, st.v))
-        car.step(pilot.convention.to_road_wheel_left(command, params.steering_ratio), throttle, brake, dt)
-        dist += st.v * dt
+        road_wheel = pilot.convention.to_road_wheel_left(command, ratio)
+        if movie:
+            movie.add(frame, road_wheel * ratio, world.expert_steering() * ratio, offset,
+                      f"{road} road {seed}  t {i / fps:5.1f} s  {st.v * 3.6:3.0f} km/h  interventions {interventions}")
+        traj.append((i / fps, st.x, st.y, world.s, offset, command, st.v))
+        world.step(road_wheel)
+        if on_tick and (i + 1) % 100 == 0:
+            on_tick(100)
+    if movie:
+        movie.close()
     t = np.array(traj)
-    elapsed = n * dt
-    result = {
-        "label": pilot.name, "seed": seed, "road": road, "minutes": minutes,
-        "autonomy": autonomy(interventions, elapsed), "interventions": interventions,
-        "mean_abs_offset_m": float(np.mean(np.abs(t[:, 4]))), "max_abs_offset_m": float(np.max(np.abs(t[:, 4]))),
-        "command_gamma_deg": float(np.degrees(np.std(np.diff(t[:, 5])))), "distance_km": dist / 1000,
-        "departures_per_km": interventions / max(dist / 1000, 1e-9),
-    }
+    result = {"label": pilot.name, "seed": seed, "road": road, "minutes": minutes,
+              **drive_metrics(t[:, 4], t[:, 5], t[:, 6], 1.0 / fps, interventions)}
     if out is not None:
         out = Path(out)
         out.mkdir(parents=True, exist_ok=True)
@@ -161,8 +276,48 @@ def drive(pilot, out: str | Path | None, seed: int = 100, minutes: float = 1.0, 
             w = csv.writer(f)
             w.writerow(["time_s", "x", "y", "s", "lateral_offset_m", "steering", "speed"])
             w.writerows([[f"{v:.4f}" for v in row] for row in traj])
-        plot_trajectory(out / "path.png", rd, t, result)
+        plot_trajectory(out / "path.png", world.road, {pilot.name: t},
+                        f"{pilot.name} on {road} road {seed}: autonomy {result['autonomy']:.1f} %, "
+                        f"{interventions} interventions, mean |offset| {result['mean_abs_offset_m']:.2f} m")
         rows = [np.hstack(strip[k:k + 4]) for k in range(0, len(strip) - 3, 4)] or [np.hstack(strip)]
         cv2.imwrite(str(out / "frames.png"), np.vstack(rows))  # one frame every 5 s
         (out / "drive.json").write_text(json.dumps(result, indent=1))
     return result
+
+
+def rollout(pilot, out: str | Path, seed: int, minutes: float, road: str = "country", beta: float = 0.0,
+            camera: str | None = None, fps: float = 20.0, limit_m: float = 1.0, side_cameras: bool = True,
+            progress: bool = True, on_tick=None) -> dict:
+    """DAgger's data collection: drive with the model's steering (or, with probability `beta` each tick,
+    the expert's) and record every visited frame labelled with the expert's steering in that state, as a
+    steerlab recording in `out`. Interventions as in `drive`. Returns the drive's metrics."""
+    _check_seed(seed)
+    n = _frames(minutes, fps)
+    camera = camera_for(pilot, camera)
+    world = World(seed, road, camera, n / fps, fps)
+    ratio = world.params.steering_ratio
+    rng = np.random.default_rng([seed, 5])
+    cams = {"center": 0.0, **({"left": SIDE_OFFSET, "right": -SIDE_OFFSET} if side_cameras else {})}
+    writer = RecordingWriter(out, list(cams))
+    interventions, offsets, commands, speeds = 0, [], [], []
+    for i in tqdm(range(n), desc=f"rollout {road} {seed}", unit="tick", disable=None if progress else True):
+        offset, heading = world.observe()
+        if abs(offset) > limit_m:
+            interventions += 1
+            world.put_back()
+            pilot.reset()
+            offset, heading = world.observe()
+        frames = {c: world.render(shift) for c, shift in cams.items()}
+        expert = world.expert_steering()
+        model = pilot.convention.to_road_wheel_left(pilot.step(frames["center"], world.state.v).steering, ratio)
+        writer.add(frames, _row(world, int(round(i * 1e9 / fps)), expert, offset, heading, "rollout"))
+        offsets.append(offset)
+        commands.append(model)
+        speeds.append(world.state.v)
+        world.step(expert if rng.random() < beta else model)
+        if on_tick and (i + 1) % 100 == 0:
+            on_tick(100)
+    writer.close({"seed": seed, "road": road, "roads": [road], "camera": camera, "preset": camera, "fps": fps, "minutes": minutes, "beta": beta,
+                  "policy": pilot.name, "wheelbase": world.params.wheelbase,
+                  "side_camera_offset_m": SIDE_OFFSET if side_cameras else None}, ratio)
+    return drive_metrics(np.array(offsets), np.array(commands) * ratio, np.array(speeds), 1.0 / fps, interventions)

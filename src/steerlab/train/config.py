@@ -12,6 +12,7 @@ from steerlab.errors import SteerlabError
 
 DEFAULTS = {
     "data": None,            # recording folder or driving_log.csv
+    "extra_data": [],        # more recordings, used whole for training only (e.g. DAgger rollouts)
     "range": None,           # frames of the recording to use, "a:b"
     "labels": None,          # CH2: label CSV when the folder holds several
     "camera": "center",
@@ -24,12 +25,20 @@ DEFAULTS = {
         "exclude_episodes": [],  # e.g. [drift-out] to train on the recovery half of drift episodes only
         # side-camera recovery synthesis (paper 002 Eq. 3): left/right frames with a recovery angle added
         "side_cameras": False, "side_offset_m": 0.508, "recovery_s": 1.0, "steering_ratio": 14.8,
+        # viewpoint shifts (NVIDIA PilotNet): virtual cameras [shift_m (left +), yaw_deg (left +)] warped from
+        # the centre camera, labelled like the side cameras; without speed the return distance is fixed
+        "views": [], "recovery_distance_m": None,
         "min_speed": 0.0,     # m/s; frames slower are dropped from both splits (paper 002 V-A uses 4)
         "balance": False,     # thin out straight driving, redrawn every epoch (paper 003)
         "rotation_deg": 0.0,  # augmentation (paper 002 IV-B1): random rotation within +-rotation_deg,
         "brightness": 0.0,    # and brightness scaled by a random factor within 1 +- brightness
+        "motion_dropout": 0.0,  # fraction of samples whose difference / flow inputs show no motion
+        "target_shift_s": 0.0,  # train on the steering this many seconds ahead
+        "recovery_weight": 1,   # samples in recovery episodes are drawn this many times per epoch
+        "init": None,           # start from the weights of this checkpoint (same model and options)
     },
     "out": "runs/train",
+    "dagger": None,          # DAgger rounds (steerlab sim dagger; options in sim/dagger.py)
 }
 
 

@@ -17,7 +17,9 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
+from steerlab.checkpoint import load_checkpoint, save_checkpoint
 from steerlab.data.dataset import CompiledDataset, compile_recording
+from steerlab.data.geometry import CAMERAS
 from steerlab.data.labels import speed_targets
 from steerlab.data.preprocess import PreprocessConfig
 from steerlab.data.readers import open_recording
@@ -27,20 +29,27 @@ from steerlab.errors import SteerlabError
 from steerlab.evaluate.metrics import all_metrics
 from steerlab.evaluate.scoring import write_predictions
 from steerlab.models import create_model, model_class
-from steerlab.train.checkpoint import save_checkpoint
-from steerlab.train.inputs import (Standardizer, augment, channel_stats, flip_horizontal, gather, history,
+from steerlab.data.inputs import (Standardizer, augment, channel_stats, flip_horizontal, gather, history, no_motion,
                                    segment_starts, stack_modalities)
 
 
-def prepare_dataset(cfg: dict, progress: bool = True, camera: str | None = None) -> CompiledDataset:
-    rec = open_recording(cfg["data"], cfg.get("range"), cfg.get("labels"))
+def prepare_dataset(cfg: dict, progress: bool = True, camera: str | None = None, view: tuple | None = None,
+                    data: str | None = None) -> CompiledDataset:
+    """The compiled main recording of a config (or the whole recording `data`), one camera stream of it, or a
+    virtual view (shift_m, yaw_deg) synthesised from its centre camera."""
+    rec = (open_recording(cfg["data"], cfg.get("range"), cfg.get("labels")) if data is None
+           else open_recording(data))
     camera = camera or cfg.get("camera", "center")
     if camera not in rec.frames:
         raise SteerlabError(f"{rec.source} has no {camera!r} camera (it has {', '.join(rec.cameras)})")
+    if view is not None and rec.preset not in CAMERAS:
+        raise SteerlabError(f"viewpoint shifts need the camera geometry of the recording; {rec.source} has the "
+                            f"{rec.preset!r} preset, and geometry is known for {', '.join(CAMERAS)}")
     pre_cfg = dict(cfg.get("preprocess") or {})
     if "crop" not in pre_cfg:
         pre_cfg.setdefault("preset", rec.preset)
-    return compile_recording(rec, PreprocessConfig.from_dict(pre_cfg), cfg["cache"], camera, progress=progress)
+    return compile_recording(rec, PreprocessConfig.from_dict(pre_cfg), cfg["cache"], camera, progress=progress,
+                             view=view)
 
 
 def model_preprocess(name: str, preprocess: dict | None) -> dict:
@@ -74,48 +83,60 @@ def usable_frames(ds: CompiledDataset, idx: np.ndarray, name: str, min_speed: fl
 class Batches:
     """Gathers standardised batches from the cache: `get(codes)` -> (inputs, targets), both dicts of tensors.
 
-    Each source is a compiled camera stream with its own steering labels (the centre camera, and with
-    side-camera synthesis the left and right ones); a sample is coded as source * N + frame. Samples come back
-    in the order asked for; each source is read in sorted order so that the memory-mapped reads run forward.
+    A source is a compiled camera stream with its own steering labels: the main recording's centre camera
+    (source 0, whose frames are the validation frames too), its side cameras and virtual views, and the streams
+    of extra training recordings. Sample codes number the frames of all sources one after another (source k's
+    frame i is offsets[k] + i). Samples come back in the order asked for; each source is read in sorted order so
+    that the memory-mapped reads run forward.
     inputs: "x" (B, C, H, W), and "speeds" (B, K) for models with a speed history; targets: "steering", and
-    where the recording has speed, "speed" (the next frame's) and "command" (paper 002 IV-B2)."""
+    where the recordings have speed, "speed" (the next frame's) and "command" (paper 002 IV-B2)."""
 
     def __init__(self, sources: list[tuple[CompiledDataset, np.ndarray]], stats: dict, speed_history: int = 0):
         self.sources, self.cfg, self.standardize = sources, sources[0][0].config, Standardizer(stats)
-        labels = sources[0][0].labels
-        self.n = len(sources[0][0])
-        self.starts = segment_starts(labels["segment"])  # all sources share the timeline and the speed
-        self.speed = labels.get("speed")
-        self.targets = speed_targets(self.speed, labels["timestamps_ns"], labels["segment"]) if self.speed is not None else {}
+        self.offsets = np.cumsum([0] + [len(ds) for ds, _ in sources])
+        self.local_starts = [segment_starts(ds.labels["segment"]) for ds, _ in sources]
+        self.starts = np.concatenate([st + off for st, off in zip(self.local_starts, self.offsets)])  # per code
+        self._steering = np.concatenate([y for _, y in sources])
+        with_speed = all("speed" in ds.labels for ds, _ in sources)
+        self.speed = np.concatenate([ds.labels["speed"] for ds, _ in sources]) if with_speed else None
+        self.targets = {}
+        if with_speed:
+            parts = [speed_targets(ds.labels["speed"], ds.labels["timestamps_ns"], ds.labels["segment"])
+                     for ds, _ in sources]
+            self.targets = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
         self.speed_history = speed_history
-        self._steering = np.concatenate([s for _, s in sources])
 
     def steering(self, codes: np.ndarray) -> np.ndarray:
         return self._steering[codes]
 
-    def get(self, codes: np.ndarray, flip: np.ndarray | None = None, transform=None) -> tuple[dict, dict]:
-        """`flip` marks samples to mirror (steering negated); `transform(x)` alters raw inputs (augmentation)."""
+    def get(self, codes: np.ndarray, flip: np.ndarray | None = None, still: np.ndarray | None = None,
+            transform=None) -> tuple[dict, dict]:
+        """`flip` marks samples to mirror (steering negated); `still` marks samples whose motion inputs
+        (difference, flow) are replaced by "no motion seen"; `transform(x)` alters raw inputs (augmentation)."""
         order = np.argsort(codes, kind="stable")
+        source = np.searchsorted(self.offsets, codes, side="right") - 1
         x = None
         for k, (ds, _) in enumerate(self.sources):
-            pos = order[(codes[order] // self.n) == k]
+            pos = order[source[order] == k]
             if len(pos):
-                part = stack_modalities(gather(ds.arrays, self.cfg, codes[pos] % self.n, self.starts), self.cfg)
+                frames = codes[pos] - self.offsets[k]
+                part = stack_modalities(gather(ds.arrays, self.cfg, frames, self.local_starts[k]), self.cfg)
                 if x is None:
                     x = np.empty((len(codes),) + part.shape[1:], np.float32)
                 x[pos] = part
         y = self.steering(codes).astype(np.float32)
+        if still is not None and still.any():
+            x[still] = no_motion(x[still], self.cfg)
         if flip is not None and flip.any():
             x[flip] = flip_horizontal(x[flip], self.cfg)
             y[flip] *= -1
         if transform is not None:
             x = transform(x)
-        frames = codes % self.n
         inputs = {"x": self.standardize(x)}
         if self.speed_history:
-            inputs["speeds"] = torch.from_numpy(self.speed[history(frames, self.starts, self.speed_history)].astype(np.float32))
+            inputs["speeds"] = torch.from_numpy(self.speed[history(codes, self.starts, self.speed_history)].astype(np.float32))
         targets = {"steering": torch.from_numpy(y)}
-        targets.update({k: torch.from_numpy(v[frames].astype(np.float32 if k == "speed" else np.int64))
+        targets.update({k: torch.from_numpy(v[codes].astype(np.float32 if k == "speed" else np.int64))
                         for k, v in self.targets.items()})
         return inputs, targets
 
@@ -131,28 +152,79 @@ def balanced(codes: np.ndarray, steering: np.ndarray, rng: np.random.Generator, 
     return codes[rng.random(len(codes)) < np.minimum(1.0, cap / counts[b])]
 
 
-def side_camera_labels(ds: CompiledDataset, offset_m: float, recovery_s: float, ratio: float) -> np.ndarray:
-    """Paper 002 Eq. 3: a camera d_y metres to the LEFT sees the view of a car that must steer back right:
-    theta_f = theta_r - arctan(d_y / (speed * t_r)) as a road-wheel angle (positive left); converted back to
-    the recording's convention (steering-wheel recordings use the vehicle's steering ratio)."""
-    if "speed" not in ds.labels:
-        raise SteerlabError("side-camera synthesis needs the speed signal (paper 002 Eq. 3)")
+def recovery_labels(ds: CompiledDataset, steering: np.ndarray, shift_m: float, yaw_deg: float, tc: dict) -> np.ndarray:
+    """The steering that brings a car `shift_m` left of where the recording was made, turned `yaw_deg` to the
+    left, back to the recorded path (paper 002 Eq. 3, with the turn added): theta_f = theta_r +
+    arctan(-d_y / L) - yaw as a road-wheel angle (positive left), where L = speed * t_r is the distance in which
+    the car returns (t_r = `recovery_s`; `recovery_distance_m` when the recording has no speed). Converted back
+    to the recording's convention (steering-wheel recordings use the vehicle's steering ratio)."""
+    if "speed" in ds.labels:
+        distance = np.maximum(ds.labels["speed"], 1.0) * float(tc["recovery_s"])
+    elif tc.get("recovery_distance_m"):
+        distance = float(tc["recovery_distance_m"])
+    else:
+        raise SteerlabError(f"{ds.meta['source']} has no speed: set train.recovery_distance_m, the distance in "
+                            "which a displaced car returns to its path, for side cameras or viewpoint shifts")
     conv = SteeringConvention(**ds.meta["convention"])
-    speed = np.maximum(ds.labels["speed"], 1.0)
-    correction = -np.arctan(offset_m / (speed * recovery_s))
-    return ds.steering + conv.from_road_wheel_left(correction, ratio)
+    correction = np.arctan(-shift_m / distance) - np.radians(yaw_deg)
+    return steering + conv.from_road_wheel_left(correction, float(tc["steering_ratio"]))
 
 
-def sequence_windows(codes: np.ndarray, n: int, starts: np.ndarray, length: int) -> np.ndarray:
-    """Windows (M, length) of consecutive frames that lie inside the sample set and inside one segment,
-    starting every `length` frames, so an epoch sees each frame about once."""
+def steering_ahead(ds: CompiledDataset, seconds: float) -> np.ndarray:
+    """Each frame's target is the steering `seconds` later in its segment (the segment's last value at its end)."""
+    if not seconds:
+        return ds.steering
+    k = int(round(seconds * ds.meta["frame_rate"]))
+    seg = ds.labels["segment"]
+    last = np.r_[np.flatnonzero(np.diff(seg)), len(seg) - 1]  # each segment's last frame
+    return ds.steering[np.minimum(np.arange(len(seg)) + k, last[seg])]
+
+
+def training_sources(cfg: dict, ds: CompiledDataset, train_idx: np.ndarray, progress: bool):
+    """The training streams and the codes of their training frames (see `Batches`): the main recording's
+    training split and every usable frame of the extra recordings, each with its side cameras (`side_cameras`)
+    and virtual views (`views`: [shift_m, yaw_deg] pairs) labelled with the recovery steering."""
+    tc = cfg["train"]
+    recordings = [(None, ds, train_idx)]
+    for path in cfg.get("extra_data") or []:
+        extra = prepare_dataset(cfg, progress, data=path)
+        idx = usable_frames(extra, np.arange(len(extra)), f"extra recording {path}", float(tc["min_speed"]),
+                            tc.get("exclude_episodes"))
+        recordings.append((path, extra, idx))
+    sources, codes, offset = [], [], 0
+    for path, main, idx in recordings:
+        ahead = steering_ahead(main, float(tc["target_shift_s"]))
+        streams = [(main, ahead)]
+        if tc["side_cameras"]:
+            for cam, sign in (("left", 1.0), ("right", -1.0)):
+                side = prepare_dataset(cfg, progress, camera=cam, data=path)
+                streams.append((side, recovery_labels(side, ahead, sign * float(tc["side_offset_m"]), 0.0, tc)))
+        for shift, yaw in tc["views"]:
+            view = prepare_dataset(cfg, progress, view=(float(shift), float(yaw)), data=path)
+            streams.append((view, recovery_labels(view, ahead, float(shift), float(yaw), tc)))
+        for stream in streams:
+            sources.append(stream)
+            codes.append(idx + offset)
+            offset += len(main)
+    return sources, np.concatenate(codes)
+
+
+def sequence_windows(codes: np.ndarray, starts: np.ndarray, length: int) -> np.ndarray:
+    """Windows (M, length) of consecutive sample codes that lie inside the sample set and inside one segment
+    (`starts`: the first code of each code's segment), starting every `length` frames from the segment's start,
+    so an epoch sees each frame about once."""
     all_codes = np.sort(codes)
-    codes = all_codes[(all_codes % n) % length == 0]
-    w = codes[:, None] + np.arange(length)
+    w = all_codes[(all_codes - starts[all_codes]) % length == 0][:, None] + np.arange(length)
     inside = np.isin(w, all_codes).all(axis=1)
-    frame = w % n
-    same = (w // n == w[:, :1] // n).all(axis=1) & (starts[frame] == starts[frame[:, :1]]).all(axis=1)
-    return w[inside & same]
+    w = w[inside]
+    return w[(starts[w] == starts[w[:, :1]]).all(axis=1)]
+
+
+def recovery_weighted(samples: np.ndarray, episodes: np.ndarray, weight: int) -> np.ndarray:
+    """Samples (codes, or windows of codes) that touch a recovery episode appear `weight` times."""
+    touch = np.isin(episodes[samples], "recover")
+    touch = touch.any(axis=1) if samples.ndim == 2 else touch
+    return np.concatenate([samples] + [samples[touch]] * (weight - 1))
 
 
 def objective(model, out: dict, targets: dict) -> torch.Tensor:
@@ -163,8 +235,10 @@ def objective(model, out: dict, targets: dict) -> torch.Tensor:
 
 
 def train_one_epoch(model, opt, batches: Batches, samples: np.ndarray, batch_size: int, flip: bool,
-                    rng: np.random.Generator, transform=None, progress: bool = True, desc: str = "") -> float:
-    """One pass over `samples`: frame codes (M,), or windows (M, T) of frame codes for recurrent models."""
+                    rng: np.random.Generator, transform=None, motion_dropout: float = 0.0, progress: bool = True,
+                    desc: str = "") -> float:
+    """One pass over `samples`: frame codes (M,), or windows (M, T) of frame codes for recurrent models.
+    Flips and motion dropout are drawn per sample (per window: a window is mirrored or still as a whole)."""
     model.train()
     order = rng.permutation(len(samples))
     total, count = 0.0, 0
@@ -172,7 +246,8 @@ def train_one_epoch(model, opt, batches: Batches, samples: np.ndarray, batch_siz
     for s in tqdm(steps, desc=desc, unit="batch", leave=False, disable=None if progress else True):
         b = samples[order[s: s + batch_size]]
         flips = np.repeat(rng.random(len(b)) < 0.5, b[0].size) if flip else None
-        inputs, targets = batches.get(b.ravel(), flips, transform)
+        still = np.repeat(rng.random(len(b)) < motion_dropout, b[0].size) if motion_dropout else None
+        inputs, targets = batches.get(b.ravel(), flips, still, transform)
         if b.ndim == 2:  # windows: (B*T, ...) -> (B, T, ...)
             inputs, targets = ({k: v.view(len(b), b.shape[1], *v.shape[1:]) for k, v in d.items()}
                                for d in (inputs, targets))
@@ -247,39 +322,44 @@ def train(cfg: dict, progress: bool = True) -> dict:
     train_idx = usable_frames(ds, train_idx, "training", min_speed, tc.get("exclude_episodes"))
     val_idx = usable_frames(ds, val_idx, "validation", min_speed)
     stats = channel_stats(ds.arrays, ds.config, train_idx, segment_starts(ds.labels["segment"]))
-    sources = [(ds, ds.steering)]
-    if tc.get("side_cameras"):
-        for cam, sign in (("left", 1.0), ("right", -1.0)):
-            side = prepare_dataset(cfg, progress, camera=cam)
-            sources.append((side, side_camera_labels(side, sign * float(tc["side_offset_m"]),
-                                                     float(tc["recovery_s"]), float(tc["steering_ratio"]))))
-        train_idx = np.concatenate([train_idx + k * len(ds) for k in range(3)])
+    sources, train_codes = training_sources(cfg, ds, train_idx, progress)
     torch.manual_seed(int(tc["seed"]))
     model_cfg = {k: v for k, v in cfg["model"].items() if k != "name"}
     model_cfg.update(in_channels=sum(ds.config.channels().values()), height=ds.config.height, width=ds.config.width)
     model = create_model(name, **model_cfg)
+    if tc.get("init"):
+        init = load_checkpoint(tc["init"])
+        if init["model"] != name or init["model_cfg"] != model_cfg:
+            raise SteerlabError(f"{tc['init']}: train.init must be a checkpoint of the same model and options "
+                                f"({name}, {model_cfg}); it holds {init['model']}, {init['model_cfg']}")
+        model.load_state_dict(init["state_dict"])
     if (getattr(model, "targets", ()) or getattr(model, "speed_history", 0)) and "speed" not in ds.labels:
         raise SteerlabError(f"model {name!r} needs a recording with speed; {ds.meta['source']} has none")
     batches = Batches(sources, stats, getattr(model, "speed_history", 0))
-    samples = train_idx
+    samples = train_codes
     if getattr(model, "recurrent", False):
         if tc["balance"]:
             raise SteerlabError("balanced sampling picks single frames; recurrent models train on sequences "
                                 "(paper 003 does not balance its LSTM either)")
-        samples = sequence_windows(train_idx, len(ds), batches.starts, model.seq_len)
+        samples = sequence_windows(train_codes, batches.starts, model.seq_len)
         if len(samples) == 0:
             raise SteerlabError(f"no training window of {model.seq_len} consecutive frames in one segment")
+    if int(tc["recovery_weight"]) > 1:
+        episodes = np.concatenate([d.labels.get("episode", np.full(len(d), "")) for d, _ in sources])
+        if not np.isin(episodes, "recover").any():
+            raise SteerlabError("recovery_weight needs recordings with recovery episodes (the synthetic world's)")
+        samples = recovery_weighted(samples, episodes, int(tc["recovery_weight"]))
     if all(p.dim() != 5 for p in model.parameters()):  # channels-last exists for 2-D convolutions only
         model = model.to(memory_format=torch.channels_last)
     convention = SteeringConvention(**ds.meta["convention"])
-    truth = {"steering": ds.steering[val_idx], **{k: v[val_idx] for k, v in batches.targets.items()}}
+    truth = {"steering": sources[0][1][val_idx], **{k: v[val_idx] for k, v in batches.targets.items()}}
 
     def checkpoint(path, metrics, **extra):
         save_checkpoint(path, model, model_cfg, ds.config, stats, convention, metrics,
                         preset=ds.meta["preset"], frame_rate=ds.meta["frame_rate"], **extra)
 
     if not getattr(model, "trainable", True):
-        model.fit(batches.steering(train_idx))
+        model.fit(batches.steering(train_codes))
         pred = predict(model, batches, val_idx)
         metrics = {**all_metrics(pred, truth), "epoch": 0}
         checkpoint(out / "best.pt", metrics)
@@ -313,7 +393,7 @@ def train(cfg: dict, progress: bool = True) -> dict:
                      if rotation or brightness else None)
         epoch_samples = balanced(samples, batches.steering(samples), rng) if tc["balance"] else samples
         loss = train_one_epoch(model, opt, batches, epoch_samples, int(tc["batch_size"]), bool(tc["flip"]), rng,
-                               transform, progress, desc=f"epoch {epoch}")
+                               transform, float(tc["motion_dropout"]), progress, desc=f"epoch {epoch}")
         pred = predict(model, batches, val_idx)
         m = all_metrics(pred, truth)
         row = _log_row(epoch, loss, m, time.time() - t0)

@@ -86,6 +86,18 @@ def flip_horizontal(x_nhwc: np.ndarray, cfg: PreprocessConfig) -> np.ndarray:
     return x
 
 
+def no_motion(x_nhwc: np.ndarray, cfg: PreprocessConfig) -> np.ndarray:
+    """The inputs as if no motion had been seen (as at a segment's first frame): difference 128, flow 0."""
+    x = x_nhwc.copy()
+    if "diff" in cfg.modalities:
+        c = _first_channel(cfg, "diff")
+        x[..., c: c + cfg.image_channels] = 128.0
+    if "flow" in cfg.modalities:
+        c = _first_channel(cfg, "flow")
+        x[..., c: c + 2] = 0.0
+    return x
+
+
 LUMA = {"gray": [0], "rgb": [0, 1, 2], "yuv": [0], "hsv": [2]}  # the channels that carry brightness
 
 

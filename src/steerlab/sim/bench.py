@@ -1,0 +1,192 @@
+"""The closed-loop benchmark suite (`steerlab sim bench`): every checkpoint drives one fixed, versioned set of
+unseen roads, and the drives are summarised per road type.
+
+The roads of a suite version never change, and their seeds (9000-9999) are refused by `sim record` and by
+DAgger's rollouts, so no model has seen them. Drives run in parallel worker processes (one torch thread
+each); a finished drive is kept in its folder and reused when the suite is run again, so an interrupted
+suite continues where it stopped.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import multiprocessing as mp
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from steerlab.errors import SteerlabError
+from steerlab.sim.world import autonomy, make_road
+
+SUITES = {
+    # 11 roads of 3 minutes: 33 minutes of driving, about 30 km
+    "v1": {"minutes": 3.0, "roads": {"country": [9101, 9102, 9103, 9104, 9105], "highway": [9201, 9202, 9203],
+                                     "twisty": [9301, 9302, 9303]}},
+}
+DRIVE_FIELDS = ["label", "checkpoint", "road_type", "seed", "minutes", "autonomy", "interventions",
+                "interventions_per_km", "mean_abs_offset_m", "max_abs_offset_m", "command_gamma_deg", "distance_km"]
+SUMMARY_FIELDS = ["label", "road_type", "drives", "minutes", "distance_km", "interventions", "autonomy",
+                  "interventions_per_km", "mean_abs_offset_m", "max_abs_offset_m", "command_gamma_deg"]
+
+_ticks = None  # in a worker: the queue through which it reports progress
+
+
+def _init_worker(queue) -> None:
+    global _ticks
+    import torch
+
+    torch.set_num_threads(1)
+    _ticks = queue
+
+
+def tick_reporter():
+    """In a worker process: the callback through which a drive reports its ticks (None elsewhere)."""
+    return _ticks.put if _ticks is not None else None
+
+
+def run_parallel(fn, jobs: list[tuple], workers: int, minutes_per_job: float, progress: bool, desc: str) -> list:
+    """`fn(*job)` for every job, in `workers` spawned processes with one torch thread each (in this process
+    when workers <= 1), with one progress bar over the ticks of all drives. Results in job order."""
+    per_job = int(round(minutes_per_job * 60 * 20))
+    results = [None] * len(jobs)
+    with tqdm(total=per_job * len(jobs), desc=desc, unit="tick", disable=None if progress else True) as bar:
+        if workers <= 1 or len(jobs) <= 1:
+            for i, job in enumerate(jobs):
+                results[i] = fn(*job)
+                bar.update(per_job)
+            return results
+        ctx = mp.get_context("spawn")  # no fork of a process that already runs torch threads
+        queue = ctx.Queue()
+        with ProcessPoolExecutor(min(workers, len(jobs)), ctx, _init_worker, (queue,)) as pool:
+            futures = {pool.submit(fn, *job): i for i, job in enumerate(jobs)}
+            pending = set(futures)
+            while pending:
+                finished, pending = wait(pending, timeout=0.5, return_when=FIRST_COMPLETED)
+                while not queue.empty():
+                    bar.update(queue.get())
+                for f in finished:
+                    results[futures[f]] = f.result()
+        bar.update(bar.total - bar.n)
+    return results
+
+
+def _drive_job(checkpoint: str, road: str, seed: int, minutes: float, out: str, smoothing: float | None) -> dict:
+    from steerlab.pilot import Pilot
+    from steerlab.sim.world import drive
+
+    return drive(Pilot(checkpoint, smoothing=smoothing), out, seed=seed, minutes=minutes, road=road,
+                 progress=False, on_tick=tick_reporter())
+
+
+def labels_for(checkpoints: list[Path]) -> list[str]:
+    """Short unique names: the run folder of `run/best.pt`, with as many parent folders as it takes."""
+    for depth in range(1, 8):
+        names = ["/".join((p.parent if p.name in ("best.pt", "last.pt") else p.with_suffix("")).parts[-depth:])
+                 for p in checkpoints]
+        if len(set(names)) == len(names):
+            return names
+    return [str(p) for p in checkpoints]
+
+
+def run_suite(checkpoints, out: str | Path, suite: str = "v1", minutes: float | None = None, workers: int = 2,
+              smoothing: float | None = None, roads: str | None = None, progress: bool = True) -> list[dict]:
+    """Drive every checkpoint on every road of the suite (or of the road types in the comma list `roads`); write `suite.csv` (one row per drive), `summary.csv`
+    and `suite.md` (per checkpoint and road type) and one trajectory plot per road in `out/roads/`.
+    Returns the summary rows."""
+    if suite not in SUITES:
+        raise SteerlabError(f"unknown suite {suite!r}; known: {', '.join(SUITES)}")
+    checkpoints = [Path(c) for c in checkpoints]
+    if not checkpoints:
+        raise SteerlabError("no checkpoint to drive: name at least one")
+    for c in checkpoints:
+        if not c.is_file():
+            raise SteerlabError(f"{c}: checkpoint not found")
+    spec = SUITES[suite]
+    minutes = float(minutes or spec["minutes"])
+    if not minutes > 0:
+        raise SteerlabError(f"minutes must be positive, got {minutes}")
+    types = list(spec["roads"]) if roads is None else [t.strip() for t in roads.split(",") if t.strip()]
+    unknown = [t for t in types if t not in spec["roads"]]
+    if unknown:
+        raise SteerlabError(f"suite {suite} has no {', '.join(unknown)} roads; it has {', '.join(spec['roads'])}")
+    roads = [(t, s) for t in types for s in spec["roads"][t]]
+    if not roads:
+        raise SteerlabError(f"no road to drive: choose road types of suite {suite} ({', '.join(spec['roads'])})")
+    out = Path(out)
+    labels = labels_for(checkpoints)
+    jobs, rows = [], {}
+    for label, ckpt in zip(labels, checkpoints):
+        for road, seed in roads:
+            folder = out / label / f"{road}-{seed}"
+            done = folder / "drive.json"
+            if done.exists() and json.loads(done.read_text())["minutes"] == minutes:
+                rows[(label, road, seed)] = json.loads(done.read_text())
+            else:
+                jobs.append((label, str(ckpt), road, seed, minutes, str(folder), smoothing))
+    results = run_parallel(_drive_job, [job[1:] for job in jobs], workers, minutes, progress, f"suite {suite}")
+    rows.update({(job[0], job[2], job[3]): r for job, r in zip(jobs, results)})
+    drives = [{**{k: rows[(label, road, seed)][k] for k in DRIVE_FIELDS[5:]}, "label": label, "checkpoint": str(ckpt),
+               "road_type": road, "seed": seed, "minutes": minutes}
+              for label, ckpt in zip(labels, checkpoints) for road, seed in roads]
+    summary = summarize(drives)
+    out.mkdir(parents=True, exist_ok=True)
+    _write_csv(out / "suite.csv", DRIVE_FIELDS, drives)
+    _write_csv(out / "summary.csv", SUMMARY_FIELDS, summary)
+    (out / "suite.md").write_text(markdown(summary, suite, minutes))
+    _plot_roads(out, drives, minutes)
+    return summary
+
+
+def summarize(drives: list[dict]) -> list[dict]:
+    """Per label and road type (and "all"): autonomy over the summed time and interventions, interventions
+    per km over the summed distance, the mean of the drives' mean |offset|, the largest |offset|, the mean
+    command gamma, and the km driven."""
+    out = []
+    for label in dict.fromkeys(d["label"] for d in drives):
+        mine = [d for d in drives if d["label"] == label]
+        for road in [*dict.fromkeys(d["road_type"] for d in mine), "all"]:
+            ds = [d for d in mine if road in ("all", d["road_type"])]
+            km = sum(d["distance_km"] for d in ds)
+            n = sum(d["interventions"] for d in ds)
+            seconds = sum(d["minutes"] * 60 for d in ds)
+            out.append({"label": label, "road_type": road, "drives": len(ds), "minutes": seconds / 60, "distance_km": km,
+                        "interventions": n, "autonomy": autonomy(n, seconds), "interventions_per_km": n / max(km, 1e-9),
+                        "mean_abs_offset_m": float(np.mean([d["mean_abs_offset_m"] for d in ds])),
+                        "max_abs_offset_m": float(max(d["max_abs_offset_m"] for d in ds)),
+                        "command_gamma_deg": float(np.mean([d["command_gamma_deg"] for d in ds]))})
+    return out
+
+
+def markdown(summary: list[dict], suite: str, minutes: float) -> str:
+    lines = [f"Closed-loop suite {suite}: {minutes:g} min per road; autonomy = (1 - interventions x 6 s / "
+             "elapsed s) x 100.", "",
+             "| checkpoint | roads | drives | km | interventions | autonomy [%] | interventions/km | "
+             "mean abs offset [m] | max abs offset [m] | command gamma [deg] |", "|---" * 10 + "|"]
+    for r in summary:
+        lines.append(f"| {r['label']} | {r['road_type']} | {r['drives']} | {r['distance_km']:.1f} | "
+                     f"{r['interventions']} | {r['autonomy']:.1f} | {r['interventions_per_km']:.2f} | "
+                     f"{r['mean_abs_offset_m']:.3f} | {r['max_abs_offset_m']:.3f} | {r['command_gamma_deg']:.3f} |")
+    return "\n".join(lines) + "\n"
+
+
+def _write_csv(path: Path, fields: list[str], rows: list[dict]) -> None:
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fields)
+        w.writeheader()
+        w.writerows([{k: r[k] for k in fields} for r in rows])
+
+
+def _plot_roads(out: Path, drives: list[dict], minutes: float) -> None:
+    """One figure per road: every checkpoint's path and lateral offset over time."""
+    from steerlab.sim.plots import plot_trajectory
+
+    (out / "roads").mkdir(exist_ok=True)
+    for road, seed in dict.fromkeys((d["road_type"], d["seed"]) for d in drives):
+        trajs = {f"{d['label']} ({d['autonomy']:.0f} %)": np.loadtxt(
+                     out / d["label"] / f"{road}-{seed}" / "trajectory.csv", delimiter=",", skiprows=1, ndmin=2)
+                 for d in drives if (d["road_type"], d["seed"]) == (road, seed)}
+        plot_trajectory(out / "roads" / f"{road}-{seed}.png", make_road(seed, road, minutes * 60), trajs,
+                        f"{road} road {seed}")

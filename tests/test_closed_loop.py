@@ -1,0 +1,222 @@
+"""The closed-loop suite, DAgger rollouts, viewpoint shifts against the renderer, and drive videos."""
+
+import csv
+import json
+
+import cv2
+import numpy as np
+import pytest
+
+from steerlab.cli import main
+from steerlab.data.geometry import CAMERAS, shift_view
+from steerlab.data.readers import open_recording
+from steerlab.data.recording import SteeringConvention
+from steerlab.errors import SteerlabError
+from steerlab.pilot import Controls
+from steerlab.sim.bench import SUITES, summarize
+from steerlab.sim.render import Renderer
+from steerlab.sim.road import LANE_CENTER, Road
+from steerlab.sim.world import World, drive, drive_metrics, record, rollout
+
+
+def frame_count(path) -> int:
+    cap = cv2.VideoCapture(str(path))
+    n = 0
+    while cap.read()[0]:
+        n += 1
+    return n
+
+
+class ConstantPilot:
+    """A stand-in for the Pilot that always steers the same (steering-wheel angle, positive left)."""
+
+    name, preset, convention = "constant", "sim", SteeringConvention("steering_wheel", "left")
+
+    def __init__(self, steering: float):
+        self.steering = steering
+
+    def step(self, frame, speed=None) -> Controls:
+        return Controls(self.steering)
+
+    def reset(self) -> None:
+        pass
+
+
+def test_drive_metrics_hand_computed():
+    # one minute at 20 Hz and 20 m/s: 1.2 km; two interventions
+    n, dt = 1200, 0.05
+    offset = np.full(n, 0.3)
+    offset[::2] = -0.3
+    offset[100] = 0.9
+    command = np.where(np.arange(n) % 2 == 0, 0.01, -0.01)  # successive differences +-0.02 rad
+    m = drive_metrics(offset, command, np.full(n, 20.0), dt, interventions=2)
+    assert m["autonomy"] == pytest.approx((1 - 2 * 6 / 60) * 100)  # 80 %
+    assert m["distance_km"] == pytest.approx(1.2)
+    assert m["interventions_per_km"] == pytest.approx(2 / 1.2)
+    assert m["mean_abs_offset_m"] == pytest.approx((1199 * 0.3 + 0.9) / 1200)
+    assert m["max_abs_offset_m"] == pytest.approx(0.9)
+    assert m["command_gamma_deg"] == pytest.approx(np.degrees(0.02))
+    # a road type's autonomy counts the interventions over the summed time of its drives
+    drives = [{"label": "a", "road_type": "twisty", "minutes": 1.0, **m},
+              {"label": "a", "road_type": "twisty", "minutes": 1.0, **{**m, "interventions": 0}}]
+    twisty, overall = summarize(drives)
+    assert twisty["autonomy"] == pytest.approx(90.0) and twisty["distance_km"] == pytest.approx(2.4)
+    assert twisty["interventions_per_km"] == pytest.approx(2 / 2.4) and overall["road_type"] == "all"
+
+
+def test_suite_roads_are_never_recorded(tmp_path):
+    seeds = [s for seeds in SUITES["v1"]["roads"].values() for s in seeds]
+    assert len(seeds) == 11 and len(SUITES["v1"]["roads"]["twisty"]) >= 3
+    with pytest.raises(SteerlabError, match="reserved for the closed-loop benchmark"):
+        record(tmp_path / "r", seed=seeds[0], minutes=0.01, progress=False)
+
+
+def test_suite_on_the_command_line(tiny_checkpoint, tmp_path, capsys):
+    out = tmp_path / "bench"
+    assert main(["sim", "bench", str(tiny_checkpoint), "--minutes", "0.02", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "| run | twisty | 3 |" in printed and "| run | all | 11 |" in printed
+    with open(out / "suite.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 11 and {"road_type", "seed", "minutes", "autonomy", "interventions"} <= set(rows[0])
+    assert sorted({r["road_type"] for r in rows}) == ["country", "highway", "twisty"]
+    assert len(list((out / "roads").glob("*.png"))) == 11
+    # a second run reuses the finished drives
+    drive_json = out / "run" / "country-9101" / "drive.json"
+    stamp = drive_json.stat().st_mtime_ns
+    assert main(["sim", "bench", str(tiny_checkpoint), "--minutes", "0.02", "--out", str(out),
+                 "--roads", "country"]) == 0
+    assert drive_json.stat().st_mtime_ns == stamp
+    assert "| run | highway |" not in capsys.readouterr().out
+
+
+def test_suite_bad_input(tiny_checkpoint, tmp_path, capsys):
+    assert main(["sim", "bench", str(tmp_path / "missing.pt")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "missing.pt: checkpoint not found" in err
+    assert main(["sim", "bench", str(tiny_checkpoint), "--roads", ""]) == 2
+    assert "no road to drive" in capsys.readouterr().err
+
+
+def test_rollout_labels_are_the_experts(tmp_path):
+    """A pilot that always steers left drifts off; every frame it visits is labelled with what the expert
+    would steer in that state, which an independent replay of the same world reproduces."""
+    pilot = ConstantPilot(0.15)
+    out = rollout(pilot, tmp_path / "r", seed=21, minutes=0.25, road="country", beta=0.0, progress=False)
+    rec = open_recording(tmp_path / "r")
+    assert len(rec) == 300 and rec.cameras == ["center", "left", "right"] and out["interventions"] > 0
+    world = World(21, "country", "sim", 300 / 20)
+    ratio = world.params.steering_ratio
+    labels, resets = [], 0
+    for _ in range(300):
+        offset, _ = world.observe()
+        if abs(offset) > 1.0:
+            world.put_back()
+            resets += 1
+        labels.append(world.expert_steering() * ratio)  # steering-wheel angle, positive left
+        world.step(0.15 / ratio)
+    np.testing.assert_allclose(rec.steering, labels, atol=1e-5)
+    assert resets == out["interventions"]
+    drifted = np.abs(rec.extra["lateral_offset"]) > 0.5
+    assert drifted.any() and (rec.steering[drifted] < 0).all()  # steering back to the right
+    assert set(rec.extra["episode"]) == {"rollout"}
+
+
+def test_dagger_aggregates_rollouts(tiny_recording, tmp_path):
+    from steerlab.sim.dagger import run_dagger
+    from steerlab.train.config import load_config
+    from steerlab.train.loop import Batches, training_sources, prepare_dataset
+
+    cfg = load_config(None, base={
+        "data": str(tiny_recording), "cache": str(tmp_path / "cache"), "out": str(tmp_path / "dagger"),
+        "split": {"train": "0:240", "val": "240:300"}, "model": {"name": "pilotnet", "dropout": 0.0},
+        "train": {"epochs": 1, "batch_size": 32, "side_cameras": True},
+        "dagger": {"iterations": 1, "minutes": 0.1, "roads": "country,twisty", "epochs": 1, "suite_minutes": 0.01,
+                   "workers": 1}})
+    final = run_dagger(cfg, progress=False)
+    assert final.exists()
+    with open(tmp_path / "dagger" / "dagger.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert [r["round"] for r in rows] == ["0", "1"] and rows[1]["recordings"] == "3"
+    assert float(rows[1]["beta"]) == 0.5 and rows[1]["autonomy_twisty"] != ""
+    assert (tmp_path / "dagger" / "dagger.png").exists()
+    round1 = json.loads((tmp_path / "dagger" / "round1" / "config.json").read_text())
+    assert round1["train"]["init"].endswith("round0/best.pt") and len(round1["extra_data"]) == 2
+    # round 1 trains on the main recording's training frames and every rollout frame, with their side cameras
+    ds = prepare_dataset(round1, progress=False)
+    sources, codes = training_sources(round1, ds, np.arange(240), progress=False)
+    rollouts = [open_recording(p) for p in round1["extra_data"]]
+    assert len(sources) == 9 and len(codes) == 3 * (240 + sum(len(r) for r in rollouts))
+    batches = Batches(sources, {"mean": [0.0], "std": [1.0]})
+    first_rollout = batches.offsets[3]
+    np.testing.assert_allclose(batches.steering(np.array([first_rollout])), rollouts[0].steering[:1])
+
+
+@pytest.mark.parametrize("preset", ["sim", "ch2"])
+def test_viewpoint_shift_matches_the_renderer(preset):
+    """A frame rendered with the car moved sideways (and turned) and the centre frame warped by the same
+    amount agree on the road; the unwarped frame does not."""
+    road = Road(3, "country", 3000)
+    r = Renderer(road, preset)
+    x, y, psi = road.pose(300.0, LANE_CENTER)
+    centre = r.render(x, y, psi, 300.0)
+    rows = slice(int(r.horizon) + r.cam.height // 7, r.cam.height)  # the road, below the far haze
+    gray = lambda img: cv2.cvtColor(img, cv2.COLOR_BGR2GRAY).astype(int)[rows]  # noqa: E731
+    for shift, yaw in [(0.5, 0.0), (-0.8, 0.0), (0.4, 3.0)]:
+        truth = r.render(x, y, psi + np.radians(yaw), 300.0, shift=shift)
+        warped = shift_view(centre, CAMERAS[preset], shift, yaw)
+        moved = np.abs(gray(truth) - gray(centre)) > 40  # markings and verges that moved
+        agree = np.abs(gray(truth) - gray(warped)) <= 40
+        assert moved.mean() > 0.05
+        assert agree.mean() > 0.97 and agree[moved].mean() > 0.85
+
+
+def test_viewpoint_shift_identity_and_frame_size():
+    img = np.random.default_rng(0).integers(0, 255, (160, 320, 3), np.uint8)
+    np.testing.assert_array_equal(shift_view(img, CAMERAS["sim"], 0.0, 0.0), img)
+    with pytest.raises(SteerlabError, match="does not fit"):
+        shift_view(img, CAMERAS["ch2"], 0.5)
+
+
+def test_viewpoint_views_on_ch2_layout(ch2_folder, tmp_path):
+    """Centre-only recordings without speed (like CH2) get virtual views once a return distance is set."""
+    from steerlab.train import loop
+    from steerlab.train.config import load_config
+
+    cfg = load_config(None, base={"data": str(ch2_folder), "labels": str(ch2_folder / "labels.csv"),
+                                  "cache": str(tmp_path / "cache"), "out": str(tmp_path / "run"),
+                                  "split": {"train": "0:4", "val": "4:6"},
+                                  "train": {"epochs": 1, "batch_size": 4, "views": [[0.5, 0.0], [-0.5, 2.0]]}})
+    with pytest.raises(SteerlabError, match="recovery_distance_m"):
+        loop.train(cfg, progress=False)
+    cfg["train"]["recovery_distance_m"] = 20.0
+    ds = loop.prepare_dataset(cfg, progress=False)
+    sources, codes = loop.training_sources(cfg, ds, np.arange(4), progress=False)
+    assert len(sources) == 3 and len(codes) == 12
+    # 0.5 m to the right: steer left by arctan(0.5 / 20 m); turned 2 deg left: steer 2 deg right; x 14.8 at the
+    # steering wheel
+    np.testing.assert_allclose(sources[2][1], ds.steering + 14.8 * (np.arctan(0.5 / 20.0) - np.radians(2.0)))
+    assert sources[1][0].arrays["image"].shape == (6, 66, 200, 1)
+
+
+def test_drive_and_evaluate_videos(tiny_checkpoint, tiny_recording, tmp_path):
+    from steerlab.evaluate.offline import evaluate
+    from steerlab.pilot import Pilot
+
+    r = drive(Pilot(tiny_checkpoint), tmp_path / "d", seed=101, minutes=0.05, video=tmp_path / "d.mp4",
+              progress=False)
+    assert frame_count(tmp_path / "d.mp4") == 60 and r["distance_km"] > 0
+    evaluate(tiny_checkpoint, tiny_recording, "0:40", tmp_path / "e", video=tmp_path / "e.mp4", progress=False)
+    assert frame_count(tmp_path / "e.mp4") == 40
+    first = cv2.VideoCapture(str(tmp_path / "e.mp4")).read()[1]
+    assert first.shape[1] == 640 and first.shape[0] > 320  # the camera view with the wheels below it
+
+
+def test_preset_mismatch_warns(tiny_checkpoint, ch2_folder, tmp_path, capsys):
+    from steerlab.evaluate.offline import evaluate
+    from steerlab.pilot import Pilot
+
+    drive(Pilot(tiny_checkpoint), None, seed=101, minutes=0.01, camera="ch2", progress=False)
+    assert "trained on the 'sim' camera geometry" in capsys.readouterr().err
+    evaluate(tiny_checkpoint, ch2_folder, None, tmp_path / "e", labels=ch2_folder / "labels.csv", progress=False)
+    assert "has the 'ch2' geometry" in capsys.readouterr().err
