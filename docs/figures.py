@@ -1,16 +1,22 @@
-"""Regenerate the figures of docs/ARCHITECTURE.md: a preprocessed synthetic frame next to a preprocessed real
-frame for each camera geometry (needs ../shared/data).
+"""Regenerate the figures of the docs.
 
-python docs/figures.py
+python docs/figures.py                     # docs/ARCHITECTURE.md: a preprocessed synthetic frame next to a
+                                           # preprocessed real frame per camera geometry (needs ../shared/data)
+python docs/figures.py open-vs-closed runs/experiment-synthetic runs/experiment-recipe
+                                           # docs/RESULTS.md: validation RMSE vs autonomy, before and after
 """
 
+import csv
+import sys
 from pathlib import Path
 
 import cv2
 import numpy as np
 
+from steerlab.data.geometry import camera, shift_view
 from steerlab.data.preprocess import PreprocessConfig, crop_resize
 from steerlab.data.readers import open_recording
+from steerlab.evaluate.plots import plot_open_vs_closed
 from steerlab.sim.render import Renderer
 from steerlab.sim.road import LANE_CENTER, Road
 
@@ -27,12 +33,36 @@ def side_by_side(real_bgr, preset: str, out: Path) -> None:
     cv2.imwrite(str(out), np.hstack([pair[0], np.full((132, 8, 3), 255, np.uint8), pair[1]]))
 
 
+def views(real_bgr, out: Path) -> None:
+    """A real CH2 frame seen from 0.5 m left, as recorded, 0.5 m right and turned 3 degrees left (preprocessed)."""
+    cfg = PreprocessConfig.from_dict({"preset": "ch2"})
+    cam = camera("ch2")
+    frames = [shift_view(real_bgr, cam, 0.5, 0.0), real_bgr, shift_view(real_bgr, cam, -0.5, 0.0),
+              shift_view(real_bgr, cam, 0.0, 3.0)]
+    tiles = [cv2.resize(crop_resize(f, cfg), (300, 99), interpolation=cv2.INTER_AREA) for f in frames]
+    gap = np.full((99, 6, 3), 255, np.uint8)
+    cv2.imwrite(str(out), np.hstack([tiles[0], gap, tiles[1], gap, tiles[2], gap, tiles[3]]))
+
+
 def main() -> None:
     ch2 = open_recording(DATA / "udacity-ch2", "0:2400", DATA / "udacity-ch2" / "CH2_final_evaluation.csv")
     side_by_side(ch2.load_frame(1000), "ch2", HERE / "img" / "geometry_ch2.png")
+    views(ch2.load_frame(1000), HERE / "img" / "views_ch2.png")
     sim = open_recording(DATA / "udacity-sim-track1")
     side_by_side(sim.load_frame(300), "sim", HERE / "img" / "geometry_sim.png")
 
 
+def open_vs_closed(before: str, after: str) -> None:
+    """The trained models of two experiments (before and after the closed-loop recipe), ablations left out."""
+    tables = {}
+    for name, folder in (("before: one country road, no recovery data", before), ("after: the recipe", after)):
+        with open(Path(folder) / "table.csv") as f:
+            tables[name] = [r for r in csv.DictReader(f) if float(r["epoch_mean"]) > 0 and r["label"] == r["model"]]
+    plot_open_vs_closed(HERE / "img" / "open_vs_closed.png", tables)
+
+
 if __name__ == "__main__":
-    main()
+    if sys.argv[1:2] == ["open-vs-closed"]:
+        open_vs_closed(*sys.argv[2:4])
+    else:
+        main()

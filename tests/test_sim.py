@@ -118,11 +118,23 @@ def test_bad_inputs_give_clear_errors(tmp_path, capsys):
     assert "checkpoint not found" in capsys.readouterr().err
 
 
-def test_tiny_demo_end_to_end(tmp_path):
-    from steerlab.demo import run_demo
+def test_tiny_demo_end_to_end(tmp_path, capsys):
+    out = tmp_path / "demo"
+    assert main(["demo", "--out", str(out), "--minutes", "0.3", "--epochs", "1", "--suite-minutes", "0.05"]) == 0
+    printed = capsys.readouterr().out
+    assert "| pilotnet | twisty | 3 |" in printed and "report:" in printed  # the suite's table, at the end
+    text = (out / "report.md").read_text()
+    assert "Open loop" in text and "| pilotnet | all | 11 |" in text
+    assert len(list((out / "closed-loop" / "roads").glob("*.png"))) == 11
 
-    report = run_demo(tmp_path / "demo", minutes=0.3, epochs=1, drive_seeds=[101], drive_minutes=0.1, progress=False)
-    text = report.read_text()
-    assert "| 101 | 0.1 |" in text and "Open loop" in text
-    assert (tmp_path / "demo" / "closed-loop-seed101" / "path.png").exists()
-    assert (tmp_path / "demo" / "closed-loop-seed101" / "trajectory.csv").exists()
+
+def test_mixed_recording_interleaves_one_road_per_type(tmp_path):
+    out = record(tmp_path / "m", seed=3, minutes=0.06, road="country,twisty,twisty", chunk_minutes=0.01,
+                 side_cameras=False, progress=False)
+    rec = open_recording(out)
+    assert rec.segments() == [(k, k + 12) for k in range(0, 72, 12)]  # chunks of 12 frames, each a segment
+    speed = [rec.speed[a:b] for a, b in rec.segments()]  # country starts at 19 m/s, twisty at 13 m/s
+    assert speed[0].mean() > 16 > speed[1].mean() and speed[2].mean() < 16 and speed[3].mean() > 16
+    assert abs(speed[2][0] - speed[1][-1]) < 0.1  # the second twisty chunk continues the first one's drive
+    with pytest.raises(SteerlabError, match="unknown road preset"):
+        record(tmp_path / "x", road="country,mountain", minutes=0.01, progress=False)

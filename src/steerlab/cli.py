@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 from pathlib import Path
 
 from steerlab.errors import SteerlabError
@@ -104,9 +105,11 @@ def cmd_sim_drive(a) -> None:
 def cmd_sim_bench(a) -> None:
     from steerlab.sim.bench import run_suite
 
+    start = time.perf_counter()
     run_suite(a.checkpoints, a.out, a.suite, a.minutes, a.workers, a.smoothing, a.roads)
     print((Path(a.out) / "suite.md").read_text())
-    print(f"wrote {a.out}/suite.md, suite.csv (one row per drive), summary.csv, roads/*.png")
+    print(f"wrote {a.out}/suite.md, suite.csv (one row per drive), summary.csv, roads/*.png "
+          f"in {time.perf_counter() - start:.0f} s")
 
 
 def cmd_sim_dagger(a) -> None:
@@ -122,9 +125,9 @@ def cmd_sim_dagger(a) -> None:
 def cmd_demo(a) -> None:
     from steerlab.demo import run_demo
 
-    report = run_demo(a.out, minutes=a.minutes, epochs=a.epochs, drive_seeds=a.drive_seeds,
-                      drive_minutes=a.drive_minutes)
-    print(f"\nreport: {report}")
+    report = run_demo(a.out, minutes=a.minutes, epochs=a.epochs, suite_minutes=a.suite_minutes, workers=a.workers)
+    print("\n" + (Path(a.out) / "closed-loop" / "suite.md").read_text())
+    print(f"report: {report}")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -218,10 +221,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     q = sub.add_parser("demo", help="the whole pipeline on synthetic data: record, train, evaluate, drive, report")
     q.add_argument("--out", default="runs/demo")
-    q.add_argument("--minutes", type=float, default=8.0, help="minutes of expert driving to train on")
+    q.add_argument("--minutes", type=float, default=8.0, help="minutes of expert driving on mixed roads to train on")
     q.add_argument("--epochs", type=int, default=12)
-    q.add_argument("--drive-seeds", type=int, nargs="+", default=[101, 102, 103, 104, 105])
-    q.add_argument("--drive-minutes", type=float, default=1.5)
+    q.add_argument("--suite-minutes", type=float, default=1.0, help="minutes on each road of the closed-loop suite")
+    q.add_argument("--workers", type=int, default=2, help="roads driven in parallel")
     q.set_defaults(func=cmd_demo)
     return p
 

@@ -87,8 +87,13 @@ def flip_horizontal(x_nhwc: np.ndarray, cfg: PreprocessConfig) -> np.ndarray:
 
 
 def no_motion(x_nhwc: np.ndarray, cfg: PreprocessConfig) -> np.ndarray:
-    """The inputs as if no motion had been seen (as at a segment's first frame): difference 128, flow 0."""
+    """The inputs as if no motion had been seen (as at a segment's first frame): difference 128, flow 0, and
+    every frame of a stack replaced by the newest."""
     x = x_nhwc.copy()
+    if cfg.stack > 1:
+        c, first = cfg.image_channels, _first_channel(cfg, "image")
+        newest = x[..., first + (cfg.stack - 1) * c: first + cfg.stack * c]
+        x[..., first: first + cfg.stack * c] = np.tile(newest, cfg.stack)
     if "diff" in cfg.modalities:
         c = _first_channel(cfg, "diff")
         x[..., c: c + cfg.image_channels] = 128.0

@@ -175,17 +175,16 @@ def record(out: str | Path, seed: int = 0, minutes: float = 1.0, road: str = "co
     n = _frames(minutes, fps)
     types = road_types(road)
     chunk = n if len(types) == 1 else _frames(chunk_minutes, fps)
-    per_type = -(-n // len(types))
-    seconds = (per_type + (chunk if len(types) > 1 else 0)) / fps
-    worlds = {t: World(seed, t, camera, seconds, fps) for t in types}
+    schedule = [types[(i // chunk) % len(types)] for i in range(n)]  # a type may be listed twice for a larger share
+    worlds = {t: World(seed, t, camera, (schedule.count(t) + chunk) / fps, fps) for t in dict.fromkeys(types)}
     drivers = {t: ExpertDriver(w.road, seed, w.params, w.dt, drift_every_s=25.0 if drift else None)
                for t, w in worlds.items()}
-    clocks = dict.fromkeys(types, 0)
+    clocks = dict.fromkeys(worlds, 0)
     cams = {"center": 0.0, **({"left": SIDE_OFFSET, "right": -SIDE_OFFSET} if side_cameras else {})}
     writer = RecordingWriter(out, list(cams), layout)
     ts = 0
     for i in tqdm(range(n), desc=f"record seed {seed}", unit="frame", disable=None if progress else True):
-        kind = types[(i // chunk) % len(types)]
+        kind = schedule[i]
         if i and i % chunk == 0:
             ts += CHUNK_GAP_NS  # a new chunk is a new segment
         world, driver = worlds[kind], drivers[kind]

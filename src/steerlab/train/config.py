@@ -32,7 +32,7 @@ DEFAULTS = {
         "balance": False,     # thin out straight driving, redrawn every epoch (paper 003)
         "rotation_deg": 0.0,  # augmentation (paper 002 IV-B1): random rotation within +-rotation_deg,
         "brightness": 0.0,    # and brightness scaled by a random factor within 1 +- brightness
-        "motion_dropout": 0.0,  # fraction of samples whose difference / flow inputs show no motion
+        "motion_dropout": 0.0,  # fraction of samples shown "no motion seen" (difference, flow, stacked frames)
         "target_shift_s": 0.0,  # train on the steering this many seconds ahead
         "recovery_weight": 1,   # samples in recovery episodes are drawn this many times per epoch
         "init": None,           # start from the weights of this checkpoint (same model and options)
