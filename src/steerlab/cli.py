@@ -222,7 +222,7 @@ def build_parser() -> argparse.ArgumentParser:
     q = sub.add_parser("demo", help="the whole pipeline on synthetic data: record, train, evaluate, drive, report")
     q.add_argument("--out", default="runs/demo")
     q.add_argument("--minutes", type=float, default=8.0, help="minutes of expert driving on mixed roads to train on")
-    q.add_argument("--epochs", type=int, default=12)
+    q.add_argument("--epochs", type=int, default=5)
     q.add_argument("--suite-minutes", type=float, default=1.0, help="minutes on each road of the closed-loop suite")
     q.add_argument("--workers", type=int, default=2, help="roads driven in parallel")
     q.set_defaults(func=cmd_demo)

@@ -14,6 +14,7 @@ from steerlab.train.config import load_config
 from steerlab.train.loop import train
 
 TRAIN_SEED = 1
+ROADS = "country,twisty,highway,twisty"  # the recipe of configs/experiment_recipe.yaml: half the time on tight curves
 
 
 def run_demo(out: str | Path, minutes: float, epochs: int, suite_minutes: float, workers: int = 2,
@@ -24,7 +25,7 @@ def run_demo(out: str | Path, minutes: float, epochs: int, suite_minutes: float,
     rec_dir = out / "recording"
     if not (rec_dir / "recording.json").exists():
         print(f"[1/4] recording {minutes} min of expert driving on mixed roads (road seed {TRAIN_SEED})")
-        record(rec_dir, seed=TRAIN_SEED, minutes=minutes, road="mixed", progress=progress)
+        record(rec_dir, seed=TRAIN_SEED, minutes=minutes, road=ROADS, progress=progress)
     n = int(round(minutes * 60 * 20))
     split = int(n * 0.8)
     cfg = load_config(None, base={
@@ -32,7 +33,7 @@ def run_demo(out: str | Path, minutes: float, epochs: int, suite_minutes: float,
         "preprocess": {"preset": "sim", "color": "gray"},
         "split": {"train": f"0:{split}", "val": f"{split}:{n}"},
         "model": {"name": "pilotnet", "dropout": 0.3},
-        "train": {"epochs": epochs, "patience": 4, "lr": 3e-4, "flip": True, "exclude_episodes": ["drift-out"],
+        "train": {"epochs": epochs, "patience": 3, "batch_size": 64, "lr": 3e-4, "flip": True, "exclude_episodes": ["drift-out"],
                   "side_cameras": True},
     })
     ckpt = Path(cfg["out"]) / "best.pt"
