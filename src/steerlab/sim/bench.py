@@ -93,8 +93,9 @@ def labels_for(checkpoints: list[Path]) -> list[str]:
 
 def run_suite(checkpoints, out: str | Path, suite: str = "v1", minutes: float | None = None, workers: int = 2,
               smoothing: float | None = None, roads: str | None = None, progress: bool = True) -> list[dict]:
-    """Drive every checkpoint on every road of the suite (or of the road types in the comma list `roads`); write `suite.csv` (one row per drive), `summary.csv`
-    and `suite.md` (per checkpoint and road type) and one trajectory plot per road in `out/roads/`.
+    """Drive every checkpoint on every road of the suite (or of the road types in the comma list `roads`);
+    write `suite.csv` (one row per drive), `summary.csv` and `suite.md` (per checkpoint and road type) and
+    one trajectory plot per road in `out/roads/`.
     Returns the summary rows."""
     if suite not in SUITES:
         raise SteerlabError(f"unknown suite {suite!r}; known: {', '.join(SUITES)}")
