@@ -81,9 +81,9 @@ models:
     import csv
     rows = list(csv.DictReader(open(tmp_path / "exp" / "table.csv")))
     assert rows[0]["seeds"] == "2" and float(rows[0]["mse_std"]) == 0.0  # zero predicts the same every seed
-    for seed_rows in rows:  # the worst seed per road type is the lower of the two seeds' suites
-        folder = tmp_path / "exp" / seed_rows["label"]
+    for row in rows:  # the worst seed per road type is the lower of the two seeds' suites
+        folder = tmp_path / "exp" / row["label"]
         twisty = [next(float(r["autonomy"]) for r in csv.DictReader(open(folder / f"seed{s}" / "suite" / "summary.csv"))
                        if r["road_type"] == "twisty") for s in (0, 1)]
-        assert float(seed_rows["autonomy_twisty_min"]) == pytest.approx(min(twisty))
+        assert float(row["autonomy_twisty_min"]) == pytest.approx(min(twisty))
     assert float(rows[0]["smoothed_rmse_mean"]) == pytest.approx(float(rows[0]["rmse_mean"]))  # smoothing 0 is 0
