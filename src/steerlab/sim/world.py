@@ -87,12 +87,14 @@ class World:
         self.car.state = start_state(self.road, self.s, self.car.state.v)
         self.observe()
 
-    def intervene(self, limit_m: float) -> bool:
-        """Put the car back (an intervention) if it is more than `limit_m` off the lane centre; whether it was."""
-        off = abs(self.observe()[0]) > limit_m
-        if off:
-            self.put_back()
-        return off
+    def intervene(self, limit_m: float) -> tuple[bool, float, float]:
+        """Put the car back (an intervention) if it is more than `limit_m` off the lane centre. Returns whether
+        it did and the car's (offset, heading error) after it, as `observe`."""
+        offset, heading = self.observe()
+        if abs(offset) <= limit_m:
+            return False, offset, heading
+        self.put_back()
+        return (True, *self.observe())
 
     def render(self, shift: float = 0.0) -> np.ndarray:
         st = self.car.state
@@ -251,10 +253,10 @@ def drive(pilot, out: str | Path | None, seed: int = 100, minutes: float = 1.0, 
     interventions, traj, strip = 0, [], []
     movie = DriveVideo(video, fps) if video else None
     for i in tqdm(range(n), desc=f"drive {road} {seed}", unit="tick", disable=None if progress else True):
-        if world.intervene(limit_m):
+        put_back, offset, _ = world.intervene(limit_m)
+        if put_back:
             interventions += 1
             pilot.reset()
-        offset, _ = world.observe()
         frame = world.render()
         if out is not None and i % int(fps * 5) == 0 and len(strip) < 12:
             strip.append(frame)
@@ -305,10 +307,10 @@ def rollout(pilot, out: str | Path, seed: int, minutes: float, road: str = "coun
     writer = RecordingWriter(out, list(cams))
     interventions, offsets, commands, speeds = 0, [], [], []
     for i in tqdm(range(n), desc=f"rollout {road} {seed}", unit="tick", disable=None if progress else True):
-        if world.intervene(limit_m):
+        put_back, offset, heading = world.intervene(limit_m)
+        if put_back:
             interventions += 1
             pilot.reset()
-        offset, heading = world.observe()
         frames = {c: world.render(shift) for c, shift in cams.items()}
         expert = world.expert_steering()
         model = pilot.convention.to_road_wheel_left(pilot.step(frames["center"], world.state.v).steering, ratio)
