@@ -1,13 +1,19 @@
-"""Streaming latency per frame, end to end from the JPEG bytes of a real CH2 frame (decode, crop, resize,
-flow when the model takes it, model, smoothing), for every registered model (untrained weights: the cost
-does not depend on them).
+"""Streaming latency per frame on PyTorch and on ONNX Runtime, for every registered model (untrained weights:
+the cost does not depend on them), over 200 real CH2 frames.
+
+Per model and runtime: the whole pilot end to end from the JPEG bytes (decode, crop, resize, flow when the
+model takes it, model, smoothing) and the model's own time (JPEG decode and preprocessing excluded), plus the
+largest steering difference between the two runtimes on the same frames.
 
 python benchmarks/bench_pilot.py
-Target: the multimodal-lstm pilot at >= 5 x 23 = 115 frames/s (paper 000 reports 23 frames/s for its
-Farneback flow alone).
+Targets: the multimodal-lstm pilot at >= 5 x 23 = 115 frames/s (paper 000 reports 23 frames/s for its
+Farneback flow alone); ONNX Runtime's model time >= 1.5x faster than torch's for pilotnet, the whole pilot
+faster for every model, steering equal to 1e-4 rad.
 """
 
+import tempfile
 import time
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -15,34 +21,55 @@ import torch
 
 from _common import CH2, machine, need_ch2
 
+from steerlab.checkpoint import save_checkpoint
 from steerlab.data.preprocess import PreprocessConfig
 from steerlab.data.readers import open_recording
 from steerlab.data.recording import SteeringConvention
+from steerlab.export import export_onnx
 from steerlab.models import create_model, list_models
 from steerlab.pilot import Pilot
 from steerlab.train.loop import model_preprocess
 
-FRAMES = 300
+FRAMES, WARMUP = 200, 20
 
 
-def checkpoint(name: str, flow: str) -> dict:
+def checkpoint(folder: Path, name: str, flow: str) -> Path:
     cfg = PreprocessConfig.from_dict(model_preprocess(name, {"preset": "ch2", "flow": flow}))
     c = sum(cfg.channels().values())
     model_cfg = {"in_channels": c, "height": cfg.height, "width": cfg.width}
-    model = create_model(name, **model_cfg)
-    return {"format": "steerlab-checkpoint-1", "model": name, "model_cfg": model_cfg,
-            "state_dict": model.state_dict(), "preprocess": cfg.as_dict(),
-            "stats": {"mean": [0.0] * c, "std": [1.0] * c}, "convention": SteeringConvention().as_dict()}
+    path = folder / f"{name}-{flow}.pt"
+    save_checkpoint(path, create_model(name, **model_cfg), model_cfg, cfg, {"mean": [0.0] * c, "std": [1.0] * c},
+                    SteeringConvention(), {}, preset="ch2")
+    return path
 
 
-def run(name: str, jpegs: list[np.ndarray], flow: str = "farneback") -> np.ndarray:
-    pilot = Pilot(checkpoint(name, flow), smoothing=0.2)
-    times = []
+class Timed:
+    """Wraps a pilot's model and records the time of every call."""
+
+    def __init__(self, net):
+        self.net, self.ms = net, []
+
+    def __call__(self, *args):
+        t = time.perf_counter()
+        out = self.net(*args)
+        self.ms.append((time.perf_counter() - t) * 1000)
+        return out
+
+    def reset(self):
+        self.net.reset()
+
+
+def run(model_file: Path, jpegs: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(whole-pilot ms, model ms, steering) per frame after the warm-up."""
+    pilot = Pilot(model_file, smoothing=0.2)
+    pilot.net = timed = Timed(pilot.net)
+    times, steering = [], []
     for data in jpegs:
         t = time.perf_counter()
-        pilot.step(cv2.imdecode(data, cv2.IMREAD_COLOR), speed=10.0)  # speed: used by multitask-speed only
+        c = pilot.step(cv2.imdecode(data, cv2.IMREAD_COLOR), speed=10.0)  # speed: used by multitask-speed only
         times.append(time.perf_counter() - t)
-    return np.array(times[20:]) * 1000  # skip warm-up
+        steering.append(c.steering)
+    return np.array(times[WARMUP:]) * 1000, np.array(timed.ms[WARMUP:]), np.array(steering)
 
 
 def main() -> None:
@@ -50,15 +77,30 @@ def main() -> None:
     torch.set_num_threads(2)
     rec = open_recording(CH2, f"0:{FRAMES}", CH2 / "CH2_final_evaluation.csv")
     jpegs = [np.fromfile(p, np.uint8) for p in rec.frames["center"]]
-    print(f"machine: {machine()}; {FRAMES} CH2 frames 640x480, JPEG decode included, smoothing a=0.2")
-    print(f"{'model':<18} {'p50 ms':>7} {'p99 ms':>7} {'frames/s':>9}")
+    print(f"machine: {machine()}; {FRAMES} CH2 frames 640x480, JPEG decode included in 'pilot', smoothing a=0.2")
+    print(f"{'model':<18} {'torch pilot p50/p99 ms':>22} {'frames/s':>8} {'onnx pilot p50/p99 ms':>22} "
+          f"{'frames/s':>8} {'model ms torch/onnx':>20} {'x faster':>8} {'max |diff| rad':>14}")
     rows = [(n, "farneback") for n in list_models()] + [("multimodal-lstm", "dis")]
-    for name, flow in rows:
-        ms = run(name, jpegs, flow)
-        label = name + (" (DIS)" if flow == "dis" else "")
-        print(f"{label:<18} {np.percentile(ms, 50):7.2f} {np.percentile(ms, 99):7.2f} {1000 / ms.mean():9.1f}")
-    ms = run("multimodal-lstm", jpegs)
-    print(f"multimodal-lstm: x{1000 / ms.mean() / 23:.2f} the 23 frames/s of paper 000's flow alone (target x5)")
+    results = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for name, flow in rows:
+            pt = checkpoint(Path(tmp), name, flow)
+            onnx = export_onnx(pt, Path(tmp) / f"{name}-{flow}.onnx")
+            (tp, tm, ts), (op, om, os_) = run(pt, jpegs), run(onnx, jpegs)
+            label = name + (" (DIS)" if flow == "dis" else "")
+            results[label] = (tp, op, tm, om)
+            print(f"{label:<18} {np.percentile(tp, 50):10.2f} / {np.percentile(tp, 99):6.2f}     "
+                  f"{1000 / tp.mean():8.1f} {np.percentile(op, 50):10.2f} / {np.percentile(op, 99):6.2f}     "
+                  f"{1000 / op.mean():8.1f} {np.median(tm):9.3f} / {np.median(om):7.3f}  "
+                  f"{np.median(tm) / np.median(om):8.2f} {np.abs(ts - os_).max():14.2e}")
+    tp, op, tm, om = results["pilotnet"]
+    print(f"pilotnet model time: ONNX Runtime x{np.median(tm) / np.median(om):.2f} faster than torch (target x1.5)")
+    slower = [k for k, (tp, op, _, _) in results.items() if np.median(op) >= np.median(tp)]
+    print(f"whole pilot on ONNX Runtime faster for {len(results) - len(slower)} of {len(results)} models"
+          + (f"; not for {', '.join(slower)}" if slower else ""))
+    tp = results["multimodal-lstm"][0]
+    print(f"multimodal-lstm (torch): x{1000 / tp.mean() / 23:.2f} the 23 frames/s of paper 000's flow alone "
+          "(target x5)")
 
 
 if __name__ == "__main__":

@@ -1,7 +1,8 @@
 """Regenerate the figures of the docs.
 
 python docs/figures.py                     # docs/ARCHITECTURE.md: a preprocessed synthetic frame next to a
-                                           # preprocessed real frame per camera geometry (needs ../shared/data)
+                                           # preprocessed real frame per camera geometry, the donkeycar crop
+                                           # (needs ../shared/data)
 python docs/figures.py open-vs-closed runs/experiment-synthetic runs/experiment-recipe
                                            # docs/RESULTS.md: validation RMSE vs autonomy, before and after
 """
@@ -44,12 +45,27 @@ def views(real_bgr, out: Path) -> None:
     cv2.imwrite(str(out), np.hstack([tiles[0], gap, tiles[1], gap, tiles[2], gap, tiles[3]]))
 
 
+def donkey(frames: list, out: Path) -> None:
+    """donkeycar frames (160x120) with the donkey crop marked, each beside its preprocessed image."""
+    cfg = PreprocessConfig.from_dict({"preset": "donkey", "color": "rgb"})
+    rows = []
+    for bgr in frames:
+        raw = cv2.resize(bgr, (320, 240), interpolation=cv2.INTER_NEAREST)
+        cv2.rectangle(raw, (0, 2 * cfg.crop[0]), (319, 239), (0, 0, 255), 2)
+        pre = cv2.resize(crop_resize(bgr, cfg), (400, 132), interpolation=cv2.INTER_NEAREST)
+        pre = np.vstack([pre, np.full((240 - 132, 400, 3), 255, np.uint8)])
+        rows.append(np.hstack([raw, np.full((240, 8, 3), 255, np.uint8), pre]))
+    cv2.imwrite(str(out), np.vstack([rows[0], np.full((8, rows[0].shape[1], 3), 255, np.uint8), rows[1]]))
+
+
 def main() -> None:
     ch2 = open_recording(DATA / "udacity-ch2", "0:2400", DATA / "udacity-ch2" / "CH2_final_evaluation.csv")
     side_by_side(ch2.load_frame(1000), "ch2", HERE / "img" / "geometry_ch2.png")
     views(ch2.load_frame(1000), HERE / "img" / "views_ch2.png")
     sim = open_recording(DATA / "udacity-sim-track1")
     side_by_side(sim.load_frame(300), "sim", HERE / "img" / "geometry_sim.png")
+    tubs = [open_recording(DATA / "donkeycar" / t, options={"skip_missing": True}) for t in ("hall", "taped-track")]
+    donkey([tubs[0].load_frame(1500), tubs[1].load_frame(500)], HERE / "img" / "geometry_donkey.png")
 
 
 def open_vs_closed(before: str, after: str) -> None:

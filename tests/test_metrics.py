@@ -100,3 +100,13 @@ def test_drift_episodes_and_rank_correlation():
     assert rank_correlation([1, 2, 3, 4], [10, 20, 30, 40]) == pytest.approx(1.0)
     assert rank_correlation([1, 2, 3, 4], [0.4, 0.3, 0.2, 0.1]) == pytest.approx(-1.0)
     assert rank_correlation([1, 2, 3, 4], [1, 3, 2, 4]) == pytest.approx(0.8)
+
+
+def test_metrics_in_normalized_units():
+    """A donkeycar tub's [-1, 1] steering: MAE in its own unit always, degrees only with a full-lock angle."""
+    pred, target = np.array([0.0, 0.5, -0.5]), np.array([0.1, 0.3, -0.5])
+    m = steering_metrics(pred, target, deg_per_unit=25.0)
+    assert m["mae"] == pytest.approx(0.1) and m["mae_deg"] == pytest.approx(2.5)
+    assert m["gamma_deg"] == pytest.approx(np.std([0.5, -1.0]) * 25.0)
+    assert np.isnan(steering_metrics(pred, target, deg_per_unit=np.nan)["mae_deg"])
+    assert steering_metrics(pred, target)["mae_deg"] == pytest.approx(np.degrees(0.1))

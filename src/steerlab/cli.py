@@ -27,7 +27,7 @@ def cmd_compile(a) -> None:
     from steerlab.data.preprocess import PreprocessConfig
     from steerlab.data.readers import open_recording
 
-    rec = open_recording(a.data, a.range, a.labels)
+    rec = open_recording(a.data, a.range, a.labels, _reader_options(a.reader))
     cfg = {"color": a.color, "modalities": a.modalities.split(","), "flow": a.flow}
     cfg["preset"] = a.preset or rec.preset
     ds = compile_recording(rec, PreprocessConfig.from_dict(cfg), a.cache, a.camera)
@@ -36,16 +36,44 @@ def cmd_compile(a) -> None:
         print(f"  {m}: {arr.shape} {arr.dtype}")
 
 
+def _reader_options(items: list[str]) -> dict:
+    """`--reader key=value` options; values are read as YAML scalars (numbers, true/false, text)."""
+    import yaml
+
+    out = {}
+    for item in items:
+        if "=" not in item:
+            raise SteerlabError(f"--reader {item!r} must look like key=value, e.g. full_lock_deg=25")
+        key, value = item.split("=", 1)
+        out[key.strip()] = yaml.safe_load(value)
+    return out
+
+
 def cmd_train(a) -> None:
+    import os
+    import subprocess
+
     from steerlab.train.config import load_config
+    from steerlab.train.distributed import finish
     from steerlab.train.loop import train
 
     cfg = load_config(a.config, a.overrides)
     if cfg.get("dagger"):
         raise SteerlabError(f"{a.config} has a dagger section: run it with `steerlab sim dagger {a.config}`")
-    best = train(cfg)
+    if a.nproc > 1 and "WORLD_SIZE" not in os.environ:  # start the ranks with torchrun
+        cmd = [sys.executable, "-m", "torch.distributed.run", "--standalone", f"--nproc-per-node={a.nproc}",
+               "-m", "steerlab", "train", a.config, *a.overrides]
+        if subprocess.run(cmd).returncode:
+            raise SteerlabError(f"distributed training with {a.nproc} ranks failed (see the messages above)")
+        return
+    try:
+        best = train(cfg)
+    finally:
+        finish()
+    if os.environ.get("RANK", "0") != "0":
+        return
     print(f"best checkpoint: {cfg['out']}/best.pt (epoch {best.get('epoch')})")
-    _print_table(best, ["mse", "rmse", "mae_deg", "gamma_deg", "target_gamma_deg", *SPEED_METRICS])
+    _print_table(best, ["mse", "rmse", "mae", "mae_deg", "gamma_deg", "target_gamma_deg", *SPEED_METRICS])
 
 
 def cmd_experiment(a) -> None:
@@ -59,12 +87,36 @@ def cmd_experiment(a) -> None:
 def cmd_evaluate(a) -> None:
     from steerlab.evaluate.offline import evaluate
 
-    m = evaluate(a.checkpoint, a.data, a.range, a.out, a.labels, a.camera, a.video)
-    _print_table(m, ["frames", "mse", "rmse", "mae_deg", "gamma_deg", "target_gamma_deg", *SPEED_METRICS])
+    m = evaluate(a.checkpoint, a.data, a.range, a.out, a.labels, a.camera, a.video, _reader_options(a.reader))
+    _print_table(m, ["frames", "mse", "rmse", "mae", "mae_deg", "gamma_deg", "target_gamma_deg", *SPEED_METRICS])
     print(f"with exponential smoothing a=0.2: rmse {m['smoothed_a0.2']['rmse']:.6f}, "
           f"gamma {m['smoothed_a0.2']['gamma_deg']:.4f} deg")
     print(f"wrote {a.out}/predictions.csv, {a.out}/steering.png, {a.out}/metrics.json"
           + (f", {a.video}" if a.video else ""))
+
+
+def cmd_tune(a) -> None:
+    from steerlab.tune import run_tune
+
+    out = run_tune(a.config, a.overrides, a.trials, a.objective, a.storage, a.study, a.seed)
+    for name in ("importance.md", "pareto.md"):
+        if (out / name).exists():
+            print((out / name).read_text())
+    print(f"wrote {out}/trials.csv, {out}/best.yaml (run it: steerlab train {out}/best.yaml)"
+          + "".join(f", {out}/{f}" for f in ("importance.png", "history.png", "pareto.png") if (out / f).exists()))
+
+
+def cmd_export(a) -> None:
+    from steerlab.export import export_onnx, sidecar_path
+
+    out = export_onnx(a.checkpoint, a.out)
+    print(f"wrote {out} and {sidecar_path(out)} (run it with Pilot('{out}') or steerlab serve {out})")
+
+
+def cmd_serve(a) -> None:
+    from steerlab.serve import serve
+
+    serve(a.checkpoint, a.port, a.set_speed, a.record, a.smoothing)
 
 
 def cmd_score(a) -> None:
@@ -135,14 +187,18 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True)
 
     def data_args(q, range_help="frames to use, START:STOP (e.g. 0:2400)"):
-        q.add_argument("--data", required=True, help="recording: CH2 folder, driving_log.csv or steerlab recording")
+        q.add_argument("--data", required=True, help="recording: CH2 folder, driving_log.csv, steerlab recording, "
+                       "donkeycar tub, ROS bag or video with a CSV log")
         q.add_argument("--range", help=range_help)
         q.add_argument("--labels", help="CH2: label CSV when the folder holds several")
+        q.add_argument("--reader", action="append", default=[], metavar="KEY=VALUE",
+                       help="reader option, repeatable: full_lock_deg=25, skip_missing=true (tubs), "
+                            "log=FILE.csv (videos), ... (docs/ARCHITECTURE.md lists them)")
         q.add_argument("--camera", default="center", help="camera to use (default center)")
 
     q = sub.add_parser("compile", help="decode + preprocess + modalities once into the memory-mapped cache")
     data_args(q)
-    q.add_argument("--preset", help="crop preset (ch2, sim); default: the recording's")
+    q.add_argument("--preset", help="crop preset (ch2, sim, donkey); default: the recording's")
     q.add_argument("--color", default="gray", choices=["gray", "yuv", "hsv", "rgb"])
     q.add_argument("--modalities", default="image", help="comma list of image,diff,flow (default image)")
     q.add_argument("--flow", default="farneback", choices=["farneback", "dis"])
@@ -153,6 +209,8 @@ def build_parser() -> argparse.ArgumentParser:
                        "configs/ch2_pilotnet.yaml train.epochs=5 out=runs/quick")
     q.add_argument("config", help="YAML config (see configs/)")
     q.add_argument("overrides", nargs="*", help="section.key=value overrides, e.g. train.lr=3e-4")
+    q.add_argument("--nproc", type=int, default=1, help="data-parallel ranks on this machine (torchrun + DDP; "
+                   "train.batch_size stays the global batch)")
     q.set_defaults(func=cmd_train)
 
     q = sub.add_parser("experiment", help="train several models with several seeds and tabulate them",
@@ -173,6 +231,36 @@ def build_parser() -> argparse.ArgumentParser:
     q.add_argument("--truth", required=True, help="answer file frame_id,steering_angle,public")
     q.add_argument("--pred", required=True, help="predictions frame_id,steering_angle")
     q.set_defaults(func=cmd_score)
+
+    q = sub.add_parser("tune", help="BOHB-style hyperparameter search (Optuna TPE + Hyperband) over a config's "
+                       "tune: section", epilog="example: steerlab tune configs/tune_multimodal_lstm.yaml --trials 40; "
+                       "more workers: run the same command elsewhere with --storage postgresql://... --study NAME")
+    q.add_argument("config", help="training config with a tune: section (config key -> range)")
+    q.add_argument("overrides", nargs="*", help="section.key=value overrides, e.g. train.epochs=8")
+    q.add_argument("--trials", type=int, default=20, help="finished trials the study should have (default 20)")
+    q.add_argument("--objective", default="rmse", choices=["rmse", "rmse+gamma", "autonomy"],
+                   help="validation RMSE (default), RMSE and gamma (Pareto front), or closed-loop autonomy")
+    q.add_argument("--storage", help="Optuna storage shared by workers: a journal file (*.journal) or an RDB URL "
+                   "(sqlite:///study.db, postgresql://...); default OUT/study.journal")
+    q.add_argument("--study", help="study name (default: the name of the config's out folder)")
+    q.add_argument("--seed", type=int, default=0, help="sampler seed (default 0)")
+    q.set_defaults(func=cmd_tune)
+
+    q = sub.add_parser("export", help="export a checkpoint to ONNX (+ a .json sidecar) for ONNX Runtime",
+                       epilog="example: steerlab export runs/demo/model/best.pt --out model.onnx")
+    q.add_argument("checkpoint", help="checkpoint (.pt)")
+    q.add_argument("--out", required=True, help="ONNX file to write (.onnx); the sidecar .json goes beside it")
+    q.set_defaults(func=cmd_export)
+
+    q = sub.add_parser("serve", help="drive the Udacity simulator (socket.io server on port 4567)",
+                       epilog="example: steerlab serve runs/sim/best.pt --record runs/sim-drive; then start the "
+                              "simulator in autonomous mode (README: connecting the simulator)")
+    q.add_argument("checkpoint", help="checkpoint (.pt) or exported model (.onnx)")
+    q.add_argument("--port", type=int, default=4567, help="port (default 4567, the simulator's)")
+    q.add_argument("--set-speed", type=float, default=4.0, help="speed the PI controller holds, m/s (default 4)")
+    q.add_argument("--smoothing", type=float, help="exponential smoothing of the steering, alpha in (0, 1]")
+    q.add_argument("--record", help="folder to record the drive to (driving_log.csv + IMG/)")
+    q.set_defaults(func=cmd_serve)
 
     q = sub.add_parser("models", help="list the registered models")
     q.set_defaults(func=cmd_models)

@@ -19,6 +19,7 @@ import yaml
 
 from steerlab.data.preprocess import PreprocessConfig
 from steerlab.data.readers import open_recording
+from steerlab.data.recording import SteeringConvention
 from steerlab.data.splits import make_split
 from steerlab.errors import SteerlabError
 from steerlab.data.labels import COMMANDS, speed_targets
@@ -53,7 +54,7 @@ def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: boo
     closed = raw.pop("closed_loop", None)
     out = Path(raw.get("out", "runs/experiment"))
     rows, preds = [], {}
-    labels = frames = None
+    labels = frames = deg = None
     for entry in entries:
         label = entry.get("label", entry["model"]["name"])
         runs = []
@@ -83,10 +84,11 @@ def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: boo
                             metrics["train_s"] += sum(float(r["seconds"]) for r in csv.DictReader(f))
                 done.write_text(json.dumps(metrics, indent=1))
             if labels is None:
-                labels = prepare_dataset(cfg, progress=False).labels
-            run = {**json.loads(done.read_text()), **_smoothed(run_dir, labels)}
+                ds = prepare_dataset(cfg, progress=False)
+                labels, deg = ds.labels, SteeringConvention(**ds.meta["convention"]).degrees_per_unit
+            run = {**json.loads(done.read_text()), **_smoothed(run_dir, labels, deg)}
             if closed:
-                run.update(_closed_loop(run_dir, closed, progress))
+                run.update(closed_loop_metrics(run_dir, closed, progress))
             runs.append(run)
         if frames is None:
             frames = _latency_frames(cfg)
@@ -122,7 +124,7 @@ def _row(label: str, model: str, pre: PreprocessConfig, runs: list[dict], latenc
            "input": "+".join(pre.modalities) + (f" x{pre.stack} frames" if pre.stack > 1 else "") + f" ({pre.color})",
            "shape": f"{sum(pre.channels().values())}@{pre.width}x{pre.height}", "seeds": len(runs),
            "target_gamma_deg": runs[0]["target_gamma_deg"], **latency}
-    for key in ("mse", "rmse", "mae_deg", "gamma_deg", "smoothed_rmse", "smoothed_gamma_deg", "speed_mae",
+    for key in ("mse", "rmse", "mae", "mae_deg", "gamma_deg", "smoothed_rmse", "smoothed_gamma_deg", "speed_mae",
                 "command_accuracy", "epoch", "train_s", *CLOSED_LOOP):
         row[f"{key}_mean"], row[f"{key}_std"] = stat(key)
     # the worst seed, for targets such as ">= 95 % on every road type with every seed"
@@ -131,7 +133,7 @@ def _row(label: str, model: str, pre: PreprocessConfig, runs: list[dict], latenc
     return row
 
 
-def _smoothed(run: Path, labels: dict) -> dict:
+def _smoothed(run: Path, labels: dict, deg_per_unit: float) -> dict:
     """RMSE and gamma of the run's validation predictions after exponential smoothing, restarted at every
     break in the validation frames (a gap in the split or a new segment)."""
     ids, pred, _ = read_steering_csv(run / "val_predictions.csv")
@@ -139,7 +141,7 @@ def _smoothed(run: Path, labels: dict) -> dict:
     idx = np.array([pos[int(f)] for f in ids])
     breaks = np.flatnonzero((np.diff(idx) != 1) | (np.diff(labels["segment"][idx]) != 0)) + 1
     smooth = np.concatenate([exponential_smoothing(p, ALPHA) for p in np.split(pred, breaks)])
-    m = steering_metrics(smooth, labels["steering"][idx])
+    m = steering_metrics(smooth, labels["steering"][idx], deg_per_unit)
     return {"smoothed_rmse": m["rmse"], "smoothed_gamma_deg": m["gamma_deg"]}
 
 
@@ -147,7 +149,7 @@ CLOSED_LOOP = ("autonomy", "autonomy_country", "autonomy_highway", "autonomy_twi
                "command_gamma_deg")
 
 
-def _closed_loop(run: Path, closed: dict, progress: bool) -> dict:
+def closed_loop_metrics(run: Path, closed: dict, progress: bool) -> dict:
     """The run's best checkpoint on the closed-loop suite: autonomy over all roads and per road type,
     interventions per km and command gamma."""
     summary = run_suite([run / "best.pt"], run / "suite", closed.get("suite", "v1"), closed.get("minutes"),
@@ -160,8 +162,8 @@ def _closed_loop(run: Path, closed: dict, progress: bool) -> dict:
 
 def _latency_frames(cfg: dict) -> list[tuple]:
     """Raw frames (and speeds) of the start of the validation split, for the latency column."""
-    rec = open_recording(cfg["data"], cfg.get("range"), cfg.get("labels"))
-    idx = make_split(cfg["split"], len(rec))[1][:LATENCY_FRAMES]
+    rec = open_recording(cfg["data"], cfg.get("range"), cfg.get("labels"), cfg.get("reader"))
+    idx = make_split(cfg["split"], len(rec), rec.extra.get("session"))[1][:LATENCY_FRAMES]
     return [(rec.load_frame(i), None if rec.speed is None else rec.speed[i]) for i in idx]
 
 
@@ -214,7 +216,9 @@ def _write(out: Path, rows: list[dict], preds: dict, cfg: dict, seeds: int, refe
     lines += ["", "Paper 002 Tables I-II form:", "",
               "| model | steering MAE [deg] | speed MAE [m/s] | speed-command accuracy |", "|---|---|---|---|"]
     for r in rows:
-        lines.append(f"| {r['label']} | {_fmt(r['mae_deg_mean'], 2, r['mae_deg_std'])} | "
+        mae = (_fmt(r['mae_deg_mean'], 2, r['mae_deg_std']) if np.isfinite(r['mae_deg_mean'])
+               else _fmt(r['mae_mean'], 4, r['mae_std']) + " (steering units)")  # normalized steering
+        lines.append(f"| {r['label']} | {mae} | "
                      f"{_fmt(r['speed_mae_mean'], 3, r['speed_mae_std'])} | "
                      f"{_fmt(r['command_accuracy_mean'], 3, r['command_accuracy_std'])} |")
     if closed:

@@ -4,13 +4,15 @@ It applies exactly the preprocessing the model was trained with, keeps the previ
 difference and optical flow, the last frames for stacked input, the last speeds for models with a speed
 history and the recurrent state, standardises with the checkpoint's statistics, runs the model and optionally
 smooths the steering (paper 002 Eq. 2). Offline evaluation and closed-loop driving both use it, so what is
-measured is what runs.
+measured is what runs. The model runs on PyTorch (a .pt checkpoint) or on ONNX Runtime (an exported .onnx
+file); everything around the model is the same code.
 """
 
 from __future__ import annotations
 
 from collections import deque
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import torch
@@ -32,16 +34,47 @@ class Controls:
     command: int | None = None
 
 
-class Pilot:
-    def __init__(self, checkpoint: str | dict, smoothing: float | None = None):
-        ckpt = load_checkpoint(checkpoint) if not isinstance(checkpoint, dict) else checkpoint
+class TorchModel:
+    """A checkpoint's model: standardised NHWC frame (and speeds) in, numpy outputs out; keeps the recurrent
+    state between calls. `export.OnnxModel` is the same on ONNX Runtime."""
+
+    def __init__(self, ckpt: dict):
         self.model, self.config, self.convention = model_from_checkpoint(ckpt)
         self.name = ckpt["model"]
-        self.preset = ckpt.get("preset")  # the camera geometry it was trained on (ch2, sim)
+        self.preset = ckpt.get("preset")  # the camera geometry it was trained on (ch2, sim, donkey)
         self.standardize = Standardizer(ckpt["stats"])
-        self.smoothing = smoothing
         self.recurrent = getattr(self.model, "recurrent", False)
         self.speed_history = getattr(self.model, "speed_history", 0)
+        self.reset()
+
+    def reset(self) -> None:
+        self.state = None
+
+    @torch.inference_mode()
+    def __call__(self, x_nhwc: np.ndarray, speeds: list[float] | None = None) -> dict[str, np.ndarray]:
+        inputs = {"x": self.standardize(x_nhwc)}
+        if self.speed_history:
+            inputs["speeds"] = torch.tensor([speeds], dtype=torch.float32)
+        if self.recurrent:
+            out, self.state = self.model(**{k: v[None] for k, v in inputs.items()}, state=self.state)
+            out = {k: v[0] for k, v in out.items()}
+        else:
+            out = self.model(**inputs)
+        return {k: v[0].numpy() for k, v in out.items()}
+
+
+class Pilot:
+    def __init__(self, checkpoint: str | Path | dict, smoothing: float | None = None):
+        """`checkpoint`: a .pt checkpoint (path or loaded dict) or an exported .onnx file with its sidecar."""
+        if not isinstance(checkpoint, dict) and Path(checkpoint).suffix == ".onnx":
+            from steerlab.export import OnnxModel
+
+            self.net = OnnxModel(checkpoint)
+        else:
+            self.net = TorchModel(checkpoint if isinstance(checkpoint, dict) else load_checkpoint(checkpoint))
+        self.name, self.config, self.convention = self.net.name, self.net.config, self.net.convention
+        self.preset, self.speed_history = self.net.preset, self.net.speed_history
+        self.smoothing = smoothing
         self.reset()
 
     def reset(self) -> None:
@@ -50,7 +83,7 @@ class Pilot:
         self._frames: deque = deque(maxlen=self.config.stack)
         self._speeds: deque = deque(maxlen=self.speed_history)
         self._smoothed = None
-        self._state = None
+        self.net.reset()
 
     @staticmethod
     def _push(history: deque, item) -> None:
@@ -59,7 +92,6 @@ class Pilot:
             history.append(item)
         history.append(item)
 
-    @torch.inference_mode()
     def step(self, bgr: np.ndarray, speed: float | None = None) -> Controls:
         """One raw BGR frame (and the measured speed in m/s, for models that use it) -> controls."""
         img, gray = preprocess(bgr, self.config)
@@ -72,20 +104,16 @@ class Pilot:
         if "flow" in self.config.modalities:
             arrays["flow"] = optical_flow(prev_gray, gray, self.config.flow).astype(np.float16)
         self._prev_img, self._prev_gray = img, gray
-        inputs = {"x": self.standardize(stack_modalities(arrays, self.config)[None])}
+        speeds = None
         if self.speed_history:
             if speed is None:
                 raise SteerlabError(f"model {self.name!r} needs the measured speed with every frame")
             self._push(self._speeds, float(speed))
-            inputs["speeds"] = torch.tensor([list(self._speeds)], dtype=torch.float32)
-        if self.recurrent:
-            out, self._state = self.model(**{k: v[None] for k, v in inputs.items()}, state=self._state)
-            out = {k: v[0] for k, v in out.items()}
-        else:
-            out = self.model(**inputs)
-        y = float(out["steering"][0])
+            speeds = list(self._speeds)
+        out = self.net(stack_modalities(arrays, self.config)[None], speeds)
+        y = float(out["steering"])
         if self.smoothing is not None:
             self._smoothed = y if self._smoothed is None else self.smoothing * y + (1 - self.smoothing) * self._smoothed
             y = self._smoothed
-        return Controls(y, float(out["speed"][0]) if "speed" in out else None,
-                        int(out["command"][0].argmax()) if "command" in out else None)
+        return Controls(y, float(out["speed"]) if "speed" in out else None,
+                        int(out["command"].argmax()) if "command" in out else None)

@@ -22,7 +22,8 @@ FLOW_METHODS = ("farneback", "dis")
 # Rows/columns removed from the raw frame (top, bottom, left, right) per camera geometry.
 #   ch2: Udacity CH2 640x480, paper 000 V-C drops the top 268 px -> 640x212.
 #   sim: Udacity simulator 320x160: sky above row 60 and the bonnet below row 140 -> 320x80.
-CROP_PRESETS = {"ch2": (268, 0, 0, 0), "sim": (60, 20, 0, 0)}
+#   donkey: donkeycar 160x120: walls and sky above row 40 -> 160x80 (docs/img/geometry_donkey.png).
+CROP_PRESETS = {"ch2": (268, 0, 0, 0), "sim": (60, 20, 0, 0), "donkey": (40, 0, 0, 0)}
 
 
 @dataclass(frozen=True)

@@ -6,6 +6,8 @@ Supported layouts (detected by `open_recording`):
   answer/submission layout (`frame_id,steering_angle[,public]`).
 - Udacity simulator `driving_log.csv` (with or without header; `center,left,right,steering,throttle,brake,speed`).
 - steerlab's native layout written by the synthetic world: `recording.json` + `log.csv` + camera folders.
+- donkeycar tub v2 folders (`data/tub.py`), ROS 1/2 bags as Udacity released its data (`data/bag.py`) and
+  video files with a CSV log (`data/video.py`).
 """
 
 from __future__ import annotations
@@ -45,27 +47,65 @@ def parse_range(text: str | None) -> tuple[int | None, int | None] | None:
         raise DataError("<range>", f"frame range {text!r} must hold integers, e.g. 0:1800") from None
 
 
-def open_recording(path: str | Path, frame_range: str | tuple | None = None, labels: str | Path | None = None) -> Recording:
-    """Open any supported recording. `frame_range` ("a:b") keeps frames [a, b) before images are checked."""
+VIDEO_SUFFIXES = (".mp4", ".avi", ".mkv", ".mov")
+
+
+def open_recording(path: str | Path, frame_range: str | tuple | None = None, labels: str | Path | None = None,
+                   options: dict | None = None) -> Recording:
+    """Open any supported recording. `frame_range` ("a:b") keeps frames [a, b) before images are checked.
+    `options` are reader options (config section `reader:`), e.g. `full_lock_deg` and `skip_missing` for
+    donkeycar tubs, `topics` for ROS bags, `log` for videos."""
     path = Path(path)
     if not path.exists():
         raise DataError(path, "recording not found")
     rng = parse_range(frame_range) if isinstance(frame_range, str) or frame_range is None else frame_range
+    reader, known = _reader_of(path)
+    options = dict(options or {})
+    unknown = sorted(set(options) - set(known))
+    if unknown:
+        raise DataError(path, f"unknown reader option(s) {unknown}; this recording's reader takes "
+                              f"{', '.join(known) or 'none'}")
+    if labels is not None:
+        if reader is not read_ch2:
+            raise DataError(path, "a label file (--labels) belongs to CH2 folders only")
+        options["labels"] = labels
+    return reader(path, rng, **options)
+
+
+def _reader_of(path: Path):
+    """The reader function for a path and the options it takes."""
+    from steerlab.data import bag, tub, videolog
+
     if path.is_file() and path.suffix == ".csv":
         if path.name == "log.csv" and (path.parent / "recording.json").exists():
-            return read_native(path.parent, rng)
-        return read_sim_log(path, rng)
-    if (path / "recording.json").exists():
-        return read_native(path, rng)
-    if (path / "driving_log.csv").exists():
-        return read_sim_log(path / "driving_log.csv", rng)
-    if (path / "center").is_dir():
-        return read_ch2(path, rng, labels)
-    raise DataError(path, "not a recording: expected a CH2 folder (center/ + CSV), a driving_log.csv "
-                          "or a steerlab recording (recording.json)")
+            return _native_folder, ()
+        return read_sim_log, ()
+    if path.is_file() and path.suffix.lower() in VIDEO_SUFFIXES:
+        return videolog.read_video, videolog.OPTIONS
+    if bag.is_bag(path):
+        return bag.read_bag, bag.OPTIONS
+    if path.is_dir() and (path / "recording.json").exists():
+        return read_native, ()
+    if path.is_dir() and (path / "driving_log.csv").exists():
+        return _sim_folder, ()
+    if path.is_dir() and tub.is_tub(path):
+        return tub.read_tub, tub.OPTIONS
+    if path.is_dir() and (path / "center").is_dir():
+        return read_ch2, ()
+    raise DataError(path, "not a recording: expected a CH2 folder (center/ + CSV), a driving_log.csv, a steerlab "
+                          "recording (recording.json), a donkeycar tub (manifest.json + catalogs), a ROS bag "
+                          f"(.bag, or a ROS 2 folder with metadata.yaml) or a video ({', '.join(VIDEO_SUFFIXES)})")
 
 
-def _apply_range(n: int, rng, source: Path) -> slice:
+def _native_folder(log: Path, rng) -> Recording:
+    return read_native(log.parent, rng)
+
+
+def _sim_folder(folder: Path, rng) -> Recording:
+    return read_sim_log(folder / "driving_log.csv", rng)
+
+
+def apply_range(n: int, rng, source: Path) -> slice:
     if rng is None:
         return slice(0, n)
     start = 0 if rng[0] is None else rng[0]
@@ -98,6 +138,14 @@ def _check_images(paths: list[Path], source: Path, first_row: int) -> None:
         if not p.is_file():
             raise DataError(source, f"image {p} is missing (use a frame range that covers only the frames that exist, "
                                     f"e.g. --range 0:{i})" if i else f"image {p} is missing", first_row + i)
+
+
+def nearest(sorted_times: np.ndarray, times: np.ndarray) -> np.ndarray:
+    """Index of the entry of `sorted_times` nearest to each of `times` (the earlier one on a tie)."""
+    if len(sorted_times) == 1:
+        return np.zeros(len(times), dtype=np.int64)
+    j = np.clip(np.searchsorted(sorted_times, times), 1, len(sorted_times) - 1)
+    return np.where(np.abs(sorted_times[j - 1] - times) <= np.abs(sorted_times[j] - times), j - 1, j)
 
 
 def _check_unique(ids: np.ndarray, path: Path, first_row: int) -> None:
@@ -143,7 +191,7 @@ def read_ch2(folder: str | Path, frame_range=None, labels: str | Path | None = N
     if len(ids) == 0:
         raise DataError(label_path, "no labelled frames")
     _check_unique(ids, label_path, 2)
-    cut = _apply_range(len(ids), frame_range, label_path)
+    cut = apply_range(len(ids), frame_range, label_path)
     first_row = 2 + cut.start
     ids, steer = ids[cut], steer[cut]
     speed = None if speed is None else speed[cut]
@@ -194,9 +242,7 @@ def _ch2_interpolated_rows(path: Path, header: list[str], body: list[list[str]])
     for cam in ("left", "right"):
         if cam in by_cam:  # each side frame nearest in time to the centre frame
             side = sorted(by_cam[cam])
-            t = np.array([s[0] for s in side])
-            j = np.clip(np.searchsorted(t, ids), 1, len(t) - 1)
-            j = np.where(np.abs(t[j - 1] - ids) <= np.abs(t[j] - ids), j - 1, j)
+            j = nearest(np.array([s[0] for s in side]), ids)
             cams[cam] = np.array([side[k][1] for k in j], dtype=object)
     speed = np.array([c[3] for c in center])
     return ids, np.array([c[2] for c in center]), (speed if np.all(np.isfinite(speed)) else None), cams
@@ -246,7 +292,7 @@ def read_sim_log(log: str | Path, frame_range=None) -> Recording:
         idx, first = list(range(7)), 1
     if not rows:
         raise DataError(log, "the driving log has no rows")
-    cut = _apply_range(len(rows), frame_range, log)
+    cut = apply_range(len(rows), frame_range, log)
     rows, first = rows[cut], first + cut.start
     frames: dict[str, list[Path]] = {"center": [], "left": [], "right": []}
     vals = {c: [] for c in SIM_COLUMNS[3:]}
@@ -297,7 +343,7 @@ def read_native(folder: str | Path, frame_range=None) -> Recording:
     body = rows[1:]
     if not body:
         raise DataError(log, "the recording has no frames")
-    cut = _apply_range(len(body), frame_range, log)
+    cut = apply_range(len(body), frame_range, log)
     body, first = body[cut], 2 + cut.start
     cams = [c for c in ("center", "left", "right") if body[0][col[c]].strip()]
     frames = {c: [] for c in cams}

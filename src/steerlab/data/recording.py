@@ -2,55 +2,86 @@
 
 from __future__ import annotations
 
+import math
+import threading
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-from steerlab.errors import DataError
+from steerlab.errors import DataError, SteerlabError
 
-SEGMENT_GAP_NS = 500_000_000  # a gap longer than 0.5 s between frames starts a new segment
+KINDS = ("steering_wheel", "road_wheel", "normalized")
+
+SEGMENT_GAP_NS = 500_000_000  # a gap longer than 0.5 s between frames, or a new session, starts a new segment
 
 
 @dataclass(frozen=True)
 class SteeringConvention:
     """What the steering column of a recording means.
 
-    kind: "steering_wheel" (angle of the hand wheel, as in Udacity CH2) or "road_wheel" (angle of the tyres).
+    kind: "steering_wheel" (angle of the hand wheel, radians, as in Udacity CH2), "road_wheel" (angle of the
+    tyres, radians) or "normalized" (the servo command in [-1, 1] of an RC car, as in donkeycar tubs;
+    `full_lock` is the road-wheel angle of +-1 in radians when it is known).
     positive: "left" (counter-clockwise) or "right".
-    Values are always radians.
     """
 
     kind: str = "steering_wheel"
     positive: str = "left"
+    full_lock: float | None = None
 
     def __post_init__(self):
-        if self.kind not in ("steering_wheel", "road_wheel") or self.positive not in ("left", "right"):
+        if self.kind not in KINDS or self.positive not in ("left", "right"):
             raise ValueError(f"bad steering convention {self.kind!r}/{self.positive!r}")
+        if self.full_lock is not None and (self.kind != "normalized" or not 0 < self.full_lock < math.pi / 2):
+            raise ValueError(f"a full-lock angle belongs to normalized steering and lies in (0, 90) degrees, "
+                             f"got {self.full_lock!r} rad for {self.kind!r}")
+
+    def _road_wheel_scale(self, steering_ratio: float) -> float:
+        """Road-wheel radians per unit of this convention."""
+        if self.kind == "normalized":
+            if self.full_lock is None:
+                raise SteerlabError("normalized steering needs the car's full-lock angle to become an angle "
+                                    "(reader option full_lock_deg)")
+            return self.full_lock
+        return 1.0 / steering_ratio if self.kind == "steering_wheel" else 1.0
 
     def to_road_wheel_left(self, value, steering_ratio: float):
         """Convert to a road-wheel angle in radians, positive left (the vehicle model's convention)."""
         sign = 1.0 if self.positive == "left" else -1.0
-        scale = 1.0 / steering_ratio if self.kind == "steering_wheel" else 1.0
-        return sign * scale * value
+        return sign * self._road_wheel_scale(steering_ratio) * value
 
     def from_road_wheel_left(self, value, steering_ratio: float):
         sign = 1.0 if self.positive == "left" else -1.0
-        scale = steering_ratio if self.kind == "steering_wheel" else 1.0
-        return sign * scale * value
+        return sign * value / self._road_wheel_scale(steering_ratio)
+
+    @property
+    def degrees_per_unit(self) -> float:
+        """Degrees (of the wheel this convention measures) per unit of its values; NaN when unknown."""
+        if self.kind != "normalized":
+            return math.degrees(1.0)
+        return math.nan if self.full_lock is None else math.degrees(self.full_lock)
+
+    @property
+    def unit(self) -> str:
+        return "normalized" if self.kind == "normalized" else "rad"
 
     def as_dict(self) -> dict:
-        return {"kind": self.kind, "positive": self.positive}
+        d = {"kind": self.kind, "positive": self.positive}
+        if self.full_lock is not None:
+            d["full_lock"] = self.full_lock
+        return d
 
 
 @dataclass
 class Recording:
     """One drive.
 
-    frames: camera name -> list of image paths, one per frame, in time order ("center" always present).
+    frames: camera name -> list of image paths, one per frame, in time order ("center" always present); for a
+        video recording every entry is the video file and `video` decodes the frames.
     timestamps_ns: int64 capture times, strictly increasing.
-    steering: float64 radians, in `convention`.
+    steering: float64, in `convention` (radians, or [-1, 1] for normalized steering).
     speed, throttle, brake: optional float64 arrays (m/s, 0..1, 0..1); NaN-free.
     extra: further per-frame columns (e.g. the synthetic world's lateral offset and episode label).
     frame_ids: the ids a predictions file uses (CH2: the nanosecond file name; otherwise the timestamp).
@@ -68,6 +99,7 @@ class Recording:
     brake: np.ndarray | None = None
     extra: dict[str, np.ndarray] = field(default_factory=dict)
     preset: str = "ch2"  # preprocessing preset that fits this camera geometry
+    video: "VideoFrames | None" = None  # frames decoded from one video file instead of image files
 
     def __post_init__(self):
         n = len(self.timestamps_ns)
@@ -101,8 +133,11 @@ class Recording:
         return list(self.frames)
 
     def segment_ids(self) -> np.ndarray:
-        """Segment index per frame: a new segment starts after every gap longer than 0.5 s."""
+        """Segment index per frame: a new segment starts after every gap longer than 0.5 s and with every new
+        session (`extra["session"]`, e.g. the drives of a donkeycar tub)."""
         gaps = np.diff(self.timestamps_ns) > SEGMENT_GAP_NS
+        if "session" in self.extra:
+            gaps |= self.extra["session"][1:] != self.extra["session"][:-1]
         return np.concatenate([[0], np.cumsum(gaps)]).astype(np.int32)
 
     def segments(self) -> list[tuple[int, int]]:
@@ -120,7 +155,32 @@ class Recording:
 
     def load_frame(self, index: int, camera: str = "center") -> np.ndarray:
         """Decode one frame as a BGR uint8 array (OpenCV order)."""
+        if self.video is not None:
+            return self.video.read(index)
         return read_image(self.frames[camera][index])
+
+
+class VideoFrames:
+    """Lazy, thread-safe access to the frames of a video file: frame `positions[i]` of the video is the
+    recording's frame i. Reading in order decodes each frame once; a jump seeks."""
+
+    def __init__(self, path: Path, positions: np.ndarray):
+        self.path, self.positions = Path(path), np.asarray(positions, dtype=np.int64)
+        self._local = threading.local()
+
+    def read(self, index: int) -> np.ndarray:
+        local = self._local
+        if getattr(local, "capture", None) is None:
+            local.capture, local.next = cv2.VideoCapture(str(self.path)), 0
+        target = int(self.positions[index])
+        if target != local.next:
+            local.capture.set(cv2.CAP_PROP_POS_FRAMES, target)
+        ok, frame = local.capture.read()
+        if not ok or frame is None:
+            local.capture = None
+            raise DataError(self.path, f"cannot decode video frame {target}")
+        local.next = target + 1
+        return frame
 
 
 def read_image(path: Path) -> np.ndarray:

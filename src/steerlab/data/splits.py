@@ -34,14 +34,31 @@ def paper_protocol(n: int, k: int = 3, length: int = 1000) -> tuple[np.ndarray, 
     return train_idx, val_idx
 
 
-def make_split(spec: dict, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """From a config: {"train": "a:b", "val": "c:d"} or {"protocol": "paper", "k": 3, "length": 1000}."""
+def by_sessions(part: dict, sessions: np.ndarray | None, name: str) -> np.ndarray:
+    """Frame indices of the sessions listed in {"sessions": [...]} (donkeycar tubs record one per drive)."""
+    wanted = part.get("sessions")
+    if sessions is None:
+        raise SteerlabError(f"the {name} split names sessions, but this recording has no sessions")
+    if not isinstance(wanted, list) or not wanted:
+        raise SteerlabError(f"the {name} split needs a non-empty list of sessions, e.g. {{sessions: [{sessions[0]}]}}")
+    unknown = sorted(set(map(str, wanted)) - set(sessions))
+    if unknown:
+        raise SteerlabError(f"{name} sessions {unknown} are not in the recording; it has "
+                            f"{', '.join(dict.fromkeys(sessions))}")
+    return np.flatnonzero(np.isin(sessions, [str(w) for w in wanted]))
+
+
+def make_split(spec: dict, n: int, sessions: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """From a config: {"train": "a:b", "val": "c:d"}, {"train": {"sessions": [...]}, "val": {"sessions": [...]}}
+    or {"protocol": "paper", "k": 3, "length": 1000}."""
     spec = dict(spec or {})
     if spec.get("protocol") == "paper":
         return paper_protocol(n, int(spec.get("k", 3)), int(spec.get("length", 1000)))
     if "train" not in spec or "val" not in spec:
-        raise SteerlabError("split needs 'train' and 'val' ranges (e.g. 0:1800 and 1800:2400) or protocol: paper")
-    train, val = block(spec["train"], n, "train"), block(spec["val"], n, "val")
+        raise SteerlabError("split needs 'train' and 'val' ranges (e.g. 0:1800 and 1800:2400), sessions "
+                            "({sessions: [...]}) or protocol: paper")
+    train, val = (by_sessions(spec[k], sessions, k) if isinstance(spec[k], dict) else block(spec[k], n, k)
+                  for k in ("train", "val"))
     if np.intersect1d(train, val).size:
-        raise SteerlabError(f"train range {spec['train']} and val range {spec['val']} overlap")
+        raise SteerlabError(f"train split {spec['train']} and val split {spec['val']} overlap")
     return train, val

@@ -23,13 +23,13 @@ RATIO = 14.8  # steering ratio for showing road-wheel conventions as a steering 
 
 def evaluate(checkpoint: str | Path, data: str | Path, frame_range: str | None, out: str | Path,
              labels: str | Path | None = None, camera: str = "center", video: str | Path | None = None,
-             progress: bool = True) -> dict:
+             reader: dict | None = None, progress: bool = True) -> dict:
     """Run the Pilot over every frame (resetting at segment starts, feeding the recorded speed); write
     metrics (with speed MAE and command accuracy for speed models), predictions and a plot, and optionally a
     video of the frames with the predicted and the recorded steering."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    rec = open_recording(data, frame_range, labels)
+    rec = open_recording(data, frame_range, labels, reader)
     if camera not in rec.frames:
         raise SteerlabError(f"{rec.source} has no {camera!r} camera (it has {', '.join(rec.cameras)})")
     pilot = Pilot(checkpoint)
@@ -61,9 +61,10 @@ def evaluate(checkpoint: str | Path, data: str | Path, frame_range: str | None, 
     truth = {"steering": rec.steering}
     if rec.speed is not None:
         truth.update(speed_targets(rec.speed, rec.timestamps_ns, seg))
-    metrics = all_metrics(pred, truth)
+    deg = rec.convention.degrees_per_unit
+    metrics = all_metrics(pred, truth, deg)
     smooth = np.concatenate([exponential_smoothing(pred["steering"][a:b], 0.2) for a, b in rec.segments()])
-    metrics["smoothed_a0.2"] = steering_metrics(smooth, rec.steering)
+    metrics["smoothed_a0.2"] = steering_metrics(smooth, rec.steering, deg)
     write_predictions(out / "predictions.csv", rec.frame_ids, pred["steering"],
                       {k: v for k, v in pred.items() if k != "steering"})
     t = (rec.timestamps_ns - rec.timestamps_ns[0]) / 1e9

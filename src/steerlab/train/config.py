@@ -16,6 +16,7 @@ DEFAULTS = {
     "range": None,           # frames of the recording to use, "a:b"
     "labels": None,          # CH2: label CSV when the folder holds several
     "camera": "center",
+    "reader": {},            # reader options, e.g. {full_lock_deg: 25, skip_missing: true} for donkeycar tubs
     "cache": ".steerlab-cache",
     "preprocess": {},        # PreprocessConfig fields; "preset" defaults to the recording's
     "split": {"protocol": "paper", "k": 3, "length": 1000},
@@ -36,9 +37,11 @@ DEFAULTS = {
         "target_shift_s": 0.0,  # train on the steering this many seconds ahead
         "recovery_weight": 1,   # samples in recovery episodes are drawn this many times per epoch
         "init": None,           # start from the weights of this checkpoint (same model and options)
+        "device": "auto",       # auto (CUDA when present, else the CPU), cpu or cuda
     },
     "out": "runs/train",
     "dagger": None,          # DAgger rounds (steerlab sim dagger; options in sim/dagger.py)
+    "tune": None,            # search space of steerlab tune: config key -> range (tune.py)
 }
 
 

@@ -29,6 +29,7 @@ from steerlab.errors import SteerlabError
 from steerlab.evaluate.metrics import all_metrics
 from steerlab.evaluate.scoring import write_predictions
 from steerlab.models import create_model, model_class
+from steerlab.train.distributed import Ranks, setup, wrap
 from steerlab.data.inputs import (Standardizer, augment, channel_stats, flip_horizontal, gather, history, no_motion,
                                    segment_starts, stack_modalities)
 
@@ -37,7 +38,7 @@ def prepare_dataset(cfg: dict, progress: bool = True, camera: str | None = None,
                     data: str | None = None) -> CompiledDataset:
     """The compiled main recording of a config (or the whole recording `data`), one camera stream of it, or a
     virtual view (shift_m, yaw_deg) synthesised from its centre camera."""
-    rec = (open_recording(cfg["data"], cfg.get("range"), cfg.get("labels")) if data is None
+    rec = (open_recording(cfg["data"], cfg.get("range"), cfg.get("labels"), cfg.get("reader")) if data is None
            else open_recording(data))
     camera = camera or cfg.get("camera", "center")
     if camera not in rec.frames:
@@ -236,36 +237,46 @@ def objective(model, out: dict, targets: dict) -> torch.Tensor:
 
 def train_one_epoch(model, opt, batches: Batches, samples: np.ndarray, batch_size: int, flip: bool,
                     rng: np.random.Generator, transform=None, motion_dropout: float = 0.0, progress: bool = True,
-                    desc: str = "") -> float:
+                    desc: str = "", ranks: Ranks = Ranks()) -> float:
     """One pass over `samples`: frame codes (M,), or windows (M, T) of frame codes for recurrent models.
-    Flips and motion dropout are drawn per sample (per window: a window is mirrored or still as a whole)."""
+    Flips and motion dropout are drawn per sample (per window: a window is mirrored or still as a whole).
+    With several ranks every rank draws the same global batches and trains on its contiguous share of each."""
+    net = getattr(model, "module", model)  # the model itself, also inside DDP
     model.train()
     order = rng.permutation(len(samples))
     total, count = 0.0, 0
     steps = range(0, len(order), batch_size)
-    for s in tqdm(steps, desc=desc, unit="batch", leave=False, disable=None if progress else True):
+    for s in tqdm(steps, desc=desc, unit="batch", leave=False, disable=None if progress and ranks.main else True):
         b = samples[order[s: s + batch_size]]
         flips = np.repeat(rng.random(len(b)) < 0.5, b[0].size) if flip else None
         still = np.repeat(rng.random(len(b)) < motion_dropout, b[0].size) if motion_dropout else None
+        if len(b) < ranks.world:  # a last batch too small to share
+            continue
+        lo, hi = ranks.rank * len(b) // ranks.world, (ranks.rank + 1) * len(b) // ranks.world
+        share = ranks.world * (hi - lo) / len(b)  # DDP averages over ranks: weight by the share of the batch
+        b, k = b[lo:hi], b[0].size
+        flips, still = (None if a is None else a[lo * k: hi * k] for a in (flips, still))
         inputs, targets = batches.get(b.ravel(), flips, still, transform)
         if b.ndim == 2:  # windows: (B*T, ...) -> (B, T, ...)
             inputs, targets = ({k: v.view(len(b), b.shape[1], *v.shape[1:]) for k, v in d.items()}
                                for d in (inputs, targets))
+        inputs, targets = ({k: v.to(ranks.device) for k, v in d.items()} for d in (inputs, targets))
         out = model(**inputs)
-        loss = objective(model, out[0] if getattr(model, "recurrent", False) else out, targets)  # (out, state)
+        loss = objective(net, out[0] if getattr(net, "recurrent", False) else out, targets)  # (out, state)
         opt.zero_grad(set_to_none=True)
-        loss.backward()
+        (loss * share if ranks.world > 1 else loss).backward()
         opt.step()
         total += float(loss.detach()) * len(b)
         count += len(b)
+    total, count = ranks.sum(total, count)
     return total / count
 
 
 def _numpy(out: dict) -> dict[str, np.ndarray]:
     """Model outputs as predictions: steering, speed, and the most likely speed command."""
-    pred = {k: out[k].numpy().astype(np.float64) for k in ("steering", "speed") if k in out}
+    pred = {k: out[k].cpu().numpy().astype(np.float64) for k in ("steering", "speed") if k in out}
     if "command" in out:
-        pred["command"] = out["command"].argmax(-1).numpy()
+        pred["command"] = out["command"].argmax(-1).cpu().numpy()
     return pred
 
 
@@ -274,17 +285,22 @@ def predict(model, batches: Batches, idx: np.ndarray, batch_size: int = 256) -> 
     """Predictions for frames `idx` (in time order). Recurrent models run statefully through each contiguous
     run of frames, from a zero state at the start of the run and at every segment start, as the Pilot does."""
     model.eval()
+    device = next(model.parameters(), torch.zeros(0)).device
+
+    def inputs(frames):
+        return {k: v.to(device) for k, v in batches.get(frames)[0].items()}
+
     parts = []
     if not getattr(model, "recurrent", False):
         for s in range(0, len(idx), batch_size):
-            parts.append(_numpy(model(**batches.get(idx[s: s + batch_size])[0])))
+            parts.append(_numpy(model(**inputs(idx[s: s + batch_size]))))
     else:
         breaks = np.flatnonzero((np.diff(idx) != 1) | (batches.starts[idx[1:]] == idx[1:])) + 1
         for frames in np.split(idx, breaks):
             state = None
             for s in range(0, len(frames), batch_size):
-                inputs = {k: v[None] for k, v in batches.get(frames[s: s + batch_size])[0].items()}
-                out, state = model(**inputs, state=state)
+                out, state = model(**{k: v[None] for k, v in inputs(frames[s: s + batch_size]).items()},
+                                   state=state)
                 parts.append(_numpy({k: v[0] for k, v in out.items()}))
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
@@ -294,7 +310,7 @@ METRIC = {"speed": "speed_mae", "command": "command_accuracy"}  # the metric of 
 
 def _log_row(epoch: int, loss: float, m: dict, seconds: float) -> dict:
     row = {"epoch": epoch, "train_loss": loss, "seconds": round(seconds, 2)}
-    row.update({f"val_{k}": m[k] for k in ("mse", "rmse", "mae_deg", "gamma_deg", *METRIC.values()) if k in m})
+    row.update({f"val_{k}": m[k] for k in ("mse", "rmse", "mae", "mae_deg", "gamma_deg", *METRIC.values()) if k in m})
     return row
 
 
@@ -303,21 +319,33 @@ def _write_predictions(path: Path, ds: CompiledDataset, idx: np.ndarray, pred: d
     write_predictions(path, ds.labels["frame_ids"][idx], pred["steering"], extra)
 
 
-def train(cfg: dict, progress: bool = True) -> dict:
-    """Train one model as configured; returns the best validation metrics. Resumes from `out/last.pt`."""
+def train(cfg: dict, progress: bool = True, on_epoch=None) -> dict:
+    """Train one model as configured; returns the best validation metrics. Resumes from `out/last.pt`.
+    `on_epoch(epoch, metrics)` is called after every epoch's checkpoint (steerlab tune reports and prunes
+    there: an exception it raises ends the run, which stays resumable)."""
     out = Path(cfg["out"])
-    out.mkdir(parents=True, exist_ok=True)
     tc = cfg["train"]
+    ranks = setup(str(tc["device"]))
+    if int(tc["batch_size"]) % ranks.world:
+        raise SteerlabError(f"train.batch_size {tc['batch_size']} is the global batch; it must divide evenly over "
+                            f"{ranks.world} ranks")
+    progress = progress and ranks.main
     cfg_file = out / "config.json"
     if (out / "last.pt").exists():
         if not cfg_file.exists() or json.loads(cfg_file.read_text()) != json.loads(json.dumps(cfg)):
             raise SteerlabError(f"{out} holds a run with another config; choose a new out directory or delete it")
-    cfg_file.write_text(json.dumps(cfg, indent=1))
+    if ranks.main:
+        out.mkdir(parents=True, exist_ok=True)
+        cfg_file.write_text(json.dumps(cfg, indent=1))
 
     name = cfg["model"]["name"]
     cfg = {**cfg, "preprocess": model_preprocess(name, cfg.get("preprocess"))}
+    if not ranks.main:
+        ranks.barrier()  # rank 0 compiles the cache first; the others then read it
     ds = prepare_dataset(cfg, progress)
-    train_idx, val_idx = make_split(cfg["split"], len(ds))
+    if ranks.main:
+        ranks.barrier()
+    train_idx, val_idx = make_split(cfg["split"], len(ds), ds.labels.get("session"))
     min_speed = float(tc["min_speed"])
     train_idx = usable_frames(ds, train_idx, "training", min_speed, tc.get("exclude_episodes"))
     val_idx = usable_frames(ds, val_idx, "validation", min_speed)
@@ -355,17 +383,20 @@ def train(cfg: dict, progress: bool = True) -> dict:
     truth = {"steering": sources[0][1][val_idx], **{k: v[val_idx] for k, v in batches.targets.items()}}
 
     def checkpoint(path, metrics, **extra):
-        save_checkpoint(path, model, model_cfg, ds.config, stats, convention, metrics,
-                        preset=ds.meta["preset"], frame_rate=ds.meta["frame_rate"], **extra)
+        if ranks.main:
+            save_checkpoint(path, model, model_cfg, ds.config, stats, convention, metrics,
+                            preset=ds.meta["preset"], frame_rate=ds.meta["frame_rate"], **extra)
 
     if not getattr(model, "trainable", True):
         model.fit(batches.steering(train_codes))
         pred = predict(model, batches, val_idx)
-        metrics = {**all_metrics(pred, truth), "epoch": 0}
+        metrics = {**all_metrics(pred, truth, convention.degrees_per_unit), "epoch": 0}
         checkpoint(out / "best.pt", metrics)
-        _write_predictions(out / "val_predictions.csv", ds, val_idx, pred)
+        if ranks.main:
+            _write_predictions(out / "val_predictions.csv", ds, val_idx, pred)
         return metrics
 
+    step_model = wrap(model, ranks)  # on the device; in DDP with several ranks
     opt = torch.optim.Adam(model.parameters(), lr=float(tc["lr"]))
     start, best, since_best, history = 1, None, 0, []
     if (out / "last.pt").exists():
@@ -374,42 +405,51 @@ def train(cfg: dict, progress: bool = True) -> dict:
         opt.load_state_dict(state["optimizer"])
         start, best, since_best, history = state["epoch"] + 1, state["best"], state["since_best"], state["history"]
         torch.set_rng_state(state["torch_rng"])
-        print(f"resuming {out} after epoch {state['epoch']}")
-    log_fields = (["epoch", "train_loss", "val_mse", "val_rmse", "val_mae_deg", "val_gamma_deg"]
+        if ranks.main:
+            print(f"resuming {out} after epoch {state['epoch']}")
+    log_fields = (["epoch", "train_loss", "val_mse", "val_rmse", "val_mae", "val_mae_deg", "val_gamma_deg"]
                   + [f"val_{METRIC[t]}" for t in getattr(model, "targets", ())] + ["seconds"])
     log_path = out / "log.csv"
-    with open(log_path, "w", newline="") as f:  # rewritten from history so a resumed log has no duplicates
-        w = csv.DictWriter(f, log_fields)
-        w.writeheader()
-        w.writerows(history)
+    if ranks.main:
+        with open(log_path, "w", newline="") as f:  # rewritten from history so a resumed log has no duplicates
+            w = csv.DictWriter(f, log_fields)
+            w.writeheader()
+            w.writerows(history)
 
     rotation, brightness = float(tc["rotation_deg"]), float(tc["brightness"])
     for epoch in range(start, int(tc["epochs"]) + 1):
         if since_best >= int(tc["patience"]):
             break
         t0 = time.time()
-        rng = np.random.default_rng([int(tc["seed"]), epoch])
-        transform = (partial(augment, cfg=ds.config, rng=rng, rotation_deg=rotation, brightness=brightness)
+        rng = np.random.default_rng([int(tc["seed"]), epoch])  # the same on every rank: the same global batches
+        augment_rng = np.random.default_rng([int(tc["seed"]), epoch, 1 + ranks.rank])  # per sample, per rank
+        transform = (partial(augment, cfg=ds.config, rng=augment_rng, rotation_deg=rotation, brightness=brightness)
                      if rotation or brightness else None)
         epoch_samples = balanced(samples, batches.steering(samples), rng) if tc["balance"] else samples
-        loss = train_one_epoch(model, opt, batches, epoch_samples, int(tc["batch_size"]), bool(tc["flip"]), rng,
-                               transform, float(tc["motion_dropout"]), progress, desc=f"epoch {epoch}")
+        loss = train_one_epoch(step_model, opt, batches, epoch_samples, int(tc["batch_size"]), bool(tc["flip"]),
+                               rng, transform, float(tc["motion_dropout"]), progress, desc=f"epoch {epoch}",
+                               ranks=ranks)
         pred = predict(model, batches, val_idx)
-        m = all_metrics(pred, truth)
+        m = all_metrics(pred, truth, convention.degrees_per_unit)
         row = _log_row(epoch, loss, m, time.time() - t0)
         history.append(row)
-        with open(log_path, "a", newline="") as f:
-            csv.DictWriter(f, log_fields).writerow(row)
+        if ranks.main:
+            with open(log_path, "a", newline="") as f:
+                csv.DictWriter(f, log_fields).writerow(row)
         if progress:
             extra = "".join(f"  {k} {m[k]:.3f}" for k in ("speed_mae", "command_accuracy") if k in m)
-            print(f"epoch {epoch}: train loss {loss:.5f}  val rmse {m['rmse']:.4f}  mae {m['mae_deg']:.2f} deg  "
-                  f"gamma {m['gamma_deg']:.3f} (target {m['target_gamma_deg']:.3f}){extra}")
+            angles = (f"mae {m['mae_deg']:.2f} deg  gamma {m['gamma_deg']:.3f} (target {m['target_gamma_deg']:.3f})"
+                      if np.isfinite(m["mae_deg"]) else f"mae {m['mae']:.4f} ({convention.unit})")
+            print(f"epoch {epoch}: train loss {loss:.5f}  val rmse {m['rmse']:.4f}  {angles}{extra}")
         if best is None or m["rmse"] < best["rmse"]:
             best, since_best = {**m, "epoch": epoch}, 0
             checkpoint(out / "best.pt", best)
-            _write_predictions(out / "val_predictions.csv", ds, val_idx, pred)
+            if ranks.main:
+                _write_predictions(out / "val_predictions.csv", ds, val_idx, pred)
         else:
             since_best += 1
         checkpoint(out / "last.pt", best, optimizer=opt.state_dict(), epoch=epoch, best=best,
                    since_best=since_best, history=history, torch_rng=torch.get_rng_state())
+        if on_epoch is not None:
+            on_epoch(epoch, m)
     return best

@@ -1,0 +1,164 @@
+"""steerlab side by side with donkeycar on the real tubs of ../shared/data/donkeycar.
+
+For each tub, the records (minus deleted ones and those whose image is missing) are cut into contiguous
+blocks: the first 80 % are training data for everyone, the last 20 % are the held-out validation block on
+which every model is scored (steering MAE in the tub's own unit, [-1, 1]). steerlab trains on the first 70 %
+and picks its best epoch on the next 10 %; donkeycar's trainer gets the whole first 80 % as a tub (the rest
+marked deleted) and splits it itself, as its users run it (`donkey train`, default config: 80/20 random
+split, early stopping). Training time is wall-clock time of each trainer.
+
+donkeycar is never a dependency of steerlab: it lives in its own virtual environment ($DONKEY_VENV, default
+runs/donkeycar-venv, made on first use with `pip install donkeycar[pc]`) and `_donkey_eval.py` runs there.
+
+python benchmarks/bench_donkeycar.py [--epochs 30] [--skip-donkey]
+donkeycar's models are trained once; a later run reuses their results (delete runs/bench-donkeycar/<tub> to
+train them again).
+"""
+
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from _common import ROOT, SHARED, machine
+
+from steerlab.data.readers import open_recording
+from steerlab.evaluate.offline import evaluate
+from steerlab.train.config import load_config
+from steerlab.train.loop import train
+
+TUBS = SHARED / "donkeycar"
+OUT = ROOT / "runs" / "bench-donkeycar"
+VENV = Path(os.environ.get("DONKEY_VENV", ROOT / "runs" / "donkeycar-venv"))
+DONKEY = "donkeycar[pc]==5.3.0"  # 5.4 needs Python >= 3.12
+STEERLAB_MODELS = ["pilotnet", "cg23", "multimodal-lstm", "train-mean"]
+DONKEY_MODELS = ["linear", "rnn"]
+READER = {"skip_missing": True}
+
+
+def blocks(n: int) -> tuple[int, int]:
+    return int(0.7 * n), int(0.8 * n)
+
+
+def donkey_python() -> Path:
+    python = VENV / "bin" / "python"
+    if not python.exists():
+        print(f"creating {VENV} with {DONKEY} (once)", flush=True)
+        subprocess.run([sys.executable, "-m", "venv", str(VENV)], check=True)
+        subprocess.run([str(python), "-m", "pip", "install", "--quiet", DONKEY], check=True)
+    return python
+
+
+def training_tub(tub: Path, keep: set[int], out: Path) -> Path:
+    """The tub as donkeycar reads it, with every record outside `keep` (record `_index` values) marked deleted.
+    donkeycar's reader counts deleted indexes by record position in the catalogs, which is the `_index` only in a
+    tub whose indexes start at 0 (taped-track's start at 10000), so positions are written."""
+    shutil.rmtree(out, ignore_errors=True)
+    out.mkdir(parents=True)
+    lines = (tub / "manifest.json").read_text().splitlines()
+    catalogs = json.loads(lines[4])
+    indexes = [json.loads(line)["_index"] for name in catalogs["paths"]
+               for line in (tub / name).read_text().splitlines() if line.strip()]
+    catalogs["deleted_indexes"] = [pos for pos, index in enumerate(indexes) if index not in keep]
+    (out / "manifest.json").write_text("\n".join(lines[:4] + [json.dumps(catalogs)]) + "\n")
+    for item in tub.iterdir():
+        if item.name != "manifest.json":
+            (out / item.name).symlink_to(item.resolve())
+    return out
+
+
+def run_donkey(python: Path, tub: Path, rec, a: int, n: int, work: Path) -> dict:
+    car = work / "car"
+    if not car.exists():
+        subprocess.run([str(python.parent / "donkey"), "createcar", "--path", str(car)], check=True,
+                       stdout=subprocess.DEVNULL)
+        with open(car / "myconfig.py", "a") as f:
+            f.write("\nSHOW_PLOT = False\nCREATE_TF_LITE = False\nSAVE_MODEL_AS_H5 = True\n")
+    train_tub = training_tub(tub, set(int(i) for i in rec.frame_ids[:a]), work / "train-tub")
+    test = {"images": [str(p) for p in rec.frames["center"][a:n]], "angles": rec.steering[a:n].tolist()}
+    (work / "test.json").write_text(json.dumps(test))
+    results = {}
+    previous = json.loads((work / "results.json").read_text()) if (work / "results.json").exists() else {}
+    for kind in DONKEY_MODELS:
+        model = work / f"{kind}.h5"
+        if "mae" in previous.get(f"donkeycar {kind}", {}) and model.exists():  # trained in an earlier run
+            results[kind] = previous[f"donkeycar {kind}"]
+            print(f"  donkeycar {kind}: reused from {work / 'results.json'}", flush=True)
+            continue
+        t = time.time()
+        log = work / f"{kind}.log"
+        with open(log, "w") as f:
+            done = subprocess.run([str(python.parent / "donkey"), "train", "--tub", str(train_tub), "--model",
+                                   str(model), "--type", kind, "--framework", "tensorflow"], cwd=car, stdout=f,
+                                  stderr=subprocess.STDOUT)
+        seconds = time.time() - t
+        if done.returncode != 0 or not model.exists():
+            results[kind] = {"error": f"donkey train failed, see {log}"}
+            continue
+        subprocess.run([str(python), str(Path(__file__).with_name("_donkey_eval.py")), str(car / "config.py"),
+                        str(model), kind, str(work / "test.json"), str(work / f"{kind}.json")], check=True, cwd=car,
+                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        results[kind] = {"mae": json.loads((work / f"{kind}.json").read_text())["mae"], "train_s": seconds}
+        print(f"  donkeycar {kind}: held-out MAE {results[kind]['mae']:.4f}, {seconds:.0f} s", flush=True)
+    return results
+
+
+def run_steerlab(tub: Path, n: int, epochs: int, work: Path) -> dict:
+    a, b = blocks(n)
+    results = {}
+    for name in STEERLAB_MODELS:
+        cfg = load_config(None, base={
+            "data": str(tub), "reader": READER, "cache": str(OUT / "cache"), "out": str(work / name),
+            "split": {"train": f"0:{a}", "val": f"{a}:{b}"}, "model": {"name": name},
+            "preprocess": {"preset": "donkey"}, "train": {"epochs": epochs, "batch_size": 32, "lr": 3e-4}})
+        shutil.rmtree(work / name, ignore_errors=True)  # a fresh run: its time is what is measured
+        t = time.time()
+        train(cfg, progress=False)
+        seconds = time.time() - t
+        m = evaluate(work / name / "best.pt", tub, f"{b}:{n}", work / name / "test", reader=READER, progress=False)
+        results[name] = {"mae": m["mae"], "train_s": seconds}
+        print(f"  steerlab {name}: held-out MAE {m['mae']:.4f}, {seconds:.0f} s", flush=True)
+    return results
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--epochs", type=int, default=30, help="steerlab's epochs (early stopping after 5)")
+    ap.add_argument("--skip-donkey", action="store_true", help="steerlab models only")
+    args = ap.parse_args()
+    if not (TUBS / "hall" / "manifest.json").exists():
+        print(f"skipped: {TUBS} not found")
+        return
+    python = None if args.skip_donkey else donkey_python()
+    os.environ.setdefault("STEERLAB_CACHE", str(OUT / "cache"))
+    lines = [f"machine: {machine()}", "", "| tub | model | trainer | held-out MAE [-1, 1] | train time [s] |",
+             "|---|---|---|---|---|"]
+    for name in ("hall", "taped-track"):
+        tub = TUBS / name
+        rec = open_recording(tub, options=READER)
+        n = len(rec)
+        a, b = blocks(n)
+        print(f"{name}: {n} records; steerlab trains on 0:{a}, selects on {a}:{b}; donkeycar trains on 0:{b}; "
+              f"everyone is scored on {b}:{n}", flush=True)
+        work = OUT / name
+        work.mkdir(parents=True, exist_ok=True)
+        results = {f"steerlab {k}": v for k, v in run_steerlab(tub, n, args.epochs, work).items()}
+        if python:
+            results.update({f"donkeycar {k}": v for k, v in run_donkey(python, tub, rec, b, n, work).items()})
+        for label, r in results.items():
+            trainer, model = label.split(" ", 1)
+            mae = f"{r['mae']:.4f}" if "mae" in r else r["error"]
+            lines.append(f"| {name} | {model} | {trainer} | {mae} | {r.get('train_s', float('nan')):.0f} |")
+        (work / "results.json").write_text(json.dumps(results, indent=1))
+    table = "\n".join(lines) + "\n"
+    (OUT / "table.md").write_text(table)
+    print(table)
+    print(f"wrote {OUT / 'table.md'}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,113 @@
+"""donkeycar "tub v2" folders: `manifest.json`, `catalog_N.catalog` (one JSON record a line) and `images/`.
+
+The manifest's five JSON lines are: the record keys, their types, the user's metadata, the creation time with
+the session ids, and the catalog files in order with `deleted_indexes` (records the user deleted; never used).
+Each record holds `_index`, `_session_id`, `_timestamp_ms`, `cam/image_array` (a file in `images/`),
+`user/angle` (servo command in [-1, 1], positive right) and `user/throttle` ([-1, 1]).
+
+`user/angle` keeps its own unit: the recording's convention is "normalized", positive right, with the car's
+full-lock angle when the user gives it (reader option `full_lock_deg`); only then do degree metrics, viewpoint
+shifts and closed-loop conversions have a meaning. Sessions become segments (`extra["session"]`) and can
+be used for splits.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from steerlab.data.readers import apply_range
+from steerlab.data.recording import Recording, SteeringConvention
+from steerlab.errors import DataError, SteerlabError, warn
+
+OPTIONS = ("full_lock_deg", "skip_missing")
+MANIFEST_LINES = ("record keys", "record types", "metadata", "sessions", "catalog list")
+REQUIRED = ("_index", "_timestamp_ms", "cam/image_array", "user/angle")
+
+
+def is_tub(folder: Path) -> bool:
+    return (folder / "manifest.json").is_file() and any(folder.glob("catalog_*.catalog"))
+
+
+def _json_lines(path: Path) -> list[tuple[int, object]]:
+    """(line number, parsed value) for every non-empty line; a broken line is an error naming it."""
+    if not path.is_file():
+        raise DataError(path, "file not found")
+    out = []
+    with open(path, encoding="utf-8", errors="replace") as f:
+        for n, line in enumerate(f, start=1):
+            if line.strip():
+                try:
+                    out.append((n, json.loads(line)))
+                except json.JSONDecodeError as e:
+                    raise DataError(path, f"broken JSON line ({e.msg} at column {e.colno})", n) from None
+    return out
+
+
+def _manifest(folder: Path) -> tuple[list[str], list[str], set[int]]:
+    path = folder / "manifest.json"
+    lines = _json_lines(path)
+    if len(lines) < len(MANIFEST_LINES):
+        raise DataError(path, f"truncated manifest: {len(lines)} JSON lines, expected {len(MANIFEST_LINES)} "
+                              f"({', '.join(MANIFEST_LINES)})")
+    keys, catalogs = lines[0][1], lines[4][1]
+    if not isinstance(keys, list) or "cam/image_array" not in keys or "user/angle" not in keys:
+        raise DataError(path, f"the record keys {keys} lack 'cam/image_array' or 'user/angle'", lines[0][0])
+    if not isinstance(catalogs, dict) or not isinstance(catalogs.get("paths"), list):
+        raise DataError(path, "the catalog line lacks 'paths' (the catalog files in order)", lines[4][0])
+    deleted = catalogs.get("deleted_indexes", [])
+    return keys, catalogs["paths"], {int(i) for i in deleted}
+
+
+def read_tub(folder: str | Path, frame_range=None, full_lock_deg: float | None = None,
+             skip_missing: bool = False) -> Recording:
+    """Read a tub. `frame_range` ("a:b" as a tuple) counts the records that remain after deletion."""
+    folder = Path(folder)
+    _, catalogs, deleted = _manifest(folder)
+    records = []  # (catalog, line, record)
+    for name in catalogs:
+        for line, rec in _json_lines(folder / name):
+            if not isinstance(rec, dict) or any(k not in rec for k in REQUIRED):
+                raise DataError(folder / name, f"a record needs the keys {', '.join(REQUIRED)}", line)
+            if int(rec["_index"]) not in deleted:
+                records.append((folder / name, line, rec))
+    if not records:
+        raise DataError(folder, "the tub has no records (all deleted or empty catalogs)")
+    records = records[apply_range(len(records), frame_range, folder)]
+    kept, missing = [], []
+    for path, line, rec in records:
+        image = folder / "images" / str(rec["cam/image_array"])
+        angle = rec["user/angle"]
+        if not isinstance(angle, (int, float)) or not math.isfinite(angle) or abs(angle) > 1.0 + 1e-6:
+            raise DataError(path, f"record {rec['_index']}: user/angle is {angle!r}; a number in [-1, 1] is "
+                                  "expected", line)
+        if not image.is_file():
+            if not skip_missing:
+                raise DataError(path, f"record {rec['_index']}: image {image} is missing (reader option "
+                                      "skip_missing: true leaves such records out)", line)
+            missing.append(rec["_index"])
+            continue
+        kept.append((image, rec))
+    if missing:
+        warn(f"{folder}: skipped {len(missing)} record(s) whose image is missing (indexes "
+             f"{', '.join(map(str, missing[:10]))}{' ...' if len(missing) > 10 else ''})")
+    if not kept:
+        raise DataError(folder, "no record has its image")
+    try:
+        convention = SteeringConvention("normalized", "right",
+                                        None if full_lock_deg is None else math.radians(float(full_lock_deg)))
+    except ValueError as e:
+        raise SteerlabError(f"{folder}: reader option full_lock_deg: {e}") from None
+    recs = [r for _, r in kept]
+    throttle = np.array([float(r.get("user/throttle", math.nan)) for r in recs])
+    return Recording(
+        name=folder.name, source=folder, frames={"center": [p for p, _ in kept]},
+        timestamps_ns=np.array([int(r["_timestamp_ms"]) * 1_000_000 for r in recs], dtype=np.int64),
+        steering=np.array([float(r["user/angle"]) for r in recs]), convention=convention,
+        frame_ids=np.array([int(r["_index"]) for r in recs], dtype=np.int64),
+        throttle=throttle if np.all(np.isfinite(throttle)) else None,
+        extra={"session": np.array([str(r.get("_session_id", "")) for r in recs])}, preset="donkey",
+    )

@@ -1,0 +1,99 @@
+"""A video file (MP4, AVI, ...) with a CSV log, decoded lazily with OpenCV.
+
+The log sits beside the video with the same name (`drive.mp4` + `drive.csv`) or is given as the reader option
+`log`. Its columns: `steering` and optionally `speed` (m/s), and one of `timestamp_ns` (integer nanoseconds),
+`timestamp` (seconds) or `frame` (the video frame each row labels; without a time column the video's frame
+rate gives the times). Without `frame`, row i labels video frame i and the log must have as many rows as the
+video has frames. The steering convention and the crop preset are reader options too: `steering` (kind,
+default "steering_wheel"), `positive` (default "left"), `full_lock_deg` (for normalized steering) and `preset`
+(default "ch2").
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from steerlab.data.preprocess import CROP_PRESETS
+from steerlab.data.readers import _check_unique, _number, _read_rows, apply_range
+from steerlab.data.recording import Recording, SteeringConvention, VideoFrames
+from steerlab.errors import DataError
+
+OPTIONS = ("log", "steering", "positive", "full_lock_deg", "preset")
+
+
+def read_video(path: str | Path, frame_range=None, log: str | Path | None = None, steering: str = "steering_wheel",
+               positive: str = "left", full_lock_deg: float | None = None, preset: str = "ch2") -> Recording:
+    path = Path(path)
+    log = Path(log) if log else path.with_suffix(".csv")
+    if not log.is_file():
+        raise DataError(log, f"the log of video {path.name} is missing (put {path.stem}.csv beside it or give the "
+                             "reader option log)")
+    capture = cv2.VideoCapture(str(path))
+    count, fps = int(capture.get(cv2.CAP_PROP_FRAME_COUNT)), capture.get(cv2.CAP_PROP_FPS)
+    ok = capture.isOpened() and capture.read()[0]
+    capture.release()
+    if not ok or count <= 0:
+        raise DataError(path, "cannot decode this video with OpenCV")
+    if preset not in CROP_PRESETS:
+        raise DataError(path, f"unknown preset {preset!r}; choose one of {', '.join(CROP_PRESETS)}")
+    try:
+        convention = SteeringConvention(steering, positive,
+                                        None if full_lock_deg is None else math.radians(float(full_lock_deg)))
+    except ValueError as e:
+        raise DataError(log, f"reader options steering/positive/full_lock_deg: {e}") from None
+
+    rows = _read_rows(log)
+    if len(rows) < 2:
+        raise DataError(log, "the log has no rows")
+    header = [h.strip() for h in rows[0]]
+    col = {h: i for i, h in enumerate(header)}
+    time_col = next((c for c in ("timestamp_ns", "timestamp", "frame") if c in col), None)
+    if "steering" not in col or time_col is None:
+        raise DataError(log, f"columns {header}: expected 'steering' and one of 'timestamp_ns', 'timestamp' "
+                             "(seconds) or 'frame'", 1)
+    body = rows[1:]
+    positions = np.arange(len(body))
+    if "frame" in col:
+        positions = np.array([_integer(log, r, "frame", row[col["frame"]]) for r, row in enumerate(body, 2)])
+        bad = np.flatnonzero(np.diff(positions) <= 0)
+        if bad.size:
+            raise DataError(log, "frame numbers must increase", int(bad[0]) + 3)
+        if positions[0] < 0 or positions[-1] >= count:
+            raise DataError(log, f"the log labels video frame {positions[-1]} but {path.name} has only {count} "
+                                 f"frames ({positions[-1] + 1 - count} too few)", len(body) + 1)
+    elif len(body) != count:
+        more = "more" if len(body) > count else "fewer"
+        raise DataError(log, f"the log has {len(body)} rows but {path.name} has {count} frames "
+                             f"({abs(len(body) - count)} {more} rows than frames)")
+    for r, row in enumerate(body, start=2):
+        if len(row) < len(header):
+            raise DataError(log, f"expected {len(header)} columns, got {len(row)}", r)
+    steer = np.array([_number(log, r, "steering", row[col["steering"]]) for r, row in enumerate(body, 2)])
+    speed = (np.array([_number(log, r, "speed", row[col["speed"]]) for r, row in enumerate(body, 2)])
+             if "speed" in col else None)
+    if time_col == "timestamp_ns":
+        stamps = np.array([_integer(log, r, time_col, row[col[time_col]]) for r, row in enumerate(body, 2)])
+    elif time_col == "timestamp":
+        stamps = np.round(np.array([_number(log, r, time_col, row[col[time_col]]) for r, row in enumerate(body, 2)])
+                          * 1e9).astype(np.int64)
+    else:
+        stamps = np.round(positions * 1e9 / (fps if fps > 0 else 30.0)).astype(np.int64)
+    _check_unique(stamps, log, 2)
+    cut = apply_range(len(body), frame_range, log)
+    stamps, positions, steer = stamps[cut], positions[cut], steer[cut]
+    return Recording(
+        name=path.stem, source=path, frames={"center": [path] * len(stamps)}, timestamps_ns=stamps,
+        steering=steer, convention=convention, frame_ids=stamps, speed=None if speed is None else speed[cut],
+        preset=preset, video=VideoFrames(path, positions),
+    )
+
+
+def _integer(path: Path, row: int, column: str, text: str) -> int:
+    try:
+        return int(text)
+    except ValueError:
+        raise DataError(path, f"column {column!r} must be an integer, got {text!r}", row) from None

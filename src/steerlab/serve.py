@@ -1,0 +1,164 @@
+"""`steerlab serve`: the drive server for the Udacity behavioural-cloning simulator.
+
+The simulator (autonomous mode) connects with Socket.IO to port 4567 and sends a `telemetry` event per frame:
+`steering_angle`, `throttle`, `speed` (mph) as strings and `image`, a base64 JPEG of the centre camera
+(320x160). The server answers each with a `steer` event (`steering_angle` in [-1, 1] = +-25 degrees, positive
+right, and `throttle`, both as strings). Telemetry without data means the simulator is in manual mode: the
+server emits `manual` and sends no command. A frame whose image is missing or undecodable gets a safe stop
+(steering 0, brake while moving) and a warning; the server keeps running.
+
+The simulator speaks Engine.IO protocol 3, which python-socketio 5 rejects ("unsupported version"): steerlab
+pins python-socketio 4.6.1 + python-engineio 3.14.2 and serves with eventlet, the combination the
+simulator's own drive.py was written for.
+"""
+
+from __future__ import annotations
+
+import base64
+import csv
+import math
+import time
+import warnings
+from datetime import datetime, timezone
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from steerlab.data.readers import MPH_TO_MS, SIM_CONVENTION, SIM_FULL_LOCK_RAD
+from steerlab.errors import SteerlabError, warn
+from steerlab.pilot import Pilot
+
+STEERING_RATIO = 14.8  # only used when a steering-wheel model (CH2) drives the simulator
+
+
+class SpeedController:
+    """PI control of the throttle to a set speed (m/s); the integral is bounded so it cannot wind up."""
+
+    def __init__(self, set_speed: float, kp: float = 0.2, ki: float = 0.01, limit: float = 20.0):
+        self.set_speed, self.kp, self.ki, self.limit = set_speed, kp, ki, limit
+        self.integral = 0.0
+
+    def update(self, speed: float) -> float:
+        error = self.set_speed - speed
+        self.integral = min(max(self.integral + error, -self.limit), self.limit)
+        return float(np.clip(self.kp * error + self.ki * self.integral, -1.0, 1.0))
+
+
+def to_simulator(pilot: Pilot, steering: float) -> float:
+    """The pilot's steering (its checkpoint's convention) as the simulator's normalised value."""
+    road_wheel_left = pilot.convention.to_road_wheel_left(steering, STEERING_RATIO)
+    return float(np.clip(SIM_CONVENTION.from_road_wheel_left(road_wheel_left, STEERING_RATIO) / SIM_FULL_LOCK_RAD,
+                         -1.0, 1.0))
+
+
+class DriveSession:
+    """Telemetry in, commands out; optionally records the drive as a driving_log.csv with IMG/."""
+
+    def __init__(self, pilot: Pilot, set_speed: float, record: str | Path | None = None):
+        self.pilot, self.controller = pilot, SpeedController(set_speed)
+        self.record = Path(record) if record else None
+        self.frames = self.bad = self._last_ms = 0
+        if self.record:
+            (self.record / "IMG").mkdir(parents=True, exist_ok=True)
+
+    def command(self, data: dict) -> dict[str, str]:
+        try:
+            speed = float(data["speed"]) * MPH_TO_MS
+        except (KeyError, TypeError, ValueError):
+            speed = math.nan
+        jpeg = _decode_base64(data.get("image"))
+        frame = None if jpeg is None else cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)
+        if frame is None or not math.isfinite(speed):
+            self.bad += 1
+            what = "speed" if frame is not None else "image"
+            warn(f"telemetry frame {self.frames + self.bad}: missing or undecodable {what}; sent a safe stop")
+            brake = -1.0 if math.isfinite(speed) and speed > 0.5 else 0.0
+            return {"steering_angle": "0.0", "throttle": str(brake)}
+        self.frames += 1
+        controls = self.pilot.step(frame, speed)
+        steering, throttle = to_simulator(self.pilot, controls.steering), self.controller.update(speed)
+        if self.record:
+            self._log(jpeg, steering, throttle, speed)
+        return {"steering_angle": f"{steering:.6f}", "throttle": f"{throttle:.6f}"}
+
+    def _log(self, jpeg: bytes, steering: float, throttle: float, speed: float) -> None:
+        ms = max(time.time_ns() // 1_000_000, self._last_ms + 1)  # file names carry the time, so unique ms
+        self._last_ms = ms
+        now = datetime.fromtimestamp(ms / 1000, timezone.utc)
+        name = self.record / "IMG" / f"center_{now:%Y_%m_%d_%H_%M_%S}_{ms % 1000:03d}.jpg"
+        name.write_bytes(jpeg)
+        with open(self.record / "driving_log.csv", "a", newline="") as f:
+            csv.writer(f).writerow([name, "", "", f"{steering:.6f}", f"{max(throttle, 0.0):.6f}",
+                                    f"{max(-throttle, 0.0):.6f}", f"{speed / MPH_TO_MS:.4f}"])
+
+
+def _decode_base64(text) -> bytes | None:
+    if not isinstance(text, str) or not text:
+        return None
+    try:
+        return base64.b64decode(text, validate=True)
+    except ValueError:
+        return None
+
+
+def _socketio():
+    """python-socketio 4.x with eventlet: the combination that speaks the simulator's Engine.IO 3."""
+    try:
+        with warnings.catch_warnings():  # eventlet announces its maintenance mode on import
+            warnings.simplefilter("ignore")
+            import eventlet
+            import eventlet.wsgi
+            import socketio
+    except ImportError:
+        raise SteerlabError("steerlab serve needs python-socketio 4.6.1, python-engineio 3.14.2 and eventlet "
+                            "(pip install -r requirements.txt)") from None
+    if not socketio.__version__.startswith("4."):
+        raise SteerlabError(f"python-socketio {socketio.__version__} cannot talk to the Udacity simulator (it "
+                            "speaks Engine.IO 3): pip install python-socketio==4.6.1 python-engineio==3.14.2")
+    return socketio, eventlet
+
+
+def make_app(session: DriveSession):
+    """The WSGI application with the Socket.IO server on it."""
+    socketio, _ = _socketio()
+    sio = socketio.Server(async_mode="eventlet", logger=False, engineio_logger=False)
+
+    @sio.on("connect")
+    def connect(sid, environ):
+        print(f"simulator connected ({sid})")
+        sio.emit("steer", {"steering_angle": "0.0", "throttle": "0.0"}, room=sid)
+
+    @sio.on("telemetry")
+    def telemetry(sid, data):
+        if not data:  # manual mode
+            sio.emit("manual", {}, skip_sid=True)
+            return
+        sio.emit("steer", session.command(data if isinstance(data, dict) else {}), room=sid)
+
+    @sio.on("manual")
+    def manual(sid, data):
+        session.pilot.reset()  # a human drove in between: the next autonomous frame starts a new segment
+
+    @sio.on("disconnect")
+    def disconnect(sid):
+        print(f"simulator disconnected after {session.frames} frames ({session.bad} bad)")
+
+    return socketio.WSGIApp(sio)
+
+
+def serve(checkpoint: str | Path, port: int = 4567, set_speed: float = 4.0, record: str | Path | None = None,
+          smoothing: float | None = None, host: str = "0.0.0.0") -> None:
+    _, eventlet = _socketio()
+    pilot = Pilot(checkpoint, smoothing=smoothing)
+    app = make_app(DriveSession(pilot, set_speed, record))
+    try:
+        listener = eventlet.listen((host, port), reuse_port=False)
+    except OSError as e:
+        raise SteerlabError(f"cannot listen on port {port}: {e.strerror}") from None
+    print(f"steerlab serve: {pilot.name} on port {port}, set speed {set_speed:.1f} m/s"
+          + (f", recording to {record}" if record else "") + " - start the simulator in autonomous mode",
+          flush=True)
+    t0 = time.time()
+    eventlet.wsgi.server(listener, app, log_output=False)
+    print(f"stopped after {time.time() - t0:.0f} s")

@@ -1,0 +1,392 @@
+"""Hyperparameter tuning as in paper 000 V-A (`steerlab tune`): BOHB-style search with Optuna.
+
+The search space is the `tune:` section of an ordinary training config: config keys (`train.lr`,
+`model.dropout`, `preprocess.color`, ...) mapped to ranges,
+
+    tune:
+      train.lr: {low: 1.0e-6, high: 1.0e-3, log: true}     # float
+      train.batch_size: {low: 4, high: 10, type: int}
+      preprocess.color: [gray, yuv]                        # categorical
+
+Optuna's multivariate TPE sampler proposes configurations and its Hyperband pruner stops unpromising trials
+early, with epochs as the budget: each epoch reports the validation RMSE (together: BOHB's idea, Falkner et
+al. 2018, on Optuna's parts). Objectives: validation RMSE (default), RMSE and gamma (multi-objective, Pareto
+front; Optuna cannot prune multi-objective trials, so those run to completion), or the closed-loop autonomy of
+the best epoch on the synthetic-world suite. The study lives in an Optuna storage (a journal file in the output
+folder by default, or `--storage URL`) that any number of workers on any number of machines can share.
+
+Outputs in the output folder: `trials.csv`, `best.yaml` (a training config `steerlab train` runs as it is),
+`importance.md` (fANOVA, percent), `importance.png` (predicted validation error vs each parameter, best value
+marked, paper 000 Fig. 4), `history.png`, one training run per trial under `trials/`.
+"""
+
+from __future__ import annotations
+
+import copy
+import csv
+import inspect
+import json
+import math
+from dataclasses import fields
+from pathlib import Path
+
+import matplotlib
+import numpy as np
+import yaml
+from tqdm import tqdm
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+from steerlab.data.preprocess import PreprocessConfig
+from steerlab.errors import SteerlabError
+from steerlab.train.config import DEFAULTS, load_config
+
+OBJECTIVES = {"rmse": ["minimize"], "rmse+gamma": ["minimize", "minimize"], "autonomy": ["maximize"]}
+
+
+def _optuna():
+    try:
+        import optuna
+    except ImportError:
+        raise SteerlabError("steerlab tune needs optuna and scikit-learn: pip install optuna scikit-learn") from None
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    return optuna
+
+
+def _known(key: str, cfg: dict) -> bool:
+    """Whether `key` (section.option) is something a training config can set."""
+    section, _, option = key.partition(".")
+    if section == "train":
+        return option in DEFAULTS["train"]
+    if section == "preprocess":
+        return option in {f.name for f in fields(PreprocessConfig)} | {"preset"}
+    if section == "model":
+        from steerlab.models import model_class
+
+        names = set()
+        for cls in model_class(cfg["model"]["name"]).__mro__:  # follow **kw up to the base class
+            params = inspect.signature(cls.__init__).parameters
+            names |= {n for n, p in params.items() if p.kind != p.VAR_KEYWORD}
+            if not any(p.kind == p.VAR_KEYWORD for p in params.values()):
+                break
+        return option in names - {"self", "in_channels", "height", "width"}
+    return not option and section in DEFAULTS and section not in ("tune", "data", "out", "cache")
+
+
+def search_space(spec: dict, cfg: dict) -> dict:
+    """The `tune:` section as Optuna distributions, with a one-line error for anything wrong."""
+    optuna = _optuna()
+    if not isinstance(spec, dict) or not spec:
+        raise SteerlabError("the config has no tune: section (config key -> range) to search")
+    space = {}
+    for key, rng in spec.items():
+        if not _known(key, cfg):
+            raise SteerlabError(f"tune: {key!r} is not a config key of this config (use section.option, e.g. "
+                                f"train.lr, model.dropout, preprocess.color)")
+        if isinstance(rng, list):
+            if len(rng) < 2:
+                raise SteerlabError(f"tune: {key} needs at least two choices, got {rng}")
+            space[key] = optuna.distributions.CategoricalDistribution(rng)
+            continue
+        if not isinstance(rng, dict) or "low" not in rng or "high" not in rng:
+            raise SteerlabError(f"tune: {key} needs {{low: .., high: ..}} or a list of choices, got {rng!r}")
+        kind = rng.get("type", "int" if isinstance(rng["low"], int) and isinstance(rng["high"], int) else "float")
+        low, high, log = rng["low"], rng["high"], bool(rng.get("log", False))
+        try:
+            low, high = (int(low), int(high)) if kind == "int" else (float(low), float(high))
+        except (TypeError, ValueError):
+            raise SteerlabError(f"tune: {key} low/high must be numbers, got {rng['low']!r}/{rng['high']!r}") from None
+        if kind not in ("int", "float"):
+            raise SteerlabError(f"tune: {key} type must be int or float (lists are categorical), got {kind!r}")
+        if not low < high:
+            raise SteerlabError(f"tune: {key} range {low}..{high} is empty or inverted (low must be below high)")
+        if log and low <= 0:
+            raise SteerlabError(f"tune: {key} has a log range, so low must be positive, got {low}")
+        dist = optuna.distributions.IntDistribution if kind == "int" else optuna.distributions.FloatDistribution
+        space[key] = dist(low, high, log=log)
+    return space
+
+
+def with_params(cfg: dict, params: dict) -> dict:
+    out = copy.deepcopy(cfg)
+    for key, value in params.items():
+        section, _, option = key.partition(".")
+        if option:
+            out.setdefault(section, {})[option] = value
+        else:
+            out[section] = value
+    return out
+
+
+def storage_of(url: str | None, out: Path):
+    """An Optuna storage: a journal file (default `<out>/study.journal`, or a path / journal:PATH), or an RDB URL
+    (sqlite:///, postgresql://, mysql://) with heartbeats, so a killed worker's trial is failed and retried."""
+    _optuna()
+    from optuna.storages import JournalStorage, RDBStorage, RetryFailedTrialCallback
+    from optuna.storages.journal import JournalFileBackend
+
+    url = url or str(out / "study.journal")
+    if url.split(":", 1)[0].split("+", 1)[0] in ("sqlite", "postgresql", "mysql"):  # postgresql+psycopg2://...
+        try:
+            return RDBStorage(url, heartbeat_interval=30, grace_period=90,
+                              failed_trial_callback=RetryFailedTrialCallback(max_retry=2))
+        except Exception as e:  # noqa: BLE001 - SQLAlchemy raises many types for a bad URL or server
+            first = str(e).splitlines()[0] if str(e) else ""
+            raise SteerlabError(f"cannot open storage {url}: {e.__class__.__name__}: {first}") from None
+    path = url[len("journal:"):] if url.startswith("journal:") else url
+    if "://" in path or not path.endswith((".journal", ".log")):
+        raise SteerlabError(f"unknown storage {url!r}: use a journal file (*.journal, *.log, journal:PATH) or "
+                            "an RDB URL (sqlite:///study.db, postgresql://user:pass@host/db)")
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    return JournalStorage(JournalFileBackend(path))
+
+
+def _load_study(cfg_text: dict, objective: str, storage, name: str, seed: int, epochs: int):
+    """Create the study, or join it if it exists with the same search space and objective."""
+    optuna = _optuna()
+    signature = json.dumps({"tune": cfg_text["tune"], "objective": objective}, sort_keys=True)
+    try:
+        existing = optuna.load_study(study_name=name, storage=storage)
+    except KeyError:
+        existing = None
+    if existing is not None and existing.user_attrs.get("signature") not in (None, signature):
+        raise SteerlabError(f"study {name!r} exists in this storage with a different search space or objective; "
+                            "choose another --study name")
+    sampler = optuna.samplers.TPESampler(seed=seed, multivariate=True, n_startup_trials=min(10, max(2, epochs)))
+    pruner = (optuna.pruners.HyperbandPruner(min_resource=1, max_resource=epochs, reduction_factor=3)
+              if len(OBJECTIVES[objective]) == 1 else optuna.pruners.NopPruner())
+    study = optuna.create_study(study_name=name, storage=storage, sampler=sampler, pruner=pruner,
+                                directions=OBJECTIVES[objective], load_if_exists=True)
+    study.set_user_attr("signature", signature)
+    study.set_user_attr("config", cfg_text)
+    return study
+
+
+def run_tune(config: str | Path, overrides: list[str] = (), trials: int = 20, objective: str = "rmse",
+             storage: str | None = None, study_name: str | None = None, seed: int = 0,
+             progress: bool = True) -> Path:
+    """Run trials of the study until it has `trials` finished ones; write the reports. Returns the folder."""
+    from steerlab.train.loop import train
+
+    optuna = _optuna()
+    if objective not in OBJECTIVES:
+        raise SteerlabError(f"unknown objective {objective!r}; choose one of {', '.join(OBJECTIVES)}")
+    if trials < 1:
+        raise SteerlabError(f"--trials must be at least 1, got {trials}")
+    cfg = load_config(config, list(overrides))
+    space = search_space(cfg.get("tune"), cfg)
+    out = Path(cfg["out"])
+    name = study_name or out.name
+    epochs = int(cfg["train"]["epochs"])
+    store = storage_of(storage, out)
+    study = _load_study(cfg, objective, store, name, seed, epochs)
+    base = {k: v for k, v in cfg.items() if k != "tune"}
+
+    def objective_fn(trial):
+        run_cfg = with_params(base, {k: _suggest(trial, k, d) for k, d in space.items()})
+        run_cfg["out"] = str(out / "trials" / f"{trial.number:04d}")
+        single = len(OBJECTIVES[objective]) == 1
+
+        def on_epoch(epoch: int, m: dict) -> None:
+            trial.set_user_attr("epochs_run", epoch)
+            if single and objective == "rmse":
+                trial.report(m["rmse"], epoch)
+                if trial.should_prune():
+                    raise optuna.TrialPruned()
+
+        best = train(run_cfg, progress=False, on_epoch=on_epoch)
+        trial.set_user_attr("best_epoch", best.get("epoch"))
+        if objective == "rmse":
+            return best["rmse"]
+        if objective == "rmse+gamma":
+            return best["rmse"], best["gamma_deg"]
+        from steerlab.experiment import closed_loop_metrics
+
+        return closed_loop_metrics(Path(run_cfg["out"]), {}, False)["autonomy"]
+
+    done_states = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED)
+    finished = len(study.get_trials(deepcopy=False, states=done_states))
+    bar = tqdm(total=trials, initial=min(finished, trials), desc=f"study {name}", unit="trial",
+               disable=not progress or None)
+
+    def report(study, trial):
+        bar.update(1)
+        if progress:
+            value = trial.values if trial.values is not None else trial.intermediate_values
+            state = "pruned" if trial.state == optuna.trial.TrialState.PRUNED else trial.state.name.lower()
+            shown = (", ".join(f"{v:.4f}" for v in value) if isinstance(value, list)
+                     else f"{min(value.values()):.4f} after {len(value)} epoch(s)" if value else "-")
+            bar.write(f"trial {trial.number}: {state}, {shown}; "
+                      + ", ".join(f"{k}={_short(v)}" for k, v in trial.params.items()))
+
+    while len(study.get_trials(deepcopy=False, states=done_states)) < trials:
+        trial = study.ask()
+        if trial.number >= trials + _failed(study):  # another worker already started the last trial
+            study.tell(trial, state=optuna.trial.TrialState.FAIL)
+            study.set_user_attr(f"surplus_{trial.number}", True)
+            break
+        try:
+            value = objective_fn(trial)
+            frozen = study.tell(trial, value)
+        except optuna.TrialPruned:
+            frozen = study.tell(trial, state=optuna.trial.TrialState.PRUNED)
+        report(study, frozen)
+    bar.close()
+    write_reports(study, out, base)
+    return out
+
+
+def _suggest(trial, key: str, dist):
+    import optuna
+
+    if isinstance(dist, optuna.distributions.CategoricalDistribution):
+        return trial.suggest_categorical(key, dist.choices)
+    if isinstance(dist, optuna.distributions.IntDistribution):
+        return trial.suggest_int(key, dist.low, dist.high, log=dist.log)
+    return trial.suggest_float(key, dist.low, dist.high, log=dist.log)
+
+
+def _failed(study) -> int:
+    """Trials that failed for real (a crash, a killed worker): they do not count against the total."""
+    import optuna
+
+    return sum(1 for t in study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.FAIL,))
+               if not study.user_attrs.get(f"surplus_{t.number}"))
+
+
+def _short(v) -> str:
+    return f"{v:.3g}" if isinstance(v, float) else str(v)
+
+
+def write_reports(study, out: Path, base: dict) -> None:
+    """trials.csv, best.yaml, and for single-objective studies importance.md/.png and history.png; for
+    rmse+gamma the Pareto front (pareto.md, pareto.png)."""
+    import optuna
+    from optuna.trial import TrialState
+
+    out.mkdir(parents=True, exist_ok=True)
+    trials = [t for t in study.get_trials(deepcopy=False) if not study.user_attrs.get(f"surplus_{t.number}")]
+    params = sorted({k for t in trials for k in t.params})
+    with open(out / "trials.csv", "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(["number", "state", *[f"value_{i}" for i in range(len(study.directions))], "epochs_run",
+                    "best_epoch", "seconds", *params])
+        for t in trials:
+            values = t.values or [min(t.intermediate_values.values()) if t.intermediate_values else ""] * len(
+                study.directions)
+            seconds = (t.datetime_complete - t.datetime_start).total_seconds() if t.datetime_complete else ""
+            w.writerow([t.number, t.state.name.lower(), *values, t.user_attrs.get("epochs_run", ""),
+                        t.user_attrs.get("best_epoch", ""), seconds, *[t.params.get(k, "") for k in params]])
+    complete = [t for t in trials if t.state == TrialState.COMPLETE]
+    if not complete:
+        return
+    if len(study.directions) > 1:
+        front = study.best_trials
+        lines = ["| trial | validation RMSE | gamma [deg] | " + " | ".join(params) + " |",
+                 "|---" * (3 + len(params)) + "|"]
+        lines += [f"| {t.number} | {t.values[0]:.4f} | {t.values[1]:.3f} | "
+                  + " | ".join(_short(t.params.get(k, "")) for k in params) + " |" for t in front]
+        (out / "pareto.md").write_text("Pareto front (validation RMSE vs gamma):\n\n" + "\n".join(lines) + "\n")
+        _plot_pareto(out / "pareto.png", complete, front)
+        best = min(front, key=lambda t: t.values[0])
+    else:
+        best = study.best_trial
+        _plot_history(out / "history.png", trials, study.directions[0] == optuna.study.StudyDirection.MINIMIZE)
+        if len(complete) >= 2 and params:
+            importance = optuna.importance.get_param_importances(
+                study, evaluator=optuna.importance.FanovaImportanceEvaluator(seed=0), normalize=True)
+            total = sum(importance.values()) or 1.0
+            rows = [f"| {k} | {100 * v / total:.1f} |" for k, v in importance.items()]
+            (out / "importance.md").write_text(
+                f"fANOVA importance over {len(complete)} completed trials (percent of the explained variance "
+                "of the objective):\n\n| hyperparameter | importance [%] |\n|---|---|\n" + "\n".join(rows) + "\n")
+            _plot_marginals(out / "importance.png", study, complete, best)
+    best_cfg = with_params(base, best.params)
+    best_cfg["out"] = str(out / "best")
+    (out / "best.yaml").write_text(
+        f"# best trial {best.number} of study {study.study_name}: {', '.join(f'{v:.5g}' for v in best.values)}\n"
+        + yaml.safe_dump(json.loads(json.dumps(best_cfg)), sort_keys=False))
+
+
+def _encode(dist, value) -> float:
+    import optuna
+
+    if isinstance(dist, optuna.distributions.CategoricalDistribution):
+        return float(dist.choices.index(value))
+    return math.log(value) if dist.log else float(value)
+
+
+def _plot_marginals(path: Path, study, complete: list, best) -> None:
+    """Paper 000 Fig. 4: the objective a random forest fitted to the trials predicts for each value of one
+    hyperparameter, averaged over the other hyperparameters of the trials (partial dependence); dots are the
+    trials, the dashed line the best trial's value."""
+    import optuna
+    from sklearn.ensemble import RandomForestRegressor
+
+    dists = {k: d for t in complete for k, d in t.distributions.items()}
+    names = sorted(dists)
+    x = np.array([[_encode(dists[k], t.params[k]) for k in names] for t in complete])
+    y = np.array([t.values[0] for t in complete])
+    forest = RandomForestRegressor(n_estimators=64, min_samples_leaf=1, random_state=0).fit(x, y)
+    fig, axes = plt.subplots(1, len(names), figsize=(3.6 * len(names), 3.2), squeeze=False)
+    for j, (k, ax) in enumerate(zip(names, axes[0])):
+        d = dists[k]
+        categorical = isinstance(d, optuna.distributions.CategoricalDistribution)
+        grid = (np.arange(len(d.choices), dtype=float) if categorical
+                else np.linspace(_encode(d, d.low), _encode(d, d.high), 40))
+        pd_ = []
+        for g in grid:
+            xg = x.copy()
+            xg[:, j] = g
+            pd_.append(forest.predict(xg).mean())
+        shown = grid if categorical or not d.log else np.exp(grid)
+        ax.plot(shown, pd_, color="tab:blue", lw=2, label="predicted")
+        ax.scatter(x[:, j] if categorical or not d.log else np.exp(x[:, j]), y, s=12, color="gray", label="trials")
+        b = _encode(d, best.params[k])
+        ax.axvline(b if categorical or not d.log else math.exp(b), color="tab:red", ls="--", label="best")
+        if categorical:
+            ax.set_xticks(grid, [str(c) for c in d.choices])
+        elif d.log:
+            ax.set_xscale("log")
+        ax.set_xlabel(k)
+        ax.set_ylabel("validation error" if j == 0 else "")
+    axes[0][0].legend(fontsize=7)
+    _save(fig, path)
+
+
+def _save(fig, path: Path) -> None:
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _plot_history(path: Path, trials: list, minimize: bool) -> None:
+    from optuna.trial import TrialState
+
+    fig, ax = plt.subplots(figsize=(6.5, 3.5))
+    done = [t for t in trials if t.state == TrialState.COMPLETE]
+    pruned = [t for t in trials if t.state == TrialState.PRUNED and t.intermediate_values]
+    ax.scatter([t.number for t in done], [t.values[0] for t in done], s=18, label="complete")
+    ax.scatter([t.number for t in pruned], [list(t.intermediate_values.values())[-1] for t in pruned], marker="x",
+               color="gray", s=18, label="pruned (last epoch)")
+    if done:
+        pick = np.minimum.accumulate if minimize else np.maximum.accumulate
+        order = sorted(done, key=lambda t: t.number)
+        ax.step([t.number for t in order], pick([t.values[0] for t in order]), where="post", color="tab:red",
+                label="best so far")
+    ax.set_xlabel("trial")
+    ax.set_ylabel("objective")
+    ax.legend(fontsize=8)
+    _save(fig, path)
+
+
+def _plot_pareto(path: Path, complete: list, front: list) -> None:
+    fig, ax = plt.subplots(figsize=(5, 4))
+    ax.scatter([t.values[0] for t in complete], [t.values[1] for t in complete], s=14, color="gray", label="trials")
+    front = sorted(front, key=lambda t: t.values[0])
+    ax.plot([t.values[0] for t in front], [t.values[1] for t in front], "o-", color="tab:red", label="Pareto front")
+    ax.set_xlabel("validation RMSE")
+    ax.set_ylabel("gamma [deg]")
+    ax.legend(fontsize=8)
+    _save(fig, path)

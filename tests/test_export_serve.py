@@ -1,0 +1,154 @@
+"""ONNX export and the Pilot on ONNX Runtime; the simulator drive server."""
+
+import base64
+import socket
+import subprocess
+import sys
+import threading
+import time
+
+import cv2
+import numpy as np
+import pytest
+import torch
+
+from conftest import CH2, SIM
+from steerlab.checkpoint import save_checkpoint
+from steerlab.data.preprocess import PreprocessConfig
+from steerlab.data.readers import open_recording
+from steerlab.data.recording import SteeringConvention
+from steerlab.errors import SteerlabError
+from steerlab.export import export_onnx, sidecar_path
+from steerlab.models import create_model, list_models
+from steerlab.pilot import Pilot
+from steerlab.serve import SpeedController, to_simulator
+from steerlab.train.loop import model_preprocess
+
+
+def untrained(tmp_path, name: str, preset: str = "ch2"):
+    """A checkpoint of `name` with random weights and non-trivial standardisation statistics."""
+    pre = PreprocessConfig.from_dict(model_preprocess(name, {"preset": preset}))
+    c = sum(pre.channels().values())
+    model_cfg = {"in_channels": c, "height": pre.height, "width": pre.width}
+    torch.manual_seed(0)
+    model = create_model(name, **model_cfg)
+    path = tmp_path / f"{name}.pt"
+    save_checkpoint(path, model, model_cfg, pre, {"mean": [100.0] * c, "std": [50.0] * c},
+                    SteeringConvention(), {"rmse": 0.1}, preset=preset, frame_rate=20.0)
+    return path
+
+
+def frames(n: int) -> list[np.ndarray]:
+    """Real CH2 frames when ../shared is there, else textured frames that move."""
+    if (CH2 / "CH2_final_evaluation.csv").exists():
+        rec = open_recording(CH2, f"0:{n}", CH2 / "CH2_final_evaluation.csv")
+        return [rec.load_frame(i) for i in range(n)]
+    rng = np.random.default_rng(0)
+    base = rng.integers(0, 255, (480, 700, 3), dtype=np.uint8)
+    return [np.ascontiguousarray(base[:, 3 * i: 3 * i + 640]) for i in range(n)]
+
+
+@pytest.mark.parametrize("name", list_models())
+def test_onnx_pilot_matches_torch(tmp_path, name):
+    ckpt = untrained(tmp_path, name)
+    onnx = export_onnx(ckpt, tmp_path / "m.onnx")
+    assert sidecar_path(onnx).is_file()
+    torch_pilot, onnx_pilot = Pilot(ckpt), Pilot(onnx)
+    assert onnx_pilot.convention == torch_pilot.convention and onnx_pilot.config == torch_pilot.config
+    for i, frame in enumerate(frames(12)):
+        if i == 8:  # a new segment: both forget the past (recurrent state, previous frame)
+            torch_pilot.reset()
+            onnx_pilot.reset()
+        a, b = torch_pilot.step(frame, 10.0 + i), onnx_pilot.step(frame, 10.0 + i)
+        assert b.steering == pytest.approx(a.steering, abs=1e-4)
+        assert (a.speed is None) == (b.speed is None) and a.command == b.command
+        if a.speed is not None:
+            assert b.speed == pytest.approx(a.speed, abs=1e-4)
+
+
+def test_onnx_bad_files(tmp_path):
+    onnx = export_onnx(untrained(tmp_path, "pilotnet"), tmp_path / "m.onnx")
+    sidecar_path(onnx).unlink()
+    with pytest.raises(SteerlabError, match=r"m.onnx: its metadata m.json is missing"):
+        Pilot(onnx)
+    with pytest.raises(SteerlabError, match="must end in .onnx"):
+        export_onnx(untrained(tmp_path, "pilotnet"), tmp_path / "m.bin")
+
+
+def test_speed_controller_holds_the_set_speed():
+    pi, v = SpeedController(5.0), 0.0
+    for _ in range(400):  # a car whose acceleration follows the throttle, with drag
+        v += 0.05 * (4.0 * pi.update(v) - 0.1 * v)
+    assert v == pytest.approx(5.0, abs=0.05)
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def sim_jpegs(tiny_recording, n: int) -> list[bytes]:
+    if (SIM / "driving_log.csv").exists():
+        rec = open_recording(SIM, f"0:{n}")
+    else:
+        rec = open_recording(tiny_recording, f"0:{n}")
+    return [cv2.imencode(".jpg", rec.load_frame(i))[1].tobytes() for i in range(n)]
+
+
+def test_serve_answers_every_frame_like_the_pilot(tiny_checkpoint, tiny_recording, tmp_path):
+    import socketio
+
+    port, jpegs = _free_port(), sim_jpegs(tiny_recording, 30)
+    server = subprocess.Popen([sys.executable, "-m", "steerlab", "serve", str(tiny_checkpoint), "--port", str(port),
+                               "--record", str(tmp_path / "drive")], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                              text=True)
+    client, replies, got = socketio.Client(), [], threading.Event()
+    client.on("steer", lambda data: (replies.append(data), got.set()))
+    try:
+        for _ in range(100):  # wait for the server to listen
+            try:
+                client.connect(f"http://127.0.0.1:{port}")
+                break
+            except socketio.exceptions.ConnectionError:
+                time.sleep(0.1)
+        assert got.wait(10)  # the greeting: stand still
+        assert replies.pop() == {"steering_angle": "0.0", "throttle": "0.0"}
+        speeds = [8.0 + 0.1 * i for i in range(len(jpegs))]  # mph
+        messages = [{"steering_angle": "0", "throttle": "0", "speed": str(s), "image": base64.b64encode(j).decode()}
+                    for s, j in zip(speeds, jpegs)]
+        messages.insert(10, {"steering_angle": "0", "throttle": "0", "speed": "9.0", "image": "not base64 !"})
+        for m in messages:
+            got.clear()
+            client.emit("telemetry", m)
+            assert got.wait(10)
+        client.emit("telemetry", {})  # manual mode: no command comes back
+        time.sleep(0.3)
+        assert len(replies) == len(messages)
+    finally:
+        client.disconnect()
+        server.terminate()
+        _, err = server.communicate(timeout=10)
+    assert replies[10] == {"steering_angle": "0.0", "throttle": "-1.0"}  # safe stop, braking at 4 m/s
+    assert "telemetry frame 11: missing or undecodable image; sent a safe stop" in err
+    del replies[10]
+    pilot, pi = Pilot(tiny_checkpoint), SpeedController(4.0)
+    for reply, jpeg, mph in zip(replies, jpegs, speeds):
+        v = mph * 0.44704
+        expected = to_simulator(pilot, pilot.step(cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR),
+                                                  v).steering)
+        assert float(reply["steering_angle"]) == pytest.approx(expected, abs=1e-5)
+        assert float(reply["throttle"]) == pytest.approx(pi.update(v), abs=1e-5)
+    drive = open_recording(tmp_path / "drive")  # the recorded session reads as a simulator log
+    assert len(drive) == len(jpegs)
+    assert drive.steering / np.radians(25) == pytest.approx([float(r["steering_angle"]) for r in replies], abs=1e-5)
+
+
+def test_export_command(tmp_path, capsys):
+    from steerlab.cli import main
+
+    ckpt = untrained(tmp_path, "lstm")
+    assert main(["export", str(ckpt), "--out", str(tmp_path / "out" / "lstm.onnx")]) == 0
+    assert (tmp_path / "out" / "lstm.onnx").is_file() and (tmp_path / "out" / "lstm.json").is_file()
+    assert main(["export", str(tmp_path / "missing.pt"), "--out", str(tmp_path / "m.onnx")]) == 2
+    assert "missing.pt: checkpoint not found" in capsys.readouterr().err

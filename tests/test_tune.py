@@ -1,0 +1,106 @@
+"""steerlab tune: BOHB-style search with Optuna, shared studies, reports; bad input."""
+
+import csv
+import subprocess
+import sys
+
+import pytest
+import yaml
+
+from steerlab.errors import SteerlabError
+from steerlab.train.config import load_config
+from steerlab.tune import run_tune
+
+
+def tune_config(path, recording, out, tune=None, epochs=3):
+    cfg = {"data": str(recording), "cache": str(path / "cache"), "out": str(out),
+           "split": {"train": "0:240", "val": "240:300"}, "model": {"name": "pilotnet"},
+           "train": {"epochs": epochs, "batch_size": 32, "patience": 10},
+           "tune": tune or {"train.lr": {"low": 1.0e-5, "high": 0.1, "log": True},
+                            "model.dropout": {"low": 0.0, "high": 0.6}}}
+    file = path / f"{out.name}.yaml"
+    file.write_text(yaml.safe_dump(cfg))
+    return file
+
+
+def rows(out):
+    with open(out / "trials.csv") as f:
+        return list(csv.DictReader(f))
+
+
+def test_small_study_prunes_and_writes_a_runnable_best_config(tmp_path, tiny_recording):
+    out = tmp_path / "study"
+    run_tune(tune_config(tmp_path, tiny_recording, out), trials=4, seed=0, progress=False)
+    trials = rows(out)
+    assert len(trials) == 4 and {t["state"] for t in trials} <= {"complete", "pruned"}
+    assert any(t["state"] == "pruned" for t in trials)  # Hyperband stopped an unpromising trial early
+    assert sum(int(t["epochs_run"]) for t in trials) < 4 * 3
+    best = load_config(out / "best.yaml")  # a training config steerlab train runs as it is
+    complete = [t for t in trials if t["state"] == "complete"]
+    winner = min(complete, key=lambda t: float(t["value_0"]))
+    assert best["train"]["lr"] == pytest.approx(float(winner["train.lr"]))
+    assert best["model"]["dropout"] == pytest.approx(float(winner["model.dropout"]))
+    assert "tune" not in best or best["tune"] is None
+    if len(complete) >= 2:
+        table = (out / "importance.md").read_text().splitlines()
+        shares = [float(line.split("|")[2]) for line in table if line.startswith("| ") and "%" not in line
+                  and "hyperparameter" not in line]
+        assert sum(shares) == pytest.approx(100.0, abs=0.15)
+        assert (out / "importance.png").stat().st_size > 0
+    assert (out / "history.png").stat().st_size > 0
+
+
+def test_rerun_reproduces_the_trials(tmp_path, tiny_recording):
+    for name in ("a", "b"):
+        run_tune(tune_config(tmp_path, tiny_recording, tmp_path / name, epochs=2), trials=3, seed=1,
+                 progress=False)
+    a, b = rows(tmp_path / "a"), rows(tmp_path / "b")
+    assert [(r["train.lr"], r["model.dropout"], r["state"]) for r in a] == \
+           [(r["train.lr"], r["model.dropout"], r["state"]) for r in b]
+    assert [float(r["value_0"]) for r in a] == pytest.approx([float(r["value_0"]) for r in b], abs=1e-6)
+
+
+def test_two_workers_share_one_journal(tmp_path, tiny_recording):
+    import optuna
+
+    cfg = tune_config(tmp_path, tiny_recording, tmp_path / "shared", epochs=2)
+    journal = tmp_path / "study.journal"
+    cmd = [sys.executable, "-m", "steerlab", "tune", str(cfg), "--trials", "6", "--storage", str(journal),
+           "--study", "s"]
+    workers = [subprocess.Popen(cmd + ["--seed", str(i)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                                text=True) for i in range(2)]
+    for w in workers:
+        assert w.wait(timeout=300) == 0, w.stderr.read()
+    study = optuna.load_study(study_name="s", storage=optuna.storages.JournalStorage(
+        optuna.storages.journal.JournalFileBackend(str(journal))))
+    done = [t for t in study.trials if t.state in (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED)]
+    assert len(done) == 6
+    assert len({(t.params["train.lr"], t.params["model.dropout"]) for t in done}) == 6
+    assert len(rows(tmp_path / "shared")) == 6
+    assert load_config(tmp_path / "shared" / "best.yaml")["model"]["name"] == "pilotnet"
+
+
+@pytest.mark.parametrize("tune, message", [
+    ({"train.learning_rate": {"low": 0.1, "high": 1.0}}, "'train.learning_rate' is not a config key"),
+    ({"model.hidden": {"low": 64, "high": 512}}, "'model.hidden' is not a config key"),  # pilotnet has none
+    ({"train.lr": {"low": 1.0e-3, "high": 1.0e-5}}, "range 0.001..1e-05 is empty or inverted"),
+    ({"train.lr": {"low": 0.0, "high": 1.0, "log": True}}, "log range, so low must be positive"),
+    ({"preprocess.color": ["gray"]}, "needs at least two choices"),
+])
+def test_bad_search_spaces(tmp_path, tiny_recording, tune, message):
+    with pytest.raises(SteerlabError, match=message):
+        run_tune(tune_config(tmp_path, tiny_recording, tmp_path / "x", tune), trials=1, progress=False)
+    assert not (tmp_path / "x").exists()  # nothing written
+
+
+def test_bad_storage_and_changed_space(tmp_path, tiny_recording):
+    cfg = tune_config(tmp_path, tiny_recording, tmp_path / "y", epochs=1)
+    with pytest.raises(SteerlabError, match="unknown storage 'redis://x'"):
+        run_tune(cfg, trials=1, storage="redis://x", progress=False)
+    assert not (tmp_path / "y").exists()
+    journal = str(tmp_path / "s.journal")
+    run_tune(cfg, trials=1, storage=journal, study_name="s", progress=False)
+    other = tune_config(tmp_path, tiny_recording, tmp_path / "z", {"train.lr": {"low": 1e-5, "high": 1e-3}})
+    with pytest.raises(SteerlabError, match="study 's' exists in this storage with a different search space"):
+        run_tune(other, trials=1, storage=journal, study_name="s", progress=False)
+    assert not (tmp_path / "z").exists()
