@@ -2,10 +2,11 @@
 
 For each tub, the records (minus deleted ones and those whose image is missing) are cut into contiguous
 blocks: the first 80 % are training data for everyone, the last 20 % are the held-out validation block on
-which every model is scored (steering MAE in the tub's own unit, [-1, 1]). steerlab trains on the first 70 %
-and picks its best epoch on the next 10 %; donkeycar's trainer gets the whole first 80 % as a tub (the rest
-marked deleted) and splits it itself, as its users run it (`donkey train`, default config: 80/20 random
-split, early stopping). Training time is wall-clock time of each trainer.
+which every model is scored (steering MAE in the tub's own unit, [-1, 1]). steerlab picks the number of
+epochs on the first 70 % / next 10 % (best validation RMSE) and then trains on the whole first 80 % for that
+many epochs; donkeycar's trainer gets the whole first 80 % as a tub (the rest marked deleted) and splits it
+itself, as its users run it (`donkey train`, default config: 80/20 random split, early stopping). Training
+time is the wall-clock time of each trainer (for steerlab both of its runs).
 
 donkeycar is never a dependency of steerlab: it lives in its own virtual environment ($DONKEY_VENV, default
 runs/donkeycar-venv, made on first use with `pip install donkeycar[pc]`) and `_donkey_eval.py` runs there.
@@ -108,18 +109,27 @@ def run_donkey(python: Path, tub: Path, rec, a: int, n: int, work: Path) -> dict
 
 
 def run_steerlab(tub: Path, n: int, epochs: int, work: Path) -> dict:
+    """Each model: pick the number of epochs on the selection block (train 0:a, validate a:b), then train again
+    on all of 0:b for exactly that many epochs and score that last model on the held-out block."""
     a, b = blocks(n)
     results = {}
     for name in STEERLAB_MODELS:
-        cfg = load_config(None, base={
-            "data": str(tub), "reader": READER, "cache": str(OUT / "cache"), "out": str(work / name),
-            "split": {"train": f"0:{a}", "val": f"{a}:{b}"}, "model": {"name": name},
-            "preprocess": {"preset": "donkey"}, "train": {"epochs": epochs, "batch_size": 32, "lr": 3e-4}})
-        shutil.rmtree(work / name, ignore_errors=True)  # a fresh run: its time is what is measured
-        t = time.time()
-        train(cfg, progress=False)
-        seconds = time.time() - t
-        m = evaluate(work / name / "best.pt", tub, f"{b}:{n}", work / name / "test", reader=READER, progress=False)
+        seconds, run = 0.0, None
+        for stage, split, n_epochs in (("select", {"train": f"0:{a}", "val": f"{a}:{b}"}, epochs),
+                                       ("refit", {"train": f"0:{b}", "val": f"{b}:{n}"}, None)):
+            if stage == "refit" and run.get("epoch", 0) == 0:
+                break  # a baseline: nothing to select
+            run_dir = work / f"{name}-{stage}"
+            shutil.rmtree(run_dir, ignore_errors=True)  # a fresh run: its time is what is measured
+            cfg = load_config(None, base={
+                "data": str(tub), "reader": READER, "cache": str(OUT / "cache"), "out": str(run_dir),
+                "split": split, "model": {"name": name}, "preprocess": {"preset": "donkey"},
+                "train": {"epochs": n_epochs or run["epoch"], "patience": epochs, "batch_size": 32, "lr": 3e-4}})
+            t = time.time()
+            run = train(cfg, progress=False)  # the refit's validation numbers are never used to choose
+            seconds += time.time() - t
+        ckpt = run_dir / ("last.pt" if (run_dir / "last.pt").exists() else "best.pt")
+        m = evaluate(ckpt, tub, f"{b}:{n}", run_dir / "test", reader=READER, progress=False)
         results[name] = {"mae": m["mae"], "train_s": seconds}
         print(f"  steerlab {name}: held-out MAE {m['mae']:.4f}, {seconds:.0f} s", flush=True)
     return results
@@ -142,8 +152,8 @@ def main() -> None:
         rec = open_recording(tub, options=READER)
         n = len(rec)
         a, b = blocks(n)
-        print(f"{name}: {n} records; steerlab trains on 0:{a}, selects on {a}:{b}; donkeycar trains on 0:{b}; "
-              f"everyone is scored on {b}:{n}", flush=True)
+        print(f"{name}: {n} records; steerlab selects epochs on 0:{a} | {a}:{b}, then trains on 0:{b}; donkeycar "
+              f"trains on 0:{b}; everyone is scored on {b}:{n}", flush=True)
         work = OUT / name
         work.mkdir(parents=True, exist_ok=True)
         results = {f"steerlab {k}": v for k, v in run_steerlab(tub, n, args.epochs, work).items()}

@@ -104,3 +104,41 @@ def test_bad_storage_and_changed_space(tmp_path, tiny_recording):
     with pytest.raises(SteerlabError, match="study 's' exists in this storage with a different search space"):
         run_tune(other, trials=1, storage=journal, study_name="s", progress=False)
     assert not (tmp_path / "z").exists()
+
+
+def test_killed_worker_trial_is_failed_and_retried(tmp_path, tiny_recording, monkeypatch):
+    """Against an RDB storage (sqlite here, PostgreSQL across machines) a worker killed mid-trial has its trial
+    failed by the next worker's heartbeat check and retried with the same parameters."""
+    import signal
+    import time
+
+    import optuna
+
+    cfg = tune_config(tmp_path, tiny_recording, tmp_path / "k", epochs=3)
+    url = f"sqlite:///{tmp_path / 'study.db'}"
+    code = ("import steerlab.tune as t; t.HEARTBEAT = (1, 2); from steerlab.cli import main; "
+            f"main(['tune', {str(cfg)!r}, '--trials', '3', '--storage', {url!r}, '--study', 's', '--no-pruning'])")
+    worker = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    storage = optuna.storages.RDBStorage(url)
+    try:
+        for _ in range(600):  # until the first trial has finished an epoch
+            time.sleep(0.1)
+            try:
+                trials = optuna.load_study(study_name="s", storage=storage).trials
+            except KeyError:
+                continue
+            if trials and trials[0].user_attrs.get("epochs_run", 0) >= 1:
+                break
+    finally:
+        worker.send_signal(signal.SIGKILL)
+        worker.wait()
+    killed = optuna.load_study(study_name="s", storage=storage).trials[0]
+    assert killed.state == optuna.trial.TrialState.RUNNING
+    time.sleep(3)  # longer than the grace period
+    monkeypatch.setattr("steerlab.tune.HEARTBEAT", (1, 2))
+    run_tune(cfg, trials=3, storage=url, study_name="s", prune=False, progress=False)
+    trials = optuna.load_study(study_name="s", storage=storage).trials
+    assert trials[0].state == optuna.trial.TrialState.FAIL
+    done = [t for t in trials if t.state == optuna.trial.TrialState.COMPLETE]
+    assert len(done) == 3
+    assert any(t.params == killed.params for t in done)  # the killed trial was retried

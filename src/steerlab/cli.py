@@ -98,7 +98,7 @@ def cmd_evaluate(a) -> None:
 def cmd_tune(a) -> None:
     from steerlab.tune import run_tune
 
-    out = run_tune(a.config, a.overrides, a.trials, a.objective, a.storage, a.study, a.seed)
+    out = run_tune(a.config, a.overrides, a.trials, a.objective, a.storage, a.study, a.seed, not a.no_pruning)
     for name in ("importance.md", "pareto.md"):
         if (out / name).exists():
             print((out / name).read_text())
@@ -244,6 +244,7 @@ def build_parser() -> argparse.ArgumentParser:
                    "(sqlite:///study.db, postgresql://...); default OUT/study.journal")
     q.add_argument("--study", help="study name (default: the name of the config's out folder)")
     q.add_argument("--seed", type=int, default=0, help="sampler seed (default 0)")
+    q.add_argument("--no-pruning", action="store_true", help="run every trial to completion (no Hyperband)")
     q.set_defaults(func=cmd_tune)
 
     q = sub.add_parser("export", help="export a checkpoint to ONNX (+ a .json sidecar) for ONNX Runtime",

@@ -27,6 +27,7 @@ import csv
 import inspect
 import json
 import math
+import warnings
 from dataclasses import fields
 from pathlib import Path
 
@@ -43,6 +44,7 @@ from steerlab.errors import SteerlabError
 from steerlab.train.config import DEFAULTS, load_config
 
 OBJECTIVES = {"rmse": ["minimize"], "rmse+gamma": ["minimize", "minimize"], "autonomy": ["maximize"]}
+HEARTBEAT = (30, 90)  # seconds: a worker's heartbeat interval, and the silence after which its trial is failed
 
 
 def _optuna():
@@ -50,7 +52,7 @@ def _optuna():
         import optuna
     except ImportError:
         raise SteerlabError("steerlab tune needs optuna and scikit-learn: pip install optuna scikit-learn") from None
-    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    optuna.logging.set_verbosity(optuna.logging.ERROR)  # steerlab reports trials itself
     return optuna
 
 
@@ -123,14 +125,16 @@ def storage_of(url: str | None, out: Path):
     """An Optuna storage: a journal file (default `<out>/study.journal`, or a path / journal:PATH), or an RDB URL
     (sqlite:///, postgresql://, mysql://) with heartbeats, so a killed worker's trial is failed and retried."""
     _optuna()
-    from optuna.storages import JournalStorage, RDBStorage, RetryFailedTrialCallback
+    from optuna.storages import JournalStorage, RDBStorage, RetryHeartbeatStaleTrialCallback
     from optuna.storages.journal import JournalFileBackend
 
     url = url or str(out / "study.journal")
     if url.split(":", 1)[0].split("+", 1)[0] in ("sqlite", "postgresql", "mysql"):  # postgresql+psycopg2://...
         try:
-            return RDBStorage(url, heartbeat_interval=30, grace_period=90,
-                              failed_trial_callback=RetryFailedTrialCallback(max_retry=2))
+            with warnings.catch_warnings():  # heartbeats are marked experimental in Optuna
+                warnings.simplefilter("ignore")
+                return RDBStorage(url, heartbeat_interval=HEARTBEAT[0], grace_period=HEARTBEAT[1],
+                                  heartbeat_stale_trial_callback=RetryHeartbeatStaleTrialCallback(max_retry=2))
         except Exception as e:  # noqa: BLE001 - SQLAlchemy raises many types for a bad URL or server
             first = str(e).splitlines()[0] if str(e) else ""
             raise SteerlabError(f"cannot open storage {url}: {e.__class__.__name__}: {first}") from None
@@ -142,20 +146,20 @@ def storage_of(url: str | None, out: Path):
     return JournalStorage(JournalFileBackend(path))
 
 
-def _load_study(cfg_text: dict, objective: str, storage, name: str, seed: int, epochs: int):
+def _load_study(cfg_text: dict, objective: str, storage, name: str, seed: int, epochs: int, prune: bool):
     """Create the study, or join it if it exists with the same search space and objective."""
     optuna = _optuna()
-    signature = json.dumps({"tune": cfg_text["tune"], "objective": objective}, sort_keys=True)
+    signature = json.dumps({"tune": cfg_text["tune"], "objective": objective, "prune": prune}, sort_keys=True)
     try:
         existing = optuna.load_study(study_name=name, storage=storage)
     except KeyError:
         existing = None
     if existing is not None and existing.user_attrs.get("signature") not in (None, signature):
-        raise SteerlabError(f"study {name!r} exists in this storage with a different search space or objective; "
-                            "choose another --study name")
+        raise SteerlabError(f"study {name!r} exists in this storage with a different search space, objective or "
+                            "pruning; choose another --study name")
     sampler = optuna.samplers.TPESampler(seed=seed, multivariate=True, n_startup_trials=min(10, max(2, epochs)))
     pruner = (optuna.pruners.HyperbandPruner(min_resource=1, max_resource=epochs, reduction_factor=3)
-              if len(OBJECTIVES[objective]) == 1 else optuna.pruners.NopPruner())
+              if prune and len(OBJECTIVES[objective]) == 1 else optuna.pruners.NopPruner())
     study = optuna.create_study(study_name=name, storage=storage, sampler=sampler, pruner=pruner,
                                 directions=OBJECTIVES[objective], load_if_exists=True)
     study.set_user_attr("signature", signature)
@@ -164,7 +168,7 @@ def _load_study(cfg_text: dict, objective: str, storage, name: str, seed: int, e
 
 
 def run_tune(config: str | Path, overrides: list[str] = (), trials: int = 20, objective: str = "rmse",
-             storage: str | None = None, study_name: str | None = None, seed: int = 0,
+             storage: str | None = None, study_name: str | None = None, seed: int = 0, prune: bool = True,
              progress: bool = True) -> Path:
     """Run trials of the study until it has `trials` finished ones; write the reports. Returns the folder."""
     from steerlab.train.loop import train
@@ -180,10 +184,15 @@ def run_tune(config: str | Path, overrides: list[str] = (), trials: int = 20, ob
     name = study_name or out.name
     epochs = int(cfg["train"]["epochs"])
     store = storage_of(storage, out)
-    study = _load_study(cfg, objective, store, name, seed, epochs)
+    study = _load_study(cfg, objective, store, name, seed, epochs, prune)
     base = {k: v for k, v in cfg.items() if k != "tune"}
+    surplus = []
 
     def objective_fn(trial):
+        if trial.number >= trials + _failed(study):  # other workers have started the last trials already
+            study.set_user_attr(f"surplus_{trial.number}", True)
+            surplus.append(trial.number)
+            raise _Surplus()
         run_cfg = with_params(base, {k: _suggest(trial, k, d) for k, d in space.items()})
         run_cfg["out"] = str(out / "trials" / f"{trial.number:04d}")
         single = len(OBJECTIVES[objective]) == 1
@@ -211,6 +220,8 @@ def run_tune(config: str | Path, overrides: list[str] = (), trials: int = 20, ob
                disable=not progress or None)
 
     def report(study, trial):
+        if study.user_attrs.get(f"surplus_{trial.number}"):
+            return
         bar.update(1)
         if progress:
             value = trial.values if trial.values is not None else trial.intermediate_values
@@ -220,21 +231,19 @@ def run_tune(config: str | Path, overrides: list[str] = (), trials: int = 20, ob
             bar.write(f"trial {trial.number}: {state}, {shown}; "
                       + ", ".join(f"{k}={_short(v)}" for k, v in trial.params.items()))
 
+    # study.optimize runs Optuna's heartbeat (RDB storages) and fails stale trials of dead workers; one trial
+    # at a time, so that the count can be checked between trials
     while len(study.get_trials(deepcopy=False, states=done_states)) < trials:
-        trial = study.ask()
-        if trial.number >= trials + _failed(study):  # another worker already started the last trial
-            study.tell(trial, state=optuna.trial.TrialState.FAIL)
-            study.set_user_attr(f"surplus_{trial.number}", True)
+        study.optimize(objective_fn, n_trials=1, catch=(_Surplus,), callbacks=[report])
+        if surplus:
             break
-        try:
-            value = objective_fn(trial)
-            frozen = study.tell(trial, value)
-        except optuna.TrialPruned:
-            frozen = study.tell(trial, state=optuna.trial.TrialState.PRUNED)
-        report(study, frozen)
     bar.close()
     write_reports(study, out, base)
     return out
+
+
+class _Surplus(Exception):
+    """A trial beyond the study's total: marked failed, left out of every report."""
 
 
 def _suggest(trial, key: str, dist):
