@@ -21,8 +21,8 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(BIN)/python -m pytest -q
 
-bench: $(STAMP)
-	for b in benchmarks/bench_*.py; do $(BIN)/python $$b || exit 1; done
+bench: $(STAMP)  # bench_donkeycar.py is left out: it installs donkeycar and trains for about an hour
+	for b in benchmarks/bench_*.py; do case $$b in *donkeycar*) continue;; esac; $(BIN)/python $$b || exit 1; done
 
 clean:
 	rm -rf runs .steerlab-cache
