@@ -7,7 +7,7 @@ Supported layouts (detected by `open_recording`):
 - Udacity simulator `driving_log.csv` (with or without header; `center,left,right,steering,throttle,brake,speed`).
 - steerlab's native layout written by the synthetic world: `recording.json` + `log.csv` + camera folders.
 - donkeycar tub v2 folders (`data/tub.py`), ROS 1/2 bags as Udacity released its data (`data/bag.py`) and
-  video files with a CSV log (`data/video.py`).
+  video files with a CSV log (`data/videolog.py`).
 """
 
 from __future__ import annotations

@@ -36,7 +36,7 @@ class SteeringConvention:
             raise ValueError(f"bad steering convention {self.kind!r}/{self.positive!r}")
         if self.full_lock is not None and (self.kind != "normalized" or not 0 < self.full_lock < math.pi / 2):
             raise ValueError(f"a full-lock angle belongs to normalized steering and lies in (0, 90) degrees, "
-                             f"got {self.full_lock!r} rad for {self.kind!r}")
+                             f"got {math.degrees(self.full_lock):.4g} degrees for {self.kind!r}")
 
     def _road_wheel_scale(self, steering_ratio: float) -> float:
         """Road-wheel radians per unit of this convention."""

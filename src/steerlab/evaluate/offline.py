@@ -28,7 +28,6 @@ def evaluate(checkpoint: str | Path, data: str | Path, frame_range: str | None, 
     metrics (with speed MAE and command accuracy for speed models), predictions and a plot, and optionally a
     video of the frames with the predicted and the recorded steering."""
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
     rec = open_recording(data, frame_range, labels, reader)
     if camera not in rec.frames:
         raise SteerlabError(f"{rec.source} has no {camera!r} camera (it has {', '.join(rec.cameras)})")
@@ -38,6 +37,7 @@ def evaluate(checkpoint: str | Path, data: str | Path, frame_range: str | None, 
     if pilot.preset != rec.preset:
         warn(f"{checkpoint} was trained on the {pilot.preset!r} camera geometry and {rec.source} has the "
              f"{rec.preset!r} geometry: expect worse predictions than the model can make")
+    out.mkdir(parents=True, exist_ok=True)  # only once the inputs are known to be good
     seg = rec.segment_ids()
     offsets = rec.extra.get("lateral_offset")
 
