@@ -2,11 +2,12 @@
 
 For each tub, the records (minus deleted ones and those whose image is missing) are cut into contiguous
 blocks: the first 80 % are training data for everyone, the last 20 % are the held-out validation block on
-which every model is scored (steering MAE in the tub's own unit, [-1, 1]). steerlab picks the number of
-epochs on the first 70 % / next 10 % (best validation RMSE) and then trains on the whole first 80 % for that
-many epochs; donkeycar's trainer gets the whole first 80 % as a tub (the rest marked deleted) and splits it
-itself, as its users run it (`donkey train`, default config: 80/20 random split, early stopping). Training
-time is the wall-clock time of each trainer (for steerlab both of its runs).
+which every model is scored (steering MAE in the tub's own unit, [-1, 1]). steerlab trains on the MAE
+(`train.loss: mae`: the score, and the median suits the nearly binary steering of an RC car), picks the
+number of epochs on the first 70 % / next 10 % (best validation MAE, patience 5) and then trains on the whole
+first 80 % for that many epochs; donkeycar's trainer gets the whole first 80 % as a tub (the rest marked deleted)
+and splits it itself, as its users run it (`donkey train`, default config: 80/20 random split, early
+stopping). Training time is the wall-clock time of each trainer (for steerlab both of its runs).
 
 donkeycar is never a dependency of steerlab: it lives in its own virtual environment ($DONKEY_VENV, default
 runs/donkeycar-venv, made on first use with `pip install donkeycar[pc]`) and `_donkey_eval.py` runs there.
@@ -124,9 +125,10 @@ def run_steerlab(tub: Path, n: int, epochs: int, work: Path) -> dict:
             cfg = load_config(None, base={
                 "data": str(tub), "reader": READER, "cache": str(OUT / "cache"), "out": str(run_dir),
                 "split": split, "model": {"name": name}, "preprocess": {"preset": "donkey"},
-                "train": {"epochs": n_epochs or run["epoch"], "patience": epochs, "batch_size": 32, "lr": 3e-4}})
+                "train": {"epochs": n_epochs or run["epoch"], "patience": 5 if n_epochs else run["epoch"],
+                          "batch_size": 32, "lr": 3e-4, "loss": "mae"}})
             t = time.time()
-            run = train(cfg, progress=False)  # the refit's validation numbers are never used to choose
+            run = train(cfg, progress=False)  # the refit never stops early: its validation block is held out
             seconds += time.time() - t
         ckpt = run_dir / ("last.pt" if (run_dir / "last.pt").exists() else "best.pt")
         m = evaluate(ckpt, tub, f"{b}:{n}", run_dir / "test", reader=READER, progress=False)

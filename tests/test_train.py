@@ -2,6 +2,7 @@ import csv
 
 import numpy as np
 import pytest
+import torch
 
 from steerlab.errors import SteerlabError
 from steerlab.models import list_models, model_class
@@ -36,6 +37,23 @@ def test_training_lowers_loss_and_checkpoint_reproduces(tiny_recording, tmp_path
     assert (tmp_path / "eval" / "steering.png").stat().st_size > 10_000
     with open(tmp_path / "eval" / "predictions.csv") as f:
         assert next(csv.reader(f)) == ["frame_id", "steering_angle"]
+
+
+def test_mae_loss_hand_computed_and_picks_best_epoch_by_mae(tiny_recording, tmp_path):
+    out, y = {"steering": torch.tensor([0.5, -1.0, 0.0])}, {"steering": torch.tensor([0.0, 1.0, 0.0])}
+    net = torch.nn.Linear(1, 1)  # a model without a loss of its own
+    assert float(loop.objective(net, out, y, "mse")) == pytest.approx((0.25 + 4.0) / 3)
+    assert float(loop.objective(net, out, y, "mae")) == pytest.approx(2.5 / 3)
+    best = loop.train(_cfg(tiny_recording, tmp_path, loss="mae"), progress=False)
+    rows = _log(tmp_path)
+    assert float(rows[-1]["train_loss"]) < float(rows[0]["train_loss"])
+    assert best["mae"] == pytest.approx(min(float(r["val_mae"]) for r in rows), rel=1e-6)
+    with pytest.raises(SteerlabError, match="train.loss 'l2' is not one of mse, mae"):
+        loop.train(_cfg(tiny_recording, tmp_path, loss="l2"), progress=False)
+    cfg = _cfg(tiny_recording, tmp_path / "b", loss="mae")
+    cfg["model"] = {"name": "multitask-speed"}
+    with pytest.raises(SteerlabError, match="trains on a loss of its own"):
+        loop.train(cfg, progress=False)
 
 
 def test_side_cameras_and_episode_filter(tiny_recording, tmp_path):

@@ -23,6 +23,8 @@ DEFAULTS = {
     "model": {"name": "pilotnet", "dropout": 0.5},  # split, model and preprocess are replaced whole
     "train": {
         "epochs": 30, "batch_size": 100, "lr": 1e-4, "patience": 5, "flip": False, "seed": 0,
+        "loss": "mse",        # mse or mae of the steering (models with a loss of their own keep it); the best
+                              # epoch is the one with the lowest validation RMSE (mse) or MAE (mae)
         "exclude_episodes": [],  # e.g. [drift-out] to train on the recovery half of drift episodes only
         # side-camera recovery synthesis (paper 002 Eq. 3): left/right frames with a recovery angle added
         "side_cameras": False, "side_offset_m": 0.508, "recovery_s": 1.0, "steering_ratio": 14.8,

@@ -228,16 +228,20 @@ def recovery_weighted(samples: np.ndarray, episodes: np.ndarray, weight: int) ->
     return np.concatenate([samples] + [samples[touch]] * (weight - 1))
 
 
-def objective(model, out: dict, targets: dict) -> torch.Tensor:
-    """The model's own loss when it has one, otherwise the MSE of its steering."""
+LOSSES = {"mse": "rmse", "mae": "mae"}  # train.loss -> the validation metric that picks the best epoch
+
+
+def objective(model, out: dict, targets: dict, loss: str = "mse") -> torch.Tensor:
+    """The model's own loss when it has one, otherwise the MSE or the MAE of its steering."""
     if hasattr(model, "loss"):
         return model.loss(out, targets)
-    return torch.mean((out["steering"] - targets["steering"]) ** 2)
+    error = out["steering"] - targets["steering"]
+    return torch.mean(error ** 2) if loss == "mse" else torch.mean(error.abs())
 
 
 def train_one_epoch(model, opt, batches: Batches, samples: np.ndarray, batch_size: int, flip: bool,
                     rng: np.random.Generator, transform=None, motion_dropout: float = 0.0, progress: bool = True,
-                    desc: str = "", ranks: Ranks = Ranks()) -> float:
+                    desc: str = "", ranks: Ranks = Ranks(), loss_name: str = "mse") -> float:
     """One pass over `samples`: frame codes (M,), or windows (M, T) of frame codes for recurrent models.
     Flips and motion dropout are drawn per sample (per window: a window is mirrored or still as a whole).
     With several ranks every rank draws the same global batches and trains on its contiguous share of each."""
@@ -262,7 +266,7 @@ def train_one_epoch(model, opt, batches: Batches, samples: np.ndarray, batch_siz
                                for d in (inputs, targets))
         inputs, targets = ({k: v.to(ranks.device) for k, v in d.items()} for d in (inputs, targets))
         out = model(**inputs)
-        loss = objective(net, out[0] if getattr(net, "recurrent", False) else out, targets)  # (out, state)
+        loss = objective(net, out[0] if getattr(net, "recurrent", False) else out, targets, loss_name)  # (out, state)
         opt.zero_grad(set_to_none=True)
         (loss * share if ranks.world > 1 else loss).backward()
         opt.step()
@@ -329,6 +333,8 @@ def train(cfg: dict, progress: bool = True, on_epoch=None) -> dict:
     if int(tc["batch_size"]) % ranks.world:
         raise SteerlabError(f"train.batch_size {tc['batch_size']} is the global batch; it must divide evenly over "
                             f"{ranks.world} ranks")
+    if tc["loss"] not in LOSSES:
+        raise SteerlabError(f"train.loss {tc['loss']!r} is not one of {', '.join(LOSSES)}")
     progress = progress and ranks.main
     cfg_file = out / "config.json"
     if (out / "last.pt").exists():
@@ -361,6 +367,8 @@ def train(cfg: dict, progress: bool = True, on_epoch=None) -> dict:
             raise SteerlabError(f"{tc['init']}: train.init must be a checkpoint of the same model and options "
                                 f"({name}, {model_cfg}); it holds {init['model']}, {init['model_cfg']}")
         model.load_state_dict(init["state_dict"])
+    if hasattr(model, "loss") and tc["loss"] != "mse":
+        raise SteerlabError(f"model {name!r} trains on a loss of its own; train.loss={tc['loss']} does not apply")
     if (getattr(model, "targets", ()) or getattr(model, "speed_history", 0)) and "speed" not in ds.labels:
         raise SteerlabError(f"model {name!r} needs a recording with speed; {ds.meta['source']} has none")
     batches = Batches(sources, stats, getattr(model, "speed_history", 0))
@@ -428,7 +436,7 @@ def train(cfg: dict, progress: bool = True, on_epoch=None) -> dict:
         epoch_samples = balanced(samples, batches.steering(samples), rng) if tc["balance"] else samples
         loss = train_one_epoch(step_model, opt, batches, epoch_samples, int(tc["batch_size"]), bool(tc["flip"]),
                                rng, transform, float(tc["motion_dropout"]), progress, desc=f"epoch {epoch}",
-                               ranks=ranks)
+                               ranks=ranks, loss_name=tc["loss"])
         pred = predict(model, batches, val_idx)
         m = all_metrics(pred, truth, convention.degrees_per_unit)
         row = _log_row(epoch, loss, m, time.time() - t0)
@@ -441,7 +449,7 @@ def train(cfg: dict, progress: bool = True, on_epoch=None) -> dict:
             angles = (f"mae {m['mae_deg']:.2f} deg  gamma {m['gamma_deg']:.3f} (target {m['target_gamma_deg']:.3f})"
                       if np.isfinite(m["mae_deg"]) else f"mae {m['mae']:.4f} ({convention.unit})")
             print(f"epoch {epoch}: train loss {loss:.5f}  val rmse {m['rmse']:.4f}  {angles}{extra}")
-        if best is None or m["rmse"] < best["rmse"]:
+        if best is None or m[LOSSES[tc["loss"]]] < best[LOSSES[tc["loss"]]]:
             best, since_best = {**m, "epoch": epoch}, 0
             checkpoint(out / "best.pt", best)
             if ranks.main:
