@@ -35,6 +35,7 @@ def test_small_study_prunes_and_writes_a_runnable_best_config(tmp_path, tiny_rec
     assert len(trials) == 4 and {t["state"] for t in trials} <= {"complete", "pruned"}
     assert any(t["state"] == "pruned" for t in trials)  # Hyperband stopped an unpromising trial early
     assert sum(int(t["epochs_run"]) for t in trials) < 4 * 3
+    assert all(t["state"] == "complete" for t in trials if int(t["epochs_run"]) == 3)  # nothing left to save
     best = load_config(out / "best.yaml")  # a training config steerlab train runs as it is
     complete = [t for t in trials if t["state"] == "complete"]
     winner = min(complete, key=lambda t: float(t["value_0"]))

@@ -201,7 +201,7 @@ def run_tune(config: str | Path, overrides: list[str] = (), trials: int = 20, ob
             trial.set_user_attr("epochs_run", epoch)
             if single and objective == "rmse":
                 trial.report(m["rmse"], epoch)
-                if trial.should_prune():
+                if epoch < epochs and trial.should_prune():  # a trial that trained all its epochs is complete
                     raise optuna.TrialPruned()
 
         best = train(run_cfg, progress=False, on_epoch=on_epoch)
