@@ -38,6 +38,7 @@ from tqdm import tqdm
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter  # noqa: E402
 
 from steerlab.data.preprocess import PreprocessConfig
 from steerlab.errors import SteerlabError
@@ -358,6 +359,10 @@ def _plot_marginals(path: Path, study, complete: list, best) -> None:
             ax.set_xticks(grid, [str(c) for c in d.choices])
         elif d.log:
             ax.set_xscale("log")
+            ax.xaxis.set_minor_formatter(NullFormatter())
+            if d.high / d.low < 30:  # a decade or so: label 1, 2 and 5 of it, not overlapping minor ticks
+                ax.xaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+                ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
         ax.set_xlabel(k)
         ax.set_ylabel("validation error" if j == 0 else "")
     axes[0][0].legend(fontsize=7)

@@ -335,6 +335,7 @@ def train(cfg: dict, progress: bool = True, on_epoch=None) -> dict:
                             f"{ranks.world} ranks")
     if tc["loss"] not in LOSSES:
         raise SteerlabError(f"train.loss {tc['loss']!r} is not one of {', '.join(LOSSES)}")
+    score = LOSSES[tc["loss"]]
     progress = progress and ranks.main
     cfg_file = out / "config.json"
     if (out / "last.pt").exists():
@@ -449,7 +450,7 @@ def train(cfg: dict, progress: bool = True, on_epoch=None) -> dict:
             angles = (f"mae {m['mae_deg']:.2f} deg  gamma {m['gamma_deg']:.3f} (target {m['target_gamma_deg']:.3f})"
                       if np.isfinite(m["mae_deg"]) else f"mae {m['mae']:.4f} ({convention.unit})")
             print(f"epoch {epoch}: train loss {loss:.5f}  val rmse {m['rmse']:.4f}  {angles}{extra}")
-        if best is None or m[LOSSES[tc["loss"]]] < best[LOSSES[tc["loss"]]]:
+        if best is None or m[score] < best[score]:
             best, since_best = {**m, "epoch": epoch}, 0
             checkpoint(out / "best.pt", best)
             if ranks.main:
