@@ -36,6 +36,9 @@ def test_small_study_prunes_and_writes_a_runnable_best_config(tmp_path, tiny_rec
     assert any(t["state"] == "pruned" for t in trials)  # Hyperband stopped an unpromising trial early
     assert sum(int(t["epochs_run"]) for t in trials) < 4 * 3
     assert all(t["state"] == "complete" for t in trials if int(t["epochs_run"]) == 3)  # nothing left to save
+    summary = (out / "summary.md").read_text()
+    trained = sum(int(t["epochs_run"]) for t in trials)
+    assert f"trained {trained} epochs" in summary and f"would have trained {4 * 3} ({12 / trained:.2f}x)" in summary
     best = load_config(out / "best.yaml")  # a training config steerlab train runs as it is
     complete = [t for t in trials if t["state"] == "complete"]
     winner = min(complete, key=lambda t: float(t["value_0"]))
@@ -105,6 +108,11 @@ def test_bad_storage_and_changed_space(tmp_path, tiny_recording):
     with pytest.raises(SteerlabError, match="study 's' exists in this storage with a different search space"):
         run_tune(other, trials=1, storage=journal, study_name="s", progress=False)
     assert not (tmp_path / "z").exists()
+    with pytest.raises(SteerlabError, match="different search space, objective or pruning"):
+        run_tune(cfg, trials=1, storage=journal, study_name="s", pruning=4, progress=False)  # workers must agree
+    with pytest.raises(SteerlabError, match="--reduction-factor must be at least 2, got 1"):
+        run_tune(tune_config(tmp_path, tiny_recording, tmp_path / "w"), trials=1, pruning=1, progress=False)
+    assert not (tmp_path / "w").exists()
 
 
 def test_killed_worker_trial_is_failed_and_retried(tmp_path, tiny_recording, monkeypatch):
@@ -137,7 +145,7 @@ def test_killed_worker_trial_is_failed_and_retried(tmp_path, tiny_recording, mon
     assert killed.state == optuna.trial.TrialState.RUNNING
     time.sleep(3)  # longer than the grace period
     monkeypatch.setattr("steerlab.tune.HEARTBEAT", (1, 2))
-    run_tune(cfg, trials=3, storage=url, study_name="s", prune=False, progress=False)
+    run_tune(cfg, trials=3, storage=url, study_name="s", pruning=None, progress=False)
     trials = optuna.load_study(study_name="s", storage=storage).trials
     assert trials[0].state == optuna.trial.TrialState.FAIL
     done = [t for t in trials if t.state == optuna.trial.TrialState.COMPLETE]

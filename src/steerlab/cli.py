@@ -98,8 +98,9 @@ def cmd_evaluate(a) -> None:
 def cmd_tune(a) -> None:
     from steerlab.tune import run_tune
 
-    out = run_tune(a.config, a.overrides, a.trials, a.objective, a.storage, a.study, a.seed, not a.no_pruning)
-    for name in ("importance.md", "pareto.md"):
+    out = run_tune(a.config, a.overrides, a.trials, a.objective, a.storage, a.study, a.seed,
+                   None if a.no_pruning else a.reduction_factor)
+    for name in ("summary.md", "importance.md", "pareto.md"):
         if (out / name).exists():
             print((out / name).read_text())
     print(f"wrote {out}/trials.csv, {out}/best.yaml (run it: steerlab train {out}/best.yaml)"
@@ -244,6 +245,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "(sqlite:///study.db, postgresql://...); default OUT/study.journal")
     q.add_argument("--study", help="study name (default: the name of the config's out folder)")
     q.add_argument("--seed", type=int, default=0, help="sampler seed (default 0)")
+    q.add_argument("--reduction-factor", type=int, default=3, metavar="N",
+                   help="Hyperband: each rung keeps the best 1/N of the trials (default 3)")
     q.add_argument("--no-pruning", action="store_true", help="run every trial to completion (no Hyperband)")
     q.set_defaults(func=cmd_tune)
 

@@ -15,9 +15,10 @@ front; Optuna cannot prune multi-objective trials, so those run to completion), 
 the best epoch on the synthetic-world suite. The study lives in an Optuna storage (a journal file in the output
 folder by default, or `--storage URL`) that any number of workers on any number of machines can share.
 
-Outputs in the output folder: `trials.csv`, `best.yaml` (a training config `steerlab train` runs as it is),
-`importance.md` (fANOVA, percent), `importance.png` (predicted validation error vs each parameter, best value
-marked, paper 000 Fig. 4), `history.png`, one training run per trial under `trials/`.
+Outputs in the output folder: `trials.csv`, `summary.md` (trial states, what pruning saved), `best.yaml` (a
+training config `steerlab train` runs as it is), `importance.md` (fANOVA, percent), `importance.png` (predicted
+validation error vs each parameter, best value marked, paper 000 Fig. 4), `history.png`, one training run per
+trial under `trials/`.
 """
 
 from __future__ import annotations
@@ -147,20 +148,24 @@ def storage_of(url: str | None, out: Path):
     return JournalStorage(JournalFileBackend(path))
 
 
-def _load_study(cfg_text: dict, objective: str, storage, name: str, seed: int, epochs: int, prune: bool):
+def _load_study(cfg_text: dict, objective: str, storage, name: str, seed: int, epochs: int,
+                pruning: int | None):
     """Create the study, or join it if it exists with the same search space and objective."""
     optuna = _optuna()
-    signature = json.dumps({"tune": cfg_text["tune"], "objective": objective, "prune": prune}, sort_keys=True)
+    signature = json.dumps({"tune": cfg_text["tune"], "objective": objective, "pruning": pruning}, sort_keys=True)
     try:
         existing = optuna.load_study(study_name=name, storage=storage)
     except KeyError:
         existing = None
-    if existing is not None and existing.user_attrs.get("signature") not in (None, signature):
+    # studies created before the reduction factor was an option stored "prune": true (factor 3) or false
+    older = json.dumps({"tune": cfg_text["tune"], "objective": objective, "prune": pruning is not None},
+                       sort_keys=True) if pruning in (None, 3) else None
+    if existing is not None and existing.user_attrs.get("signature") not in (None, signature, older):
         raise SteerlabError(f"study {name!r} exists in this storage with a different search space, objective or "
                             "pruning; choose another --study name")
     sampler = optuna.samplers.TPESampler(seed=seed, multivariate=True, n_startup_trials=min(10, max(2, epochs)))
-    pruner = (optuna.pruners.HyperbandPruner(min_resource=1, max_resource=epochs, reduction_factor=3)
-              if prune and len(OBJECTIVES[objective]) == 1 else optuna.pruners.NopPruner())
+    pruner = (optuna.pruners.HyperbandPruner(min_resource=1, max_resource=epochs, reduction_factor=pruning)
+              if pruning and len(OBJECTIVES[objective]) == 1 else optuna.pruners.NopPruner())
     study = optuna.create_study(study_name=name, storage=storage, sampler=sampler, pruner=pruner,
                                 directions=OBJECTIVES[objective], load_if_exists=True)
     study.set_user_attr("signature", signature)
@@ -169,9 +174,10 @@ def _load_study(cfg_text: dict, objective: str, storage, name: str, seed: int, e
 
 
 def run_tune(config: str | Path, overrides: list[str] = (), trials: int = 20, objective: str = "rmse",
-             storage: str | None = None, study_name: str | None = None, seed: int = 0, prune: bool = True,
+             storage: str | None = None, study_name: str | None = None, seed: int = 0, pruning: int | None = 3,
              progress: bool = True) -> Path:
-    """Run trials of the study until it has `trials` finished ones; write the reports. Returns the folder."""
+    """Run trials of the study until it has `trials` finished ones; write the reports. Returns the folder.
+    `pruning`: Hyperband's reduction factor (a rung keeps the best 1/pruning of the trials; None: no pruning)."""
     from steerlab.train.loop import train
 
     optuna = _optuna()
@@ -179,13 +185,15 @@ def run_tune(config: str | Path, overrides: list[str] = (), trials: int = 20, ob
         raise SteerlabError(f"unknown objective {objective!r}; choose one of {', '.join(OBJECTIVES)}")
     if trials < 1:
         raise SteerlabError(f"--trials must be at least 1, got {trials}")
+    if pruning is not None and pruning < 2:
+        raise SteerlabError(f"--reduction-factor must be at least 2, got {pruning}")
     cfg = load_config(config, list(overrides))
     space = search_space(cfg.get("tune"), cfg)
     out = Path(cfg["out"])
     name = study_name or out.name
     epochs = int(cfg["train"]["epochs"])
     store = storage_of(storage, out)
-    study = _load_study(cfg, objective, store, name, seed, epochs, prune)
+    study = _load_study(cfg, objective, store, name, seed, epochs, pruning)
     base = {k: v for k, v in cfg.items() if k != "tune"}
     surplus = []
 
@@ -270,8 +278,9 @@ def _short(v) -> str:
 
 
 def write_reports(study, out: Path, base: dict) -> None:
-    """trials.csv, best.yaml, and for single-objective studies importance.md/.png and history.png; for
-    rmse+gamma the Pareto front (pareto.md, pareto.png)."""
+    """trials.csv, summary.md (trial states; epochs trained against the finished trials' full budget),
+    best.yaml, and for single-objective studies importance.md/.png and history.png; for rmse+gamma the Pareto
+    front (pareto.md, pareto.png)."""
     import optuna
     from optuna.trial import TrialState
 
@@ -289,6 +298,13 @@ def write_reports(study, out: Path, base: dict) -> None:
             w.writerow([t.number, t.state.name.lower(), *values, t.user_attrs.get("epochs_run", ""),
                         t.user_attrs.get("best_epoch", ""), seconds, *[t.params.get(k, "") for k in params]])
     complete = [t for t in trials if t.state == TrialState.COMPLETE]
+    finished = [t for t in trials if t.state in (TrialState.COMPLETE, TrialState.PRUNED)]
+    trained = sum(t.user_attrs.get("epochs_run", 0) for t in finished)
+    full = len(finished) * int(base["train"]["epochs"])
+    (out / "summary.md").write_text(
+        f"{len(trials)} trials: {len(complete)} complete, {len(finished) - len(complete)} pruned, "
+        f"{len(trials) - len(finished)} failed or running. The finished trials trained {trained} epochs; run to "
+        f"their last epoch they would have trained {full}" + (f" ({full / trained:.2f}x)" if trained else "") + ".\n")
     if not complete:
         return
     if len(study.directions) > 1:
@@ -351,12 +367,14 @@ def _plot_marginals(path: Path, study, complete: list, best) -> None:
             xg[:, j] = g
             pd_.append(forest.predict(xg).mean())
         shown = grid if categorical or not d.log else np.exp(grid)
-        ax.plot(shown, pd_, color="tab:blue", lw=2, label="predicted")
+        ax.plot(shown, pd_, color="tab:blue", lw=2, label="predicted",  # no line between unordered choices
+                **({"ls": "", "marker": "_", "ms": 24, "mew": 2} if categorical else {}))
         ax.scatter(x[:, j] if categorical or not d.log else np.exp(x[:, j]), y, s=12, color="gray", label="trials")
         b = _encode(d, best.params[k])
         ax.axvline(b if categorical or not d.log else math.exp(b), color="tab:red", ls="--", label="best")
         if categorical:
             ax.set_xticks(grid, [str(c) for c in d.choices])
+            ax.set_xlim(-0.5, len(d.choices) - 0.5)
         elif d.log:
             ax.set_xscale("log")
             ax.xaxis.set_minor_formatter(NullFormatter())
