@@ -151,3 +151,20 @@ def test_killed_worker_trial_is_failed_and_retried(tmp_path, tiny_recording, mon
     done = [t for t in trials if t.state == optuna.trial.TrialState.COMPLETE]
     assert len(done) == 3
     assert any(t.params == killed.params for t in done)  # the killed trial was retried
+
+
+def test_autonomy_objective_drives_the_suite_of_the_config(tmp_path, tiny_recording):
+    cfg = tune_config(tmp_path, tiny_recording, tmp_path / "drive", epochs=1)
+    text = yaml.safe_load(cfg.read_text())
+    cfg.write_text(yaml.safe_dump({**text, "closed_loop": {"suite": "v1", "minutes": 0.05}}))
+    run_tune(cfg, trials=2, objective="autonomy", seed=0, progress=False)
+    trials = rows(tmp_path / "drive")
+    assert [t["state"] for t in trials] == ["complete", "complete"]
+    for t in trials:  # the trial's value is the autonomy over all roads of the suite it drove
+        with open(tmp_path / "drive" / "trials" / f"{int(t['number']):04d}" / "suite" / "summary.csv") as f:
+            overall = next(r for r in csv.DictReader(f) if r["road_type"] == "all")
+        assert float(t["value_0"]) == pytest.approx(float(overall["autonomy"]))
+        assert float(overall["minutes"]) == pytest.approx(11 * 0.05, rel=0.05)  # 11 roads, 3 s each
+    best = max(trials, key=lambda t: float(t["value_0"]))  # autonomy is maximised
+    assert yaml.safe_load((tmp_path / "drive" / "best.yaml").read_text().split("\n", 1)[1])["model"]["dropout"] \
+        == pytest.approx(float(best["model.dropout"]))

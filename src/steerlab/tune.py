@@ -12,7 +12,8 @@ Optuna's multivariate TPE sampler proposes configurations and its Hyperband prun
 early, with epochs as the budget: each epoch reports the validation RMSE (together: BOHB's idea, Falkner et
 al. 2018, on Optuna's parts). Objectives: validation RMSE (default), RMSE and gamma (multi-objective, Pareto
 front; Optuna cannot prune multi-objective trials, so those run to completion), or the closed-loop autonomy of
-the best epoch on the synthetic-world suite. The study lives in an Optuna storage (a journal file in the output
+the best epoch on the synthetic-world suite (the config's `closed_loop: {suite, minutes, workers}` section;
+default: suite v1, 3 minutes per road). The study lives in an Optuna storage (a journal file in the output
 folder by default, or `--storage URL`) that any number of workers on any number of machines can share.
 
 Outputs in the output folder: `trials.csv`, `summary.md` (trial states, what pruning saved), `best.yaml` (a
@@ -221,7 +222,7 @@ def run_tune(config: str | Path, overrides: list[str] = (), trials: int = 20, ob
             return best["rmse"], best["gamma_deg"]
         from steerlab.experiment import closed_loop_metrics
 
-        return closed_loop_metrics(Path(run_cfg["out"]), {}, False)["autonomy"]
+        return closed_loop_metrics(Path(run_cfg["out"]), cfg.get("closed_loop") or {}, False)["autonomy"]
 
     done_states = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED)
     finished = len(study.get_trials(deepcopy=False, states=done_states))

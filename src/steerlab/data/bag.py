@@ -148,8 +148,10 @@ def _extract(path: Path, topics: dict) -> tuple[Path, dict]:
         raise DataError(path, f"no messages on {topics['center'] if not cameras['center'] else topics['steering']}")
     index = {"cameras": cameras, "steering": reports}
     (tmp / "index.json").write_text(json.dumps(index))
-    if folder.exists():
-        shutil.rmtree(tmp)
-    else:
+    try:
         tmp.rename(folder)
+    except OSError:
+        if not (folder / "index.json").exists():
+            raise
+        shutil.rmtree(tmp)  # another process extracted the same bag first
     return folder, index

@@ -147,10 +147,12 @@ def compile_recording(rec: Recording, cfg: PreprocessConfig, cache_dir: str | Pa
                 "frames": n, "convention": rec.convention.as_dict(), "preset": rec.preset,
                 "frame_rate": rec.frame_rate()}
         (tmp / "meta.json").write_text(json.dumps(meta, indent=1))
-        if final.exists():  # another process finished the same entry first
-            shutil.rmtree(tmp)
-        else:
+        try:
             tmp.rename(final)
+        except OSError:
+            if not (final / "meta.json").exists():
+                raise
+            shutil.rmtree(tmp)  # another process finished the same entry first
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise

@@ -44,6 +44,7 @@ DEFAULTS = {
     "out": "runs/train",
     "dagger": None,          # DAgger rounds (steerlab sim dagger; options in sim/dagger.py)
     "tune": None,            # search space of steerlab tune: config key -> range (tune.py)
+    "closed_loop": None,     # suite for steerlab tune --objective autonomy: {suite: v1, minutes, workers}
 }
 
 
