@@ -190,6 +190,12 @@ def run_tune(config: str | Path, overrides: list[str] = (), trials: int = 20, ob
         raise SteerlabError(f"--reduction-factor must be at least 2, got {pruning}")
     cfg = load_config(config, list(overrides))
     space = search_space(cfg.get("tune"), cfg)
+    closed = cfg.get("closed_loop") or {}
+    if objective == "autonomy":
+        from steerlab.sim.bench import SUITES
+
+        if closed.get("suite", "v1") not in SUITES or not float(closed.get("minutes") or 1) > 0:
+            raise SteerlabError(f"closed_loop {closed}: needs a suite of {', '.join(SUITES)} and minutes > 0")
     out = Path(cfg["out"])
     name = study_name or out.name
     epochs = int(cfg["train"]["epochs"])
@@ -222,7 +228,7 @@ def run_tune(config: str | Path, overrides: list[str] = (), trials: int = 20, ob
             return best["rmse"], best["gamma_deg"]
         from steerlab.experiment import closed_loop_metrics
 
-        return closed_loop_metrics(Path(run_cfg["out"]), cfg.get("closed_loop") or {}, False)["autonomy"]
+        return closed_loop_metrics(Path(run_cfg["out"]), closed, False)["autonomy"]
 
     done_states = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED)
     finished = len(study.get_trials(deepcopy=False, states=done_states))
