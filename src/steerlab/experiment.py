@@ -36,6 +36,20 @@ ALPHA = 0.2  # exponential smoothing of paper 002 Eq. 2, reported beside the raw
 LATENCY_FRAMES = 200
 
 
+def run_config(raw: dict, entry: dict, seed: int, overrides=()) -> dict:
+    """The training config of one run: the experiment's shared sections, then the entry's, then the overrides;
+    written to <out>/<label>/seed<seed>."""
+    base = copy.deepcopy(raw)
+    base["model"] = entry["model"]
+    base["preprocess"] = {**raw.get("preprocess", {}), **entry.get("preprocess", {})}
+    base["train"] = {**raw.get("train", {}), **entry.get("train", {}), "seed": seed}
+    if "dagger" in entry or "dagger" in raw:
+        base["dagger"] = {**(raw.get("dagger") or {}), **(entry.get("dagger") or {})}
+    label = entry.get("label", entry["model"]["name"])
+    base["out"] = str(Path(raw.get("out", "runs/experiment")) / label / f"seed{seed}")
+    return load_config(None, list(overrides), base=base)
+
+
 def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: bool = True) -> Path:
     """Every entry of the config's `models` list is a training config fragment (`model`, and optionally
     `label`, `preprocess`, `train`, `dagger`) applied on top of the shared config; an entry or the shared
@@ -59,14 +73,7 @@ def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: boo
         label = entry.get("label", entry["model"]["name"])
         runs = []
         for seed in range(seeds):
-            base = copy.deepcopy(raw)
-            base["model"] = entry["model"]
-            base["preprocess"] = {**raw.get("preprocess", {}), **entry.get("preprocess", {})}
-            base["train"] = {**raw.get("train", {}), **entry.get("train", {}), "seed": seed}
-            if "dagger" in entry or "dagger" in raw:
-                base["dagger"] = {**(raw.get("dagger") or {}), **(entry.get("dagger") or {})}
-            base["out"] = str(out / label / f"seed{seed}")
-            cfg = load_config(None, list(overrides), base=base)
+            cfg = run_config(raw, entry, seed, overrides)
             run_dir = Path(cfg["out"])
             done = run_dir / "metrics.json"
             if not done.exists():
@@ -92,7 +99,7 @@ def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: boo
             runs.append(run)
         if frames is None:
             frames = _latency_frames(cfg)
-        pre = PreprocessConfig.from_dict(model_preprocess(entry["model"]["name"], base["preprocess"]))
+        pre = PreprocessConfig.from_dict(model_preprocess(entry["model"]["name"], cfg["preprocess"]))
         rows.append(_row(label, entry["model"]["name"], pre, runs, _latency(out / label / "seed0", frames)))
         preds[label] = read_steering_csv(out / label / "seed0" / "val_predictions.csv")
     _write(out, rows, preds, cfg, seeds, _speed_references(labels, next(iter(preds.values()))[0]))

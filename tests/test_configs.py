@@ -1,0 +1,52 @@
+"""Every config shipped in configs/ loads (known sections and train options) and names models that build with
+its options, so a typo in a config is caught here rather than an hour into an experiment."""
+
+from pathlib import Path
+
+import pytest
+import yaml
+
+from steerlab.data.preprocess import PreprocessConfig
+from steerlab.experiment import run_config
+from steerlab.models import create_model
+from steerlab.sim.bench import SUITES
+from steerlab.train.config import load_config
+from steerlab.train.loop import model_preprocess
+
+CONFIGS = sorted((Path(__file__).parent.parent / "configs").glob("*.yaml"))
+
+
+def _build(cfg: dict) -> None:
+    name = cfg["model"]["name"]
+    pre = PreprocessConfig.from_dict(model_preprocess(name, cfg["preprocess"]))
+    options = {k: v for k, v in cfg["model"].items() if k != "name"}
+    create_model(name, **options, in_channels=sum(pre.channels().values()), height=pre.height, width=pre.width)
+
+
+@pytest.mark.parametrize("path", CONFIGS, ids=[p.name for p in CONFIGS])
+def test_shipped_config_loads_and_builds(path):
+    raw = yaml.safe_load(path.read_text())
+    closed = raw.pop("closed_loop", None)
+    if closed:
+        assert closed.get("suite", "v1") in SUITES and float(closed.get("minutes", 1)) > 0
+    if "models" in raw:  # an experiment: every entry is a run config of its own
+        entries = raw.pop("models")
+        assert entries
+        cfgs = [run_config(raw, entry, seed=0) for entry in entries]
+        assert len({c["out"] for c in cfgs}) == len(cfgs), "two entries would share a run folder (set a label)"
+    else:
+        cfgs = [load_config(path)]
+    for cfg in cfgs:
+        _build(cfg)
+
+
+def test_run_config_merges_entry_over_shared_sections():
+    raw = {"data": "runs/x", "out": "runs/exp", "preprocess": {"preset": "sim", "color": "gray"},
+           "train": {"epochs": 5, "batch_size": 64}}
+    entry = {"label": "flow b8", "model": {"name": "pilotnet-flow"}, "preprocess": {"color": "yuv"},
+             "train": {"batch_size": 8}}
+    cfg = run_config(raw, entry, seed=2, overrides=["train.lr=0.001"])
+    assert cfg["preprocess"] == {"preset": "sim", "color": "yuv"}
+    assert (cfg["train"]["epochs"], cfg["train"]["batch_size"], cfg["train"]["seed"], cfg["train"]["lr"]) == (
+        5, 8, 2, 0.001)
+    assert cfg["out"] == str(Path("runs/exp") / "flow b8" / "seed2")
