@@ -49,6 +49,13 @@ def test_train_errors_are_one_line(tmp_path, capsys):
     assert "none.yaml: config file not found" in capsys.readouterr().err
     assert main(["evaluate", str(tmp_path / "x.pt"), "--data", str(tmp_path)]) == 2
     assert capsys.readouterr().err.startswith("error: ")
+    bad = tmp_path / "bad_suite.yaml"  # refused before the first model trains
+    bad.write_text(f"data: {tmp_path}\nout: {tmp_path / 'exp'}\nclosed_loop: {{suite: v9}}\n"
+                   "models:\n  - {model: {name: pilotnet}}\n")
+    assert main(["experiment", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "bad_suite.yaml: closed_loop: unknown suite 'v9'; known: v1" in err
+    assert not (tmp_path / "exp").exists()
 
 
 def test_experiment_table(tiny_recording, tmp_path, capsys):

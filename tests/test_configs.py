@@ -9,18 +9,16 @@ import yaml
 from steerlab.data.preprocess import PreprocessConfig
 from steerlab.experiment import run_config
 from steerlab.models import create_model
-from steerlab.sim.bench import SUITES
+from steerlab.sim.bench import suite_minutes
 from steerlab.train.config import load_config
-from steerlab.train.loop import model_preprocess
+from steerlab.train.loop import model_options, model_preprocess
 
 CONFIGS = sorted((Path(__file__).parent.parent / "configs").glob("*.yaml"))
 
 
 def _build(cfg: dict) -> None:
     name = cfg["model"]["name"]
-    pre = PreprocessConfig.from_dict(model_preprocess(name, cfg["preprocess"]))
-    options = {k: v for k, v in cfg["model"].items() if k != "name"}
-    create_model(name, **options, in_channels=sum(pre.channels().values()), height=pre.height, width=pre.width)
+    create_model(name, **model_options(cfg["model"], PreprocessConfig.from_dict(model_preprocess(name, cfg["preprocess"]))))
 
 
 @pytest.mark.parametrize("path", CONFIGS, ids=[p.name for p in CONFIGS])
@@ -28,7 +26,7 @@ def test_shipped_config_loads_and_builds(path):
     raw = yaml.safe_load(path.read_text())
     closed = raw.pop("closed_loop", None)
     if closed:
-        assert closed.get("suite", "v1") in SUITES and float(closed.get("minutes", 1)) > 0
+        suite_minutes(closed.get("suite", "v1"), closed.get("minutes"))
     if "models" in raw:  # an experiment: every entry is a run config of its own
         entries = raw.pop("models")
         assert entries

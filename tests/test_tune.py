@@ -160,7 +160,7 @@ def test_autonomy_objective_drives_the_suite_of_the_config(tmp_path, tiny_record
     for bad in ({"suite": "v9"}, {"minutes": -1}):
         broken = tmp_path / "broken.yaml"
         broken.write_text(yaml.safe_dump({**text, "out": str(tmp_path / "broken"), "closed_loop": bad}))
-        with pytest.raises(SteerlabError, match="needs a suite of v1 and minutes > 0"):
+        with pytest.raises(SteerlabError, match=r"broken.yaml: closed_loop: (unknown suite 'v9'; known: v1|minutes must be positive, got -1)"):
             run_tune(broken, trials=1, objective="autonomy", progress=False)
         assert not (tmp_path / "broken").exists()  # nothing trained, nothing written
     run_tune(cfg, trials=2, objective="autonomy", seed=0, progress=False)

@@ -27,7 +27,7 @@ from steerlab.evaluate.metrics import accuracy, exponential_smoothing, speed_mae
 from steerlab.evaluate.plots import plot_open_vs_closed, plot_recovery, plot_steering, rank_correlation
 from steerlab.evaluate.scoring import read_steering_csv
 from steerlab.pilot import Pilot
-from steerlab.sim.bench import run_suite
+from steerlab.sim.bench import run_suite, suite_minutes
 from steerlab.sim.dagger import run_dagger
 from steerlab.train.config import load_config
 from steerlab.train.loop import model_preprocess, prepare_dataset, train
@@ -66,6 +66,8 @@ def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: boo
         raise SteerlabError(f"{path}: an experiment config needs a non-empty 'models' list")
     entries = raw.pop("models")
     closed = raw.pop("closed_loop", None)
+    if closed:
+        suite_minutes(closed.get("suite", "v1"), closed.get("minutes"), f"{path}: closed_loop: ")
     out = Path(raw.get("out", "runs/experiment"))
     rows, preds = [], {}
     labels = frames = deg = None

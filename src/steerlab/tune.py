@@ -192,10 +192,9 @@ def run_tune(config: str | Path, overrides: list[str] = (), trials: int = 20, ob
     space = search_space(cfg.get("tune"), cfg)
     closed = cfg.get("closed_loop") or {}
     if objective == "autonomy":
-        from steerlab.sim.bench import SUITES
+        from steerlab.sim.bench import suite_minutes
 
-        if closed.get("suite", "v1") not in SUITES or not float(closed.get("minutes") or 1) > 0:
-            raise SteerlabError(f"closed_loop {closed}: needs a suite of {', '.join(SUITES)} and minutes > 0")
+        suite_minutes(closed.get("suite", "v1"), closed.get("minutes"), f"{config}: closed_loop: ")
     out = Path(cfg["out"])
     name = study_name or out.name
     epochs = int(cfg["train"]["epochs"])

@@ -91,14 +91,24 @@ def labels_for(checkpoints: list[Path]) -> list[str]:
     return [str(p) for p in checkpoints]
 
 
+def suite_minutes(suite: str, minutes: float | None = None, where: str = "") -> float:
+    """Check a suite name and minutes per road (None: the suite's own) before anything drives or trains;
+    `where` names the config section in the error."""
+    if suite not in SUITES:
+        raise SteerlabError(f"{where}unknown suite {suite!r}; known: {', '.join(SUITES)}")
+    minutes = float(minutes or SUITES[suite]["minutes"])
+    if not minutes > 0:
+        raise SteerlabError(f"{where}minutes must be positive, got {minutes}")
+    return minutes
+
+
 def run_suite(checkpoints, out: str | Path, suite: str = "v1", minutes: float | None = None, workers: int = 2,
               smoothing: float | None = None, roads: str | None = None, progress: bool = True) -> list[dict]:
     """Drive every checkpoint on every road of the suite (or of the road types in the comma list `roads`);
     write `suite.csv` (one row per drive), `summary.csv` and `suite.md` (per checkpoint and road type) and
     one trajectory plot per road in `out/roads/`.
     Returns the summary rows."""
-    if suite not in SUITES:
-        raise SteerlabError(f"unknown suite {suite!r}; known: {', '.join(SUITES)}")
+    minutes = suite_minutes(suite, minutes)
     checkpoints = [Path(c) for c in checkpoints]
     if not checkpoints:
         raise SteerlabError("no checkpoint to drive: name at least one")
@@ -106,9 +116,6 @@ def run_suite(checkpoints, out: str | Path, suite: str = "v1", minutes: float | 
         if not c.is_file():
             raise SteerlabError(f"{c}: checkpoint not found")
     spec = SUITES[suite]
-    minutes = float(minutes or spec["minutes"])
-    if not minutes > 0:
-        raise SteerlabError(f"minutes must be positive, got {minutes}")
     types = list(spec["roads"]) if roads is None else [t.strip() for t in roads.split(",") if t.strip()]
     unknown = [t for t in types if t not in spec["roads"]]
     if unknown:

@@ -53,6 +53,12 @@ def prepare_dataset(cfg: dict, progress: bool = True, camera: str | None = None,
                              view=view)
 
 
+def model_options(model: dict, pre: PreprocessConfig) -> dict:
+    """The config's model options completed with the input its preprocessing gives (channels, height, width)."""
+    return {**{k: v for k, v in model.items() if k != "name"},
+            "in_channels": sum(pre.channels().values()), "height": pre.height, "width": pre.width}
+
+
 def model_preprocess(name: str, preprocess: dict | None) -> dict:
     """The config's preprocessing completed with what the model needs (its `inputs`)."""
     pre = dict(preprocess or {})
@@ -359,8 +365,7 @@ def train(cfg: dict, progress: bool = True, on_epoch=None) -> dict:
     stats = channel_stats(ds.arrays, ds.config, train_idx, segment_starts(ds.labels["segment"]))
     sources, train_codes = training_sources(cfg, ds, train_idx, progress)
     torch.manual_seed(int(tc["seed"]))
-    model_cfg = {k: v for k, v in cfg["model"].items() if k != "name"}
-    model_cfg.update(in_channels=sum(ds.config.channels().values()), height=ds.config.height, width=ds.config.width)
+    model_cfg = model_options(cfg["model"], ds.config)
     model = create_model(name, **model_cfg)
     if tc.get("init"):
         init = load_checkpoint(tc["init"])
