@@ -157,10 +157,10 @@ def test_autonomy_objective_drives_the_suite_of_the_config(tmp_path, tiny_record
     cfg = tune_config(tmp_path, tiny_recording, tmp_path / "drive", epochs=1)
     text = yaml.safe_load(cfg.read_text())
     cfg.write_text(yaml.safe_dump({**text, "closed_loop": {"suite": "v1", "minutes": 0.05}}))
-    for bad in ({"suite": "v9"}, {"minutes": -1}):
+    for bad in ({"suite": "v9"}, {"minutes": -1}, {"minutes": 0}):
         broken = tmp_path / "broken.yaml"
         broken.write_text(yaml.safe_dump({**text, "out": str(tmp_path / "broken"), "closed_loop": bad}))
-        with pytest.raises(SteerlabError, match=r"broken.yaml: closed_loop: (unknown suite 'v9'; known: v1|minutes must be positive, got -1)"):
+        with pytest.raises(SteerlabError, match=r"broken.yaml: closed_loop: (unknown suite 'v9'; known: v1|minutes must be positive, got (-1|0))"):
             run_tune(broken, trials=1, objective="autonomy", progress=False)
         assert not (tmp_path / "broken").exists()  # nothing trained, nothing written
     run_tune(cfg, trials=2, objective="autonomy", seed=0, progress=False)

@@ -96,7 +96,7 @@ def suite_minutes(suite: str, minutes: float | None = None, where: str = "") -> 
     `where` names the config section in the error."""
     if suite not in SUITES:
         raise SteerlabError(f"{where}unknown suite {suite!r}; known: {', '.join(SUITES)}")
-    minutes = float(minutes or SUITES[suite]["minutes"])
+    minutes = float(SUITES[suite]["minutes"] if minutes is None else minutes)
     if not minutes > 0:
         raise SteerlabError(f"{where}minutes must be positive, got {minutes}")
     return minutes
