@@ -10,6 +10,7 @@ from steerlab.data.preprocess import PreprocessConfig
 from steerlab.experiment import run_config
 from steerlab.models import create_model
 from steerlab.sim.bench import suite_minutes
+from steerlab.sim.dagger import dagger_options
 from steerlab.train.config import load_config
 from steerlab.train.loop import model_options, model_preprocess
 
@@ -36,6 +37,8 @@ def test_shipped_config_loads_and_builds(path):
         cfgs = [load_config(path)]
     for cfg in cfgs:
         _build(cfg)
+        if cfg.get("dagger"):
+            dagger_options(cfg)
 
 
 def test_run_config_merges_entry_over_shared_sections():

@@ -100,6 +100,11 @@ def test_drift_episodes_and_rank_correlation():
     assert rank_correlation([1, 2, 3, 4], [10, 20, 30, 40]) == pytest.approx(1.0)
     assert rank_correlation([1, 2, 3, 4], [0.4, 0.3, 0.2, 0.1]) == pytest.approx(-1.0)
     assert rank_correlation([1, 2, 3, 4], [1, 3, 2, 4]) == pytest.approx(0.8)
+    # ties share their mean rank: y ranks 0.5, 0.5, 2.5, 2.5 against 0, 1, 2, 3 -> 4 / (2 sqrt(5))
+    assert rank_correlation([1, 2, 3, 4], [100, 100, 101, 101]) == pytest.approx(2 / np.sqrt(5))
+    assert rank_correlation([4, 3, 2, 1], [100, 100, 101, 101]) == pytest.approx(-2 / np.sqrt(5))
+    assert np.isnan(rank_correlation([1, 2, 3], [100, 100, 100]))  # every model drives equally well
+    assert np.isnan(rank_correlation([1, 2], [1, 2]))
 
 
 def test_metrics_in_normalized_units():

@@ -26,9 +26,10 @@ from steerlab.data.labels import COMMANDS, speed_targets
 from steerlab.evaluate.metrics import accuracy, exponential_smoothing, speed_mae, steering_metrics
 from steerlab.evaluate.plots import plot_open_vs_closed, plot_recovery, plot_steering, rank_correlation
 from steerlab.evaluate.scoring import read_steering_csv
+from steerlab.models import model_class
 from steerlab.pilot import Pilot
 from steerlab.sim.bench import run_suite, suite_minutes
-from steerlab.sim.dagger import run_dagger
+from steerlab.sim.dagger import dagger_options, run_dagger
 from steerlab.train.config import load_config
 from steerlab.train.loop import model_preprocess, prepare_dataset, train
 
@@ -68,6 +69,16 @@ def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: boo
     closed = raw.pop("closed_loop", None)
     if closed:
         suite_minutes(closed.get("suite", "v1"), closed.get("minutes"), f"{path}: closed_loop: ")
+    for i, entry in enumerate(entries):  # a bad entry is an error before the first model trains
+        if not isinstance(entry, dict) or not isinstance(entry.get("model"), dict) or "name" not in entry["model"]:
+            raise SteerlabError(f"{path}: models entry {i + 1} needs a model section with a name, got {entry!r}")
+        try:
+            model_class(entry["model"]["name"])
+            cfg = run_config(raw, entry, 0, overrides)
+            if cfg.get("dagger"):
+                dagger_options(cfg)
+        except SteerlabError as e:
+            raise SteerlabError(f"{path}: models entry {i + 1}: {e}") from None
     out = Path(raw.get("out", "runs/experiment"))
     rows, preds = [], {}
     labels = frames = deg = None
@@ -251,7 +262,11 @@ def _open_vs_closed(out: Path, rows: list[dict]) -> str:
     plot_open_vs_closed(out / "open_vs_closed.png", {"models": trained})
     keys = [("mse", "MSE"), ("mae_deg", "MAE"), ("gamma_deg", "gamma"), ("smoothed_rmse", "smoothed RMSE"),
             ("smoothed_gamma_deg", "smoothed gamma")]
-    rho = ", ".join(f"{name} {rank_correlation([r[f'{k}_mean'] for r in trained], [r['autonomy_mean'] for r in trained]):+.2f}"
+    autonomy = [r["autonomy_mean"] for r in trained]
+    if len(trained) < 3 or len(set(autonomy)) < 2:
+        return ("Rank correlation of the open-loop metrics with autonomy: not defined here (it needs three or more "
+                "trained models that do not all drive equally well). Plot: open_vs_closed.png.")
+    rho = ", ".join(f"{name} {rank_correlation([r[f'{k}_mean'] for r in trained], autonomy):+.2f}"
                     for k, name in keys)
     return (f"Rank correlation (Spearman) of each open-loop metric with autonomy over the {len(trained)} trained "
             f"models (-1: lower error always drives better): {rho}. Plot: open_vs_closed.png.")

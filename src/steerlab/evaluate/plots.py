@@ -105,6 +105,7 @@ def plot_open_vs_closed(path: str | Path, tables: dict[str, list[dict]], metric:
                 ax.annotate("", pts[-1], pts[0], arrowprops={"arrowstyle": "->", "color": "0.6", "lw": 0.8})
     ax.set_xlabel(f"open-loop validation {metric.upper()} [rad]")
     ax.set_ylabel("closed-loop autonomy, all suite roads [%]")
+    ax.set_ylim(top=101)  # autonomy is at most 100 %
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
     fig.tight_layout()
@@ -113,6 +114,17 @@ def plot_open_vs_closed(path: str | Path, tables: dict[str, list[dict]], metric:
 
 
 def rank_correlation(x, y) -> float:
-    """Spearman's rank correlation (ties broken by order; fine for continuous metrics)."""
-    rx, ry = (np.argsort(np.argsort(np.asarray(v, float))) for v in (x, y))
-    return float(np.corrcoef(rx, ry)[0, 1]) if len(rx) > 2 else float("nan")
+    """Spearman's rank correlation; tied values share their mean rank (many models drive at 100 %). NaN for
+    fewer than three points or when x or y takes a single value."""
+    rx, ry = (_mean_ranks(v) for v in (x, y))
+    if len(rx) < 3 or np.ptp(rx) == 0 or np.ptp(ry) == 0:
+        return float("nan")
+    return float(np.corrcoef(rx, ry)[0, 1])
+
+
+def _mean_ranks(values) -> np.ndarray:
+    v = np.asarray(values, float)
+    ranks = np.empty(len(v))
+    ranks[np.argsort(v, kind="stable")] = np.arange(len(v))
+    _, group = np.unique(v, return_inverse=True)
+    return (np.bincount(group, ranks) / np.bincount(group))[group]

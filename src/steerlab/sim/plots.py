@@ -53,6 +53,7 @@ def plot_rounds(path: str | Path, rows: list[dict]) -> None:
         ax.plot(rounds, values, style, label=key.split("_")[1])
     ax.set_xlabel("DAgger round")
     ax.set_ylabel("closed-loop autonomy [%]")
+    ax.set_ylim(top=101)  # autonomy is at most 100 %
     ax.set_xticks(rounds)
     ax.grid(alpha=0.3)
     ax2 = ax.twinx()
