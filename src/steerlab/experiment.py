@@ -263,10 +263,10 @@ def _open_vs_closed(out: Path, rows: list[dict]) -> str:
     keys = [("mse", "MSE"), ("mae_deg", "MAE"), ("gamma_deg", "gamma"), ("smoothed_rmse", "smoothed RMSE"),
             ("smoothed_gamma_deg", "smoothed gamma")]
     autonomy = [r["autonomy_mean"] for r in trained]
-    if len(trained) < 3 or len(set(autonomy)) < 2:
+    rhos = [rank_correlation([r[f"{k}_mean"] for r in trained], autonomy) for k, _ in keys]
+    if all(np.isnan(rhos)):
         return ("Rank correlation of the open-loop metrics with autonomy: not defined here (it needs three or more "
                 "trained models that do not all drive equally well). Plot: open_vs_closed.png.")
-    rho = ", ".join(f"{name} {rank_correlation([r[f'{k}_mean'] for r in trained], autonomy):+.2f}"
-                    for k, name in keys)
+    rho = ", ".join(f"{name} {v:+.2f}" for (_, name), v in zip(keys, rhos))
     return (f"Rank correlation (Spearman) of each open-loop metric with autonomy over the {len(trained)} trained "
             f"models (-1: lower error always drives better): {rho}. Plot: open_vs_closed.png.")
