@@ -107,3 +107,8 @@ models:
                        if r["road_type"] == "twisty") for s in (0, 1)]
         assert float(row["autonomy_twisty_min"]) == pytest.approx(min(twisty))
     assert float(rows[0]["smoothed_rmse_mean"]) == pytest.approx(float(rows[0]["rmse_mean"]))  # smoothing 0 is 0
+    # train time: the seconds of the run's epoch log (the baseline writes none)
+    logs = [sum(float(r["seconds"]) for r in csv.DictReader(open(tmp_path / "exp" / "flow" / f"seed{s}" / "log.csv")))
+            for s in (0, 1)]
+    flow = next(r for r in rows if r["label"] == "flow")
+    assert float(flow["train_s_mean"]) == pytest.approx(sum(logs) / 2) and float(rows[0]["train_s_mean"]) == 0.0

@@ -140,6 +140,18 @@ def test_dagger_aggregates_rollouts(tiny_recording, tmp_path):
     assert [r["round"] for r in rows] == ["0", "1"] and rows[1]["recordings"] == "3"
     assert float(rows[1]["beta"]) == 0.5 and rows[1]["autonomy_twisty"] != ""
     assert (tmp_path / "dagger" / "dagger.png").exists()
+    # an experiment's closed-loop column reuses the last round's drives of the same suite, and drives anew otherwise
+    from steerlab.experiment import closed_loop_metrics, suite_checkpoint
+
+    run = tmp_path / "dagger"
+    drives = sorted((run / "round1" / "suite").rglob("drive.json"))
+    stamps = [d.stat().st_mtime_ns for d in drives]
+    same = {"suite": "v1", "minutes": 0.01, "workers": 1}
+    assert suite_checkpoint(run, cfg, same) == run / "round1" / "best.pt"
+    metrics = closed_loop_metrics(suite_checkpoint(run, cfg, same), same, False)
+    assert [d.stat().st_mtime_ns for d in drives] == stamps and not (run / "suite").exists()
+    assert metrics["autonomy_twisty"] == pytest.approx(float(rows[1]["autonomy_twisty"]))
+    assert suite_checkpoint(run, cfg, {**same, "minutes": 0.02}) == run / "best.pt"
     round1 = json.loads((tmp_path / "dagger" / "round1" / "config.json").read_text())
     assert round1["train"]["init"].endswith("round0/best.pt") and len(round1["extra_data"]) == 2
     # round 1 trains on the main recording's training frames and every rollout frame, with their side cameras

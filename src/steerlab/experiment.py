@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import copy
 import csv
+import filecmp
 import json
 import time
 from pathlib import Path
@@ -93,22 +94,15 @@ def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: boo
                 if progress:
                     print(f"== {label}, seed {seed}")
                 if cfg.get("dagger"):
-                    run_dagger(cfg, progress=progress)
-                    metrics = json.loads((run_dir / "metrics.json").read_text())
+                    run_dagger(cfg, progress=progress)  # writes metrics.json
                 else:
-                    metrics = train(cfg, progress=progress)
-                metrics["train_s"] = 0.0  # baselines fit without epochs and write no log
-                for log in sorted(run_dir.glob("round*/log.csv")) or [run_dir / "log.csv"]:  # DAgger: every round
-                    if log.exists():
-                        with open(log) as f:
-                            metrics["train_s"] += sum(float(r["seconds"]) for r in csv.DictReader(f))
-                done.write_text(json.dumps(metrics, indent=1))
+                    done.write_text(json.dumps(train(cfg, progress=progress), indent=1))
             if labels is None:
                 ds = prepare_dataset(cfg, progress=False)
                 labels, deg = ds.labels, SteeringConvention(**ds.meta["convention"]).degrees_per_unit
-            run = {**json.loads(done.read_text()), **_smoothed(run_dir, labels, deg)}
+            run = {**json.loads(done.read_text()), **_smoothed(run_dir, labels, deg), "train_s": _train_seconds(run_dir)}
             if closed:
-                run.update(closed_loop_metrics(run_dir, closed, progress))
+                run.update(closed_loop_metrics(suite_checkpoint(run_dir, cfg, closed), closed, progress))
             runs.append(run)
         if frames is None:
             frames = _latency_frames(cfg)
@@ -153,6 +147,16 @@ def _row(label: str, model: str, pre: PreprocessConfig, runs: list[dict], latenc
     return row
 
 
+def _train_seconds(run: Path) -> float:
+    """Seconds of training from the run's epoch log (a DAgger run: every round's); baselines write none."""
+    total = 0.0
+    for log in sorted(run.glob("round*/log.csv")) or [run / "log.csv"]:
+        if log.exists():
+            with open(log) as f:
+                total += sum(float(r["seconds"]) for r in csv.DictReader(f))
+    return total
+
+
 def _smoothed(run: Path, labels: dict, deg_per_unit: float) -> dict:
     """RMSE and gamma of the run's validation predictions after exponential smoothing, restarted at every
     break in the validation frames (a gap in the split or a new segment)."""
@@ -169,10 +173,23 @@ CLOSED_LOOP = ("autonomy", "autonomy_country", "autonomy_highway", "autonomy_twi
                "command_gamma_deg")
 
 
-def closed_loop_metrics(run: Path, closed: dict, progress: bool) -> dict:
-    """The run's best checkpoint on the closed-loop suite: autonomy over all roads and per road type,
-    interventions per km and command gamma."""
-    summary = run_suite([run / "best.pt"], run / "suite", closed.get("suite", "v1"), closed.get("minutes"),
+def suite_checkpoint(run: Path, cfg: dict, closed: dict) -> Path:
+    """The checkpoint that drives the suite for a run: its best.pt, or for a DAgger run whose last round drove
+    the same suite for as many minutes, that round's identical copy, so that the round's drives are reused."""
+    best = run / "best.pt"
+    if not cfg.get("dagger"):
+        return best
+    opts, suite = dagger_options(cfg), closed.get("suite", "v1")
+    if opts["suite"] != suite or suite_minutes(suite, opts["suite_minutes"]) != suite_minutes(suite, closed.get("minutes")):
+        return best
+    last = max(run.glob("round*/best.pt"), key=lambda p: int(p.parent.name.removeprefix("round")))
+    return last if filecmp.cmp(last, best, shallow=False) else best
+
+
+def closed_loop_metrics(checkpoint: Path, closed: dict, progress: bool) -> dict:
+    """A checkpoint on the closed-loop suite (drives kept in the `suite` folder beside it): autonomy over all
+    roads and per road type, interventions per km and command gamma."""
+    summary = run_suite([checkpoint], checkpoint.parent / "suite", closed.get("suite", "v1"), closed.get("minutes"),
                         int(closed.get("workers", 2)), progress=progress)
     out = {f"autonomy_{s['road_type']}": s["autonomy"] for s in summary}
     overall = next(s for s in summary if s["road_type"] == "all")

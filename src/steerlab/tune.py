@@ -227,7 +227,7 @@ def run_tune(config: str | Path, overrides: list[str] = (), trials: int = 20, ob
             return best["rmse"], best["gamma_deg"]
         from steerlab.experiment import closed_loop_metrics
 
-        return closed_loop_metrics(Path(run_cfg["out"]), closed, False)["autonomy"]
+        return closed_loop_metrics(Path(run_cfg["out"]) / "best.pt", closed, False)["autonomy"]
 
     done_states = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED)
     finished = len(study.get_trials(deepcopy=False, states=done_states))
