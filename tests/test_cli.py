@@ -8,7 +8,8 @@ from steerlab.models import list_models
 
 def test_every_subcommand_has_help(capsys):
     for argv in (["--help"], ["compile", "--help"], ["train", "--help"], ["evaluate", "--help"], ["score", "--help"],
-                 ["sim", "record", "--help"], ["sim", "drive", "--help"], ["demo", "--help"], ["models", "--help"]):
+                 ["sim", "record", "--help"], ["sim", "drive", "--help"], ["demo", "--help"], ["models", "--help"],
+                 ["replay", "--help"]):
         with pytest.raises(SystemExit) as e:
             build_parser().parse_args(argv)
         assert e.value.code == 0

@@ -16,7 +16,8 @@ from steerlab.pilot import Controls
 from steerlab.sim.bench import SUITES, summarize
 from steerlab.sim.render import Renderer
 from steerlab.sim.road import LANE_CENTER, Road
-from steerlab.sim.world import World, drive, drive_metrics, record, rollout
+from steerlab.sim.driving import drive_metrics
+from steerlab.sim.world import World, drive, record, rollout
 
 
 def frame_count(path) -> int:

@@ -4,7 +4,8 @@ import pytest
 from steerlab.data.labels import speed_commands, speed_targets
 from steerlab.data.splits import make_split, paper_protocol
 from steerlab.errors import DataError, SteerlabError
-from steerlab.evaluate.metrics import all_metrics, exponential_smoothing, gamma_deg, steering_metrics
+from steerlab.evaluate.metrics import (all_metrics, exponential_smoothing, gamma_deg, quantized_classification_error,
+                                       speed_weighted_mae, steering_metrics, thresholded_relative_error)
 from steerlab.evaluate.scoring import score, write_predictions
 
 from conftest import CH2, needs_ch2
@@ -43,6 +44,75 @@ def test_speed_metrics_hand_computed():
     m = all_metrics(pred, truth)
     assert m["speed_mae"] == pytest.approx(1.5 / 4) and m["command_accuracy"] == 0.5
     assert "speed_mae" not in all_metrics({"steering": np.zeros(4)}, truth)
+
+
+def test_thresholded_relative_error_hand_computed():
+    pred, target = np.array([0, 1.05, 2, -1, 0.5]), np.array([0, 1, 1, -1.2, 0])
+    # errors 0, 0.05, 1, 0.2, 0.5 against 0.1 |target| = 0, 0.1, 0.1, 0.12, 0: the last three are wrong
+    assert thresholded_relative_error(pred, target) == pytest.approx(3 / 5)
+    assert thresholded_relative_error(pred, target, threshold=0.2) == pytest.approx(2 / 5)  # 0.2 < 0.24: 4th right
+    assert steering_metrics(pred, target)["tre"] == pytest.approx(3 / 5)
+
+
+def test_quantized_classification_error_hand_computed():
+    # normalized steering, full lock 25 deg: the class edges of +-1 deg are +-0.04; -0.04 is straight, 0.04 is not
+    target = np.array([-0.12, -0.02, 0, 0.04, 0.2])  # classes -, 0, 0, +, +
+    pred = np.array([-0.06, -0.04, 0.036, 0.05, 0.02])  # classes -, 0, 0, +, 0
+    assert quantized_classification_error(pred, target, deg_per_unit=25.0) == pytest.approx(1 / 5)
+    # radians of a steering wheel: 0.5 and -0.5 deg are both straight, 1.5 deg is not
+    m = steering_metrics(np.radians([0.5, 1.5, -2]), np.radians([-0.5, 0.5, -3]))
+    assert m["qce"] == pytest.approx(1 / 3)
+    assert "qce" not in steering_metrics(pred, target, deg_per_unit=np.nan)  # a tub without full_lock_deg
+    with pytest.raises(SteerlabError, match="QCE needs the steering in degrees"):
+        quantized_classification_error(pred, target, deg_per_unit=np.nan)
+
+
+def test_speed_weighted_mae_hand_computed():
+    pred, target, speed = np.zeros(5), np.array([0.1, 0.2, 0, 0, -0.1]), np.array([10, 20, 30, 0, 40.0])
+    # |error| * speed = 1, 4, 0, 0, 4: mean 1.8, over the mean speed 20 -> 0.09 (the plain MAE is 0.08)
+    assert speed_weighted_mae(pred, target, speed) == pytest.approx(0.09)
+    assert speed_weighted_mae(pred, target, np.full(5, 7.0)) == pytest.approx(0.08)  # constant speed: the MAE
+    m = all_metrics({"steering": pred}, {"steering": target, "speed": speed})
+    assert m["speed_weighted_mae"] == pytest.approx(0.09) and "speed_mae" not in m
+    assert "speed_weighted_mae" not in all_metrics({"steering": pred}, {"steering": target})  # no speed: absent
+    assert "speed_weighted_mae" not in all_metrics({"steering": pred}, {"steering": target, "speed": np.zeros(5)})
+    with pytest.raises(SteerlabError, match="needs a moving car"):
+        speed_weighted_mae(pred, target, np.zeros(5))
+
+
+def test_experiment_names_the_metric_that_predicts_driving_best(tmp_path):
+    from steerlab.experiment import _open_vs_closed
+
+    def table(autonomy, **metrics):
+        keys = ("mse", "mae_deg", "gamma_deg", "smoothed_rmse", "smoothed_gamma_deg", "tre", "qce",
+                "speed_weighted_mae")
+        return [{"label": f"m{i}", "epoch_mean": 3.0, "rmse_mean": 0.1, "autonomy_mean": a,
+                 **{f"{k}_mean": metrics.get(k, [np.nan] * 4)[i] for k in keys}} for i, a in enumerate(autonomy)]
+
+    # the smoother models drive worse (gamma +1); QCE ranks the errors exactly as the models drive (-1)
+    rows = table([100, 90, 80, 70], mse=[2, 1, 3, 4], mae_deg=[2, 1, 3, 4], gamma_deg=[4, 3, 2, 1], tre=[1, 2, 4, 3],
+                 smoothed_rmse=[1, 3, 2, 4], smoothed_gamma_deg=[1, 1, 1, 1], qce=[0.1, 0.2, 0.3, 0.4])
+    text = _open_vs_closed(tmp_path, rows)
+    assert "MSE -0.80, MAE -0.80, gamma +1.00, smoothed RMSE -0.80, smoothed gamma -, TRE -0.80, QCE -1.00, " \
+           "speed-weighted MAE -." in text
+    assert "The open-loop metric that predicts driving best here is QCE (-1.00)." in text
+    rows = table([70, 80, 90, 100], mse=[2, 1, 3, 4], qce=[0.1, 0.2, 0.3, 0.4])  # lower error, worse driving
+    assert "No open-loop metric here ranks the models the way they drive" in _open_vs_closed(tmp_path, rows)
+
+
+def test_experiment_fills_new_metrics_from_a_runs_predictions(tmp_path):
+    """Runs trained before a metric existed get it from their val_predictions.csv."""
+    from steerlab.experiment import _smoothed
+
+    labels = {"frame_ids": np.arange(10, 16), "steering": np.radians([7, 0, 2, 2, -3, 0.5]), "segment": np.zeros(6),
+              "timestamps_ns": np.arange(6) * 50_000_000, "speed": np.arange(1, 7.0)}
+    write_predictions(tmp_path / "val_predictions.csv", labels["frame_ids"][1:], np.radians([0, 2.1, 0.5, -3, 0.9]))
+    m = _smoothed(tmp_path, labels, np.degrees(1.0))
+    # errors 0, 0.1, 1.5, 0, 0.4 deg: the 3rd and 5th off by more than a tenth; the 3rd straight, not turning
+    assert m["tre"] == pytest.approx(2 / 5) and m["qce"] == pytest.approx(1 / 5)
+    # weighted by the next frame's speed, 3, 4, 5, 6, 6 (the last frame keeps its own)
+    assert m["speed_weighted_mae"] == pytest.approx(np.radians((0.1 * 4 + 1.5 * 5 + 0.4 * 6) / 24))
+    assert "smoothed_rmse" in m
 
 
 def test_splits():

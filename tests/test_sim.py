@@ -10,7 +10,8 @@ from steerlab.errors import SteerlabError
 from steerlab.sim.render import Renderer
 from steerlab.sim.road import EDGE, LANE_CENTER, LINE_WIDTH, Road
 from steerlab.sim.vehicle import Vehicle, VehicleState
-from steerlab.sim.world import autonomy, record
+from steerlab.sim.driving import autonomy
+from steerlab.sim.world import record
 
 
 def _digest(folder):

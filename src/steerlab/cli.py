@@ -88,7 +88,8 @@ def cmd_evaluate(a) -> None:
     from steerlab.evaluate.offline import evaluate
 
     m = evaluate(a.checkpoint, a.data, a.range, a.out, a.labels, a.camera, a.video, _reader_options(a.reader))
-    _print_table(m, ["frames", "mse", "rmse", "mae", "mae_deg", "gamma_deg", "target_gamma_deg", *SPEED_METRICS])
+    _print_table(m, ["frames", "mse", "rmse", "mae", "mae_deg", "gamma_deg", "target_gamma_deg", "tre", "qce",
+                     "speed_weighted_mae", *SPEED_METRICS])
     print(f"with exponential smoothing a=0.2: rmse {m['smoothed_a0.2']['rmse']:.6f}, "
           f"gamma {m['smoothed_a0.2']['gamma_deg']:.4f} deg")
     print(f"wrote {a.out}/predictions.csv, {a.out}/steering.png, {a.out}/metrics.json"
@@ -175,6 +176,19 @@ def cmd_sim_dagger(a) -> None:
     print(f"final checkpoint: {final}; autonomy per round: {Path(cfg['out']) / 'dagger.png'}")
 
 
+def cmd_replay(a) -> None:
+    from steerlab.sim.replay import run_replay
+
+    camera = {k: v for k, v in (("mount_height", a.mount_height), ("pitch_deg", a.pitch), ("hfov_deg", a.fov))
+              if v is not None}
+    start = time.perf_counter()
+    run_replay(a.checkpoints, a.data, a.out, a.range, a.labels, _reader_options(a.reader), a.speed, camera, a.limit,
+               a.max_heading, a.video, a.workers)
+    print((Path(a.out) / "replay.md").read_text())
+    print(f"wrote {a.out}/replay.md, replay.csv, segments.csv, replay.png, */trajectory.csv"
+          + (f", {a.video}" if a.video else "") + f" in {time.perf_counter() - start:.0f} s")
+
+
 def cmd_demo(a) -> None:
     from steerlab.demo import run_demo
 
@@ -187,7 +201,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="steerlab", description="End-to-end driving models: camera in, steering out.")
     sub = p.add_subparsers(dest="command", required=True)
 
-    def data_args(q, range_help="frames to use, START:STOP (e.g. 0:2400)"):
+    def data_args(q, range_help="frames to use, START:STOP (e.g. 0:2400)", stream=True):
         q.add_argument("--data", required=True, help="recording: CH2 folder, driving_log.csv, steerlab recording, "
                        "donkeycar tub, ROS bag or video with a CSV log")
         q.add_argument("--range", help=range_help)
@@ -195,7 +209,8 @@ def build_parser() -> argparse.ArgumentParser:
         q.add_argument("--reader", action="append", default=[], metavar="KEY=VALUE",
                        help="reader option, repeatable: full_lock_deg=25, skip_missing=true (tubs), "
                             "log=FILE.csv (videos), ... (docs/ARCHITECTURE.md lists them)")
-        q.add_argument("--camera", default="center", help="camera to use (default center)")
+        if stream:
+            q.add_argument("--camera", default="center", help="camera to use (default center)")
 
     q = sub.add_parser("compile", help="decode + preprocess + modalities once into the memory-mapped cache")
     data_args(q)
@@ -310,6 +325,25 @@ def build_parser() -> argparse.ArgumentParser:
     q.add_argument("config", help="training config with a 'dagger' section (see configs/dagger_pilotnet.yaml)")
     q.add_argument("overrides", nargs="*", help="section.key=value overrides, e.g. dagger.minutes=2")
     q.set_defaults(func=cmd_sim_dagger)
+
+    q = sub.add_parser("replay", help="closed-loop replay on a recording: would the model keep the car on the "
+                       "human's path?", epilog="example: steerlab replay runs/ch2/best.pt --data "
+                       "../shared/data/udacity-ch2 --range 1800:2400 --speed 15 --out runs/replay --video replay.mp4")
+    q.add_argument("checkpoints", nargs="+", help="checkpoints (.pt) or exported models (.onnx) to replay")
+    data_args(q, stream=False)
+    q.add_argument("--speed", type=float, help="speed in m/s (default: the recorded one, else estimated from the frames)")
+    q.add_argument("--out", default="runs/replay", help="output folder (default runs/replay)")
+    q.add_argument("--video", help="also write an MP4 of the warped view with the model's and the human's steering "
+                   "(one per checkpoint)")
+    q.add_argument("--limit", type=float, help="metres off the human's path that count as an intervention "
+                   "(default: 1 for cars, 0.3 for donkeycars)")
+    q.add_argument("--max-heading", type=float, default=10.0, help="degrees of heading error beyond which the "
+                   "warped view is not trusted: an intervention (default 10)")
+    q.add_argument("--mount-height", type=float, help="camera height above the road, m (default: the geometry's)")
+    q.add_argument("--pitch", type=float, help="camera pitch, degrees down (default: the geometry's)")
+    q.add_argument("--fov", type=float, help="horizontal field of view, degrees (default: the geometry's)")
+    q.add_argument("--workers", type=int, default=2, help="checkpoints replayed in parallel (default 2)")
+    q.set_defaults(func=cmd_replay)
 
     q = sub.add_parser("demo", help="the whole pipeline on synthetic data: record, train, evaluate, drive, report")
     q.add_argument("--out", default="runs/demo")

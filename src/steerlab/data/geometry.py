@@ -6,16 +6,14 @@ A `Camera` is a pinhole camera on a car: image size, focal length, principal row
 preprocessing preset whose frames they match (docs/ARCHITECTURE.md shows real and rendered frames side by
 side), and the synthetic world renders with the same cameras.
 
-`viewpoint_maps(cam, shift_m, yaw_deg)` gives the remap that turns a frame into the frame a camera moved
-`shift_m` to the left and turned `yaw_deg` to the left would have seen, assuming (as NVIDIA's PilotNet
-augmentation does) that everything below the horizon lies on the flat ground and everything above it is
-infinitely far away.
+`shift_view(frame, cam, shift_m, yaw_deg)` turns a frame into the frame a camera moved `shift_m` to the left
+and turned `yaw_deg` to the left would have seen (two homographies: the flat road plane and the sky); it makes
+the viewpoint-shift augmentation and the views of closed-loop replay on recordings.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from functools import lru_cache
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
@@ -37,12 +35,10 @@ class Camera:
         """Image row of the horizon."""
         return self.cy - self.focal * np.tan(np.radians(self.pitch_deg))
 
-    def rays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Direction (forward, left, up) of the ray through every pixel centre, each (H, W)."""
+    def ray(self, u, v) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Direction (forward, left, up) of the ray through continuous image coordinates (u, v)."""
         th = np.radians(self.pitch_deg)
-        xc = (np.arange(self.width) + 0.5 - self.width / 2) / self.focal
-        yc = (np.arange(self.height) + 0.5 - self.cy) / self.focal
-        xc, yc = np.meshgrid(xc, yc)
+        xc, yc = (np.asarray(u, float) - self.width / 2) / self.focal, (np.asarray(v, float) - self.cy) / self.focal
         return np.cos(th) - yc * np.sin(th), -xc, -yc * np.cos(th) - np.sin(th)
 
     def project(self, fwd, left, up) -> tuple[np.ndarray, np.ndarray]:
@@ -55,11 +51,43 @@ class Camera:
 
 
 # Geometry chosen so that a preprocessed synthetic frame looks like a preprocessed real one of the dataset
-# whose preprocessing preset has the same name (see docs/ARCHITECTURE.md for the side-by-side).
+# whose preprocessing preset has the same name (see docs/ARCHITECTURE.md for the side-by-side). donkey: the
+# 160x120 wide-angle camera of a donkeycar, mounted low and pitched down (horizon near row 35, as in the shared
+# tubs); its lens is a fisheye, which a pinhole of 100 degrees horizontal field of view only approximates.
 CAMERAS = {
     "sim": Camera(320, 160, 277.0, 80.0, 1.3, 4.0),
     "ch2": Camera(640, 480, 554.0, 240.0, 1.45, -1.0),
+    "donkey": Camera(160, 120, 67.0, 60.0, 0.15, 20.0),
 }
+
+
+@dataclass(frozen=True)
+class Car:
+    """The car a camera geometry belongs to: wheelbase (m), steering ratio (hand wheel / road wheel, for
+    steering-wheel conventions) and the lateral offset (m) from the driven path that counts as leaving the lane
+    (NVIDIA's 1 m for a car in a 3.7 m lane; for a donkeycar about the same share of its lane)."""
+
+    wheelbase: float
+    steering_ratio: float
+    lane_limit_m: float
+
+
+CARS = {"sim": Car(2.85, 14.8, 1.0), "ch2": Car(2.85, 14.8, 1.0), "donkey": Car(0.26, 1.0, 0.3)}
+
+
+def with_overrides(cam: Camera, mount_height: float | None = None, pitch_deg: float | None = None,
+                   hfov_deg: float | None = None) -> Camera:
+    """A camera geometry with its mount height (m), pitch (deg, down positive) or horizontal field of view
+    (deg) replaced, for a car whose camera sits elsewhere."""
+    if mount_height is not None and not 0 < mount_height < 10:
+        raise SteerlabError(f"camera mount height must lie in (0, 10) m, got {mount_height}")
+    if pitch_deg is not None and not -45 < pitch_deg < 45:
+        raise SteerlabError(f"camera pitch must lie in (-45, 45) degrees, got {pitch_deg}")
+    if hfov_deg is not None and not 10 < hfov_deg < 170:
+        raise SteerlabError(f"horizontal field of view must lie in (10, 170) degrees, got {hfov_deg}")
+    focal = cam.focal if hfov_deg is None else cam.width / 2 / np.tan(np.radians(hfov_deg) / 2)
+    return replace(cam, focal=float(focal), mount_height=cam.mount_height if mount_height is None else float(mount_height),
+                   pitch_deg=cam.pitch_deg if pitch_deg is None else float(pitch_deg))
 
 
 def camera(name: str) -> Camera:
@@ -68,30 +96,49 @@ def camera(name: str) -> Camera:
     return CAMERAS[name]
 
 
-@lru_cache(maxsize=32)
-def viewpoint_maps(cam: Camera, shift_m: float, yaw_deg: float) -> tuple[np.ndarray, np.ndarray]:
-    """cv2.remap maps (fixed point) from a frame to the view of the same camera moved `shift_m` to the left
-    and turned `yaw_deg` to the left. Ground pixels follow the road plane; sky pixels only turn."""
-    f, left, up = cam.rays()
-    ground = up < -1e-6
-    t = np.where(ground, cam.mount_height / np.where(ground, -up, 1.0), 1.0)
-    # a ground point where the ray hits, or for the sky the ray itself as a direction at infinity
-    f, left, up = (np.where(ground, t * a, a) for a in (f, left, up))
+def _ground_row(cam: Camera) -> int:
+    """First image row whose pixel centres look below the horizon (0 .. height)."""
+    return int(np.clip(np.floor(cam.horizon - 0.5) + 1, 0, cam.height))
+
+
+def viewpoint_homographies(cam: Camera, shift_m: float, yaw_deg: float) -> tuple[np.ndarray, np.ndarray]:
+    """Homographies (pixel index of the new view -> pixel index of the frame) for the camera moved `shift_m`
+    to the left and turned `yaw_deg` to the left: one for the ground below the horizon (the flat road plane
+    seen from two places), one for the sky (directions at infinity, which only turn)."""
     c, s = np.cos(np.radians(yaw_deg)), np.sin(np.radians(yaw_deg))
-    f0, l0 = f * c - left * s, f * s + left * c + np.where(ground, shift_m, 0.0)
-    up0 = np.where(ground, -cam.mount_height, up)
-    u, v = cam.project(f0, l0, up0)
-    th = np.radians(cam.pitch_deg)
-    behind = f0 * np.cos(th) - up0 * np.sin(th) <= 1e-6
-    u, v = np.where(behind, -1e4, u - 0.5), np.where(behind, -1e4, v - 0.5)  # remap indexes pixel centres
-    return cv2.convertMaps(u.astype(np.float32), v.astype(np.float32), cv2.CV_16SC2)
+    first = _ground_row(cam)
+    out = []
+    for rows, ground in (((max(first, (first + cam.height) / 2 - 1), cam.height - 1), True), ((0, max(first - 1, 1)), False)):
+        u = np.array([0.0, cam.width - 1, 0.0, cam.width - 1])
+        v = np.array([rows[0], rows[0], rows[1], rows[1]], float)
+        f, left, up = cam.ray(u + 0.5, v + 0.5)
+        if ground:  # where the ray meets the road, then that point seen from the frame's camera
+            t = cam.mount_height / -up
+            f, left, up = t * f, t * left, np.full(4, -cam.mount_height)
+        f0, l0 = f * c - left * s, f * s + left * c + (shift_m if ground else 0.0)
+        u0, v0 = cam.project(f0, l0, up)
+        out.append(cv2.getPerspectiveTransform(np.stack([u, v], 1).astype(np.float32),
+                                               np.stack([u0 - 0.5, v0 - 0.5], 1).astype(np.float32)))
+    return out[0], out[1]
 
 
 def shift_view(bgr: np.ndarray, cam: Camera, shift_m: float, yaw_deg: float = 0.0) -> np.ndarray:
-    """The frame as seen from the camera moved `shift_m` to the left and turned `yaw_deg` to the left.
-    Parts of the new view that the original frame does not show repeat its nearest border pixels."""
+    """The frame as seen from the camera moved `shift_m` to the left and turned `yaw_deg` to the left,
+    assuming (as NVIDIA's PilotNet augmentation does) that everything below the horizon lies on the flat
+    ground and everything above it is infinitely far away. Parts of the new view that the original frame
+    does not show repeat its nearest border pixels."""
     if bgr.shape[:2] != (cam.height, cam.width):
         raise SteerlabError(f"a {bgr.shape[1]}x{bgr.shape[0]} frame does not fit the {cam.width}x{cam.height} "
                             "camera geometry of its preset")
-    m1, m2 = viewpoint_maps(cam, float(shift_m), float(yaw_deg))
-    return cv2.remap(bgr, m1, m2, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+    if shift_m == 0 and yaw_deg == 0:
+        return bgr.copy()
+    ground, sky = viewpoint_homographies(cam, float(shift_m), float(yaw_deg))
+    first = _ground_row(cam)
+    out = np.empty_like(bgr)
+    flags = cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP
+    for m, rows in ((ground, slice(first, cam.height)), (sky, slice(0, first))):
+        if rows.stop > rows.start:  # warp into the rows only: the homography takes the rows' own origin
+            m = m @ np.array([[1, 0, 0], [0, 1, rows.start], [0, 0, 1]], float)
+            out[rows] = cv2.warpPerspective(bgr, m, (cam.width, rows.stop - rows.start), flags=flags,
+                                            borderMode=cv2.BORDER_REPLICATE).reshape(out[rows].shape)
+    return out

@@ -19,7 +19,8 @@ import numpy as np
 from tqdm import tqdm
 
 from steerlab.errors import SteerlabError
-from steerlab.sim.world import autonomy, make_road
+from steerlab.sim.driving import autonomy
+from steerlab.sim.world import make_road
 
 SUITES = {
     # 11 roads of 3 minutes: 33 minutes of driving, about 30 km
@@ -82,12 +83,14 @@ def _drive_job(checkpoint: str, road: str, seed: int, minutes: float, out: str, 
 
 
 def labels_for(checkpoints: list[Path]) -> list[str]:
-    """Short unique names: the run folder of `run/best.pt`, with as many parent folders as it takes."""
-    for depth in range(1, 8):
-        names = ["/".join((p.parent if p.name in ("best.pt", "last.pt") else p.with_suffix("")).parts[-depth:])
-                 for p in checkpoints]
-        if len(set(names)) == len(names):
-            return names
+    """Short unique names: the run folder of `run/best.pt`, with as many parent folders as it takes (and the
+    file name where one run's best.pt and last.pt are compared)."""
+    for short in (True, False):
+        for depth in range(1, 8):
+            names = ["/".join((p.parent if short and p.name in ("best.pt", "last.pt") else p.with_suffix("")).parts[-depth:])
+                     for p in checkpoints]
+            if len(set(names)) == len(names):
+                return names
     return [str(p) for p in checkpoints]
 
 

@@ -31,10 +31,15 @@ class Vehicle:
 
     def step(self, road_wheel: float, throttle: float, brake: float, dt: float) -> VehicleState:
         """Advance by dt with the road-wheel angle (rad, positive left), throttle and brake in [0, 1]."""
+        p, v = self.p, self.state.v
+        acc = np.clip(throttle, 0, 1) * p.max_accel - np.clip(brake, 0, 1) * p.max_decel - p.drag * v * v
+        return self.advance(road_wheel, max(0.0, v + acc * dt), dt)
+
+    def advance(self, road_wheel: float, v_new: float, dt: float) -> VehicleState:
+        """Advance by dt with the road-wheel angle (rad, positive left, limited to the steering lock) while the
+        speed changes linearly to `v_new` (m/s): the kinematic bicycle, integrated at the interval's midpoint."""
         p, s = self.p, self.state
         delta = float(np.clip(road_wheel, -p.max_road_wheel, p.max_road_wheel))
-        acc = np.clip(throttle, 0, 1) * p.max_accel - np.clip(brake, 0, 1) * p.max_decel - p.drag * s.v * s.v
-        v_new = max(0.0, s.v + acc * dt)
         v_mid = (s.v + v_new) / 2
         yaw_rate = v_mid * np.tan(delta) / p.wheelbase
         psi_mid = s.psi + yaw_rate * dt / 2

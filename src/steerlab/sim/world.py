@@ -20,6 +20,7 @@ from steerlab.data.readers import EPISODES, MPH_TO_MS, NATIVE_COLUMNS, SIM_CONVE
 from steerlab.data.recording import SteeringConvention
 from steerlab.errors import SteerlabError, warn
 from steerlab.sim.driver import ExpertDriver, cruise, pure_pursuit
+from steerlab.sim.driving import TRAJECTORY, drive_loop, drive_metrics
 from steerlab.sim.plots import plot_trajectory
 from steerlab.sim.render import SIDE_OFFSET, Renderer
 from steerlab.sim.road import LANE_CENTER, PRESETS, Road
@@ -71,6 +72,8 @@ class World:
         self.car = Vehicle(start_state(self.road), self.params)
         self.dt = 1.0 / fps
         self.s = 5.0
+        self.steering_ratio = self.params.steering_ratio
+        self.done = False  # a road is long enough for the drive it was made for
 
     @property
     def state(self) -> VehicleState:
@@ -210,22 +213,6 @@ def record(out: str | Path, seed: int = 0, minutes: float = 1.0, road: str = "co
                          "side_camera_offset_m": SIDE_OFFSET if side_cameras else None}, p.steering_ratio)
 
 
-def autonomy(interventions: int, elapsed_s: float) -> float:
-    """NVIDIA's autonomy: (1 - interventions * 6 s / elapsed s) * 100."""
-    return (1.0 - interventions * 6.0 / elapsed_s) * 100.0
-
-
-def drive_metrics(offset: np.ndarray, command: np.ndarray, speed: np.ndarray, dt: float, interventions: int) -> dict:
-    """Closed-loop metrics of one drive from its per-tick lateral offsets (m), steering commands (rad) and
-    speeds (m/s): autonomy, interventions per km, mean and max |offset|, command gamma, km driven."""
-    km = float(np.sum(speed) * dt / 1000)
-    return {"autonomy": autonomy(interventions, len(offset) * dt), "interventions": int(interventions),
-            "interventions_per_km": interventions / max(km, 1e-9),
-            "mean_abs_offset_m": float(np.mean(np.abs(offset))), "max_abs_offset_m": float(np.max(np.abs(offset))),
-            "command_gamma_deg": float(np.degrees(np.std(np.diff(command)))) if len(command) > 1 else 0.0,
-            "distance_km": km}
-
-
 def camera_for(pilot, camera: str | None) -> str:
     """The camera geometry to drive a pilot with: by default the one it was trained on; warns on a mismatch."""
     if camera is None:
@@ -249,30 +236,25 @@ def drive(pilot, out: str | Path | None, seed: int = 100, minutes: float = 1.0, 
     `pilot.reset()` clears the pilot's memory. `on_tick(k)` is called every 100 ticks (progress of the suite)."""
     n = _frames(minutes, fps)
     world = World(seed, road, camera_for(pilot, camera), n / fps, fps)
-    ratio = world.params.steering_ratio
-    interventions, traj, strip = 0, [], []
+    ratio = world.steering_ratio
+    strip = []
     movie = DriveVideo(video, fps) if video else None
-    for i in tqdm(range(n), desc=f"drive {road} {seed}", unit="tick", disable=None if progress else True):
-        put_back, offset, _ = world.intervene(limit_m)
-        if put_back:
-            interventions += 1
-            pilot.reset()
-        frame = world.render()
-        if out is not None and i % int(fps * 5) == 0 and len(strip) < 12:
-            strip.append(frame)
-        st = world.state
-        command = pilot.step(frame, st.v).steering
-        road_wheel = pilot.convention.to_road_wheel_left(command, ratio)
+    interventions = 0
+
+    def on_step(t):
+        nonlocal interventions
+        interventions += t.intervention
+        if out is not None and t.index % int(fps * 5) == 0 and len(strip) < 12:
+            strip.append(t.frame)
         if movie:
-            movie.add(frame, road_wheel * ratio, world.expert_steering() * ratio, offset,
-                      f"{road} road {seed}  t {i / fps:5.1f} s  {st.v * 3.6:3.0f} km/h  interventions {interventions}")
-        traj.append((i / fps, st.x, st.y, world.s, offset, command, st.v))
-        world.step(road_wheel)
-        if on_tick and (i + 1) % 100 == 0:
-            on_tick(100)
+            st = world.state
+            movie.add(t.frame, t.model * ratio, t.expert * ratio, t.offset,
+                      f"{road} road {seed}  t {t.index / fps:5.1f} s  {st.v * 3.6:3.0f} km/h  interventions {interventions}")
+
+    t = drive_loop(world, pilot, n, limit_m, fps, on_step=on_step, desc=f"drive {road} {seed}", progress=progress,
+                   on_tick=on_tick)
     if movie:
         movie.close()
-    t = np.array(traj)
     result = {"label": pilot.name, "seed": seed, "road": road, "minutes": minutes,
               **drive_metrics(t[:, 4], t[:, 5], t[:, 6], 1.0 / fps, interventions)}
     if out is not None:
@@ -280,8 +262,8 @@ def drive(pilot, out: str | Path | None, seed: int = 100, minutes: float = 1.0, 
         out.mkdir(parents=True, exist_ok=True)
         with open(out / "trajectory.csv", "w", newline="") as f:
             w = csv.writer(f)
-            w.writerow(["time_s", "x", "y", "s", "lateral_offset_m", "steering", "speed"])
-            w.writerows([[f"{v:.4f}" for v in row] for row in traj])
+            w.writerow(TRAJECTORY[:7])
+            w.writerows([[f"{v:.4f}" for v in row[:7]] for row in t])
         plot_trajectory(out / "path.png", world.road, {pilot.name: t},
                         f"{pilot.name} on {road} road {seed}: autonomy {result['autonomy']:.1f} %, "
                         f"{interventions} interventions, mean |offset| {result['mean_abs_offset_m']:.2f} m")
@@ -301,27 +283,19 @@ def rollout(pilot, out: str | Path, seed: int, minutes: float, road: str = "coun
     n = _frames(minutes, fps)
     camera = camera_for(pilot, camera)
     world = World(seed, road, camera, n / fps, fps)
-    ratio = world.params.steering_ratio
+    ratio = world.steering_ratio
     rng = np.random.default_rng([seed, 5])
     cams = {"center": 0.0, **({"left": SIDE_OFFSET, "right": -SIDE_OFFSET} if side_cameras else {})}
     writer = RecordingWriter(out, list(cams))
-    interventions, offsets, commands, speeds = 0, [], [], []
-    for i in tqdm(range(n), desc=f"rollout {road} {seed}", unit="tick", disable=None if progress else True):
-        put_back, offset, heading = world.intervene(limit_m)
-        if put_back:
-            interventions += 1
-            pilot.reset()
-        frames = {c: world.render(shift) for c, shift in cams.items()}
-        expert = world.expert_steering()
-        model = pilot.convention.to_road_wheel_left(pilot.step(frames["center"], world.state.v).steering, ratio)
-        writer.add(frames, _row(world, int(round(i * 1e9 / fps)), expert, offset, heading, "rollout"))
-        offsets.append(offset)
-        commands.append(model)
-        speeds.append(world.state.v)
-        world.step(expert if rng.random() < beta else model)
-        if on_tick and (i + 1) % 100 == 0:
-            on_tick(100)
+
+    def on_step(t):
+        frames = {c: t.frame if c == "center" else world.render(shift) for c, shift in cams.items()}
+        writer.add(frames, _row(world, int(round(t.index * 1e9 / fps)), t.expert, t.offset, t.heading, "rollout"))
+
+    t = drive_loop(world, pilot, n, limit_m, fps, choose=lambda t: t.expert if rng.random() < beta else t.model,
+                   on_step=on_step, desc=f"rollout {road} {seed}", progress=progress, on_tick=on_tick)
     writer.close({"seed": seed, "road": road, "roads": [road], "camera": camera, "preset": camera, "fps": fps, "minutes": minutes, "beta": beta,
                   "policy": pilot.name, "wheelbase": world.params.wheelbase,
                   "side_camera_offset_m": SIDE_OFFSET if side_cameras else None}, ratio)
-    return drive_metrics(np.array(offsets), np.array(commands) * ratio, np.array(speeds), 1.0 / fps, interventions)
+    model = np.array([pilot.convention.to_road_wheel_left(c, ratio) for c in t[:, 5]])
+    return drive_metrics(t[:, 4], model * ratio, t[:, 6], 1.0 / fps, int(t[:, 8].sum()))

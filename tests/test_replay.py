@@ -1,0 +1,160 @@
+"""Closed-loop replay on recordings: the rebuilt path, the replay world, the metrics, the command and its errors."""
+
+import csv
+import math
+
+import cv2
+import numpy as np
+import pytest
+
+from steerlab.cli import main
+from steerlab.data.geometry import CAMERAS, CARS
+from steerlab.data.readers import open_recording
+from steerlab.pilot import Controls, Pilot
+from steerlab.sim.driving import drive_loop
+from steerlab.sim.replay import RESULT_FIELDS, ReplayWorld, estimate_speed, human_path, replay_recording
+from steerlab.sim.vehicle import VehicleParams
+
+
+@pytest.fixture(scope="module")
+def twisty(tmp_path_factory):
+    """15 s of the expert on a twisty road, centre camera only, no drift episodes."""
+    from steerlab.sim.world import record
+
+    out = tmp_path_factory.mktemp("twisty") / "rec"
+    record(out, seed=11, minutes=0.25, road="twisty", drift=False, side_cameras=False, progress=False)
+    return open_recording(out)
+
+
+class Scripted:
+    """A stand-in for the Pilot: answers tick k with `steering(k)` and counts its resets."""
+
+    name, preset = "scripted", "sim"
+
+    def __init__(self, rec, steering):
+        self.convention, self.steering, self.k, self.resets = rec.convention, steering, 0, 0
+
+    def reset(self):
+        self.resets += 1
+
+    def step(self, frame, speed=None):
+        self.k += 1
+        return Controls(self.steering(self.k - 1))
+
+
+def test_human_path_of_a_circle():
+    """Constant steering and speed come back as a circle of radius wheelbase / tan(angle)."""
+    p = VehicleParams()
+    t = np.arange(400) * 0.05
+    path = human_path(np.full(400, 0.1), np.full(400, 10.0), t, p)
+    radius = p.wheelbase / math.tan(0.1)
+    centre = np.array([0.0, radius])  # a left turn from the origin heading along x
+    np.testing.assert_allclose(np.hypot(path.x - centre[0], path.y - centre[1]), radius, rtol=1e-3)
+    np.testing.assert_allclose(path.s[-1], 10.0 * t[-1], rtol=1e-9)
+    np.testing.assert_allclose(path.psi[-1], path.s[-1] / radius, rtol=1e-3)
+
+
+def test_replaying_the_human_scores_100_and_zero_steering_does_not(twisty):
+    human = Scripted(twisty, lambda k: twisty.steering[k])
+    rows, traj = replay_recording(human, twisty, CAMERAS["sim"], CARS["sim"], None, 1.0)
+    whole = rows[-1]
+    assert whole["segment"] == "all" and whole["interventions"] == 0 and whole["autonomy"] == 100.0
+    assert whole["max_offset_m"] < 1e-9 and len(traj) == len(twisty) - 1
+    np.testing.assert_allclose(whole["km"], np.sum(twisty.speed[:-1]) * 0.05 / 1000, rtol=1e-6)
+    zero = Scripted(twisty, lambda k: 0.0)
+    rows, traj = replay_recording(zero, twisty, CAMERAS["sim"], CARS["sim"], None, 1.0)
+    assert rows[-1]["interventions"] >= 1 and rows[-1]["autonomy"] < 100
+    assert zero.resets == 1 + rows[-1]["interventions"]  # the pilot forgets its past at the start and at every intervention
+    assert rows[-1]["interventions_per_km"] == pytest.approx(rows[-1]["interventions"] / rows[-1]["km"])
+    assert traj[:, 8].sum() == rows[-1]["interventions"]
+
+
+def test_replay_world_matches_the_renderer_and_labels_point_back(twisty):
+    """0.5 m right of the human's path the car sees what the renderer shows from there, and the label steers it
+    back to the left of the human's steering."""
+    params = VehicleParams()
+    wheel = twisty.convention.to_road_wheel_left(twisty.steering, params.steering_ratio)
+    path = human_path(wheel, twisty.speed, twisty.timestamps_ns / 1e9, params)
+    world = ReplayWorld(twisty, 0, path, CAMERAS["sim"], params)
+    for _ in range(100):
+        world.step(wheel[world.k])
+    assert world.observe() == pytest.approx((0.0, 0.0), abs=1e-9)
+    on_path = world.expert_steering()
+    assert on_path == pytest.approx(wheel[100], abs=0.01)  # on the path the label is about the human's steering
+    st = world.car.state
+    world.car.state = type(st)(st.x + 0.5 * math.sin(st.psi), st.y - 0.5 * math.cos(st.psi), st.psi, st.v)
+    offset, heading = world.observe()
+    assert offset == pytest.approx(-0.5, abs=0.02) and heading == pytest.approx(0.0, abs=0.005)
+    assert world.expert_steering() > on_path + 0.01
+    assert world.frame_index() == 100
+    view = world.render()  # the recorded frame warped to the car's viewpoint (the warp is tested against the renderer)
+    assert world.view == pytest.approx((-0.5, 0.0), abs=0.02) and view.shape == (160, 320, 3)
+    assert not np.array_equal(view, twisty.load_frame(100))
+
+
+def test_streaming_state_is_carried_across_replay_steps(tiny_checkpoint, twisty):
+    """A car that drives the human's path sees the recorded frames in order: the pilot's commands, smoothing
+    state included, equal a plain frame-by-frame run over the same frames."""
+    params = VehicleParams()
+    wheel = twisty.convention.to_road_wheel_left(twisty.steering, params.steering_ratio)
+    path = human_path(wheel, twisty.speed, twisty.timestamps_ns / 1e9, params)
+    world = ReplayWorld(twisty, 0, path, CAMERAS["sim"], params)
+    traj = drive_loop(world, Pilot(tiny_checkpoint, smoothing=0.2), 100, 1.0, 20.0,
+                      choose=lambda t: wheel[t.index], progress=False)
+    plain = Pilot(tiny_checkpoint, smoothing=0.2)
+    expected = [plain.step(twisty.load_frame(i), twisty.speed[i]).steering for i in range(100)]
+    np.testing.assert_allclose(traj[:, 5], expected, atol=1e-6)
+
+
+def test_speed_estimated_from_the_frames(twisty):
+    estimate = estimate_speed(twisty, CAMERAS["sim"], count=40)
+    assert estimate == pytest.approx(float(np.median(twisty.speed)), rel=0.1)
+
+
+def test_replay_command_writes_its_report(tiny_checkpoint, twisty, tmp_path, capsys):
+    out = tmp_path / "replay"
+    assert main(["replay", str(tiny_checkpoint), str(tiny_checkpoint.parent / "last.pt"), "--data", str(twisty.source),
+                 "--range", "0:200", "--out", str(out), "--video", str(tmp_path / "r.mp4"), "--workers", "1"]) == 0
+    printed = capsys.readouterr().out
+    assert "| checkpoint | recording | km |" in printed and "(recorded)" in printed
+    rows = list(csv.DictReader(open(out / "replay.csv")))
+    assert list(rows[0]) == RESULT_FIELDS and len(rows) == 2
+    for r in rows:
+        assert r["recording"] == twisty.name and float(r["km"]) > 0 and r["speed_source"] == "recorded"
+        assert float(r["interventions_per_km"]) == pytest.approx(int(r["interventions"]) / float(r["km"]), rel=1e-3)
+    for name in ("replay.md", "replay.png", "segments.csv"):
+        assert (out / name).exists()
+    assert [r["checkpoint"] for r in rows] == ["best", "last"]
+    for label in ("best", "last"):
+        assert (tmp_path / f"r-{label}.mp4").exists()
+    traj = np.loadtxt(out / "best" / "trajectory.csv", delimiter=",", skiprows=1, ndmin=2)
+    assert traj.shape == (199, 11) and traj[:, 8].sum() == int(rows[0]["interventions"])
+    assert main(["replay", str(tiny_checkpoint), "--data", str(twisty.source), "--range", "0:200", "--speed", "9",
+                 "--out", str(tmp_path / "given"), "--workers", "1"]) == 0
+    given = next(csv.DictReader(open(tmp_path / "given" / "replay.csv")))
+    assert given["speed_source"] == "given (--speed)" and float(given["speed_mps"]) == pytest.approx(9.0)
+
+
+def test_replay_refuses_bad_input(tiny_checkpoint, twisty, ch2_folder, tmp_path, capsys):
+    def error(*argv):
+        assert main(["replay", *map(str, argv), "--out", str(tmp_path / "x"), "--workers", "1"]) == 2
+        err = capsys.readouterr().err
+        assert "Traceback" not in err and err.count("\n") == 1
+        return err
+
+    assert "too short to replay" in error(tiny_checkpoint, "--data", twisty.source, "--range", "0:40")
+    assert "'sim' camera geometry" in error(tiny_checkpoint, "--data", ch2_folder, "--labels", ch2_folder / "labels.csv")
+    assert "checkpoint not found" in error(tmp_path / "none.pt", "--data", twisty.source)
+    assert "--speed must lie" in error(tiny_checkpoint, "--data", twisty.source, "--speed", "-3")
+    # a textureless recording without speed: no estimate, and no --speed
+    flat = tmp_path / "flat"
+    (flat / "center").mkdir(parents=True)
+    ids = [1_000_000_000 + i * 50_000_000 for i in range(100)]
+    for fid in ids:
+        cv2.imwrite(str(flat / "center" / f"{fid}.jpg"), np.full((480, 640, 3), 90, np.uint8))
+    (flat / "labels.csv").write_text("frame_id,steering_angle,public\n" + "".join(f"{f},0.0,1\n" for f in ids))
+    from steerlab.sim.replay import estimate_speed as estimate
+
+    with pytest.raises(Exception, match="cannot estimate the speed"):
+        estimate(open_recording(flat, labels=flat / "labels.csv"), CAMERAS["ch2"])
+    assert not (tmp_path / "x").exists()
