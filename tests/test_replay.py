@@ -158,3 +158,31 @@ def test_replay_refuses_bad_input(tiny_checkpoint, twisty, ch2_folder, tmp_path,
     with pytest.raises(Exception, match="cannot estimate the speed"):
         estimate(open_recording(flat, labels=flat / "labels.csv"), CAMERAS["ch2"])
     assert not (tmp_path / "x").exists()
+
+
+def test_dagger_in_replay(twisty, tmp_path):
+    """world: replay rolls the model out over the training frames, labels every visited view with the way back
+    to the human's path in the recording's own convention, and replays the validation frames every round."""
+    from steerlab.sim.dagger import run_dagger
+    from steerlab.train.config import load_config
+
+    cfg = load_config(None, base={
+        "data": str(twisty.source), "cache": str(tmp_path / "cache"), "out": str(tmp_path / "dagger"),
+        "split": {"train": "0:200", "val": "200:300"}, "train": {"epochs": 1, "batch_size": 32},
+        "dagger": {"world": "replay", "iterations": 1, "beta": 0.0, "epochs": 1, "workers": 1}})
+    run_dagger(cfg, progress=False)
+    rows = list(csv.DictReader(open(tmp_path / "dagger" / "dagger.csv")))
+    assert [r["round"] for r in rows] == ["0", "1"] and all(r["replay_interventions_per_km"] != "" for r in rows)
+    assert rows[0]["autonomy_all"] == "" and rows[1]["recordings"] == "2"
+    rollout = open_recording(tmp_path / "dagger" / "round1" / "rollouts" / "replay")
+    assert rollout.convention == twisty.convention and rollout.preset == "sim" and len(rollout) == 199
+    assert set(rollout.extra["episode"]) == {"rollout"}
+    np.testing.assert_array_equal(rollout.timestamps_ns, twisty.timestamps_ns[:199])
+    # off the path, the label steers back towards it: left of the human's steering when the car is right of it
+    human = twisty.steering[:199]
+    off = np.abs(rollout.extra["lateral_offset"]) > 0.2
+    assert off.any()
+    back = np.sign(rollout.steering[off] - human[off]) == -np.sign(rollout.extra["lateral_offset"][off])
+    assert back.mean() > 0.9
+    replayed = list(csv.DictReader(open(tmp_path / "dagger" / "round1" / "replay" / "replay.csv")))
+    assert float(replayed[0]["km"]) == pytest.approx(np.sum(twisty.speed[200:299]) * 0.05 / 1000, rel=0.05)

@@ -1,10 +1,13 @@
-"""DAgger in the synthetic world (`steerlab sim dagger CONFIG`).
+"""DAgger (`steerlab sim dagger CONFIG`), in the synthetic world or in replay on the config's own recording.
 
-Round 0 trains the model on the config's data. Every later round rolls the current model out on fresh roads
-(with probability beta per tick the expert steers instead: beta = `beta` x `beta_decay`^(round - 1)), lets
-the expert label every visited frame (`world.rollout`), adds those recordings to the training data
-(`extra_data`) and trains again, starting from the previous round's weights. After every round the model
-drives the closed-loop suite; `dagger.csv` and `dagger.png` show autonomy against the round. Every step is
+Round 0 trains the model on the config's data. Every later round rolls the current model out (with
+probability beta per tick the expert steers instead: beta = `beta` x `beta_decay`^(round - 1)), lets the
+expert label every visited frame, adds those recordings to the training data (`extra_data`) and trains again,
+starting from the previous round's weights. `world: synthetic` rolls out on fresh procedural roads (the
+expert: pure pursuit of the lane centre, `world.rollout`) and drives the closed-loop suite after every round;
+`world: replay` rolls out in closed-loop replay over the training frames of the config's recording (the
+expert: pure pursuit of the human's path, `replay.rollout_recording`) and replays the validation frames after
+every round. `dagger.csv` and `dagger.png` show autonomy against the round. Every step is
 kept on disk and reused, so an interrupted run continues where it stopped. The final round's `best.pt`,
 `log.csv`, `val_predictions.csv` and `metrics.json` are copied to the output folder.
 """
@@ -33,6 +36,8 @@ DEFAULTS = {
     "suite": "v1",       # closed-loop suite after every round
     "suite_minutes": None,  # minutes per suite road (default: the suite's)
     "workers": 2,        # parallel rollouts and suite drives
+    "world": "synthetic",  # where the rollouts drive: synthetic (fresh roads) or replay (the config's recording)
+    "speed": None,       # replay: m/s for a recording without speed (default: estimated from its frames)
 }
 
 
@@ -44,6 +49,8 @@ def dagger_options(cfg: dict) -> dict:
     if int(opts["iterations"]) < 0 or not float(opts["minutes"]) > 0 or not 0 <= float(opts["beta"]) <= 1:
         raise SteerlabError("dagger needs iterations >= 0, minutes > 0 and 0 <= beta <= 1")
     road_types(opts["roads"])
+    if opts["world"] not in ("synthetic", "replay"):
+        raise SteerlabError(f"dagger world must be synthetic or replay, got {opts['world']!r}")
     return opts
 
 
@@ -55,6 +62,53 @@ def _rollout_job(checkpoint: str, out: str, seed: int, minutes: float, road: str
     return rollout(Pilot(checkpoint), out, seed, minutes, road, beta, progress=False, on_tick=tick_reporter())
 
 
+def _replay_rollout_job(checkpoint: str, out: str, source: dict, beta: float, seed: int) -> dict:
+    from steerlab.data.readers import open_recording
+    from steerlab.pilot import Pilot
+    from steerlab.sim.bench import tick_reporter
+    from steerlab.sim.replay import rollout_recording
+
+    rec = open_recording(source["data"], source["range"], source["labels"], source["reader"])
+    return rollout_recording(Pilot(checkpoint), rec, source["cam"], source["car"], source["speed"], out, beta, seed,
+                             source["frames"], on_tick=tick_reporter())
+
+
+class ReplayRounds:
+    """`world: replay`: the config's recording, its split, camera, car and speed, for rollouts over the training
+    frames and replays of the validation frames."""
+
+    def __init__(self, cfg: dict, opts: dict):
+        from steerlab.data.geometry import CAMERAS, CARS
+        from steerlab.data.readers import open_recording
+        from steerlab.data.splits import make_split
+        from steerlab.sim.replay import replay_speed
+
+        rec = open_recording(cfg["data"], cfg.get("range"), cfg.get("labels"), cfg.get("reader"))
+        if rec.preset not in CAMERAS:
+            raise SteerlabError(f"{rec.source}: replay knows no camera geometry for {rec.preset!r} frames")
+        self.train_idx, self.val_idx = make_split(cfg["split"], len(rec), rec.extra.get("session"))
+        cam, car = CAMERAS[rec.preset], CARS[rec.preset]
+        speed, self.speed_source = replay_speed(rec, cam, opts["speed"])
+        self.fps = rec.frame_rate()
+        self.source = {"data": cfg["data"], "range": cfg.get("range"), "labels": cfg.get("labels"),
+                       "reader": cfg.get("reader"), "cam": cam, "car": car, "speed": speed}
+        self.workers = int(opts["workers"])
+
+    def rollouts(self, checkpoint: Path, folder: Path, beta: float, seed: int, progress: bool) -> list[dict]:
+        from steerlab.sim.bench import run_parallel
+
+        job = (str(checkpoint), str(folder), {**self.source, "frames": [int(i) for i in self.train_idx]}, beta, seed)
+        return run_parallel(_replay_rollout_job, [job], 1, len(self.train_idx) / self.fps / 60, progress, "replay rollouts")
+
+    def evaluate(self, checkpoint: Path, out: Path, progress: bool) -> dict:
+        from steerlab.sim.replay import run_replay
+
+        s = self.source
+        row = run_replay([checkpoint], s["data"], out, s["range"], s["labels"], s["reader"], s["speed"],
+                         workers=1, frames=self.val_idx, progress=progress)[0]
+        return {"replay_autonomy": row["autonomy"], "replay_interventions_per_km": row["interventions_per_km"]}
+
+
 def run_dagger(cfg: dict, progress: bool = True) -> Path:
     """Run DAgger as configured (a training config with a `dagger` section); returns the final checkpoint."""
     from steerlab.train.loop import train
@@ -63,12 +117,22 @@ def run_dagger(cfg: dict, progress: bool = True) -> Path:
     out = Path(cfg["out"])
     base = {k: v for k, v in copy.deepcopy(cfg).items() if k != "dagger"}
     types = road_types(opts["roads"])
+    replay = ReplayRounds(cfg, opts) if opts["world"] == "replay" else None
     rows, extra = _read_log(out), list(cfg.get("extra_data") or [])
     for r in range(int(opts["iterations"]) + 1):
         run = out / f"round{r}"
         beta = 1.0 if r == 0 else float(opts["beta"]) * float(opts["beta_decay"]) ** (r - 1)
         rollout_metrics = []
-        if r > 0:
+        if r > 0 and replay:
+            folder = run / "rollouts" / "replay"
+            extra.append(str(folder))
+            if not (folder / "recording.json").exists():
+                shutil.rmtree(folder, ignore_errors=True)  # an interrupted rollout starts again
+                if progress:
+                    print(f"== DAgger round {r}: replaying round {r - 1}'s model over the training frames, beta {beta:.3f}")
+                rollout_metrics = replay.rollouts(out / f"round{r - 1}" / "best.pt", folder, beta,
+                                                  int(opts["seeds_from"]) + 100 * r, progress)
+        elif r > 0:
             jobs = []
             for k, road in enumerate(types):
                 folder = run / "rollouts" / f"{road}-{int(opts['seeds_from']) + 100 * r + k}"
@@ -92,10 +156,15 @@ def run_dagger(cfg: dict, progress: bool = True) -> Path:
             metrics = train(round_cfg, progress=progress)
             (run / "metrics.json").write_text(json.dumps(metrics, indent=1))
         metrics = json.loads((run / "metrics.json").read_text())
-        summary = run_suite([run / "best.pt"], run / "suite", opts["suite"], opts["suite_minutes"],
-                            int(opts["workers"]), progress=progress)
+        if replay:
+            closed = replay.evaluate(run / "best.pt", run / "replay", progress)
+        else:
+            summary = run_suite([run / "best.pt"], run / "suite", opts["suite"], opts["suite_minutes"],
+                                int(opts["workers"]), progress=progress)
+            closed = {f"autonomy_{s['road_type']}": s["autonomy"] for s in summary}
+            closed["interventions_per_km"] = next(s for s in summary if s["road_type"] == "all")["interventions_per_km"]
         if r >= len(rows):
-            rows.append(_log_row(r, beta, extra, rollout_metrics, metrics, summary))
+            rows.append(_log_row(r, beta, extra, rollout_metrics, metrics, closed))
             _write_log(out, rows)
     for name in ("best.pt", "log.csv", "val_predictions.csv", "metrics.json"):
         shutil.copyfile(out / f"round{len(rows) - 1}" / name, out / name)
@@ -103,17 +172,14 @@ def run_dagger(cfg: dict, progress: bool = True) -> Path:
 
 
 FIELDS = ["round", "beta", "recordings", "rollout_autonomy", "val_rmse", "autonomy_country", "autonomy_highway",
-          "autonomy_twisty", "autonomy_all", "interventions_per_km"]
+          "autonomy_twisty", "autonomy_all", "interventions_per_km", "replay_autonomy", "replay_interventions_per_km"]
 
 
-def _log_row(r, beta, extra, rollout_metrics, metrics, summary) -> dict:
+def _log_row(r, beta, extra, rollout_metrics, metrics, closed: dict) -> dict:
+    """One round: its rollouts' mean autonomy, validation RMSE and the closed-loop columns (suite or replay)."""
     row = {"round": r, "beta": beta, "recordings": 1 + len(extra), "val_rmse": metrics["rmse"],
            "rollout_autonomy": (sum(m["autonomy"] for m in rollout_metrics) / len(rollout_metrics)
-                                if rollout_metrics else "")}
-    for s in summary:
-        row[f"autonomy_{s['road_type']}"] = s["autonomy"]
-        if s["road_type"] == "all":
-            row["interventions_per_km"] = s["interventions_per_km"]
+                                if rollout_metrics else ""), **closed}
     return {k: row.get(k, "") for k in FIELDS}
 
 

@@ -44,13 +44,15 @@ def plot_trajectory(path: str | Path, road, trajs: dict[str, np.ndarray], title:
 
 
 def plot_rounds(path: str | Path, rows: list[dict]) -> None:
-    """DAgger: closed-loop autonomy per road type (and the validation RMSE) against the round."""
+    """DAgger: closed-loop autonomy per road type, or in replay (and the validation RMSE) against the round."""
     fig, ax = plt.subplots(figsize=(7, 4), dpi=100)
     rounds = [int(r["round"]) for r in rows]
-    for key, style in [("autonomy_country", "o-"), ("autonomy_highway", "s-"), ("autonomy_twisty", "^-"),
-                       ("autonomy_all", "k.--")]:
-        values = [float(r[key]) if r[key] != "" else np.nan for r in rows]
-        ax.plot(rounds, values, style, label=key.split("_")[1])
+    for key, style, label in [("autonomy_country", "o-", "country"), ("autonomy_highway", "s-", "highway"),
+                              ("autonomy_twisty", "^-", "twisty"), ("autonomy_all", "k.--", "all"),
+                              ("replay_autonomy", "kD-", "replay")]:
+        values = [float(r[key]) if r.get(key, "") != "" else np.nan for r in rows]
+        if not np.all(np.isnan(values)):
+            ax.plot(rounds, values, style, label=label)
     ax.set_xlabel("DAgger round")
     ax.set_ylabel("closed-loop autonomy [%]")
     ax.set_ylim(top=101)  # autonomy is at most 100 %

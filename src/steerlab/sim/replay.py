@@ -180,6 +180,24 @@ def estimate_speed(rec: Recording, cam: Camera, count: int = 100) -> float:
     return float(np.median(estimates))
 
 
+def replay_speed(rec: Recording, cam: Camera, speed: float | None) -> tuple[float | None, str]:
+    """The speed to replay `rec` at (None: the recorded one) and where it comes from: given, recorded, or
+    estimated from the frames (printed)."""
+    if speed is not None:
+        if not 0 < speed < 100:
+            raise SteerlabError(f"--speed must lie in (0, 100) m/s, got {speed}")
+        return speed, "given (--speed)"
+    if rec.speed is not None:
+        return None, "recorded"
+    speed = estimate_speed(rec, cam)
+    print(f"{rec.source} has no speed signal; estimated from the frames: {speed:.2f} m/s ({speed * 3.6:.0f} km/h); "
+          "override with --speed")
+    if not 0.1 < speed < 100:
+        raise DataError(rec.source, f"the speed estimated from the frames, {speed:.2f} m/s, is not a speed a car "
+                                    "drives at; give it with --speed M/S")
+    return speed, "estimated from the frames"
+
+
 def _road_wheel(rec: Recording, steering_ratio: float) -> np.ndarray:
     try:
         return rec.convention.to_road_wheel_left(rec.steering, steering_ratio)
@@ -187,46 +205,96 @@ def _road_wheel(rec: Recording, steering_ratio: float) -> np.ndarray:
         raise DataError(rec.source, f"{e}: it is needed to rebuild the driven path") from None
 
 
+def replay_segments(rec: Recording, frames: np.ndarray | None = None) -> list[tuple[int, int]]:
+    """The half-open frame ranges to replay: the recording's segments (or the runs of consecutive `frames`
+    within them, e.g. a validation split) that last at least MIN_SECONDS."""
+    idx = np.arange(len(rec)) if frames is None else np.asarray(frames)
+    seg = rec.segment_ids()[idx]
+    breaks = np.flatnonzero((np.diff(idx) != 1) | (np.diff(seg) != 0)) + 1
+    times = rec.timestamps_ns / 1e9
+    runs = [(int(r[0]), int(r[-1]) + 1) for r in np.split(idx, breaks) if len(r)]
+    out = [(a, b) for a, b in runs if times[b - 1] - times[a] >= MIN_SECONDS]
+    if not out:
+        raise DataError(rec.source, f"too short to replay: no segment lasts {MIN_SECONDS:g} s ({len(idx)} frames)")
+    return out
+
+
+def _replay_world(rec: Recording, a: int, b: int, human: np.ndarray, cam: Camera, params: VehicleParams,
+                  speed: float | None, max_heading_deg: float) -> ReplayWorld:
+    v = np.full(b - a, speed) if speed is not None else np.asarray(rec.speed[a:b], float)
+    return ReplayWorld(rec, a, human_path(human[a:b], v, rec.timestamps_ns[a:b] / 1e9, params), cam, params,
+                       max_heading_deg)
+
+
 def replay_recording(pilot, rec: Recording, cam: Camera, car: Car, speed: float | None, limit_m: float,
-                     max_heading_deg: float = MAX_HEADING_DEG, video: str | Path | None = None, progress: bool = False,
-                     on_tick=None) -> tuple[list[dict], np.ndarray]:
-    """Replay every segment of `rec` of at least MIN_SECONDS with `pilot`, at the constant `speed` (m/s) or,
-    for None, the recorded one. Returns one result row per segment and one for the whole recording (segment
-    "all"), and the trajectory of every tick (TRAJECTORY columns, then the segment and the frame index)."""
+                     max_heading_deg: float = MAX_HEADING_DEG, video: str | Path | None = None, frames=None,
+                     progress: bool = False, on_tick=None) -> tuple[list[dict], np.ndarray]:
+    """Replay every segment of `rec` (or of its `frames`) of at least MIN_SECONDS with `pilot`, at the constant
+    `speed` (m/s) or, for None, the recorded one. Returns one result row per segment and one for the whole
+    recording (segment "all"), and the trajectory of every tick (TRAJECTORY columns, then the segment and the
+    frame index)."""
     from steerlab.video import DriveVideo
 
     params = VehicleParams(wheelbase=car.wheelbase, steering_ratio=car.steering_ratio)
     human = _road_wheel(rec, params.steering_ratio)
-    times = rec.timestamps_ns / 1e9
-    segments = [(a, b) for a, b in rec.segments() if times[b - 1] - times[a] >= MIN_SECONDS]
-    if not segments:
-        raise DataError(rec.source, f"too short to replay: no segment lasts {MIN_SECONDS:g} s ({len(rec)} frames)")
+    segments = replay_segments(rec, frames)
     fps = rec.frame_rate()
     movie = DriveVideo(video, fps, reference="human") if video else None
     rows, trajs = [], []
     for n, (a, b) in enumerate(segments):
-        v = np.full(b - a, speed) if speed is not None else np.asarray(rec.speed[a:b], float)
-        path = human_path(human[a:b], v, times[a:b], params)
-        world = ReplayWorld(rec, a, path, cam, params, max_heading_deg)
+        world = _replay_world(rec, a, b, human, cam, params, speed, max_heading_deg)
         pilot.reset()
-        frames = []
+        seen = []
 
         def on_step(t, world=world):
-            frames.append(a + world.frame_index())
+            seen.append(a + world.frame_index())
             if movie:
                 r = car.steering_ratio
-                movie.add(t.frame, t.model * r, human[frames[-1]] * r, t.offset,
-                          f"{rec.name} segment {n}  frame {frames[-1]}  {world.state.v:4.1f} m/s")
+                movie.add(t.frame, t.model * r, human[seen[-1]] * r, t.offset,
+                          f"{rec.name} segment {n}  frame {seen[-1]}  {world.state.v:4.1f} m/s")
 
         t = drive_loop(world, pilot, b - a, limit_m, fps, on_step=on_step, desc=f"replay segment {n}",
                        progress=progress, on_tick=on_tick)
-        t[:, 0] = path.t[: len(t)] - path.t[0]
-        trajs.append(np.column_stack([t, np.full(len(t), n), frames]))
+        t[:, 0] = world.path.t[: len(t)] - world.path.t[0]
+        trajs.append(np.column_stack([t, np.full(len(t), n), seen]))
         rows.append(_result(t, fps, str(n), b - a))
     if movie:
         movie.close()
     traj = np.vstack(trajs)
     return [*rows, _result(traj, fps, "all", sum(b - a for a, b in segments))], traj
+
+
+def rollout_recording(pilot, rec: Recording, cam: Camera, car: Car, speed: float | None, out: str | Path,
+                      beta: float, seed: int, frames=None, limit_m: float | None = None,
+                      max_heading_deg: float = MAX_HEADING_DEG, on_tick=None) -> dict:
+    """DAgger in replay: drive `pilot` over `rec` (or its `frames`) while, with probability `beta` each tick,
+    the expert (pure pursuit of the human's path) steers instead, and record every visited view labelled with
+    the expert's steering, in the recording's own convention and camera geometry, as a steerlab recording in
+    `out`. Returns the drive's metrics."""
+    from steerlab.sim.world import RecordingWriter
+
+    params = VehicleParams(wheelbase=car.wheelbase, steering_ratio=car.steering_ratio)
+    human = _road_wheel(rec, params.steering_ratio)
+    rng = np.random.default_rng([seed, 7])
+    writer = RecordingWriter(out, ["center"], convention=rec.convention)
+    fps, trajs = rec.frame_rate(), []
+    for a, b in replay_segments(rec, frames):
+        world = _replay_world(rec, a, b, human, cam, params, speed, max_heading_deg)
+        pilot.reset()
+
+        def on_step(t, world=world, a=a):
+            writer.add({"center": t.frame}, {
+                "timestamp_ns": int(rec.timestamps_ns[a + t.index]),
+                "steering": float(rec.convention.from_road_wheel_left(t.expert, params.steering_ratio)),
+                "speed": world.state.v, "throttle": 0.0, "brake": 0.0, "lateral_offset": t.offset,
+                "heading_error": t.heading, "curvature": 0.0, "episode": "rollout"})
+
+        trajs.append(drive_loop(world, pilot, b - a, car.lane_limit_m if limit_m is None else limit_m, fps,
+                                choose=lambda t: t.expert if rng.random() < beta else t.model, on_step=on_step,
+                                progress=False, on_tick=on_tick))
+    writer.close({"source": str(rec.source), "preset": rec.preset, "fps": fps, "beta": beta, "policy": pilot.name,
+                  "wheelbase": car.wheelbase, "side_camera_offset_m": None}, params.steering_ratio)
+    return _result(np.vstack(trajs), fps, "all", len(rec) if frames is None else len(frames))
 
 
 def _result(t: np.ndarray, fps: float, segment: str, frames: int) -> dict:
@@ -249,7 +317,7 @@ def _job(checkpoint: str, label: str, source: dict, cam: Camera, car: Car, speed
 
     rec = open_recording(source["data"], source["range"], source["labels"], source["reader"])
     rows, traj = replay_recording(Pilot(checkpoint), rec, cam, car, speed, limit_m, max_heading_deg, video,
-                                  on_tick=tick_reporter())
+                                  source["frames"], on_tick=tick_reporter())
     Path(out).mkdir(parents=True, exist_ok=True)
     with open(Path(out) / "trajectory.csv", "w", newline="") as f:
         w = csv.writer(f)
@@ -261,8 +329,9 @@ def _job(checkpoint: str, label: str, source: dict, cam: Camera, car: Car, speed
 def run_replay(checkpoints, data: str | Path, out: str | Path, frame_range: str | None = None,
                labels: str | Path | None = None, reader: dict | None = None, speed: float | None = None,
                camera: dict | None = None, limit_m: float | None = None, max_heading_deg: float = MAX_HEADING_DEG,
-               video: str | Path | None = None, workers: int = 2, progress: bool = True) -> list[dict]:
-    """Replay every checkpoint on the recording `data` (checkpoints in parallel worker processes); write
+               video: str | Path | None = None, workers: int = 2, frames=None, progress: bool = True) -> list[dict]:
+    """Replay every checkpoint on the recording `data` (only its `frames`, if given, e.g. a validation split;
+    checkpoints in parallel worker processes); write
     `replay.csv` (one row per checkpoint and recording), `segments.csv` (per segment), `replay.md`, `replay.png`
     (the offset along the route, interventions marked) and `LABEL/trajectory.csv`. `camera`: overrides of the
     recording's camera geometry (mount_height, pitch_deg, hfov_deg). Returns the rows of replay.csv."""
@@ -287,30 +356,20 @@ def run_replay(checkpoints, data: str | Path, out: str | Path, frame_range: str 
         if pilot.speed_history and rec.speed is None and speed is None:
             warn(f"{c} reads the speed; {rec.source} records none, so it gets the estimated constant speed")
     _road_wheel(rec, car.steering_ratio)  # the path can be rebuilt
-    if speed is not None:
-        if not 0 < speed < 100:
-            raise SteerlabError(f"--speed must lie in (0, 100) m/s, got {speed}")
-        source = "given (--speed)"
-    elif rec.speed is not None:
-        source = "recorded"
-    else:
-        speed, source = estimate_speed(rec, cam), "estimated from the frames"
-        print(f"{rec.source} has no speed signal; estimated from the frames: {speed:.2f} m/s "
-              f"({speed * 3.6:.0f} km/h); override with --speed")
-        if not 0.1 < speed < 100:
-            raise DataError(rec.source, f"the speed estimated from the frames, {speed:.2f} m/s, is not a speed a car "
-                                        "drives at; give it with --speed M/S")
+    segments = replay_segments(rec, frames)
+    speed, source = replay_speed(rec, cam, speed)
     out = Path(out)
     names = labels_for(checkpoints)
     videos = [None] * len(names) if video is None else (
         [str(video)] if len(names) == 1 else [str(Path(video).with_name(f"{Path(video).stem}-{n.replace('/', '-')}"
                                                                            f"{Path(video).suffix}")) for n in names])
     source_spec = {"data": str(data), "range": frame_range, "labels": None if labels is None else str(labels),
-                   "reader": reader}
+                   "reader": reader, "frames": None if frames is None else [int(i) for i in frames]}
     limit = car.lane_limit_m if limit_m is None else limit_m
     jobs = [(str(c), n, source_spec, cam, car, speed, limit, max_heading_deg, v, str(out / n))
             for c, n, v in zip(checkpoints, names, videos)]
-    results = run_parallel(_job, jobs, workers, len(rec) / rec.frame_rate() / 60, progress, "replay")
+    minutes = sum(b - a for a, b in segments) / rec.frame_rate() / 60
+    results = run_parallel(_job, jobs, workers, minutes, progress, "replay")
     rows = [{**r, "speed_source": source} for rs in results for r in rs]
     out.mkdir(parents=True, exist_ok=True)
     for name, keep in (("replay.csv", lambda r: r["segment"] == "all"), ("segments.csv", lambda r: True)):

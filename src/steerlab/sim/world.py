@@ -115,12 +115,14 @@ class World:
 
 class RecordingWriter:
     """Writes frames and per-frame rows as a steerlab recording (`recording.json`, `log.csv`, one folder of
-    JPEGs per camera) or in the Udacity simulator's `driving_log.csv` layout."""
+    JPEGs per camera) or in the Udacity simulator's `driving_log.csv` layout. Steering is written in
+    `convention` (the synthetic world's own by default)."""
 
-    def __init__(self, out: str | Path, cameras: list[str], layout: str = "steerlab"):
+    def __init__(self, out: str | Path, cameras: list[str], layout: str = "steerlab",
+                 convention: SteeringConvention = CONVENTION):
         if layout not in ("steerlab", "udacity-sim"):
             raise SteerlabError(f"unknown layout {layout!r}; choose steerlab or udacity-sim")
-        self.out, self.cameras, self.layout = Path(out), cameras, layout
+        self.out, self.cameras, self.layout, self.convention = Path(out), cameras, layout, convention
         if self.out.exists() and any(self.out.iterdir()):
             raise SteerlabError(f"{self.out} exists and is not empty; choose a new output folder")
         for cam in cameras:
@@ -128,7 +130,7 @@ class RecordingWriter:
         self.rows: list[dict] = []
 
     def add(self, frames: dict[str, np.ndarray], row: dict) -> None:
-        """row: timestamp_ns, steering (CONVENTION), speed, throttle, brake, lateral_offset, heading_error,
+        """row: timestamp_ns, steering (in the writer's convention), speed, throttle, brake, lateral_offset, heading_error,
         curvature, episode."""
         i, ts = len(self.rows), row["timestamp_ns"]
         names = {}
@@ -146,7 +148,7 @@ class RecordingWriter:
             with open(self.out / "driving_log.csv", "w", newline="") as f:
                 w = csv.writer(f)
                 for r in self.rows:  # the simulator's units: steering +-1 = +-25 deg road wheel, positive right; mph
-                    road_wheel = CONVENTION.to_road_wheel_left(r["steering"], ratio)
+                    road_wheel = self.convention.to_road_wheel_left(r["steering"], ratio)
                     steer = SIM_CONVENTION.from_road_wheel_left(road_wheel, ratio) / SIM_FULL_LOCK_RAD
                     w.writerow([r["center"], r["left"], r["right"], f"{steer:.6f}", f"{r['throttle']:.6f}",
                                 f"{r['brake']:.6f}", f"{r['speed'] / MPH_TO_MS:.6f}"])
@@ -157,7 +159,7 @@ class RecordingWriter:
             for r in self.rows:
                 w.writerow({k: (f"{v:.6f}" if isinstance(v, float) else v) for k, v in r.items()})
         (self.out / "recording.json").write_text(json.dumps(
-            {"format": "steerlab-recording-1", **meta, "steering": CONVENTION.as_dict(), "steering_ratio": ratio,
+            {"format": "steerlab-recording-1", **meta, "steering": self.convention.as_dict(), "steering_ratio": ratio,
              "episodes": list(EPISODES)}, indent=1))
         return self.out
 
@@ -177,18 +179,24 @@ def _check_seed(seed: int) -> None:
 
 def record(out: str | Path, seed: int = 0, minutes: float = 1.0, road: str = "country", camera: str = "sim",
            fps: float = 20.0, drift: bool = True, side_cameras: bool = True, layout: str = "steerlab",
-           chunk_minutes: float = 1.0, progress: bool = True) -> Path:
+           chunk_minutes: float = 1.0, progress: bool = True, *, suite_roads_ok: bool = False) -> Path:
     """Drive the expert on roads made from `seed` and write a labelled recording. Same arguments, same bytes.
 
     With several road types (`road="mixed"` or a comma list) the expert drives one road of each type and
     the recording takes turns between them every `chunk_minutes`, each chunk its own segment, so that any
-    contiguous block of the recording (a validation split, say) mixes the road types."""
-    _check_seed(seed)
+    contiguous block of the recording (a validation split, say) mixes the road types.
+
+    `suite_roads_ok=True` is for evaluation recordings only (replay against the closed-loop suite; not in the
+    CLI, never for training data): it allows the suite's reserved seeds and makes each road exactly as long
+    as `drive` makes it for the same minutes, so that the recording shows the suite's own road."""
+    if not suite_roads_ok:
+        _check_seed(seed)
     n = _frames(minutes, fps)
     types = road_types(road)
     chunk = n if len(types) == 1 else _frames(chunk_minutes, fps)
     schedule = [types[(i // chunk) % len(types)] for i in range(n)]  # a type may be listed twice for a larger share
-    worlds = {t: World(seed, t, camera, (schedule.count(t) + chunk) / fps, fps) for t in dict.fromkeys(types)}
+    extra = 0 if suite_roads_ok else chunk  # the suite's roads: as long as `drive` makes them
+    worlds = {t: World(seed, t, camera, (schedule.count(t) + extra) / fps, fps) for t in dict.fromkeys(types)}
     drivers = {t: ExpertDriver(w.road, seed, w.params, w.dt, drift_every_s=25.0 if drift else None)
                for t, w in worlds.items()}
     clocks = dict.fromkeys(worlds, 0)
