@@ -76,10 +76,11 @@ def test_experiment_table(tiny_recording, tmp_path, capsys):
     cfg.write_text(f"""
 data: {tiny_recording}
 cache: {tmp_path / 'cache'}
-split: {{train: "0:240", val: "240:300"}}
+split: {{train: "0:220", val: "220:300"}}
 train: {{epochs: 1, batch_size: 16}}
 out: {tmp_path / 'exp'}
 closed_loop: {{suite: v1, minutes: 0.01, workers: 1}}
+replay: {{}}
 models:
   - {{model: {{name: zero}}}}
   - {{model: {{name: pilotnet-flow}}, label: flow}}
@@ -113,3 +114,10 @@ models:
             for s in (0, 1)]
     flow = next(r for r in rows if r["label"] == "flow")
     assert float(flow["train_s_mean"]) == pytest.approx(sum(logs) / 2) and float(rows[0]["train_s_mean"]) == 0.0
+    # replay of the validation frames: every run's replay.csv, its mean in the table
+    assert "Closed-loop replay of the validation frames" in text and "replay interventions/km" in text
+    replayed = [next(csv.DictReader(open(tmp_path / "exp" / "flow" / f"seed{s}" / "replay" / "replay.csv")))
+                for s in (0, 1)]
+    assert all(r["frames"] == "80" and r["speed_source"] == "recorded" for r in replayed)
+    assert float(flow["replay_interventions_per_km_mean"]) == pytest.approx(
+        sum(float(r["interventions_per_km"]) for r in replayed) / 2, rel=1e-4)

@@ -30,6 +30,7 @@ from steerlab.evaluate.scoring import read_steering_csv
 from steerlab.models import model_class
 from steerlab.pilot import Pilot
 from steerlab.sim.bench import run_suite, suite_minutes
+from steerlab.sim.replay import SplitReplay
 from steerlab.sim.dagger import dagger_options, run_dagger
 from steerlab.train.config import load_config
 from steerlab.train.loop import model_preprocess, prepare_dataset, train
@@ -56,7 +57,9 @@ def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: boo
     """Every entry of the config's `models` list is a training config fragment (`model`, and optionally
     `label`, `preprocess`, `train`, `dagger`) applied on top of the shared config; an entry or the shared
     config with a `dagger` section trains by DAgger. An optional `closed_loop` section ({suite: v1, minutes,
-    workers}) drives every trained model on the closed-loop suite. Finished runs and drives are reused, so an
+    workers}) drives every trained model on the closed-loop suite; an optional `replay` section ({speed: M/S},
+    or {} for the recorded or estimated speed) replays every trained model on the validation frames of the
+    recording itself (`steerlab replay`). Finished runs and drives are reused, so an
     interrupted experiment continues where it stopped."""
     if not Path(path).is_file():
         raise SteerlabError(f"{path}: config file not found")
@@ -68,6 +71,9 @@ def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: boo
         raise SteerlabError(f"{path}: an experiment config needs a non-empty 'models' list")
     entries = raw.pop("models")
     closed = raw.pop("closed_loop", None)
+    replay = raw.pop("replay", None)
+    if replay is not None and (not isinstance(replay, dict) or set(replay) - {"speed"}):
+        raise SteerlabError(f"{path}: replay: takes only a speed (m/s), e.g. replay: {{speed: 15}}; got {replay!r}")
     if closed:
         suite_minutes(closed.get("suite", "v1"), closed.get("minutes"), f"{path}: closed_loop: ")
     for i, entry in enumerate(entries):  # a bad entry is an error before the first model trains
@@ -82,7 +88,7 @@ def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: boo
             raise SteerlabError(f"{path}: models entry {i + 1}: {e}") from None
     out = Path(raw.get("out", "runs/experiment"))
     rows, preds = [], {}
-    labels = frames = deg = None
+    labels = frames = deg = split_replay = None
     for entry in entries:
         label = entry.get("label", entry["model"]["name"])
         runs = []
@@ -104,6 +110,9 @@ def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: boo
             run = {**_smoothed(run_dir, labels, deg), **json.loads(done.read_text()), "train_s": _train_seconds(run_dir)}
             if closed:
                 run.update(closed_loop_metrics(suite_checkpoint(run_dir, cfg, closed), closed, progress))
+            if replay is not None:
+                split_replay = split_replay or SplitReplay(cfg, replay.get("speed"))
+                run.update(split_replay.evaluate(run_dir / "best.pt", run_dir / "replay", progress))
             runs.append(run)
         if frames is None:
             frames = _latency_frames(cfg)
@@ -140,7 +149,7 @@ def _row(label: str, model: str, pre: PreprocessConfig, runs: list[dict], latenc
            "shape": f"{sum(pre.channels().values())}@{pre.width}x{pre.height}", "seeds": len(runs),
            "target_gamma_deg": runs[0]["target_gamma_deg"], **latency}
     for key in ("mse", "rmse", "mae", "mae_deg", "gamma_deg", "smoothed_rmse", "smoothed_gamma_deg", "tre", "qce",
-                "speed_weighted_mae", "speed_mae", "command_accuracy", "epoch", "train_s", *CLOSED_LOOP):
+                "speed_weighted_mae", "speed_mae", "command_accuracy", "epoch", "train_s", *CLOSED_LOOP, *REPLAY):
         row[f"{key}_mean"], row[f"{key}_std"] = stat(key)
     # the worst seed, for targets such as ">= 95 % on every road type with every seed"
     for key in [k for k in CLOSED_LOOP if k.startswith("autonomy")]:
@@ -174,6 +183,7 @@ def _smoothed(run: Path, labels: dict, deg_per_unit: float) -> dict:
             "smoothed_gamma_deg": m["gamma_deg"]}
 
 
+REPLAY = ("replay_autonomy", "replay_interventions_per_km", "replay_mean_offset_m")
 CLOSED_LOOP = ("autonomy", "autonomy_country", "autonomy_highway", "autonomy_twisty", "interventions_per_km",
                "command_gamma_deg")
 
@@ -263,7 +273,16 @@ def _write(out: Path, rows: list[dict], preds: dict, cfg: dict, seeds: int, refe
         lines.append(f"| {r['label']} | {mae} | "
                      f"{_fmt(r['speed_mae_mean'], 3, r['speed_mae_std'])} | "
                      f"{_fmt(r['command_accuracy_mean'], 3, r['command_accuracy_std'])} |")
-    if closed:
+    if not np.isnan(rows[0]["replay_autonomy_mean"]):
+        lines += ["", "Closed-loop replay of the validation frames (the recording itself, `steerlab replay`; "
+                  "each run's replay.md says the speed):", "",
+                  "| model | RMSE | MAE [deg] | replay interventions/km | replay autonomy [%] | mean abs offset [m] |",
+                  "|---|---|---|---|---|---|"]
+        for r in rows:
+            lines.append(f"| {r['label']} | {_fmt(r['rmse_mean'], 4)} | {_fmt(r['mae_deg_mean'], 2)} | "
+                         f"{_fmt(r['replay_interventions_per_km_mean'], 1, r['replay_interventions_per_km_std'])} | "
+                         f"{_fmt(r['replay_autonomy_mean'], 1)} | {_fmt(r['replay_mean_offset_m_mean'], 3)} |")
+    if closed or not np.isnan(rows[0]["replay_autonomy_mean"]):
         lines += ["", _open_vs_closed(out, rows)]
     ds = prepare_dataset(cfg, progress=False)
     ids = next(iter(preds.values()))[0]
@@ -279,17 +298,22 @@ def _write(out: Path, rows: list[dict], preds: dict, cfg: dict, seeds: int, refe
 
 
 def _open_vs_closed(out: Path, rows: list[dict]) -> str:
-    """How well each open-loop metric ranks the trained models by autonomy, which ranks them best, and the scatter
-    plot."""
+    """How well each open-loop metric (and replay, next to the suite) ranks the trained models by autonomy on the
+    closed-loop suite, or without a suite in replay, which ranks them best, and the scatter plot."""
     trained = [r for r in rows if r["epoch_mean"] > 0]
-    plot_open_vs_closed(out / "open_vs_closed.png", {"models": trained})
+    suite = not np.isnan(rows[0]["autonomy_mean"])
+    target = "autonomy" if suite else "replay autonomy"
+    plot_open_vs_closed(out / "open_vs_closed.png", {"models": trained},
+                        autonomy="autonomy" if suite else "replay_autonomy")
     keys = [("mse", "MSE"), ("mae_deg", "MAE"), ("gamma_deg", "gamma"), ("smoothed_rmse", "smoothed RMSE"),
             ("smoothed_gamma_deg", "smoothed gamma"), ("tre", "TRE"), ("qce", "QCE"),
             ("speed_weighted_mae", "speed-weighted MAE")]
-    autonomy = [r["autonomy_mean"] for r in trained]
+    if suite and not np.isnan(rows[0]["replay_autonomy_mean"]):
+        keys.append(("replay_interventions_per_km", "replay interventions/km"))
+    autonomy = [r["autonomy_mean" if suite else "replay_autonomy_mean"] for r in trained]
     rhos = [rank_correlation([r[f"{k}_mean"] for r in trained], autonomy) for k, _ in keys]
     if all(np.isnan(rhos)):
-        return ("Rank correlation of the open-loop metrics with autonomy: not defined here (it needs three or more "
+        return (f"Rank correlation of the open-loop metrics with {target}: not defined here (it needs three or more "
                 "trained models that do not all drive equally well). Plot: open_vs_closed.png.")
     rho = ", ".join(f"{name} {v:+.2f}" if np.isfinite(v) else f"{name} -" for (_, name), v in zip(keys, rhos))
     # every metric is lower-is-better: the most negative correlation ranks the models most like their driving
@@ -297,5 +321,5 @@ def _open_vs_closed(out: Path, rows: list[dict]) -> str:
     best, v = min(((name, v) for (_, name), v in zip(keys, rhos) if np.isfinite(v)), key=lambda p: p[1])
     verdict = (f"The open-loop metric that predicts driving best here is {best} ({v:+.2f})." if v < 0 else
                "No open-loop metric here ranks the models the way they drive (none correlates negatively).")
-    return (f"Rank correlation (Spearman) of each open-loop metric with autonomy over the {len(trained)} trained "
+    return (f"Rank correlation (Spearman) of each metric with {target} over the {len(trained)} trained "
             f"models (-1: lower error always drives better): {rho}. {verdict} Plot: open_vs_closed.png.")

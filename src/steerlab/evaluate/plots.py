@@ -86,15 +86,17 @@ def plot_recovery(path: str | Path, t_s: np.ndarray, target: np.ndarray, preds: 
     return len(found)
 
 
-def plot_open_vs_closed(path: str | Path, tables: dict[str, list[dict]], metric: str = "rmse") -> None:
-    """Each model's open-loop validation error against its closed-loop autonomy, one marker per table (e.g.
-    before and after a training recipe), with an arrow from a model's first table to its last."""
+def plot_open_vs_closed(path: str | Path, tables: dict[str, list[dict]], metric: str = "rmse",
+                        autonomy: str = "autonomy") -> None:
+    """Each model's open-loop validation error against its closed-loop autonomy (`autonomy`: on the suite, or
+    `replay_autonomy` in replay of the recording), one marker per table (e.g. before and after a training
+    recipe), with an arrow from a model's first table to its last."""
     fig, ax = plt.subplots(figsize=(8, 5.5), dpi=100)
     markers = "osD^v"
     points: dict[str, list[tuple[float, float]]] = {}
     for (name, rows), marker in zip(tables.items(), markers):
         x = [float(r[f"{metric}_mean"]) for r in rows]
-        y = [float(r["autonomy_mean"]) for r in rows]
+        y = [float(r[f"{autonomy}_mean"]) for r in rows]
         ax.scatter(x, y, marker=marker, s=40, label=name, zorder=3)
         for r, xi, yi in zip(rows, x, y):
             points.setdefault(r["label"], []).append((xi, yi))
@@ -104,7 +106,8 @@ def plot_open_vs_closed(path: str | Path, tables: dict[str, list[dict]], metric:
             if len(pts) > 1:
                 ax.annotate("", pts[-1], pts[0], arrowprops={"arrowstyle": "->", "color": "0.6", "lw": 0.8})
     ax.set_xlabel(f"open-loop validation {metric.upper()} [rad]")
-    ax.set_ylabel("closed-loop autonomy, all suite roads [%]")
+    ax.set_ylabel("closed-loop autonomy, all suite roads [%]" if autonomy == "autonomy"
+                  else "closed-loop replay autonomy, validation frames [%]")
     ax.set_ylim(top=101)  # autonomy is at most 100 %
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)

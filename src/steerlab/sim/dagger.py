@@ -22,6 +22,7 @@ from pathlib import Path
 
 from steerlab.errors import SteerlabError
 from steerlab.sim.bench import run_parallel, run_suite
+from steerlab.sim.replay import SplitReplay
 from steerlab.sim.world import road_types
 
 DEFAULTS = {
@@ -62,53 +63,6 @@ def _rollout_job(checkpoint: str, out: str, seed: int, minutes: float, road: str
     return rollout(Pilot(checkpoint), out, seed, minutes, road, beta, progress=False, on_tick=tick_reporter())
 
 
-def _replay_rollout_job(checkpoint: str, out: str, source: dict, beta: float, seed: int) -> dict:
-    from steerlab.data.readers import open_recording
-    from steerlab.pilot import Pilot
-    from steerlab.sim.bench import tick_reporter
-    from steerlab.sim.replay import rollout_recording
-
-    rec = open_recording(source["data"], source["range"], source["labels"], source["reader"])
-    return rollout_recording(Pilot(checkpoint), rec, source["cam"], source["car"], source["speed"], out, beta, seed,
-                             source["frames"], on_tick=tick_reporter())
-
-
-class ReplayRounds:
-    """`world: replay`: the config's recording, its split, camera, car and speed, for rollouts over the training
-    frames and replays of the validation frames."""
-
-    def __init__(self, cfg: dict, opts: dict):
-        from steerlab.data.geometry import CAMERAS, CARS
-        from steerlab.data.readers import open_recording
-        from steerlab.data.splits import make_split
-        from steerlab.sim.replay import replay_speed
-
-        rec = open_recording(cfg["data"], cfg.get("range"), cfg.get("labels"), cfg.get("reader"))
-        if rec.preset not in CAMERAS:
-            raise SteerlabError(f"{rec.source}: replay knows no camera geometry for {rec.preset!r} frames")
-        self.train_idx, self.val_idx = make_split(cfg["split"], len(rec), rec.extra.get("session"))
-        cam, car = CAMERAS[rec.preset], CARS[rec.preset]
-        speed, self.speed_source = replay_speed(rec, cam, opts["speed"])
-        self.fps = rec.frame_rate()
-        self.source = {"data": cfg["data"], "range": cfg.get("range"), "labels": cfg.get("labels"),
-                       "reader": cfg.get("reader"), "cam": cam, "car": car, "speed": speed}
-        self.workers = int(opts["workers"])
-
-    def rollouts(self, checkpoint: Path, folder: Path, beta: float, seed: int, progress: bool) -> list[dict]:
-        from steerlab.sim.bench import run_parallel
-
-        job = (str(checkpoint), str(folder), {**self.source, "frames": [int(i) for i in self.train_idx]}, beta, seed)
-        return run_parallel(_replay_rollout_job, [job], 1, len(self.train_idx) / self.fps / 60, progress, "replay rollouts")
-
-    def evaluate(self, checkpoint: Path, out: Path, progress: bool) -> dict:
-        from steerlab.sim.replay import run_replay
-
-        s = self.source
-        row = run_replay([checkpoint], s["data"], out, s["range"], s["labels"], s["reader"], s["speed"],
-                         workers=1, frames=self.val_idx, progress=progress)[0]
-        return {"replay_autonomy": row["autonomy"], "replay_interventions_per_km": row["interventions_per_km"]}
-
-
 def run_dagger(cfg: dict, progress: bool = True) -> Path:
     """Run DAgger as configured (a training config with a `dagger` section); returns the final checkpoint."""
     from steerlab.train.loop import train
@@ -117,7 +71,7 @@ def run_dagger(cfg: dict, progress: bool = True) -> Path:
     out = Path(cfg["out"])
     base = {k: v for k, v in copy.deepcopy(cfg).items() if k != "dagger"}
     types = road_types(opts["roads"])
-    replay = ReplayRounds(cfg, opts) if opts["world"] == "replay" else None
+    replay = SplitReplay(cfg, opts["speed"], int(opts["workers"])) if opts["world"] == "replay" else None
     rows, extra = _read_log(out), list(cfg.get("extra_data") or [])
     for r in range(int(opts["iterations"]) + 1):
         run = out / f"round{r}"

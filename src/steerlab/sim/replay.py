@@ -426,3 +426,49 @@ def plot_offsets(path: Path, trajs: dict[str, np.ndarray], limit_m: float, title
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
+
+
+def _replay_rollout_job(checkpoint: str, out: str, source: dict, beta: float, seed: int) -> dict:
+    from steerlab.data.readers import open_recording
+    from steerlab.pilot import Pilot
+    from steerlab.sim.bench import tick_reporter
+
+    rec = open_recording(source["data"], source["range"], source["labels"], source["reader"])
+    return rollout_recording(Pilot(checkpoint), rec, source["cam"], source["car"], source["speed"], out, beta, seed,
+                             source["frames"], on_tick=tick_reporter())
+
+
+class SplitReplay:
+    """A training config's recording, its split, camera, car and speed: rollouts over the training frames
+    (DAgger in replay) and replays of the validation frames (after every DAgger round, in experiments)."""
+
+    def __init__(self, cfg: dict, speed: float | None = None, workers: int = 1):
+        from steerlab.data.geometry import CAMERAS, CARS
+        from steerlab.data.readers import open_recording
+        from steerlab.data.splits import make_split
+
+        rec = open_recording(cfg["data"], cfg.get("range"), cfg.get("labels"), cfg.get("reader"))
+        if rec.preset not in CAMERAS:
+            raise SteerlabError(f"{rec.source}: replay knows no camera geometry for {rec.preset!r} frames")
+        self.train_idx, self.val_idx = make_split(cfg["split"], len(rec), rec.extra.get("session"))
+        cam, car = CAMERAS[rec.preset], CARS[rec.preset]
+        speed, self.speed_source = replay_speed(rec, cam, speed)
+        self.fps = rec.frame_rate()
+        self.source = {"data": cfg["data"], "range": cfg.get("range"), "labels": cfg.get("labels"),
+                       "reader": cfg.get("reader"), "cam": cam, "car": car, "speed": speed}
+        self.workers = workers
+
+    def rollouts(self, checkpoint: Path, folder: Path, beta: float, seed: int, progress: bool) -> list[dict]:
+        from steerlab.sim.bench import run_parallel
+
+        job = (str(checkpoint), str(folder), {**self.source, "frames": [int(i) for i in self.train_idx]}, beta, seed)
+        return run_parallel(_replay_rollout_job, [job], 1, len(self.train_idx) / self.fps / 60, progress, "replay rollouts")
+
+    def evaluate(self, checkpoint: Path, out: Path, progress: bool) -> dict:
+        from steerlab.sim.replay import run_replay
+
+        s = self.source
+        row = run_replay([checkpoint], s["data"], out, s["range"], s["labels"], s["reader"], s["speed"],
+                         workers=1, frames=self.val_idx, progress=progress)[0]
+        return {"replay_autonomy": row["autonomy"], "replay_interventions_per_km": row["interventions_per_km"],
+                "replay_mean_offset_m": row["mean_offset_m"]}
