@@ -124,7 +124,7 @@ def test_rollout_labels_are_the_experts(tmp_path):
 
 
 def test_dagger_aggregates_rollouts(tiny_recording, tmp_path):
-    from steerlab.sim.dagger import run_dagger
+    from steerlab.dagger import run_dagger
     from steerlab.train.config import load_config
     from steerlab.train.loop import Batches, training_sources, prepare_dataset
 
@@ -142,7 +142,8 @@ def test_dagger_aggregates_rollouts(tiny_recording, tmp_path):
     assert float(rows[1]["beta"]) == 0.5 and rows[1]["autonomy_twisty"] != ""
     assert (tmp_path / "dagger" / "dagger.png").exists()
     # an experiment's closed-loop column reuses the last round's drives of the same suite, and drives anew otherwise
-    from steerlab.experiment import closed_loop_metrics, suite_checkpoint
+    from steerlab.experiment import suite_checkpoint
+    from steerlab.sim.bench import closed_loop_metrics
 
     run = tmp_path / "dagger"
     drives = sorted((run / "round1" / "suite").rglob("drive.json"))

@@ -10,7 +10,7 @@ from steerlab.data.preprocess import PreprocessConfig
 from steerlab.experiment import run_config
 from steerlab.models import create_model
 from steerlab.sim.bench import suite_minutes
-from steerlab.sim.dagger import dagger_options
+from steerlab.dagger import dagger_options
 from steerlab.train.config import load_config
 from steerlab.train.loop import model_options, model_preprocess
 

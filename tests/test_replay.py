@@ -163,7 +163,7 @@ def test_replay_refuses_bad_input(tiny_checkpoint, twisty, ch2_folder, tmp_path,
 def test_dagger_in_replay(twisty, tmp_path):
     """world: replay rolls the model out over the training frames, labels every visited view with the way back
     to the human's path in the recording's own convention, and replays the validation frames every round."""
-    from steerlab.sim.dagger import run_dagger
+    from steerlab.dagger import run_dagger
     from steerlab.train.config import load_config
 
     cfg = load_config(None, base={
@@ -186,3 +186,22 @@ def test_dagger_in_replay(twisty, tmp_path):
     assert back.mean() > 0.9
     replayed = list(csv.DictReader(open(tmp_path / "dagger" / "round1" / "replay" / "replay.csv")))
     assert float(replayed[0]["km"]) == pytest.approx(np.sum(twisty.speed[200:299]) * 0.05 / 1000, rel=0.05)
+
+
+def test_record_suite_roads_only_when_asked(tmp_path):
+    """record refuses the suite's reserved seeds unless asked for an evaluation recording, which then shows
+    the suite's own road: as long as `drive` makes it, so the same frames."""
+    from steerlab.errors import SteerlabError
+    from steerlab.sim.world import World, record
+
+    with pytest.raises(SteerlabError, match="reserved"):
+        record(tmp_path / "refused", seed=9101, minutes=0.01, progress=False)
+    assert not (tmp_path / "refused").exists() or not any((tmp_path / "refused").iterdir())
+    out = record(tmp_path / "suite", seed=9101, minutes=0.1, road="country", drift=False, side_cameras=False,
+                 progress=False, suite_roads_ok=True)
+    rec = open_recording(out)
+    assert len(rec) == 120
+    first = World(9101, "country", "sim", 120 / 20).render()  # the suite's road for these minutes, as `drive` makes it
+    assert np.abs(rec.load_frame(0).astype(int) - first).mean() < 4  # JPEG only
+    longer = World(9101, "country", "sim", 240 / 20).render()  # a longer road from the same seed has other scenery
+    assert np.abs(rec.load_frame(0).astype(int) - longer).mean() > 4

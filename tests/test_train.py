@@ -48,7 +48,7 @@ def test_mae_loss_hand_computed_and_picks_best_epoch_by_mae(tiny_recording, tmp_
     rows = _log(tmp_path)
     assert float(rows[-1]["train_loss"]) < float(rows[0]["train_loss"])
     assert best["mae"] == pytest.approx(min(float(r["val_mae"]) for r in rows), rel=1e-6)
-    with pytest.raises(SteerlabError, match="train.loss 'l2' is not one of mse, mae"):
+    with pytest.raises(SteerlabError, match="train.loss must be mse or mae, got 'l2'"):
         loop.train(_cfg(tiny_recording, tmp_path, loss="l2"), progress=False)
     cfg = _cfg(tiny_recording, tmp_path / "b", loss="mae")
     cfg["model"] = {"name": "multitask-speed"}
@@ -162,8 +162,11 @@ def test_config_errors(tmp_path):
         load_config(None)
     with pytest.raises(SteerlabError, match="unknown train options"):
         load_config(None, ["data=x", "train.epoch=3"])
-    cfg = load_config(None, ["data=x", "train.epochs=3", "split.train=0:10"])
+    cfg = load_config(None, ["data=x", "train.epochs=3", "split.train=0:10", "train.lr=1e-4"])
     assert cfg["train"]["epochs"] == 3 and cfg["train"]["batch_size"] == 100
+    assert cfg["train"]["lr"] == "1e-4"  # YAML 1.1 reads it as text; the schema accepts text that is a number
+    with pytest.raises(SteerlabError, match=r"train.views must be a list of \[shift_m, yaw_deg\] pairs"):
+        load_config(None, ["data=x", "train.views=[[0.5]]"])
     assert cfg["split"]["train"] == "0:10"
     (tmp_path / "c.yaml").write_text("data: x\nsplit: {train: 10:20, val: 20:30}\n")
     from steerlab.data.splits import make_split

@@ -1,10 +1,20 @@
 """Checkpoints hold everything needed to run a model on raw frames: weights, model name and options,
-preprocessing config, normalisation statistics, the steering convention and the metrics it reached."""
+preprocessing config, normalisation statistics, the steering convention and the metrics it reached.
+
+A checkpoint holds tensors and plain values only (dicts, lists, text, numbers), so it is read with
+`torch.load(weights_only=True)`: reading a checkpoint never runs code from it. It carries the sha256 of its
+weights, checked when it is read, so a damaged file is refused instead of predicting nonsense. Every
+checkpoint is read through `load_checkpoint`."""
 
 from __future__ import annotations
 
+import hashlib
+import os
+import pickle
+import secrets
 from pathlib import Path
 
+import numpy as np
 import torch
 
 from steerlab.data.preprocess import PreprocessConfig
@@ -12,18 +22,48 @@ from steerlab.data.recording import SteeringConvention
 from steerlab.errors import SteerlabError
 from steerlab.models import create_model
 
+FORMAT = "steerlab-checkpoint-1"
+
+
+def weights_hash(state_dict: dict) -> str:
+    """sha256 of the weights: the name, dtype, shape and bytes of every tensor."""
+    h = hashlib.sha256()
+    for name, t in sorted(state_dict.items()):
+        if isinstance(t, torch.Tensor):
+            t = t.detach().cpu().contiguous()
+            h.update(f"{name}|{t.dtype}|{tuple(t.shape)}\n".encode())
+            h.update(t.reshape(-1).view(torch.uint8).numpy())
+        else:
+            h.update(f"{name}|{t!r}\n".encode())
+    return h.hexdigest()
+
+
+def _plain(value):
+    """numpy values as plain Python ones, which `weights_only` loading accepts (tensors stay tensors)."""
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return type(value)(_plain(v) for v in value)
+    if isinstance(value, (np.ndarray, np.generic)):
+        return value.tolist()
+    return value
+
 
 def save_checkpoint(path: str | Path, model, model_cfg: dict, pre: PreprocessConfig, stats: dict,
                     convention: SteeringConvention, metrics: dict, **extra) -> None:
-    payload = {
-        "format": "steerlab-checkpoint-1",
-        "model": model.registry_name, "model_cfg": model_cfg, "state_dict": model.state_dict(),
-        "preprocess": pre.as_dict(), "stats": stats, "convention": convention.as_dict(), "metrics": metrics,
-        **extra,
-    }
-    tmp = Path(str(path) + ".tmp")
-    torch.save(payload, tmp)
-    tmp.replace(path)  # never leave a half-written checkpoint
+    state = model.state_dict()
+    payload = _plain({
+        "format": FORMAT, "model": model.registry_name, "model_cfg": model_cfg, "state_dict": state,
+        "sha256": weights_hash(state), "preprocess": pre.as_dict(), "stats": stats,
+        "convention": convention.as_dict(), "metrics": metrics, **extra,
+    })
+    path = Path(path)
+    tmp = path.with_name(f"{path.name}.tmp-{os.getpid()}-{secrets.token_hex(4)}")  # unique: never shared
+    try:
+        torch.save(payload, tmp)
+        tmp.replace(path)  # never leave a half-written checkpoint
+    finally:
+        tmp.unlink(missing_ok=True)
 
 
 def load_checkpoint(path: str | Path) -> dict:
@@ -31,11 +71,23 @@ def load_checkpoint(path: str | Path) -> dict:
     if not path.is_file():
         raise SteerlabError(f"{path}: checkpoint not found")
     try:
-        ckpt = torch.load(path, map_location="cpu", weights_only=False)
-    except Exception as e:  # noqa: BLE001 - any unpickling failure means the same thing to the user
+        ckpt = torch.load(path, map_location="cpu", weights_only=True)
+    except pickle.UnpicklingError as e:
+        if "weights only" not in str(e).lower():
+            raise SteerlabError(f"{path}: not a readable checkpoint (UnpicklingError)") from None
+        try:
+            names = ", ".join(torch.serialization.get_unsafe_globals_in_checkpoint(path)) or "unknown objects"
+        except Exception:  # noqa: BLE001 - only used to name them
+            names = "unknown objects"
+        raise SteerlabError(f"{path}: the checkpoint holds objects other than tensors and plain values ({names}); "
+                            "steerlab does not load them, as loading could run code from the file") from None
+    except Exception as e:  # noqa: BLE001 - any reading failure means the same thing to the user
         raise SteerlabError(f"{path}: not a readable checkpoint ({e.__class__.__name__})") from None
-    if not isinstance(ckpt, dict) or ckpt.get("format") != "steerlab-checkpoint-1":
+    if not isinstance(ckpt, dict) or ckpt.get("format") != FORMAT or not isinstance(ckpt.get("state_dict"), dict):
         raise SteerlabError(f"{path}: not a steerlab checkpoint")
+    # checkpoints written before the hash existed have none
+    if "sha256" in ckpt and weights_hash(ckpt["state_dict"]) != ckpt["sha256"]:
+        raise SteerlabError(f"{path}: the weights do not match the checkpoint's sha256: the file is damaged")
     return ckpt
 
 

@@ -167,7 +167,7 @@ def cmd_sim_bench(a) -> None:
 
 
 def cmd_sim_dagger(a) -> None:
-    from steerlab.sim.dagger import run_dagger
+    from steerlab.dagger import run_dagger
     from steerlab.train.config import load_config
 
     cfg = load_config(a.config, a.overrides)

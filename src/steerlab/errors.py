@@ -18,6 +18,7 @@ class DataError(SteerlabError):
         super().__init__(f"{where}: {message}")
         self.path = Path(path)
         self.row = row
+        self.message = message
 
 
 def warn(message: str) -> None:

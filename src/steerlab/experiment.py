@@ -29,9 +29,9 @@ from steerlab.evaluate.plots import plot_open_vs_closed, plot_recovery, plot_ste
 from steerlab.evaluate.scoring import read_steering_csv
 from steerlab.models import model_class
 from steerlab.pilot import Pilot
-from steerlab.sim.bench import run_suite, suite_minutes
+from steerlab.sim.bench import closed_loop_metrics, suite_minutes
+from steerlab.dagger import dagger_options, run_dagger
 from steerlab.sim.replay import SplitReplay
-from steerlab.sim.dagger import dagger_options, run_dagger
 from steerlab.train.config import load_config
 from steerlab.train.loop import model_preprocess, prepare_dataset, train
 
@@ -199,17 +199,6 @@ def suite_checkpoint(run: Path, cfg: dict, closed: dict) -> Path:
         return best
     last = max(run.glob("round*/best.pt"), key=lambda p: int(p.parent.name.removeprefix("round")))
     return last if filecmp.cmp(last, best, shallow=False) else best
-
-
-def closed_loop_metrics(checkpoint: Path, closed: dict, progress: bool) -> dict:
-    """A checkpoint on the closed-loop suite (drives kept in the `suite` folder beside it): autonomy over all
-    roads and per road type, interventions per km and command gamma."""
-    summary = run_suite([checkpoint], checkpoint.parent / "suite", closed.get("suite", "v1"), closed.get("minutes"),
-                        int(closed.get("workers", 2)), progress=progress)
-    out = {f"autonomy_{s['road_type']}": s["autonomy"] for s in summary}
-    overall = next(s for s in summary if s["road_type"] == "all")
-    return {**out, "autonomy": overall["autonomy"], "interventions_per_km": overall["interventions_per_km"],
-            "command_gamma_deg": overall["command_gamma_deg"]}
 
 
 def _latency_frames(cfg: dict) -> list[tuple]:

@@ -225,7 +225,7 @@ def run_tune(config: str | Path, overrides: list[str] = (), trials: int = 20, ob
             return best["rmse"]
         if objective == "rmse+gamma":
             return best["rmse"], best["gamma_deg"]
-        from steerlab.experiment import closed_loop_metrics
+        from steerlab.sim.bench import closed_loop_metrics
 
         return closed_loop_metrics(Path(run_cfg["out"]) / "best.pt", closed, False)["autonomy"]
 

@@ -5,7 +5,9 @@ memory-mapped .npy arrays under `<cache>/<key>/`, where the key hashes the sourc
 A second run with the same source and config reuses the arrays at once. Work is done in chunks on a pool of
 threads (OpenCV releases the GIL), written straight into the memory maps, so the decoded recording is never
 held in RAM. A cache entry is built in a temporary folder and renamed into place when complete, so an
-interrupted compile never leaves a half-written cache behind.
+interrupted compile never leaves a half-written cache behind; the temporary folders of killed compiles are
+removed by the next one. A lock file beside the entry (`.<key>.lock`) makes a second process that needs the
+same entry wait for the first one and reuse its result instead of compiling it again.
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ from steerlab.data.geometry import shift_view
 from steerlab.data.modalities import frame_difference, optical_flow
 from steerlab.data.preprocess import PreprocessConfig, preprocess
 from steerlab.data.recording import Recording
+from steerlab.locks import pid_alive, waiting_lock
 
 DEFAULT_CACHE = Path(os.environ.get("STEERLAB_CACHE", ".steerlab-cache"))
 CHUNK = 64
@@ -98,9 +101,27 @@ def compile_recording(rec: Recording, cfg: PreprocessConfig, cache_dir: str | Pa
     name = camera if view is None else f"{camera}@{view[0]:+g}m{view[1]:+g}deg"
     key = f"{rec.name}-{name}-{source_key(rec, camera)}-{cfg.key()}"
     final = Path(cache_dir) / key
-    if (final / "meta.json").exists():
-        return replace(CompiledDataset.load(final), config=user_cfg)
-    tmp = Path(cache_dir) / f".{key}.tmp-{os.getpid()}"
+    if not (final / "meta.json").exists():
+        final.parent.mkdir(parents=True, exist_ok=True)
+        remove_leftovers(final.parent)
+        with waiting_lock(final.parent / f".{key}.lock"):
+            if not (final / "meta.json").exists():  # else another process compiled it while this one waited
+                _build(rec, cfg, camera, view, final, workers, progress, name)
+    return replace(CompiledDataset.load(final), config=user_cfg)
+
+
+def remove_leftovers(cache: Path) -> None:
+    """Remove the temporary folders (`.<key>.tmp-<pid>`) of compiles whose process has ended."""
+    for tmp in cache.glob(".*.tmp-*"):
+        pid = tmp.name.rsplit("-", 1)[1]
+        if tmp.is_dir() and pid.isdigit() and not pid_alive(int(pid)):
+            shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _build(rec: Recording, cfg: PreprocessConfig, camera: str, view, final: Path, workers: int | None,
+           progress: bool, name: str) -> None:
+    """Compile the cache entry `final` in a temporary folder beside it, renamed into place when complete."""
+    tmp = final.parent / f".{final.name}.tmp-{os.getpid()}"
     shutil.rmtree(tmp, ignore_errors=True)
     tmp.mkdir(parents=True)
     n, h, w = len(rec), cfg.height, cfg.width
@@ -156,4 +177,3 @@ def compile_recording(rec: Recording, cfg: PreprocessConfig, cache_dir: str | Pa
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
-    return replace(CompiledDataset.load(final), config=user_cfg)

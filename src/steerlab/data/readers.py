@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from steerlab.data.recording import Recording, SteeringConvention
-from steerlab.errors import DataError
+from steerlab.errors import DataError, warn
 
 MPH_TO_MS = 0.44704
 SIM_FULL_LOCK_RAD = math.radians(25.0)  # the simulator's steering value +-1 is +-25 degrees
@@ -79,7 +79,7 @@ def _reader_of(path: Path):
     if path.is_file() and path.suffix == ".csv":
         if path.name == "log.csv" and (path.parent / "recording.json").exists():
             return _native_folder, ()
-        return read_sim_log, ()
+        return read_sim_log, SIM_OPTIONS
     if path.is_file() and path.suffix.lower() in VIDEO_SUFFIXES:
         return videolog.read_video, videolog.OPTIONS
     if bag.is_bag(path):
@@ -87,7 +87,7 @@ def _reader_of(path: Path):
     if path.is_dir() and (path / "recording.json").exists():
         return read_native, ()
     if path.is_dir() and (path / "driving_log.csv").exists():
-        return _sim_folder, ()
+        return _sim_folder, SIM_OPTIONS
     if path.is_dir() and tub.is_tub(path):
         return tub.read_tub, tub.OPTIONS
     if path.is_dir() and (path / "center").is_dir():
@@ -101,8 +101,8 @@ def _native_folder(log: Path, rng) -> Recording:
     return read_native(log.parent, rng)
 
 
-def _sim_folder(folder: Path, rng) -> Recording:
-    return read_sim_log(folder / "driving_log.csv", rng)
+def _sim_folder(folder: Path, rng, strict: bool = False) -> Recording:
+    return read_sim_log(folder / "driving_log.csv", rng, strict)
 
 
 def apply_range(n: int, rng, source: Path) -> slice:
@@ -251,6 +251,10 @@ def _ch2_interpolated_rows(path: Path, header: list[str], body: list[list[str]])
 # ---------------------------------------------------------------- Udacity simulator
 
 SIM_COLUMNS = ["center", "left", "right", "steering", "throttle", "brake", "speed"]
+SIM_OPTIONS = ("strict",)
+# the physical range of each recorded value: steering +-1 = full lock, pedals 0..1, speed in mph
+SIM_RANGES = {"steering": (-1.0, 1.0, "in [-1, 1]"), "throttle": (0.0, 1.0, "in [0, 1]"),
+              "brake": (0.0, 1.0, "in [0, 1]"), "speed": (0.0, math.inf, "of at least 0 (mph)")}
 
 
 def _sim_timestamp(name: str) -> int | None:
@@ -278,7 +282,35 @@ def _resolve(log: Path, text: str, row: int, column: str) -> Path:
     return log.parent / p
 
 
-def read_sim_log(log: str | Path, frame_range=None) -> Recording:
+def _sim_row(log: Path, row: list[str], r: int, idx: list[int]) -> tuple[dict[str, Path], list[float], int]:
+    """One driving-log row: its image paths, values (SIM_COLUMNS[3:]) and capture time."""
+    if len(row) < 7:
+        raise DataError(log, f"expected at least 7 columns ({','.join(SIM_COLUMNS)}), got {len(row)}", r)
+    paths = {cam: _resolve(log, row[i], r, cam) for cam, i in zip(("center", "left", "right"), idx[:3])
+             if cam == "center" or row[i].strip()}
+    values = []
+    for c, i in zip(SIM_COLUMNS[3:], idx[3:]):
+        v, (lo, hi, expected) = _number(log, r, c, row[i]), SIM_RANGES[c]
+        if not lo - 1e-6 <= v <= hi + 1e-6:
+            raise DataError(log, f"column {c!r} is {row[i].strip()}; a number {expected} is expected", r)
+        values.append(v)
+    ts = _sim_timestamp(paths["center"].name)
+    if ts is None:
+        raise DataError(log, f"cannot read the capture time from image name {paths['center'].name!r} "
+                             "(expected center_YYYY_MM_DD_HH_MM_SS_mmm.jpg)", r)
+    return paths, values, ts
+
+
+def _ends_torn(path: Path, row: list[str]) -> bool:
+    """Whether the last line of a file was cut off mid-write: NUL bytes in it, or no line end after it."""
+    with open(path, "rb") as f:
+        f.seek(-1, 2)
+        return any("\x00" in c for c in row) or f.read(1) not in (b"\n", b"\r")
+
+
+def read_sim_log(log: str | Path, frame_range=None, strict: bool = False) -> Recording:
+    """A simulator driving log. A torn last line (a recording cut off mid-write) is left out with a warning,
+    or refused with `strict`; a bad line anywhere else is an error."""
     log = Path(log)
     rows = _read_rows(log)
     if rows and rows[0][0].strip() == "center":
@@ -290,6 +322,14 @@ def read_sim_log(log: str | Path, frame_range=None) -> Recording:
         rows, first = rows[1:], 2
     else:
         idx, first = list(range(7)), 1
+    if rows and not strict and _ends_torn(log, rows[-1]):
+        last = first + len(rows) - 1
+        try:
+            _sim_row(log, rows[-1], last, idx)
+        except DataError as e:
+            warn(f"{log}: row {last} is torn (the recording was cut off mid-write?): left out, 1 record lost "
+                 f"({e.message}; reader option strict: true refuses such a log)")
+            rows = rows[:-1]
     if not rows:
         raise DataError(log, "the driving log has no rows")
     cut = apply_range(len(rows), frame_range, log)
@@ -298,17 +338,11 @@ def read_sim_log(log: str | Path, frame_range=None) -> Recording:
     vals = {c: [] for c in SIM_COLUMNS[3:]}
     stamps = []
     for r, row in enumerate(rows, start=first):
-        if len(row) < 7:
-            raise DataError(log, f"expected at least 7 columns ({','.join(SIM_COLUMNS)}), got {len(row)}", r)
-        for cam, i in zip(("center", "left", "right"), idx[:3]):
-            if cam == "center" or row[i].strip():
-                frames[cam].append(_resolve(log, row[i], r, cam))
-        for c, i in zip(SIM_COLUMNS[3:], idx[3:]):
-            vals[c].append(_number(log, r, c, row[i]))
-        ts = _sim_timestamp(frames["center"][-1].name)
-        if ts is None:
-            raise DataError(log, f"cannot read the capture time from image name {frames['center'][-1].name!r} "
-                                 "(expected center_YYYY_MM_DD_HH_MM_SS_mmm.jpg)", r)
+        paths, values, ts = _sim_row(log, row, r, idx)
+        for cam, p in paths.items():
+            frames[cam].append(p)
+        for c, v in zip(SIM_COLUMNS[3:], values):
+            vals[c].append(v)
         stamps.append(ts)
     frames = {c: p for c, p in frames.items() if len(p) == len(rows)}
     stamps_a = np.array(stamps, dtype=np.int64)

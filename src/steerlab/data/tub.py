@@ -9,6 +9,10 @@ Each record holds `_index`, `_session_id`, `_timestamp_ms`, `cam/image_array` (a
 full-lock angle when the user gives it (reader option `full_lock_deg`); only then do degree metrics, viewpoint
 shifts and closed-loop conversions have a meaning. Sessions become segments (`extra["session"]`) and can
 be used for splits.
+
+A car that loses power mid-write leaves torn catalog lines (a run of NUL bytes, half a JSON record). As
+donkeycar's own reader does, they are read past, with one warning that names them and counts the records lost
+(from the gaps in `_index`); reader option `strict: true` refuses such a tub instead.
 """
 
 from __future__ import annotations
@@ -23,7 +27,7 @@ from steerlab.data.readers import apply_range
 from steerlab.data.recording import Recording, SteeringConvention
 from steerlab.errors import DataError, SteerlabError, warn
 
-OPTIONS = ("full_lock_deg", "skip_missing")
+OPTIONS = ("full_lock_deg", "skip_missing", "strict")
 MANIFEST_LINES = ("record keys", "record types", "metadata", "sessions", "catalog list")
 REQUIRED = ("_index", "_timestamp_ms", "cam/image_array", "user/angle")
 
@@ -32,19 +36,52 @@ def is_tub(folder: Path) -> bool:
     return (folder / "manifest.json").is_file() and any(folder.glob("catalog_*.catalog"))
 
 
-def _json_lines(path: Path) -> list[tuple[int, object]]:
-    """(line number, parsed value) for every non-empty line; a broken line is an error naming it."""
+def _json_lines(path: Path, torn: list[int] | None = None) -> list[tuple[int, object]]:
+    """(line number, parsed value) for every non-empty line. A broken line is an error naming it, or, given a
+    list `torn`, its number is added there; a line with NUL bytes in it counts as torn (its record is kept
+    when the rest of the line holds one)."""
     if not path.is_file():
         raise DataError(path, "file not found")
     out = []
     with open(path, encoding="utf-8", errors="replace") as f:
         for n, line in enumerate(f, start=1):
-            if line.strip():
-                try:
-                    out.append((n, json.loads(line)))
-                except json.JSONDecodeError as e:
+            text = line.strip().strip("\x00").strip()
+            if "\x00" in line and torn is not None:
+                torn.append(n)
+            if not text:
+                continue
+            try:
+                out.append((n, json.loads(text)))
+            except json.JSONDecodeError as e:
+                if torn is None:
                     raise DataError(path, f"broken JSON line ({e.msg} at column {e.colno})", n) from None
+                if n not in torn:
+                    torn.append(n)
     return out
+
+
+def _records_lost(lines: list[tuple[int, object]], torn: list[int]) -> int:
+    """The records lost at the torn lines of a catalog: each run of them between two records loses the gap in
+    `_index` between those records, and at least one record per line it could not read."""
+    good = [(n, rec["_index"]) for n, rec in lines if isinstance(rec, dict) and isinstance(rec.get("_index"), int)]
+    runs: dict[tuple, int] = {}  # (record before, record after) -> lines not read
+    for t in torn:
+        before = next((g for g in reversed(good) if g[0] < t), None)
+        after = next((g for g in good if g[0] >= t), None)  # a line with NUL bytes may hold a record after them
+        runs[before, after] = runs.get((before, after), 0) + int(after is None or after[0] != t)
+    return sum(max(unread, after[1] - before[1] - 1 if before and after else 0)
+               for (before, after), unread in runs.items())
+
+
+def _ranges(numbers: list[int]) -> str:
+    """[3, 4, 5, 9] -> "3-5, 9"."""
+    parts, start = [], None
+    for i, n in enumerate(numbers):
+        start = n if start is None else start
+        if i + 1 == len(numbers) or numbers[i + 1] != n + 1:
+            parts.append(str(n) if n == start else f"{start}-{n}")
+            start = None
+    return ", ".join(parts)
 
 
 def _manifest(folder: Path) -> tuple[list[str], list[str], set[int]]:
@@ -62,18 +99,36 @@ def _manifest(folder: Path) -> tuple[list[str], list[str], set[int]]:
     return keys, catalogs["paths"], {int(i) for i in deleted}
 
 
+def _in_range(value) -> bool:
+    return (isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+            and abs(value) <= 1.0 + 1e-6)
+
+
 def read_tub(folder: str | Path, frame_range=None, full_lock_deg: float | None = None,
-             skip_missing: bool = False) -> Recording:
+             skip_missing: bool = False, strict: bool = False) -> Recording:
     """Read a tub. `frame_range` ("a:b" as a tuple) counts the records that remain after deletion."""
     folder = Path(folder)
     _, catalogs, deleted = _manifest(folder)
     records = []  # (catalog, line, record)
+    torn_at, lost = {}, 0  # torn lines by catalog, records lost
     for name in catalogs:
-        for line, rec in _json_lines(folder / name):
+        torn: list[int] = []
+        lines = _json_lines(folder / name, torn)
+        if torn and strict:
+            raise DataError(folder / name, "a torn line (NUL bytes or half a JSON record: the car lost power "
+                                           "mid-write?), refused as reader option strict is true (without it, torn "
+                                           "lines are read past with a warning)", torn[0])
+        if torn:
+            torn_at[name], lost = torn, lost + _records_lost(lines, torn)
+        for line, rec in lines:
             if not isinstance(rec, dict) or any(k not in rec for k in REQUIRED):
                 raise DataError(folder / name, f"a record needs the keys {', '.join(REQUIRED)}", line)
             if int(rec["_index"]) not in deleted:
                 records.append((folder / name, line, rec))
+    if torn_at:
+        where = "; ".join(f"{name} row(s) {_ranges(rows)}" for name, rows in torn_at.items())
+        warn(f"{folder}: read past torn catalog lines (a car that lost power mid-write?): {where}; {lost} "
+             "record(s) lost (reader option strict: true refuses such a tub)")
     if not records:
         raise DataError(folder, "the tub has no records (all deleted or empty catalogs)")
     records = records[apply_range(len(records), frame_range, folder)]
@@ -81,9 +136,10 @@ def read_tub(folder: str | Path, frame_range=None, full_lock_deg: float | None =
     for path, line, rec in records:
         image = folder / "images" / str(rec["cam/image_array"])
         angle = rec["user/angle"]
-        if not isinstance(angle, (int, float)) or not math.isfinite(angle) or abs(angle) > 1.0 + 1e-6:
-            raise DataError(path, f"record {rec['_index']}: user/angle is {angle!r}; a number in [-1, 1] is "
-                                  "expected", line)
+        for key, value in (("user/angle", angle), ("user/throttle", rec.get("user/throttle"))):
+            if not _in_range(value) and (key == "user/angle" or value is not None):
+                raise DataError(path, f"record {rec['_index']}: {key} is {value!r}; a number in [-1, 1] is "
+                                      "expected", line)
         if not image.is_file():
             if not skip_missing:
                 raise DataError(path, f"record {rec['_index']}: image {image} is missing (reader option "
@@ -102,7 +158,7 @@ def read_tub(folder: str | Path, frame_range=None, full_lock_deg: float | None =
     except ValueError as e:
         raise SteerlabError(f"{folder}: reader option full_lock_deg: {e}") from None
     recs = [r for _, r in kept]
-    throttle = np.array([float(r.get("user/throttle", math.nan)) for r in recs])
+    throttle = np.array([math.nan if r.get("user/throttle") is None else float(r["user/throttle"]) for r in recs])
     return Recording(
         name=folder.name, source=folder, frames={"center": [p for p, _ in kept]},
         timestamps_ns=np.array([int(r["_timestamp_ms"]) * 1_000_000 for r in recs], dtype=np.int64),

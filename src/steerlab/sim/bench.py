@@ -151,6 +151,17 @@ def run_suite(checkpoints, out: str | Path, suite: str = "v1", minutes: float | 
     return summary
 
 
+def closed_loop_metrics(checkpoint: Path, closed: dict, progress: bool) -> dict:
+    """A checkpoint on the closed-loop suite (drives kept in the `suite` folder beside it): autonomy over all
+    roads and per road type, interventions per km and command gamma."""
+    summary = run_suite([checkpoint], checkpoint.parent / "suite", closed.get("suite", "v1"), closed.get("minutes"),
+                        int(closed.get("workers", 2)), progress=progress)
+    out = {f"autonomy_{s['road_type']}": s["autonomy"] for s in summary}
+    overall = next(s for s in summary if s["road_type"] == "all")
+    return {**out, "autonomy": overall["autonomy"], "interventions_per_km": overall["interventions_per_km"],
+            "command_gamma_deg": overall["command_gamma_deg"]}
+
+
 def summarize(drives: list[dict]) -> list[dict]:
     """Per label and road type (and "all"): autonomy over the summed time and interventions, interventions
     per km over the summed distance, the mean of the drives' mean |offset|, the largest |offset|, the mean

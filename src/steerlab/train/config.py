@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import math
 import re
 from pathlib import Path
 
@@ -42,10 +43,79 @@ DEFAULTS = {
         "device": "auto",       # auto (CUDA when present, else the CPU), cpu or cuda
     },
     "out": "runs/train",
-    "dagger": None,          # DAgger rounds (steerlab sim dagger; options in sim/dagger.py)
+    "dagger": None,          # DAgger rounds (steerlab sim dagger; options in dagger.py)
     "tune": None,            # search space of steerlab tune: config key -> range (tune.py)
     "closed_loop": None,     # suite for steerlab tune --objective autonomy: {suite: v1, minutes, workers}
 }
+
+
+LOSSES = {"mse": "rmse", "mae": "mae"}  # train.loss -> the validation metric that picks the best epoch
+
+
+def _finite(lo: float = -math.inf, hi: float = math.inf, lo_open: bool = False, hi_open: bool = False):
+    return lambda v: (math.isfinite(v) and (lo < v if lo_open else lo <= v) and (v < hi if hi_open else v <= hi))
+
+
+def _views(v: list) -> bool:
+    return all(isinstance(p, (list, tuple)) and len(p) == 2 and all(_is(x, float) and math.isfinite(float(x))
+                                                                    for x in p) for p in v)
+
+
+# The typed schema of the options: config key -> (type, check of the value, what is expected). Every config is
+# checked against it when it is read, before any work; None is allowed where the default is None. Numbers may
+# be written as text such as 1e-4 (YAML 1.1 reads a number without a dot as text).
+SCHEMA = {
+    "train.epochs": (int, lambda v: v >= 1, "an integer of at least 1"),
+    "train.batch_size": (int, lambda v: v >= 1, "an integer of at least 1"),
+    "train.lr": (float, _finite(0, lo_open=True), "a positive finite number"),
+    "train.patience": (int, lambda v: v >= 1, "an integer of at least 1"),
+    "train.seed": (int, None, "an integer"),
+    "train.flip": (bool, None, "true or false"),
+    "train.loss": (str, lambda v: v in LOSSES, " or ".join(LOSSES)),
+    "train.exclude_episodes": (list, lambda v: all(isinstance(e, str) for e in v), "a list of episode names"),
+    "train.side_cameras": (bool, None, "true or false"),
+    "train.side_offset_m": (float, _finite(), "a finite number"),
+    "train.recovery_s": (float, _finite(0, lo_open=True), "a positive finite number"),
+    "train.steering_ratio": (float, _finite(0, lo_open=True), "a positive finite number"),
+    "train.views": (list, _views, "a list of [shift_m, yaw_deg] pairs of numbers"),
+    "train.recovery_distance_m": (float, _finite(0, lo_open=True), "a positive finite number"),
+    "train.min_speed": (float, _finite(0), "a finite number of at least 0"),
+    "train.balance": (bool, None, "true or false"),
+    "train.rotation_deg": (float, _finite(0, 180), "a number of degrees in [0, 180]"),
+    "train.brightness": (float, _finite(0, 1, hi_open=True), "a number in [0, 1)"),
+    "train.motion_dropout": (float, _finite(0, 1), "a number in [0, 1]"),
+    "train.target_shift_s": (float, _finite(0), "a finite number of at least 0"),
+    "train.recovery_weight": (int, lambda v: v >= 1, "an integer of at least 1"),
+    "train.init": (str, None, "a checkpoint path"),
+    "train.device": (str, lambda v: v in ("auto", "cpu", "cuda"), "auto, cpu or cuda"),
+    "model.dropout": (float, _finite(0, 1, hi_open=True), "a number in [0, 1)"),
+}
+
+
+def _is(value, kind) -> bool:
+    if isinstance(value, bool):
+        return kind is bool
+    if kind is float and isinstance(value, str):
+        try:
+            float(value)
+        except ValueError:
+            return False
+        return True
+    return isinstance(value, (int, float) if kind is float else kind)
+
+
+def check_config(cfg: dict) -> None:
+    """Check every option of the schema for type and range: a one-line error naming the first bad one."""
+    for key, (kind, check, expected) in SCHEMA.items():
+        section, name = key.split(".")
+        node = cfg.get(section)
+        if not isinstance(node, dict) or name not in node:
+            continue
+        value = node[name]
+        if value is None and DEFAULTS.get(section, {}).get(name, 0) is None:
+            continue
+        if not _is(value, kind) or (check is not None and not check(float(value) if kind is float else value)):
+            raise SteerlabError(f"{key} must be {expected}, got {value!r}")
 
 
 def _merge(base: dict, new: dict) -> dict:
@@ -96,4 +166,5 @@ def load_config(path: str | Path | None = None, overrides: list[str] = (), base:
         raise SteerlabError(f"unknown train options {sorted(unknown)}; known: {sorted(DEFAULTS['train'])}")
     if not cfg["data"]:
         raise SteerlabError("the config names no data (set data: PATH or pass data=PATH)")
+    check_config(cfg)
     return cfg

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 import time
 from functools import partial
 from pathlib import Path
@@ -28,7 +29,9 @@ from steerlab.data.splits import make_split
 from steerlab.errors import SteerlabError
 from steerlab.evaluate.metrics import all_metrics
 from steerlab.evaluate.scoring import write_predictions
+from steerlab.locks import folder_lock
 from steerlab.models import create_model, model_class
+from steerlab.train.config import LOSSES, check_config
 from steerlab.train.distributed import Ranks, setup, wrap
 from steerlab.data.inputs import (Standardizer, augment, channel_stats, flip_horizontal, gather, history, no_motion,
                                    segment_starts, stack_modalities)
@@ -234,9 +237,6 @@ def recovery_weighted(samples: np.ndarray, episodes: np.ndarray, weight: int) ->
     return np.concatenate([samples] + [samples[touch]] * (weight - 1))
 
 
-LOSSES = {"mse": "rmse", "mae": "mae"}  # train.loss -> the validation metric that picks the best epoch
-
-
 def objective(model, out: dict, targets: dict, loss: str = "mse") -> torch.Tensor:
     """The model's own loss when it has one, otherwise the MSE or the MAE of its steering."""
     if hasattr(model, "loss"):
@@ -332,15 +332,26 @@ def _write_predictions(path: Path, ds: CompiledDataset, idx: np.ndarray, pred: d
 def train(cfg: dict, progress: bool = True, on_epoch=None) -> dict:
     """Train one model as configured; returns the best validation metrics. Resumes from `out/last.pt`.
     `on_epoch(epoch, metrics)` is called after every epoch's checkpoint (steerlab tune reports and prunes
-    there: an exception it raises ends the run, which stays resumable)."""
+    there: an exception it raises ends the run, which stays resumable). The run holds a lock on `out`: a
+    second run into the same folder is refused while the first one runs."""
+    check_config(cfg)
+    out = Path(cfg["out"])
+    ranks = setup(str(cfg["train"]["device"]))
+    if int(cfg["train"]["batch_size"]) % ranks.world:
+        raise SteerlabError(f"train.batch_size {cfg['train']['batch_size']} is the global batch; it must divide "
+                            f"evenly over {ranks.world} ranks")
+    if not ranks.main:  # rank 0 holds the lock for all ranks
+        return _train(cfg, ranks, progress, on_epoch)
+    out.mkdir(parents=True, exist_ok=True)
+    with folder_lock(out, "steerlab train run"):
+        for tmp in out.glob("*.tmp-*"):  # left by a killed run: only the holder of the lock writes here
+            tmp.unlink(missing_ok=True)
+        return _train(cfg, ranks, progress, on_epoch)
+
+
+def _train(cfg: dict, ranks: Ranks, progress: bool, on_epoch) -> dict:
     out = Path(cfg["out"])
     tc = cfg["train"]
-    ranks = setup(str(tc["device"]))
-    if int(tc["batch_size"]) % ranks.world:
-        raise SteerlabError(f"train.batch_size {tc['batch_size']} is the global batch; it must divide evenly over "
-                            f"{ranks.world} ranks")
-    if tc["loss"] not in LOSSES:
-        raise SteerlabError(f"train.loss {tc['loss']!r} is not one of {', '.join(LOSSES)}")
     score = LOSSES[tc["loss"]]
     progress = progress and ranks.main
     cfg_file = out / "config.json"
@@ -414,7 +425,7 @@ def train(cfg: dict, progress: bool = True, on_epoch=None) -> dict:
     opt = torch.optim.Adam(model.parameters(), lr=float(tc["lr"]))
     start, best, since_best, history = 1, None, 0, []
     if (out / "last.pt").exists():
-        state = torch.load(out / "last.pt", map_location="cpu", weights_only=False)
+        state = load_checkpoint(out / "last.pt")
         model.load_state_dict(state["state_dict"])
         opt.load_state_dict(state["optimizer"])
         start, best, since_best, history = state["epoch"] + 1, state["best"], state["since_best"], state["history"]
@@ -445,6 +456,11 @@ def train(cfg: dict, progress: bool = True, on_epoch=None) -> dict:
                                ranks=ranks, loss_name=tc["loss"])
         pred = predict(model, batches, val_idx)
         m = all_metrics(pred, truth, convention.degrees_per_unit)
+        for what, value in (("training loss", loss), (f"validation {score}", m[score])):
+            if not math.isfinite(value):  # stop before a diverged model can become the best one
+                kept = "no checkpoint was saved" if best is None else f"best.pt keeps epoch {best['epoch']}"
+                raise SteerlabError(f"training diverged in epoch {epoch}: the {what} is {value} (train.lr "
+                                    f"{tc['lr']} may be too high); {kept}")
         row = _log_row(epoch, loss, m, time.time() - t0)
         history.append(row)
         if ranks.main:

@@ -1,0 +1,292 @@
+"""Every bad input a user can give is refused by the real command with exit code 2 and a one-line message that
+names the file, row or option and what was expected; no traceback, nothing written, nothing lost. Each case
+is one entry of BAD_INPUTS, so that the list only ever grows."""
+
+import contextlib
+import json
+import os
+import subprocess
+import sys
+import threading
+import time
+
+import pytest
+
+from conftest import write_jpeg
+from steerlab.cli import main
+
+ROWS = 8  # frames of the tiny driving log and tub
+
+
+def sim_log(folder, rows=None, tail="\n"):
+    """A driving_log.csv (no header) with ROWS frames; `rows` replaces the values of some rows by index."""
+    (folder / "IMG").mkdir(parents=True, exist_ok=True)
+    lines = []
+    for i in range(ROWS):
+        name = f"center_2020_01_01_00_00_00_{100 * i:03d}.jpg"
+        write_jpeg(folder / "IMG" / name, 20 * i)
+        values = (rows or {}).get(i, f"{0.1 * (i % 3):.1f},0.5,0,10")
+        lines.append(f"/elsewhere/IMG/{name},,,{values}")
+    (folder / "driving_log.csv").write_text("\n".join(lines) + tail)
+    return folder / "driving_log.csv"
+
+
+def tub(folder, records=None):
+    """A donkeycar tub v2 with ROWS records; `records` changes fields of some records by index."""
+    (folder / "images").mkdir(parents=True)
+    lines = []
+    for i in range(ROWS):
+        name = f"{i}_cam_image_array_.jpg"
+        write_jpeg(folder / "images" / name, 20 * i, (120, 160))
+        rec = {"_index": i, "_session_id": "s", "_timestamp_ms": 1000 + 50 * i, "cam/image_array": name,
+               "user/angle": 0.1 * (i % 3), "user/throttle": 0.3, "user/mode": "user", **(records or {}).get(i, {})}
+        lines.append(json.dumps(rec))
+    (folder / "catalog_0.catalog").write_text("\n".join(lines) + "\n")
+    manifest = [["cam/image_array", "user/angle", "user/throttle", "user/mode"], ["image_array", "float", "float",
+                "str"], {}, {"created_at": 0.0, "sessions": {"all_full_ids": ["s"]}},
+                {"paths": ["catalog_0.catalog"], "current_index": ROWS, "max_len": 1000, "deleted_indexes": []}]
+    (folder / "manifest.json").write_text("\n".join(json.dumps(m) for m in manifest) + "\n")
+    return folder
+
+
+def tear(path, line, text):
+    """Replace line `line` (1-based) of a text file by `text` (no line end added when it is the last line)."""
+    lines = path.read_text().splitlines(keepends=True)
+    lines[line - 1] = text
+    path.write_text("".join(lines))
+
+
+def config(tmp_path, data, **train):
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(f"data: {data}\ncache: {tmp_path / 'cache'}\nout: {tmp_path / 'run'}\n"
+                   f"split: {{train: '0:6', val: '6:8'}}\n"
+                   f"train: {json.dumps({'epochs': 1, 'batch_size': 2, **train})}\n")
+    return cfg
+
+
+def trained(tmp_path):
+    """A real checkpoint, trained for an epoch on the tiny driving log."""
+    log = sim_log(tmp_path / "sim")
+    assert main(["train", str(config(tmp_path, log))]) == 0
+    return tmp_path / "run" / "best.pt"
+
+
+# ---------------------------------------------------------------- the cases
+# each case: a function (tmp_path, stack) -> the command's arguments, after it wrote the inputs (`stack`, a
+# contextlib.ExitStack, holds what must last while the command runs), and the message's substring
+
+def _compile(data, *reader):
+    return lambda tmp_path, stack: ["compile", "--data", str(data(tmp_path)), "--cache", str(tmp_path / "cache"),
+                             *[a for r in reader for a in ("--reader", r)]]
+
+
+def _train(*overrides):
+    return lambda tmp_path, stack: ["train", str(config(tmp_path, sim_log(tmp_path / "sim"))), *overrides]
+
+
+def _flipped(tmp_path, stack):
+    best = trained(tmp_path)
+    data = bytearray(best.read_bytes())
+    for i in range(len(data) // 2, len(data) // 2 + 16):
+        data[i] ^= 0xFF
+    best.write_bytes(bytes(data))
+    return ["evaluate", str(best), "--data", str(tmp_path / "sim"), "--out", str(tmp_path / "eval")]
+
+
+class _Code:
+    """A pickled object that runs a command when unpickled without weights_only."""
+
+    def __init__(self, marker):
+        self.marker = marker
+
+    def __reduce__(self):
+        return os.system, (f"touch {self.marker}",)
+
+
+def _code_in_checkpoint(tmp_path, stack):
+    import torch
+
+    path = tmp_path / "evil.pt"
+    torch.save({"format": "steerlab-checkpoint-1", "state_dict": {}, "hook": _Code(tmp_path / "ran")}, path)
+    sim_log(tmp_path / "sim")
+    return ["evaluate", str(path), "--data", str(tmp_path / "sim"), "--out", str(tmp_path / "eval")]
+
+
+def _locked(tmp_path, stack):
+    """`out` is held by another run (here: the lock taken by this process, on another open file)."""
+    from steerlab.locks import folder_lock
+
+    (tmp_path / "run").mkdir()
+    stack.enter_context(folder_lock(tmp_path / "run", "steerlab train run"))
+    return _train()(tmp_path, stack)
+
+
+BAD_INPUTS = {
+    # a) recorded values outside their physical range, with file and row
+    "sim steering 3.5": (_compile(lambda t: sim_log(t / "sim", {2: "3.5,0.5,0,10"})),
+                         "driving_log.csv, row 3: column 'steering' is 3.5; a number in [-1, 1] is expected"),
+    "sim steering -7": (_compile(lambda t: sim_log(t / "sim", {0: "-7,0.5,0,10"})),
+                        "driving_log.csv, row 1: column 'steering' is -7; a number in [-1, 1]"),
+    "sim speed -40": (_compile(lambda t: sim_log(t / "sim", {4: "0,0.5,0,-40"})),
+                      "row 5: column 'speed' is -40; a number of at least 0 (mph) is expected"),
+    "sim throttle 7": (_compile(lambda t: sim_log(t / "sim", {1: "0,7,0,10"})),
+                       "row 2: column 'throttle' is 7; a number in [0, 1] is expected"),
+    "tub angle 1.5": (_compile(lambda t: tub(t / "tub", {3: {"user/angle": 1.5}})),
+                      "catalog_0.catalog, row 4: record 3: user/angle is 1.5; a number in [-1, 1] is expected"),
+    "tub throttle 7": (_compile(lambda t: tub(t / "tub", {5: {"user/throttle": 7}})),
+                       "catalog_0.catalog, row 6: record 5: user/throttle is 7; a number in [-1, 1]"),
+    # b) torn lines: read past with a warning, unless the reader is strict; a bad middle line stays an error
+    "tub torn line, strict": (_compile(lambda t: (tear(tub(t / "tub") / "catalog_0.catalog", 4, "\0" * 60 + "\n"),
+                                                  t / "tub")[1], "strict=true"),
+                              "catalog_0.catalog, row 4: a torn line"),
+    "sim torn last line, strict": (_compile(lambda t: (tear(sim_log(t / "sim"), ROWS, "/elsewhere/IMG/cen"),
+                                                       t / "sim")[1], "strict=true"),
+                                   f"driving_log.csv, row {ROWS}: expected at least 7 columns"),
+    "sim torn middle line": (_compile(lambda t: (tear(sim_log(t / "sim"), 3, "/elsewhere/IMG/cen\n"),
+                                                 t / "sim")[1]),
+                             "driving_log.csv, row 3: expected at least 7 columns"),
+    # d) options checked for type and range when the config is read, before the dataset compiles
+    **{f"train {o}": (_train(o), f"{o.split('=')[0]} must be {expected}, got {got}") for o, expected, got in [
+        ("train.lr=nan", "a positive finite number", "'nan'"),
+        ("train.lr=-1", "a positive finite number", "-1"),
+        ("train.lr=fast", "a positive finite number", "'fast'"),
+        ("train.lr=inf", "a positive finite number", "'inf'"),
+        ("train.epochs=-1", "an integer of at least 1", "-1"),
+        ("train.epochs=0", "an integer of at least 1", "0"),
+        ("train.epochs=abc", "an integer of at least 1", "'abc'"),
+        ("train.epochs=1.5", "an integer of at least 1", "1.5"),
+        ("train.batch_size=0", "an integer of at least 1", "0"),
+        ("train.batch_size=ten", "an integer of at least 1", "'ten'"),
+        ("model.dropout=2", "a number in [0, 1)", "2"),
+        ("train.loss=l2", "mse or mae", "'l2'"),
+    ]},
+    # d) a loss that is not finite stops training and never becomes the best checkpoint
+    "train diverges": (_train("train.lr=1e30", "train.epochs=2"), "training diverged in epoch 1: the training loss is",
+                       ("run/", "cache/")),
+    # e) a second run into the same out folder
+    "train out in use": (_locked, f"run is in use by another steerlab train run (pid {os.getpid()})"),
+    # f) checkpoints: damaged, or holding code
+    "checkpoint flipped bytes": (_flipped, "best.pt: the weights do not match the checkpoint's sha256"),
+    "checkpoint with code": (_code_in_checkpoint, "evil.pt: the checkpoint holds objects other than tensors and "
+                                                  "plain values (posix.system)"),
+}
+
+
+def _files(folder):
+    return {p: p.stat().st_mtime_ns for p in folder.rglob("*") if p.is_file()}
+
+
+@pytest.mark.parametrize("case", BAD_INPUTS)
+def test_bad_input_is_refused_in_one_line(case, tmp_path, capsys):
+    command, message, *written = BAD_INPUTS[case]
+    with contextlib.ExitStack() as stack:
+        argv = command(tmp_path, stack)
+        capsys.readouterr()
+        before = _files(tmp_path)
+        code = main(argv)
+        after = _files(tmp_path)
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert err.startswith("error: ") and err.count("\n") == 1 and "Traceback" not in err, err
+    assert message in err, err
+    # nothing lost: every file is there, unchanged; nothing written (a diverged run: its log, no checkpoint)
+    assert {p: t for p, t in after.items() if p in before} == before
+    new = {p.relative_to(tmp_path).as_posix() for p in set(after) - set(before)}
+    assert not {p for p in new if not p.startswith(tuple(written[0] if written else ()))}, new
+    assert not {p for p in new if p.endswith(".pt") or ".tmp-" in p}, new
+    assert not (tmp_path / "ran").exists()  # no code ran from a checkpoint
+
+
+# ---------------------------------------------------------------- what is read past, with a warning
+
+def test_torn_tub_lines_are_read_past_with_one_warning(tmp_path, capsys):
+    folder = tub(tmp_path / "tub")
+    catalog = folder / "catalog_0.catalog"
+    lines = catalog.read_text().splitlines(keepends=True)
+    # power lost after record 2: NULs where records 3 and 4 were, then record 5 after them on the same line;
+    # record 6 written half; 7 intact
+    lines[3:7] = ["\0" * 300 + lines[5], lines[6][:50] + "\n"]
+    catalog.write_text("".join(lines))
+    assert main(["compile", "--data", str(folder), "--cache", str(tmp_path / "cache")]) == 0
+    captured = capsys.readouterr()
+    assert captured.out.startswith(f"{ROWS - 3} frames")
+    warning = [line for line in captured.err.splitlines() if line.startswith("warning:")]
+    assert len(warning) == 1, captured.err
+    assert "read past torn catalog lines" in warning[0] and "catalog_0.catalog row(s) 4-5" in warning[0]
+    assert "3 record(s) lost" in warning[0] and "strict: true" in warning[0]
+
+
+def test_torn_last_line_of_a_driving_log_is_read_past(tmp_path, capsys):
+    from steerlab.data.readers import open_recording
+
+    log = sim_log(tmp_path / "sim")
+    tear(log, ROWS, f"/elsewhere/IMG/center_2020_01_01_00_00_00_{100 * (ROWS - 1):03d}.jpg,,,0.1,0.")  # no line end
+    rec = open_recording(log)
+    assert len(rec) == ROWS - 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"driving_log.csv: row {ROWS} is torn" in err and "1 record lost" in err
+    tear(log, ROWS, "\0" * 40 + "\n")  # NUL bytes, even with a line end
+    assert len(open_recording(log)) == ROWS - 1
+    tear(log, ROWS, f"/elsewhere/IMG/center_2020_01_01_00_00_00_{100 * (ROWS - 1):03d}.jpg,,,0.1,0.5,0,10")
+    assert len(open_recording(log)) == ROWS  # a whole last line without a line end is a line
+
+
+# ---------------------------------------------------------------- runs, caches and checkpoints
+
+def test_stale_lock_and_leftovers_of_a_killed_run_are_taken_over(tmp_path, capsys):
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / ".lock").write_text(f"{dead.pid}\n")
+    (run / f"best.pt.tmp-{dead.pid}-0123abcd").write_bytes(b"half a checkpoint")
+    best = trained(tmp_path)
+    assert best.exists() and not list(run.glob("*.tmp-*"))
+    assert (run / ".lock").read_text() == ""  # released
+
+
+def test_compile_removes_leftovers_of_killed_compiles_and_compiles_an_entry_once(tmp_path, monkeypatch):
+    from steerlab.data import dataset
+    from steerlab.data.preprocess import PreprocessConfig
+    from steerlab.data.readers import open_recording
+
+    cache = tmp_path / "cache"
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    left = cache / f".rec-center-0123-abcd.tmp-{dead.pid}"
+    alive = cache / f".other-center-0123-abcd.tmp-{os.getpid()}"  # a compile that still runs
+    for folder in (left, alive):
+        folder.mkdir(parents=True)
+        (folder / "image.npy").write_bytes(b"\0" * 1000)
+    rec = open_recording(sim_log(tmp_path / "sim"))
+    builds, real = [], dataset._build
+
+    def slow_build(*a, **k):
+        builds.append(1)
+        time.sleep(0.5)  # the other thread arrives while this one compiles
+        real(*a, **k)
+
+    monkeypatch.setattr(dataset, "_build", slow_build)
+    results = []
+    threads = [threading.Thread(target=lambda: results.append(dataset.compile_recording(
+        rec, PreprocessConfig.from_dict({"preset": "sim"}), cache, progress=False))) for _ in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert len(builds) == 1 and len(results) == 2 and results[0].path == results[1].path
+    assert not left.exists() and alive.exists()
+
+
+def test_checkpoints_load_without_pickled_code_and_carry_a_hash(tmp_path):
+    import torch
+
+    from steerlab.checkpoint import load_checkpoint, weights_hash
+
+    best = trained(tmp_path)
+    raw = torch.load(best, weights_only=True)  # tensors and plain values only
+    assert raw["sha256"] == weights_hash(raw["state_dict"])
+    assert torch.load(tmp_path / "run" / "last.pt", weights_only=True)["epoch"] == 1
+    del raw["sha256"]  # a checkpoint written before the hash existed still loads
+    torch.save(raw, tmp_path / "old.pt")
+    assert load_checkpoint(tmp_path / "old.pt")["model"] == "pilotnet"
