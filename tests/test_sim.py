@@ -126,6 +126,7 @@ def test_tiny_demo_end_to_end(tmp_path, capsys):
     assert "| pilotnet | twisty | 3 |" in printed and "report:" in printed  # the suite's table, at the end
     text = (out / "report.md").read_text()
     assert "Open loop" in text and "| pilotnet | all | 11 |" in text
+    assert "## Closed-loop replay (the held-out frames)" in text and "| pilotnet | recording |" in text
     assert len(list((out / "closed-loop" / "roads").glob("*.png"))) == 11
 
 

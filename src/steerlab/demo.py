@@ -1,5 +1,5 @@
-"""The main job: synthetic recording on mixed roads -> compile -> train PilotNet -> open-loop evaluation and
-the closed-loop suite -> a Markdown report with plots. Every step reuses what an interrupted earlier run
+"""The main job: synthetic recording on mixed roads -> compile -> train PilotNet -> open-loop evaluation,
+closed-loop replay of the held-out frames and the closed-loop suite -> a Markdown report with plots. Every step reuses what an interrupted earlier run
 already finished."""
 
 from __future__ import annotations
@@ -9,6 +9,7 @@ from pathlib import Path
 
 from steerlab.evaluate.offline import evaluate
 from steerlab.sim.bench import run_suite
+from steerlab.sim.replay import run_replay
 from steerlab.sim.world import record
 from steerlab.train.config import load_config
 from steerlab.train.loop import train
@@ -25,7 +26,7 @@ def run_demo(out: str | Path, minutes: float, epochs: int, suite_minutes: float,
     out.mkdir(parents=True, exist_ok=True)
     rec_dir = out / "recording"
     if not (rec_dir / "recording.json").exists():
-        print(f"[1/4] recording {minutes} min of expert driving on mixed roads (road seed {TRAIN_SEED})")
+        print(f"[1/5] recording {minutes} min of expert driving on mixed roads (road seed {TRAIN_SEED})")
         record(rec_dir, seed=TRAIN_SEED, minutes=minutes, road=ROADS, progress=progress)
     n = int(round(minutes * 60 * 20))
     split = int(n * 0.8)
@@ -39,20 +40,24 @@ def run_demo(out: str | Path, minutes: float, epochs: int, suite_minutes: float,
     })
     ckpt = Path(cfg["out"]) / "best.pt"
     if not (Path(cfg["out"]) / "done").exists():
-        print(f"[2/4] training PilotNet on frames 0:{split} (drift-out frames excluded)")
+        print(f"[2/5] training PilotNet on frames 0:{split} (drift-out frames excluded)")
         train(cfg, progress=progress)
         (Path(cfg["out"]) / "done").touch()
-    print(f"[3/4] open-loop evaluation on the held-out frames {split}:{n}")
+    print(f"[3/5] open-loop evaluation on the held-out frames {split}:{n}")
     offline = evaluate(ckpt, rec_dir, f"{split}:{n}", out / "open-loop", progress=progress)
-    print(f"[4/4] closed-loop suite: {suite_minutes} min on each of its unseen roads")
+    print(f"[4/5] closed-loop replay of the held-out frames (the recording's frames warped to the car's view)")
+    replay = run_replay([ckpt], rec_dir, out / "replay", f"{split}:{n}", workers=1, progress=progress)
+    print(f"[5/5] closed-loop suite: {suite_minutes} min on each of its unseen roads")
     summary = run_suite([ckpt], out / "closed-loop", minutes=suite_minutes, workers=workers, progress=progress)
     report = out / "report.md"
-    report.write_text(_report(offline, (out / "closed-loop" / "suite.md").read_text(), split, n))
-    (out / "summary.json").write_text(json.dumps({"open_loop": offline, "closed_loop": summary}, indent=1))
+    report.write_text(_report(offline, (out / "replay" / "replay.md").read_text(),
+                              (out / "closed-loop" / "suite.md").read_text(), split, n))
+    (out / "summary.json").write_text(json.dumps({"open_loop": offline, "replay": replay, "closed_loop": summary},
+                                                 indent=1))
     return report
 
 
-def _report(m: dict, suite_table: str, split: int, n: int) -> str:
+def _report(m: dict, replay_table: str, suite_table: str, split: int, n: int) -> str:
     sm = m["smoothed_a0.2"]
     lines = [
         "# steerlab demo report", "",
@@ -65,6 +70,7 @@ def _report(m: dict, suite_table: str, split: int, n: int) -> str:
         f"{sm['target_gamma_deg']:.3f} |", "",
         "Steering is the steering-wheel angle (positive left).", "",
         "![steering](open-loop/steering.png)", "",
+        "## Closed-loop replay (the held-out frames)", "", replay_table, "", "![replay](replay/replay.png)", "",
         "## Closed loop (the suite's unseen roads)", "", suite_table,
         "Trajectories: closed-loop/roads/*.png", "",
     ]
