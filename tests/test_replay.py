@@ -6,14 +6,19 @@ import math
 import cv2
 import numpy as np
 import pytest
+from conftest import SHARED
 
 from steerlab.cli import main
 from steerlab.data.geometry import CAMERAS, CARS
 from steerlab.data.readers import open_recording
+from steerlab.data.recording import SteeringConvention
 from steerlab.pilot import Controls, Pilot
 from steerlab.sim.driving import drive_loop
 from steerlab.sim.replay import RESULT_FIELDS, ReplayWorld, estimate_speed, human_path, replay_recording
 from steerlab.sim.vehicle import VehicleParams
+
+HALL = SHARED / "donkeycar" / "hall"
+needs_donkey = pytest.mark.skipif(not (HALL / "manifest.json").exists(), reason="../shared/data absent")
 
 
 @pytest.fixture(scope="module")
@@ -153,11 +158,42 @@ def test_replay_refuses_bad_input(tiny_checkpoint, twisty, ch2_folder, tmp_path,
     for fid in ids:
         cv2.imwrite(str(flat / "center" / f"{fid}.jpg"), np.full((480, 640, 3), 90, np.uint8))
     (flat / "labels.csv").write_text("frame_id,steering_angle,public\n" + "".join(f"{f},0.0,1\n" for f in ids))
-    from steerlab.sim.replay import estimate_speed as estimate
-
-    with pytest.raises(Exception, match="cannot estimate the speed"):
-        estimate(open_recording(flat, labels=flat / "labels.csv"), CAMERAS["ch2"])
+    ch2 = untrained(tmp_path / "ch2.pt", "ch2", SteeringConvention())
+    assert "cannot estimate the speed" in error(ch2, "--data", flat, "--labels", flat / "labels.csv")
+    assert main(["replay", str(ch2), "--data", str(flat), "--labels", str(flat / "labels.csv"), "--speed", "10",
+                 "--out", str(tmp_path / "given"), "--workers", "1"]) == 0  # with --speed it replays
+    capsys.readouterr()
     assert not (tmp_path / "x").exists()
+
+
+def untrained(path, preset: str, convention):
+    """A PilotNet checkpoint with untrained weights for `preset` frames: enough to drive a replay."""
+    from steerlab.checkpoint import save_checkpoint
+    from steerlab.data.preprocess import PreprocessConfig
+    from steerlab.models import create_model
+
+    cfg = PreprocessConfig.from_dict({"preset": preset})
+    model_cfg = {"in_channels": 1, "height": cfg.height, "width": cfg.width}
+    save_checkpoint(path, create_model("pilotnet", **model_cfg), model_cfg, cfg, {"mean": [0.0], "std": [1.0]},
+                    convention, {}, preset=preset)
+    return path
+
+
+@needs_donkey
+def test_replay_a_donkeycar_tub(tmp_path, capsys):
+    """A tub replays with the donkeycar geometry and its full-lock angle; the speed estimated from the hall's
+    plain floor is no speed a donkeycar drives at, so it asks for --speed."""
+    ckpt = untrained(tmp_path / "donkey.pt", "donkey", SteeringConvention("normalized", "right", math.radians(25)))
+    argv = ["replay", str(ckpt), "--data", str(HALL), "--reader", "full_lock_deg=25", "--range", "0:400",
+            "--workers", "1", "--out", str(tmp_path / "r")]
+    assert main(argv) == 2
+    assert "is not one this car drives at (0.3-8 m/s)" in capsys.readouterr().err
+    assert main([*argv, "--speed", "2"]) == 0
+    row = next(csv.DictReader(open(tmp_path / "r" / "replay.csv")))
+    assert float(row["speed_mps"]) == 2.0 and row["recording"] == "hall"
+    assert main(["replay", str(ckpt), "--data", str(HALL), "--range", "0:400", "--speed", "2", "--workers", "1",
+                 "--out", str(tmp_path / "y")]) == 2
+    assert "full-lock angle" in capsys.readouterr().err  # a tub without full_lock_deg has no angles
 
 
 def test_dagger_in_replay(twisty, tmp_path):

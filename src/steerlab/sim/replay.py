@@ -180,9 +180,9 @@ def estimate_speed(rec: Recording, cam: Camera, count: int = 100) -> float:
     return float(np.median(estimates))
 
 
-def replay_speed(rec: Recording, cam: Camera, speed: float | None) -> tuple[float | None, str]:
+def replay_speed(rec: Recording, cam: Camera, car: Car, speed: float | None) -> tuple[float | None, str]:
     """The speed to replay `rec` at (None: the recorded one) and where it comes from: given, recorded, or
-    estimated from the frames (printed)."""
+    estimated from the frames (printed; refused when it is not a speed the car drives at)."""
     if speed is not None:
         if not 0 < speed < 100:
             raise SteerlabError(f"--speed must lie in (0, 100) m/s, got {speed}")
@@ -190,11 +190,13 @@ def replay_speed(rec: Recording, cam: Camera, speed: float | None) -> tuple[floa
     if rec.speed is not None:
         return None, "recorded"
     speed = estimate_speed(rec, cam)
+    low, high = car.speeds
+    if not low <= speed <= high:
+        raise DataError(rec.source, f"no speed recorded, and the one estimated from the frames, {speed:.2f} m/s, is "
+                                    f"not one this car drives at ({low:g}-{high:g} m/s): the camera geometry may not "
+                                    "fit (--mount-height, --pitch, --fov); give the speed with --speed M/S")
     print(f"{rec.source} has no speed signal; estimated from the frames: {speed:.2f} m/s ({speed * 3.6:.0f} km/h); "
           "override with --speed")
-    if not 0.1 < speed < 100:
-        raise DataError(rec.source, f"the speed estimated from the frames, {speed:.2f} m/s, is not a speed a car "
-                                    "drives at; give it with --speed M/S")
     return speed, "estimated from the frames"
 
 
@@ -357,7 +359,7 @@ def run_replay(checkpoints, data: str | Path, out: str | Path, frame_range: str 
             warn(f"{c} reads the speed; {rec.source} records none, so it gets the estimated constant speed")
     _road_wheel(rec, car.steering_ratio)  # the path can be rebuilt
     segments = replay_segments(rec, frames)
-    speed, source = replay_speed(rec, cam, speed)
+    speed, source = replay_speed(rec, cam, car, speed)
     out = Path(out)
     names = labels_for(checkpoints)
     videos = [None] * len(names) if video is None else (
@@ -452,7 +454,7 @@ class SplitReplay:
             raise SteerlabError(f"{rec.source}: replay knows no camera geometry for {rec.preset!r} frames")
         self.train_idx, self.val_idx = make_split(cfg["split"], len(rec), rec.extra.get("session"))
         cam, car = CAMERAS[rec.preset], CARS[rec.preset]
-        speed, self.speed_source = replay_speed(rec, cam, speed)
+        speed, self.speed_source = replay_speed(rec, cam, car, speed)
         self.fps = rec.frame_rate()
         self.source = {"data": cfg["data"], "range": cfg.get("range"), "labels": cfg.get("labels"),
                        "reader": cfg.get("reader"), "cam": cam, "car": car, "speed": speed}
