@@ -19,7 +19,7 @@ demo: $(STAMP)
 	$(BIN)/steerlab demo --out runs/demo
 
 test: $(STAMP)
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n 2
 
 bench: $(STAMP)  # bench_donkeycar.py is left out: it installs donkeycar and trains for about an hour
 	for b in benchmarks/bench_*.py; do case $$b in *donkeycar*) continue;; esac; $(BIN)/python $$b || exit 1; done

@@ -1,8 +1,14 @@
+import os
 from pathlib import Path
 
 import cv2
 import numpy as np
 import pytest
+
+if os.environ.get("PYTEST_XDIST_WORKER"):  # two test processes on two cores: one torch thread each
+    import torch
+
+    torch.set_num_threads(1)
 
 SHARED = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 CH2 = SHARED / "udacity-ch2"

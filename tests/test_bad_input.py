@@ -10,6 +10,7 @@ import sys
 import threading
 import time
 
+import cv2
 import pytest
 
 from conftest import write_jpeg
@@ -121,6 +122,82 @@ def _locked(tmp_path, stack):
     return _train()(tmp_path, stack)
 
 
+def made(tmp_path, kind="road_wheel", positive="right", preset="sim", name="model.pt"):
+    """An untrained PilotNet checkpoint with the steering convention and camera preset of a kind of recording:
+    road_wheel/right + sim (the simulator), normalized/right (donkeycar), steering_wheel/left + ch2 (CH2)."""
+    import torch
+
+    from steerlab.checkpoint import save_checkpoint
+    from steerlab.data.preprocess import PreprocessConfig
+    from steerlab.data.recording import SteeringConvention
+    from steerlab.models import create_model
+
+    pre = PreprocessConfig.from_dict({"preset": preset})
+    model_cfg = {"in_channels": 1, "height": pre.height, "width": pre.width}
+    torch.manual_seed(0)
+    path = tmp_path / name
+    save_checkpoint(path, create_model("pilotnet", **model_cfg), model_cfg, pre, {"mean": [100.0], "std": [50.0]},
+                    SteeringConvention(kind, positive), {"rmse": 0.1}, preset=preset, frame_rate=20.0)
+    return path
+
+
+def ch2(folder):
+    """A CH2-layout folder: 6 frames of 640x480 (steering-wheel angle, positive left) and its label CSV."""
+    (folder / "center").mkdir(parents=True)
+    ids = [1_000_000_000 + i * 50_000_000 for i in range(6)]
+    for i, fid in enumerate(ids):
+        write_jpeg(folder / "center" / f"{fid}.jpg", 40 * i, (480, 640))
+    (folder / "labels.csv").write_text("frame_id,steering_angle,public\n"
+                                       + "".join(f"{fid},{0.01 * i},{i % 2}\n" for i, fid in enumerate(ids)))
+    return folder
+
+
+def _evaluate_on_ch2(**convention):
+    def command(tmp_path, stack):
+        data = ch2(tmp_path / "ch2")
+        return ["evaluate", str(made(tmp_path, **convention)), "--data", str(data), "--labels",
+                str(data / "labels.csv"), "--out", str(tmp_path / "eval")]
+    return command
+
+
+def _serve(**convention):
+    return lambda tmp_path, stack: ["serve", str(made(tmp_path, **convention)), "--port", "4599"]
+
+
+def _with(*argv, command="sim bench"):
+    """`command` with a checkpoint (driving_log data for replay) and the options `argv`."""
+    def build(tmp_path, stack):
+        ckpt = str(made(tmp_path))
+        data = ["--data", str(sim_log(tmp_path / "sim"))] if command == "replay" else []
+        return [*command.split(), ckpt, *data, "--out", str(tmp_path / "out"), *argv]
+    return build
+
+
+def _flipped_onnx(tmp_path, stack):
+    from steerlab.export import export_onnx
+
+    onnx = export_onnx(made(tmp_path), tmp_path / "m.onnx")
+    data = bytearray(onnx.read_bytes())
+    for i in range(len(data) // 2, len(data) // 2 + 16):
+        data[i] ^= 0xFF
+    onnx.write_bytes(bytes(data))
+    return ["evaluate", str(onnx), "--data", str(sim_log(tmp_path / "sim")), "--out", str(tmp_path / "eval")]
+
+
+def _read_only_journal(tmp_path, stack):
+    cfg = config(tmp_path, sim_log(tmp_path / "sim"))
+    cfg.write_text(cfg.read_text() + "tune: {train.lr: {low: 1.0e-5, high: 0.1, log: true}}\n")
+    journal = tmp_path / "s.journal"
+    journal.write_text("")
+    journal.chmod(0o444)
+    stack.callback(journal.chmod, 0o644)
+    if os.geteuid() == 0:  # root writes read-only files: make it immutable instead
+        if subprocess.run(["chattr", "+i", str(journal)], capture_output=True).returncode:
+            pytest.skip("running as root without chattr: a file root cannot write cannot be made")
+        stack.callback(subprocess.run, ["chattr", "-i", str(journal)])
+    return ["tune", str(cfg), "--trials", "1", "--storage", str(journal)]
+
+
 BAD_INPUTS = {
     # a) recorded values outside their physical range, with file and row
     "sim steering 3.5": (_compile(lambda t: sim_log(t / "sim", {2: "3.5,0.5,0,10"})),
@@ -169,6 +246,37 @@ BAD_INPUTS = {
     "checkpoint flipped bytes": (_flipped, "best.pt: the weights do not match the checkpoint's sha256"),
     "checkpoint with code": (_code_in_checkpoint, "evil.pt: the checkpoint holds objects other than tensors and "
                                                   "plain values (posix.system)"),
+    "onnx flipped bytes": (_flipped_onnx, "m.onnx: the model does not match the sha256 in m.json: the file is "
+                                          "damaged"),
+    # g) steering conventions where a checkpoint meets data or the simulator
+    "evaluate simulator checkpoint on CH2": (_evaluate_on_ch2(), "model.pt predicts road_wheel/right steering and "),
+    "evaluate donkeycar checkpoint on CH2": (_evaluate_on_ch2(kind="normalized", preset="donkey"),
+                                             "records steering_wheel/left steering: the metrics would mix units; "),
+    "serve donkeycar checkpoint": (_serve(kind="normalized", preset="donkey"),
+                                   "model.pt cannot drive the simulator: it predicts normalized steering without "
+                                   "a full-lock angle"),
+    "serve CH2-cropped checkpoint": (_serve(kind="steering_wheel", positive="left", preset="ch2"),
+                                     "model.pt cannot drive the simulator: crop (268, 0, 0, 0) removes the whole "
+                                     "320x160 frame"),
+    # h) options of the closed-loop commands, checked before anything drives
+    "bench smoothing 5": (_with("--smoothing", "5"), "--smoothing must be a number in (0, 1], got 5"),
+    "bench smoothing 0": (_with("--smoothing", "0"), "--smoothing must be a number in (0, 1], got 0"),
+    "bench workers 0": (_with("--workers", "0"), "--workers must be an integer of at least 1, got 0"),
+    "bench workers -3": (_with("--workers", "-3"), "--workers must be an integer of at least 1, got -3"),
+    "bench minutes inf": (_with("--minutes", "inf"), "--minutes must be positive and finite, got inf"),
+    "bench minutes nan": (_with("--minutes", "nan"), "--minutes must be positive and finite, got nan"),
+    "drive smoothing 1.5": (_with("--smoothing", "1.5", command="sim drive"),
+                            "--smoothing must be a number in (0, 1], got 1.5"),
+    "drive minutes -inf": (_with("--minutes=-inf", command="sim drive"),
+                           "--minutes must be positive and finite, got -inf"),
+    "serve smoothing -1": (lambda t, s: ["serve", str(made(t)), "--smoothing", "-1"],
+                           "--smoothing must be a number in (0, 1], got -1"),
+    "replay workers 0": (_with("--workers", "0", command="replay"), "--workers must be an integer of at least 1"),
+    "replay limit -1": (_with("--limit", "-1", command="replay"), "--limit must be positive and finite, got -1"),
+    "replay max heading inf": (_with("--max-heading", "inf", command="replay"),
+                               "--max-heading must be positive and finite, got inf"),
+    # i) a study's journal this worker cannot write
+    "tune read-only journal": (_read_only_journal, "s.journal: the journal file is not writable (permission denied)"),
 }
 
 
@@ -229,6 +337,23 @@ def test_torn_last_line_of_a_driving_log_is_read_past(tmp_path, capsys):
     assert len(open_recording(log)) == ROWS - 1
     tear(log, ROWS, f"/elsewhere/IMG/center_2020_01_01_00_00_00_{100 * (ROWS - 1):03d}.jpg,,,0.1,0.5,0,10")
     assert len(open_recording(log)) == ROWS  # a whole last line without a line end is a line
+
+
+def test_convention_mismatch_allowed_converts_with_a_warning(tmp_path, capsys):
+    import numpy as np
+
+    from steerlab.pilot import Pilot
+
+    data, ckpt = ch2(tmp_path / "ch2"), made(tmp_path)  # a simulator checkpoint (road wheel, positive right)
+    assert main(["evaluate", str(ckpt), "--data", str(data), "--labels", str(data / "labels.csv"), "--out",
+                 str(tmp_path / "eval"), "--allow-convention-mismatch"]) == 0
+    err = capsys.readouterr().err
+    assert "predicts road_wheel/right steering" in err and "converted to the recording's convention" in err
+    predicted = np.loadtxt(tmp_path / "eval" / "predictions.csv", delimiter=",", skiprows=1, ndmin=2)[:, 1]
+    pilot = Pilot(ckpt)
+    raw = [pilot.step(cv2.imread(str(p))).steering for p in sorted((data / "center").glob("*.jpg"))]
+    # the simulator's road-wheel angle, positive right, as CH2's steering-wheel angle, positive left
+    np.testing.assert_allclose(predicted, -14.8 * np.array(raw), rtol=1e-4, atol=1e-6)
 
 
 # ---------------------------------------------------------------- runs, caches and checkpoints

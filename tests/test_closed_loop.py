@@ -91,6 +91,38 @@ def test_suite_on_the_command_line(tiny_checkpoint, tmp_path, capsys):
     assert "| run | highway |" not in capsys.readouterr().out
 
 
+def test_suite_cache_key_covers_checkpoint_smoothing_and_minutes(tiny_checkpoint, tmp_path):
+    import shutil
+
+    import torch
+
+    ckpt = tmp_path / "run" / "best.pt"
+    ckpt.parent.mkdir()
+    shutil.copy(tiny_checkpoint, ckpt)
+    out, drive_json = tmp_path / "bench", tmp_path / "bench" / "run" / "highway-9201" / "drive.json"
+
+    def bench(*options):
+        before = drive_json.stat().st_mtime_ns if drive_json.exists() else None
+        assert main(["sim", "bench", str(ckpt), "--minutes", "0.02", "--roads", "highway", "--workers", "1",
+                     "--out", str(out), *options]) == 0
+        return drive_json.stat().st_mtime_ns != before  # driven anew
+
+    assert bench()
+    key = json.loads(drive_json.read_text())["cache_key"]
+    assert key == {"checkpoint_sha256": key["checkpoint_sha256"], "suite": "v1", "minutes": 0.02, "smoothing": None}
+    assert not bench()  # the same inputs: reused
+    assert bench("--smoothing", "0.5") and json.loads(drive_json.read_text())["cache_key"]["smoothing"] == 0.5
+    assert not bench("--smoothing", "0.5")
+    retrained = torch.load(ckpt, weights_only=True)  # another checkpoint at the same path
+    retrained["metrics"]["rmse"] = 0.123
+    torch.save(retrained, ckpt)
+    assert bench("--smoothing", "0.5")
+    assert json.loads(drive_json.read_text())["cache_key"]["checkpoint_sha256"] != key["checkpoint_sha256"]
+    assert bench("--smoothing", "0.5", "--minutes", "0.03")  # the last --minutes counts
+    drive_json.write_text(drive_json.read_text()[:40])  # a torn drive.json is driven anew, not a traceback
+    assert bench("--smoothing", "0.5", "--minutes", "0.03")
+
+
 def test_suite_bad_input(tiny_checkpoint, tmp_path, capsys):
     assert main(["sim", "bench", str(tmp_path / "missing.pt")]) == 2
     err = capsys.readouterr().err

@@ -21,7 +21,7 @@ from steerlab.errors import SteerlabError
 from steerlab.export import export_onnx, sidecar_path
 from steerlab.models import create_model, list_models
 from steerlab.pilot import Pilot
-from steerlab.serve import SpeedController, to_simulator
+from steerlab.serve import DriveSession, SpeedController, to_simulator
 from steerlab.train.loop import model_preprocess
 
 
@@ -75,6 +75,27 @@ def test_onnx_bad_files(tmp_path):
         export_onnx(untrained(tmp_path, "pilotnet"), tmp_path / "m.bin")
 
 
+def test_onnx_carries_a_hash_checked_on_load(tmp_path):
+    import json
+
+    from steerlab.export import file_sha256
+
+    onnx = export_onnx(untrained(tmp_path, "pilotnet"), tmp_path / "m.onnx")
+    meta = json.loads(sidecar_path(onnx).read_text())
+    assert meta["sha256"] == file_sha256(onnx)
+    good = onnx.read_bytes()
+    data = bytearray(good)
+    for i in range(len(data) // 2, len(data) // 2 + 16):  # flipped bytes in the middle: in the weights
+        data[i] ^= 0xFF
+    onnx.write_bytes(bytes(data))
+    with pytest.raises(SteerlabError, match=r"m.onnx: the model does not match the sha256 in m.json"):
+        Pilot(onnx)
+    onnx.write_bytes(good)
+    del meta["sha256"]  # an export written before the hash existed still loads
+    sidecar_path(onnx).write_text(json.dumps(meta))
+    Pilot(onnx).step(frames(1)[0])
+
+
 def test_speed_controller_holds_the_set_speed():
     pi, v = SpeedController(5.0), 0.0
     for _ in range(400):  # a car whose acceleration follows the throttle, with drag
@@ -118,6 +139,8 @@ def test_serve_answers_every_frame_like_the_pilot(tiny_checkpoint, tiny_recordin
         messages = [{"steering_angle": "0", "throttle": "0", "speed": str(s), "image": base64.b64encode(j).decode()}
                     for s, j in zip(speeds, jpegs)]
         messages.insert(10, {"steering_angle": "0", "throttle": "0", "speed": "9.0", "image": "not base64 !"})
+        tiny = cv2.imencode(".jpg", np.zeros((1, 1, 3), np.uint8))[1].tobytes()
+        messages.insert(20, jpeg_message(tiny))  # a 1x1 frame: answered, and the server keeps serving
         for m in messages:
             got.clear()
             client.emit("telemetry", m)
@@ -131,7 +154,10 @@ def test_serve_answers_every_frame_like_the_pilot(tiny_checkpoint, tiny_recordin
         _, err = server.communicate(timeout=10)
     assert replies[10] == {"steering_angle": "0.0", "throttle": "-1.0"}  # safe stop, braking at 4 m/s
     assert "telemetry frame 11: missing or undecodable image; sent a safe stop" in err
-    del replies[10]
+    assert replies[20] == {"steering_angle": "0.0", "throttle": "-1.0"}
+    assert "telemetry frame 21: the image is 1x1, not the simulator's 320x160; sent a safe stop" in err
+    assert "Traceback" not in err, err
+    del replies[20], replies[10]
     pilot, pi = Pilot(tiny_checkpoint), SpeedController(4.0)
     for reply, jpeg, mph in zip(replies, jpegs, speeds):
         v = mph * 0.44704
@@ -142,6 +168,49 @@ def test_serve_answers_every_frame_like_the_pilot(tiny_checkpoint, tiny_recordin
     drive = open_recording(tmp_path / "drive")  # the recorded session reads as a simulator log
     assert len(drive) == len(jpegs)
     assert drive.steering / np.radians(25) == pytest.approx([float(r["steering_angle"]) for r in replies], abs=1e-5)
+
+
+def jpeg_message(jpeg: bytes, mph: float = 9.0) -> dict:
+    return {"steering_angle": "0", "throttle": "0", "speed": str(mph), "image": base64.b64encode(jpeg).decode()}
+
+
+def test_drive_session_answers_frames_of_another_size(tiny_checkpoint, tiny_recording, tmp_path, capsys):
+    session = DriveSession(Pilot(tiny_checkpoint), 4.0, tmp_path / "drive")
+    good = sim_jpegs(tiny_recording, 2)
+    odd = {size: cv2.imencode(".jpg", np.full((size[1], size[0], 3), 90, np.uint8))[1].tobytes()
+           for size in [(1, 1), (320, 50), (640, 480), (160, 320)]}
+    replies = [session.command(jpeg_message(good[0]))]
+    capsys.readouterr()
+    for n, ((w, h), jpeg) in enumerate(odd.items(), start=2):
+        assert session.command(jpeg_message(jpeg)) == {"steering_angle": "0.0", "throttle": "-1.0"}  # safe stop
+        err = capsys.readouterr().err
+        assert err == f"warning: telemetry frame {n}: the image is {w}x{h}, not the simulator's 320x160; sent a " \
+                      "safe stop\n"
+    replies.append(session.command(jpeg_message(good[1])))  # and it keeps driving
+    pilot = Pilot(tiny_checkpoint)
+    for reply, jpeg in zip(replies, good):
+        frame = cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)
+        assert float(reply["steering_angle"]) == pytest.approx(to_simulator(pilot, pilot.step(frame, 4.0).steering),
+                                                               abs=1e-5)
+    assert (session.frames, session.bad) == (2, 4)
+    assert len(open_recording(tmp_path / "drive")) == 2  # bad frames are not recorded
+
+
+def test_serve_refuses_at_start_what_it_can_never_drive(tmp_path):
+    donkey = tmp_path / "donkey.pt"
+    ckpt = torch.load(untrained(tmp_path, "pilotnet", "donkey"), weights_only=True)
+    ckpt["convention"] = SteeringConvention("normalized", "right").as_dict()  # no full-lock angle
+    torch.save(ckpt, donkey)
+    with pytest.raises(SteerlabError, match=r"donkey.pt cannot drive the simulator: it predicts normalized "
+                                            r"steering without a full-lock angle"):
+        DriveSession(Pilot(donkey), 4.0, tmp_path / "drive", donkey)
+    with pytest.raises(SteerlabError, match=r"model 'pilotnet' cannot drive the simulator: crop \(268, 0, 0, 0\) "
+                                            r"removes the whole 320x160 frame"):
+        DriveSession(Pilot(untrained(tmp_path, "pilotnet", "ch2")), 4.0, tmp_path / "drive")
+    assert not (tmp_path / "drive").exists()
+    ckpt["convention"]["full_lock"] = float(np.radians(25))  # a donkeycar whose full lock is known drives
+    torch.save(ckpt, donkey)
+    DriveSession(Pilot(donkey), 4.0)
 
 
 def test_export_command(tmp_path, capsys):

@@ -160,7 +160,7 @@ def test_autonomy_objective_drives_the_suite_of_the_config(tmp_path, tiny_record
     for bad in ({"suite": "v9"}, {"minutes": -1}, {"minutes": 0}):
         broken = tmp_path / "broken.yaml"
         broken.write_text(yaml.safe_dump({**text, "out": str(tmp_path / "broken"), "closed_loop": bad}))
-        with pytest.raises(SteerlabError, match=r"broken.yaml: closed_loop: (unknown suite 'v9'; known: v1|minutes must be positive, got (-1|0))"):
+        with pytest.raises(SteerlabError, match=r"broken.yaml: closed_loop: (unknown suite 'v9'; known: v1|minutes must be positive and finite, got (-1|0))"):
             run_tune(broken, trials=1, objective="autonomy", progress=False)
         assert not (tmp_path / "broken").exists()  # nothing trained, nothing written
     run_tune(cfg, trials=2, objective="autonomy", seed=0, progress=False)
@@ -174,3 +174,65 @@ def test_autonomy_objective_drives_the_suite_of_the_config(tmp_path, tiny_record
     best = max(trials, key=lambda t: float(t["value_0"]))  # autonomy is maximised
     assert yaml.safe_load((tmp_path / "drive" / "best.yaml").read_text().split("\n", 1)[1])["model"]["dropout"] \
         == pytest.approx(float(best["model.dropout"]))
+
+
+@pytest.mark.parametrize("command", ["tune", "train", "experiment", "sim dagger"])
+def test_options_and_overrides_in_any_order(command):
+    from steerlab.cli import parse
+
+    option = {"tune": ["--trials", "3"], "train": ["--nproc", "1"], "experiment": ["--seeds", "2"],
+              "sim dagger": []}[command]
+    for argv in (["c.yaml", *option, "train.epochs=2", "model.dropout=0"],
+                 ["c.yaml", "train.epochs=2", *option, "model.dropout=0"],
+                 ["c.yaml", "train.epochs=2", "model.dropout=0", *option]):
+        args = parse([*command.split(), *argv])
+        assert args.config == "c.yaml" and args.overrides == ["train.epochs=2", "model.dropout=0"], argv
+    with pytest.raises(SystemExit):  # what is neither an option nor an override stays an error
+        parse([*command.split(), "c.yaml", *option, "--bogus"])
+
+
+def test_tune_with_options_before_overrides(tmp_path, tiny_recording, capsys):
+    from steerlab.cli import main
+
+    cfg = tune_config(tmp_path, tiny_recording, tmp_path / "order", epochs=3)
+    assert main(["tune", str(cfg), "--trials", "2", "--no-pruning", "train.epochs=1"]) == 0
+    trials = rows(tmp_path / "order")
+    assert len(trials) == 2 and {t["epochs_run"] for t in trials} == {"1"}  # the override reached the trials
+
+
+def test_torn_last_journal_line_is_skipped_with_a_warning(tmp_path, tiny_recording, capsys):
+    cfg = tune_config(tmp_path, tiny_recording, tmp_path / "torn", epochs=1)
+    journal = tmp_path / "s.journal"
+    run_tune(cfg, trials=1, storage=str(journal), progress=False)
+    whole = journal.read_bytes()
+    torn = b'{"op_code":4,"worker_id":"dead-worker","trial_id":1,"param_na'  # the worker died mid-write
+    journal.write_bytes(whole + torn)
+    capsys.readouterr()
+    run_tune(cfg, trials=2, storage=str(journal), seed=1, progress=False)  # another seed: another sample
+    err = capsys.readouterr().err
+    assert f"{journal}: its last line is torn ({len(torn)} bytes" in err and "s.journal.torn" in err
+    assert (tmp_path / "s.journal.torn").read_bytes() == torn  # the removed bytes are kept
+    assert journal.read_bytes().startswith(whole)  # no whole line lost
+    assert [t["state"] for t in rows(tmp_path / "torn")] == ["complete", "complete"]
+    run_tune(cfg, trials=2, storage=str(journal), seed=1, progress=False)  # it opens again, without a word
+    assert "torn" not in capsys.readouterr().err
+
+
+def test_journal_repair_keeps_every_whole_line(tmp_path, capsys):
+    from steerlab.tune import _repair_journal
+
+    journal = tmp_path / "s.journal"
+    lines = b'{"op_code":0,"worker_id":"a"}\n{"op_code":1,"worker_id":"a"}\n'
+    for tail, kept, removed in [(b"", lines, None),                          # nothing to do
+                                (b'{"op_code":2}', lines + b'{"op_code":2}\n', None),  # whole, line end lost
+                                (b"\0" * 40 + b"\n", lines, b"\0" * 40 + b"\n"),  # NUL bytes of a lost write
+                                (b'{"op_code":2,"x":"\xc3', lines, b'{"op_code":2,"x":"\xc3')]:  # half a character
+        journal.write_bytes(lines + tail)
+        (tmp_path / "s.journal.torn").unlink(missing_ok=True)
+        _repair_journal(journal)
+        assert journal.read_bytes() == kept
+        assert (tmp_path / "s.journal.torn").exists() == (removed is not None)
+        if removed:
+            assert (tmp_path / "s.journal.torn").read_bytes() == removed
+            assert "its last line is torn" in capsys.readouterr().err
+    assert not list(tmp_path.glob("*.lock"))  # Optuna's journal lock is released

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 from pathlib import Path
@@ -87,7 +88,8 @@ def cmd_experiment(a) -> None:
 def cmd_evaluate(a) -> None:
     from steerlab.evaluate.offline import evaluate
 
-    m = evaluate(a.checkpoint, a.data, a.range, a.out, a.labels, a.camera, a.video, _reader_options(a.reader))
+    m = evaluate(a.checkpoint, a.data, a.range, a.out, a.labels, a.camera, a.video, _reader_options(a.reader),
+                 allow_convention_mismatch=a.allow_convention_mismatch)
     _print_table(m, ["frames", "mse", "rmse", "mae", "mae_deg", "gamma_deg", "target_gamma_deg", "tre", "qce",
                      "speed_weighted_mae", *SPEED_METRICS])
     print(f"with exponential smoothing a=0.2: rmse {m['smoothed_a0.2']['rmse']:.6f}, "
@@ -241,6 +243,12 @@ def build_parser() -> argparse.ArgumentParser:
     data_args(q)
     q.add_argument("--out", default="runs/eval", help="output folder (default runs/eval)")
     q.add_argument("--video", help="also write an MP4 of the frames with predicted and recorded steering")
+    q.add_argument("--allow-convention-mismatch", action="store_true",
+                   help="evaluate a checkpoint whose steering convention (e.g. simulator road wheel, positive "
+                        "right) is not the recording's (e.g. CH2 steering wheel, positive left): with a warning, "
+                        "its predictions converted to the recording's convention (steering ratio 14.8; values of "
+                        "normalized steering without a full-lock angle are compared unconverted). Without it "
+                        "such a mismatch is an error")
     q.set_defaults(func=cmd_evaluate)
 
     q = sub.add_parser("score", help="score predictions like the Udacity Challenge 2 leaderboard")
@@ -355,9 +363,48 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _positive(v) -> bool:
+    return math.isfinite(v) and v > 0
+
+
+# Every numeric option of every command that has a range: option -> (check, what is expected). Checked before
+# the command does anything; an option that is not given (None) keeps its default.
+OPTIONS = {
+    "smoothing": (lambda v: 0 < v <= 1, "a number in (0, 1]"),
+    "workers": (lambda v: v >= 1, "an integer of at least 1"),
+    "seeds": (lambda v: v >= 1, "an integer of at least 1"),
+    "nproc": (lambda v: v >= 1, "an integer of at least 1"),
+    "epochs": (lambda v: v >= 1, "an integer of at least 1"),
+    **{name: (_positive, "positive and finite") for name in (
+        "minutes", "suite_minutes", "chunk_minutes", "fps", "limit", "max_heading", "mount_height", "fov")},
+    "set_speed": (lambda v: math.isfinite(v) and v >= 0, "a finite number of at least 0 (m/s)"),
+}
+
+
+def check_options(args: argparse.Namespace) -> None:
+    for name, (check, expected) in OPTIONS.items():
+        value = getattr(args, name, None)
+        if value is not None and not check(value):
+            raise SteerlabError(f"--{name.replace('_', '-')} must be {expected}, got {value:g}")
+
+
+def parse(argv=None) -> argparse.Namespace:
+    """The command line; `section.key=value` overrides may stand anywhere after the config, before or after
+    the options (`steerlab tune CONFIG --trials 3 train.epochs=2`)."""
+    parser = build_parser()
+    args, extra = parser.parse_known_args(argv)
+    overrides = [x for x in extra if "=" in x and not x.startswith("-")]
+    if extra and (len(overrides) < len(extra) or not hasattr(args, "overrides")):
+        parser.error(f"unrecognized arguments: {' '.join(extra)}")
+    if overrides:
+        args.overrides = [*args.overrides, *overrides]
+    return args
+
+
 def main(argv=None) -> int:
-    args = build_parser().parse_args(argv)
+    args = parse(argv)
     try:
+        check_options(args)
         args.func(args)
     except SteerlabError as e:
         print(f"error: {e}", file=sys.stderr)

@@ -5,11 +5,13 @@ feeds it, plus `speeds` (1, N) for models with a speed history and `h`, `c` (lay
 models, whose next state comes back as outputs `h_out`, `c_out` (zeros start a segment, as the torch Pilot's
 empty state). Outputs: `steering` (1,), `speed` (1,) or `command` (1, 3) where the model has them.
 `model.json` beside it is the sidecar the Pilot needs to feed raw frames: preprocessing, standardisation
-statistics, steering convention, camera preset, input and output names.
+statistics, steering convention, camera preset, input and output names, and the sha256 of the .onnx file,
+which `OnnxModel` checks, so that a damaged model is refused instead of predicting nonsense.
 """
 
 from __future__ import annotations
 
+import hashlib
 import json
 import warnings
 from pathlib import Path
@@ -84,9 +86,20 @@ def export_onnx(checkpoint: str | Path, out: str | Path) -> Path:
     meta = {"format": FORMAT, "model": ckpt["model"], "preprocess": pre.as_dict(), "stats": ckpt["stats"],
             "convention": convention.as_dict(), "preset": ckpt.get("preset"), "frame_rate": ckpt.get("frame_rate"),
             "inputs": names, "outputs": outputs, "state_shape": state, "speed_history": history,
-            "metrics": {k: v for k, v in ckpt.get("metrics", {}).items() if isinstance(v, (int, float))}}
+            "metrics": {k: v for k, v in ckpt.get("metrics", {}).items() if isinstance(v, (int, float))},
+            "sha256": file_sha256(out)}
     sidecar_path(out).write_text(json.dumps(meta, indent=1))
     return out
+
+
+def file_sha256(path: Path) -> str:
+    """sha256 of a file's bytes: for an .onnx file (graph and weights) it is kept in the sidecar and checked when
+    the model is loaded; the closed-loop suite keys its cached drives with it."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
 
 
 class OnnxModel:
@@ -106,6 +119,10 @@ class OnnxModel:
             raise SteerlabError(f"{side}: not valid JSON ({e.msg}, line {e.lineno})") from None
         if meta.get("format") != FORMAT:
             raise SteerlabError(f"{side}: not steerlab ONNX metadata (format {meta.get('format')!r})")
+        # exports written before the hash existed have none
+        if "sha256" in meta and file_sha256(path) != meta["sha256"]:
+            raise SteerlabError(f"{path}: the model does not match the sha256 in {side.name}: the file is damaged "
+                                "or is not the export this metadata belongs to (export it again)")
         try:
             import onnxruntime as ort
         except ImportError:

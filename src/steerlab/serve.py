@@ -5,7 +5,9 @@ The simulator (autonomous mode) connects with Socket.IO to port 4567 and sends a
 (320x160). The server answers each with a `steer` event (`steering_angle` in [-1, 1] = +-25 degrees, positive
 right, and `throttle`, both as strings). Telemetry without data means the simulator is in manual mode: the
 server emits `manual` and sends no command. A frame whose image is missing or undecodable gets a safe stop
-(steering 0, brake while moving) and a warning; the server keeps running.
+(steering 0, brake while moving) and a warning; so does a frame of another size than the simulator's 320x160;
+the server keeps running. A model that can never drive the simulator (normalized steering without a full-lock
+angle, as a donkeycar checkpoint's, or a crop that removes the whole 320x160 frame) is refused at start.
 
 The simulator speaks Engine.IO protocol 3, which python-socketio 5 rejects ("unsupported version"): steerlab
 pins python-socketio 4.6.1 + python-engineio 3.14.2 and serves with eventlet, the combination the
@@ -25,11 +27,14 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from steerlab.data.geometry import CAMERAS
+from steerlab.data.preprocess import crop_resize
 from steerlab.data.readers import MPH_TO_MS, SIM_CONVENTION, SIM_FULL_LOCK_RAD
 from steerlab.errors import SteerlabError, warn
 from steerlab.pilot import Pilot
 
 STEERING_RATIO = 14.8  # only used when a steering-wheel model (CH2) drives the simulator
+SIM_FRAME = (CAMERAS["sim"].width, CAMERAS["sim"].height)  # the simulator's centre camera: 320x160
 
 
 class SpeedController:
@@ -52,15 +57,40 @@ def to_simulator(pilot: Pilot, steering: float) -> float:
                          -1.0, 1.0))
 
 
-class DriveSession:
-    """Telemetry in, commands out; optionally records the drive as a driving_log.csv with IMG/."""
+def check_drivable(pilot: Pilot, source: str | Path) -> None:
+    """Refuse at start a model that can never drive the simulator: steering that has no angle (normalized
+    steering without a full-lock angle, e.g. a donkeycar checkpoint) or a crop that removes the whole frame."""
+    try:
+        to_simulator(pilot, 0.0)
+    except SteerlabError as e:
+        raise SteerlabError(f"{source} cannot drive the simulator: it predicts normalized steering without a "
+                            f"full-lock angle, so its steering has no angle ({e})") from None
+    try:
+        crop_resize(np.zeros((SIM_FRAME[1], SIM_FRAME[0], 3), np.uint8), pilot.config)
+    except SteerlabError as e:
+        raise SteerlabError(f"{source} cannot drive the simulator: {e} (the simulator's frames are "
+                            f"{SIM_FRAME[0]}x{SIM_FRAME[1]})") from None
 
-    def __init__(self, pilot: Pilot, set_speed: float, record: str | Path | None = None):
+
+class DriveSession:
+    """Telemetry in, commands out; optionally records the drive as a driving_log.csv with IMG/. A model that
+    can never drive the simulator is refused here (`source` names it in the message)."""
+
+    def __init__(self, pilot: Pilot, set_speed: float, record: str | Path | None = None,
+                 source: str | Path | None = None):
+        check_drivable(pilot, source or f"model {pilot.name!r}")
         self.pilot, self.controller = pilot, SpeedController(set_speed)
         self.record = Path(record) if record else None
         self.frames = self.bad = self._last_ms = 0
         if self.record:
             (self.record / "IMG").mkdir(parents=True, exist_ok=True)
+
+    def _safe_stop(self, speed: float, problem: str) -> dict[str, str]:
+        """A bad frame: steering 0, brake while moving, one warning; the session goes on."""
+        self.bad += 1
+        warn(f"telemetry frame {self.frames + self.bad}: {problem}; sent a safe stop")
+        brake = -1.0 if math.isfinite(speed) and speed > 0.5 else 0.0
+        return {"steering_angle": "0.0", "throttle": str(brake)}
 
     def command(self, data: dict) -> dict[str, str]:
         try:
@@ -70,13 +100,15 @@ class DriveSession:
         jpeg = _decode_base64(data.get("image"))
         frame = None if jpeg is None else cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)
         if frame is None or not math.isfinite(speed):
-            self.bad += 1
-            what = "speed" if frame is not None else "image"
-            warn(f"telemetry frame {self.frames + self.bad}: missing or undecodable {what}; sent a safe stop")
-            brake = -1.0 if math.isfinite(speed) and speed > 0.5 else 0.0
-            return {"steering_angle": "0.0", "throttle": str(brake)}
+            return self._safe_stop(speed, f"missing or undecodable {'speed' if frame is not None else 'image'}")
+        if frame.shape[1::-1] != SIM_FRAME:
+            return self._safe_stop(speed, f"the image is {frame.shape[1]}x{frame.shape[0]}, not the simulator's "
+                                          f"{SIM_FRAME[0]}x{SIM_FRAME[1]}")
+        try:
+            controls = self.pilot.step(frame, speed)
+        except SteerlabError as e:
+            return self._safe_stop(speed, str(e))
         self.frames += 1
-        controls = self.pilot.step(frame, speed)
         steering, throttle = to_simulator(self.pilot, controls.steering), self.controller.update(speed)
         if self.record:
             self._log(jpeg, steering, throttle, speed)
@@ -151,7 +183,7 @@ def serve(checkpoint: str | Path, port: int = 4567, set_speed: float = 4.0, reco
           smoothing: float | None = None, host: str = "0.0.0.0") -> None:
     _, eventlet = _socketio()
     pilot = Pilot(checkpoint, smoothing=smoothing)
-    app = make_app(DriveSession(pilot, set_speed, record))
+    app = make_app(DriveSession(pilot, set_speed, record, checkpoint))
     try:
         listener = eventlet.listen((host, port), reuse_port=False)
     except OSError as e:

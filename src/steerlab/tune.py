@@ -29,6 +29,7 @@ import csv
 import inspect
 import json
 import math
+import os
 import warnings
 from dataclasses import fields
 from pathlib import Path
@@ -43,7 +44,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter  # noqa: E402
 
 from steerlab.data.preprocess import PreprocessConfig
-from steerlab.errors import SteerlabError
+from steerlab.errors import SteerlabError, warn
 from steerlab.train.config import DEFAULTS, load_config
 
 OBJECTIVES = {"rmse": ["minimize"], "rmse+gamma": ["minimize", "minimize"], "autonomy": ["maximize"]}
@@ -145,8 +146,73 @@ def storage_of(url: str | None, out: Path):
     if "://" in path or not path.endswith((".journal", ".log")):
         raise SteerlabError(f"unknown storage {url!r}: use a journal file (*.journal, *.log, journal:PATH) or "
                             "an RDB URL (sqlite:///study.db, postgresql://user:pass@host/db)")
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    return JournalStorage(JournalFileBackend(path))
+    path = Path(path)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        _check_journal_access(path)
+        _repair_journal(path)
+        return JournalStorage(JournalFileBackend(str(path)))
+    except ValueError as e:  # Optuna's reader: a damaged line before the last one
+        raise SteerlabError(f"{path}: a line before the last one is damaged ({e.__class__.__name__}); only a torn "
+                            "last line can be skipped") from None
+    except PermissionError as e:
+        raise SteerlabError(f"{e.filename or path}: permission denied (the study's journal needs to be readable "
+                            "and writable, with its folder writable for the lock file)") from None
+
+
+def _check_journal_access(path: Path) -> None:
+    """A journal that this worker cannot write (or whose folder cannot take Optuna's lock file) is refused
+    before anything runs, naming the file."""
+    if path.is_dir():
+        raise SteerlabError(f"{path}: a folder, not a journal file")
+    if path.exists() and not os.access(path, os.R_OK | os.W_OK):
+        raise SteerlabError(f"{path}: the journal file is not writable (permission denied); the study needs "
+                            "to append to it: make it writable or choose another --storage")
+    if not os.access(path.parent, os.W_OK | os.X_OK):
+        raise SteerlabError(f"{path.parent}: the journal's folder is not writable (permission denied); the "
+                            f"study needs it for {path.name} and its lock file")
+
+
+def _repair_journal(path: Path) -> None:
+    """A worker killed while appending leaves a torn last line, after which Optuna can never read the journal
+    again. Skip it: with a warning naming the file, its bytes move to `<journal>.torn` (appended, so nothing
+    is ever lost) and the journal ends after its last whole line. A last line that is whole JSON without its
+    line end gets the line end. Done under Optuna's own journal lock, so no worker is writing meanwhile."""
+    from optuna.storages.journal import JournalFileSymlinkLock
+
+    if not path.is_file() or path.stat().st_size == 0:
+        return
+    lock = JournalFileSymlinkLock(str(path))
+    lock.acquire()
+    try:
+        with open(path, "rb+") as f:
+            size = end = f.seek(0, os.SEEK_END)
+            tail = b""
+            while True:  # read back to the line end before the last line
+                start = max(0, end - (1 << 16))
+                f.seek(start)
+                tail = f.read(end - start) + tail
+                end = start
+                cut = tail.rfind(b"\n", 0, len(tail) - 1)
+                if cut >= 0 or start == 0:
+                    break
+            last = tail[cut + 1:]
+            try:
+                whole = isinstance(json.loads(last), dict)
+            except ValueError:  # not JSON, NUL bytes, half a UTF-8 character
+                whole = False
+            if whole:
+                if not last.endswith(b"\n"):
+                    f.seek(0, os.SEEK_END)
+                    f.write(b"\n")
+                return
+            with open(path.with_name(path.name + ".torn"), "ab") as backup:
+                backup.write(last)
+            f.truncate(size - len(last))
+        warn(f"{path}: its last line is torn ({len(last)} bytes that are not a whole JSON record, left by a "
+             f"worker that stopped while writing); skipped it and kept its bytes in {path.name}.torn")
+    finally:
+        lock.release()
 
 
 def _load_study(cfg_text: dict, objective: str, storage, name: str, seed: int, epochs: int,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 from contextlib import nullcontext
 from pathlib import Path
 
@@ -11,6 +12,7 @@ from tqdm import tqdm
 
 from steerlab.data.labels import speed_targets
 from steerlab.data.readers import open_recording
+from steerlab.data.recording import SteeringConvention
 from steerlab.evaluate.metrics import all_metrics, exponential_smoothing, steering_metrics
 from steerlab.errors import SteerlabError, warn
 from steerlab.evaluate.plots import plot_steering
@@ -21,12 +23,36 @@ from steerlab.video import DriveVideo
 RATIO = 14.8  # steering ratio for showing road-wheel conventions as a steering wheel
 
 
+def describe(conv: SteeringConvention) -> str:
+    """A steering convention as the messages name it: kind/positive side (and the full-lock angle)."""
+    lock = "" if conv.full_lock is None else f" (full lock {math.degrees(conv.full_lock):g} deg)"
+    return f"{conv.kind}/{conv.positive}{lock}"
+
+
+def conventions_match(model: SteeringConvention, data: SteeringConvention) -> bool:
+    """Whether a model's steering values and a recording's are in the same units and sign (a full-lock angle
+    that only one side knows does not count as a difference)."""
+    locks = (model.full_lock, data.full_lock)
+    return ((model.kind, model.positive) == (data.kind, data.positive)
+            and (None in locks or math.isclose(*locks, rel_tol=1e-6)))
+
+
+def convert_steering(values, source: SteeringConvention, target: SteeringConvention):
+    """Steering values from one convention into another, through the road-wheel angle (steering ratio RATIO);
+    raises SteerlabError when one of them is normalized steering without a full-lock angle."""
+    return target.from_road_wheel_left(source.to_road_wheel_left(values, RATIO), RATIO)
+
+
 def evaluate(checkpoint: str | Path, data: str | Path, frame_range: str | None, out: str | Path,
              labels: str | Path | None = None, camera: str = "center", video: str | Path | None = None,
-             reader: dict | None = None, progress: bool = True) -> dict:
+             reader: dict | None = None, progress: bool = True, allow_convention_mismatch: bool = False) -> dict:
     """Run the Pilot over every frame (resetting at segment starts, feeding the recorded speed); write
     metrics (with speed MAE and command accuracy for speed models), predictions and a plot, and optionally a
-    video of the frames with the predicted and the recorded steering."""
+    video of the frames with the predicted and the recorded steering.
+
+    A checkpoint whose steering convention is not the recording's is refused, since its metrics would mix
+    units; with `allow_convention_mismatch` it is evaluated with a warning, its predictions converted to the
+    recording's convention (or compared unconverted where normalized steering has no full-lock angle)."""
     out = Path(out)
     rec = open_recording(data, frame_range, labels, reader)
     if camera not in rec.frames:
@@ -34,6 +60,26 @@ def evaluate(checkpoint: str | Path, data: str | Path, frame_range: str | None, 
     pilot = Pilot(checkpoint)
     if pilot.speed_history and rec.speed is None:
         raise SteerlabError(f"model {pilot.name!r} needs the measured speed with every frame; {rec.source} has none")
+    convert = None
+    if not conventions_match(pilot.convention, rec.convention):
+        what = (f"{checkpoint} predicts {describe(pilot.convention)} steering and {rec.source} records "
+                f"{describe(rec.convention)} steering")
+        if not allow_convention_mismatch:
+            raise SteerlabError(f"{what}: the metrics would mix units; evaluate it on recordings of its own "
+                                "convention, or pass --allow-convention-mismatch to convert its predictions")
+        try:
+            convert_steering(0.0, pilot.convention, rec.convention)
+            convert = (pilot.convention, rec.convention)
+            warn(f"{what}: its predictions are converted to the recording's convention (steering ratio {RATIO:g})")
+        except SteerlabError:
+            warn(f"{what}: normalized steering without a full-lock angle cannot be converted, so the metrics "
+                 "compare unconverted values")
+    if video:  # both sides are shown as a steering-wheel angle, which needs a physical scale
+        try:
+            for conv in (pilot.convention, rec.convention):
+                conv.to_road_wheel_left(0.0, RATIO)
+        except SteerlabError as e:
+            raise SteerlabError(f"cannot write {video} (it shows steering-wheel angles): {e}") from None
     if pilot.preset != rec.preset:
         warn(f"{checkpoint} was trained on the {pilot.preset!r} camera geometry and {rec.source} has the "
              f"{rec.preset!r} geometry: expect worse predictions than the model can make")
@@ -55,6 +101,8 @@ def evaluate(checkpoint: str | Path, data: str | Path, frame_range: str | None, 
                 movie.add(frame, wheel(pilot.convention, controls[-1].steering), wheel(rec.convention, rec.steering[i]),
                           None if offsets is None else float(offsets[i]), f"{rec.name}  frame {i}")
     pred = {"steering": np.array([c.steering for c in controls])}
+    if convert:
+        pred["steering"] = convert_steering(pred["steering"], *convert)
     for k in ("speed", "command"):
         if getattr(controls[0], k) is not None:
             pred[k] = np.array([getattr(c, k) for c in controls])

@@ -4,13 +4,15 @@ unseen roads, and the drives are summarised per road type.
 The roads of a suite version never change, and their seeds (9000-9999) are refused by `sim record` and by
 DAgger's rollouts, so no model has seen them. Drives run in parallel worker processes (one torch thread
 each); a finished drive is kept in its folder and reused when the suite is run again, so an interrupted
-suite continues where it stopped.
+suite continues where it stopped. It is reused only when its drive.json holds the same cache key: the
+checkpoint's content hash, suite version, minutes and smoothing (`cache_key`).
 """
 
 from __future__ import annotations
 
 import csv
 import json
+import math
 import multiprocessing as mp
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from pathlib import Path
@@ -74,12 +76,38 @@ def run_parallel(fn, jobs: list[tuple], workers: int, minutes_per_job: float, pr
     return results
 
 
-def _drive_job(checkpoint: str, road: str, seed: int, minutes: float, out: str, smoothing: float | None) -> dict:
+def _drive_job(checkpoint: str, road: str, seed: int, minutes: float, out: str, smoothing: float | None,
+               key: dict | None = None) -> dict:
+    """One drive of the suite; with `key`, its drive.json also holds the key, which later runs compare."""
     from steerlab.pilot import Pilot
     from steerlab.sim.world import drive
 
-    return drive(Pilot(checkpoint, smoothing=smoothing), out, seed=seed, minutes=minutes, road=road,
-                 progress=False, on_tick=tick_reporter())
+    result = drive(Pilot(checkpoint, smoothing=smoothing), out, seed=seed, minutes=minutes, road=road,
+                   progress=False, on_tick=tick_reporter())
+    if key is not None:
+        (Path(out) / "drive.json").write_text(json.dumps({**result, "cache_key": key}, indent=1))
+    return result
+
+
+def cache_key(checkpoint: Path, suite: str, minutes: float, smoothing: float | None) -> dict:
+    """Everything that changes a drive's result besides its road: the checkpoint's content (the sha256 of the
+    file, and of an exported model's sidecar), the suite version, the minutes and the smoothing. A finished
+    drive is reused only when its drive.json holds exactly this key."""
+    from steerlab.export import file_sha256, sidecar_path
+
+    key = {"checkpoint_sha256": file_sha256(checkpoint), "suite": suite, "minutes": minutes, "smoothing": smoothing}
+    if checkpoint.suffix == ".onnx" and sidecar_path(checkpoint).is_file():
+        key["sidecar_sha256"] = file_sha256(sidecar_path(checkpoint))
+    return json.loads(json.dumps(key))  # as drive.json gives it back
+
+
+def _cached(done: Path, key: dict) -> dict | None:
+    """A finished drive's result when its drive.json holds exactly `key` (an unreadable one is driven anew)."""
+    try:
+        result = json.loads(done.read_text())
+    except (OSError, ValueError):
+        return None
+    return result if isinstance(result, dict) and result.get("cache_key") == key else None
 
 
 def labels_for(checkpoints: list[Path]) -> list[str]:
@@ -100,8 +128,8 @@ def suite_minutes(suite: str, minutes: float | None = None, where: str = "") -> 
     if suite not in SUITES:
         raise SteerlabError(f"{where}unknown suite {suite!r}; known: {', '.join(SUITES)}")
     minutes = float(SUITES[suite]["minutes"] if minutes is None else minutes)
-    if not minutes > 0:
-        raise SteerlabError(f"{where}minutes must be positive, got {minutes}")
+    if not (math.isfinite(minutes) and minutes > 0):
+        raise SteerlabError(f"{where}minutes must be positive and finite, got {minutes:g}")
     return minutes
 
 
@@ -112,6 +140,10 @@ def run_suite(checkpoints, out: str | Path, suite: str = "v1", minutes: float | 
     one trajectory plot per road in `out/roads/`.
     Returns the summary rows."""
     minutes = suite_minutes(suite, minutes)
+    if smoothing is not None and not 0 < smoothing <= 1:
+        raise SteerlabError(f"smoothing must be a number in (0, 1], got {smoothing:g}")
+    if not workers >= 1:
+        raise SteerlabError(f"workers must be an integer of at least 1, got {workers}")
     checkpoints = [Path(c) for c in checkpoints]
     if not checkpoints:
         raise SteerlabError("no checkpoint to drive: name at least one")
@@ -130,13 +162,14 @@ def run_suite(checkpoints, out: str | Path, suite: str = "v1", minutes: float | 
     labels = labels_for(checkpoints)
     jobs, rows = [], {}
     for label, ckpt in zip(labels, checkpoints):
+        key = cache_key(ckpt, suite, minutes, smoothing)
         for road, seed in roads:
             folder = out / label / f"{road}-{seed}"
-            done = folder / "drive.json"
-            if done.exists() and json.loads(done.read_text())["minutes"] == minutes:
-                rows[(label, road, seed)] = json.loads(done.read_text())
+            cached = _cached(folder / "drive.json", key)
+            if cached is not None:
+                rows[(label, road, seed)] = cached
             else:
-                jobs.append((label, str(ckpt), road, seed, minutes, str(folder), smoothing))
+                jobs.append((label, str(ckpt), road, seed, minutes, str(folder), smoothing, key))
     results = run_parallel(_drive_job, [job[1:] for job in jobs], workers, minutes, progress, f"suite {suite}")
     rows.update({(job[0], job[2], job[3]): r for job, r in zip(jobs, results)})
     drives = [{**{k: rows[(label, road, seed)][k] for k in DRIVE_FIELDS[5:]}, "label": label, "checkpoint": str(ckpt),

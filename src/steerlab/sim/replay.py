@@ -357,6 +357,10 @@ def run_replay(checkpoints, data: str | Path, out: str | Path, frame_range: str 
                                 f"{rec.preset!r} geometry: replay it on recordings of its own camera")
         if pilot.speed_history and rec.speed is None and speed is None:
             warn(f"{c} reads the speed; {rec.source} records none, so it gets the estimated constant speed")
+        try:
+            pilot.convention.to_road_wheel_left(0.0, car.steering_ratio)
+        except SteerlabError as e:
+            raise SteerlabError(f"{c}: its steering cannot become a wheel angle: {e}") from None
     _road_wheel(rec, car.steering_ratio)  # the path can be rebuilt
     segments = replay_segments(rec, frames)
     speed, source = replay_speed(rec, cam, car, speed)
