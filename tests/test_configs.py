@@ -28,6 +28,7 @@ def test_shipped_config_loads_and_builds(path):
     closed = raw.pop("closed_loop", None)
     if closed:
         suite_minutes(closed.get("suite", "v1"), closed.get("minutes"))
+    assert set(raw.pop("replay", None) or {}) <= {"speed"}  # an experiment's replay section
     if "models" in raw:  # an experiment: every entry is a run config of its own
         entries = raw.pop("models")
         assert entries
