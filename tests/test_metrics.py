@@ -87,7 +87,7 @@ def test_experiment_names_the_metric_that_predicts_driving_best(tmp_path):
         keys = ("mse", "mae_deg", "gamma_deg", "smoothed_rmse", "smoothed_gamma_deg", "tre", "qce",
                 "speed_weighted_mae")
         return [{"label": f"m{i}", "epoch_mean": 3.0, "rmse_mean": 0.1, "autonomy_mean": a,
-                 **{f"{k}_mean": metrics.get(k, [np.nan] * 4)[i] for k in keys}} for i, a in enumerate(autonomy)]
+                 "replay_autonomy_mean": np.nan, **{f"{k}_mean": metrics.get(k, [np.nan] * 4)[i] for k in keys}} for i, a in enumerate(autonomy)]
 
     # the smoother models drive worse (gamma +1); QCE ranks the errors exactly as the models drive (-1)
     rows = table([100, 90, 80, 70], mse=[2, 1, 3, 4], mae_deg=[2, 1, 3, 4], gamma_deg=[4, 3, 2, 1], tre=[1, 2, 4, 3],
