@@ -1,0 +1,375 @@
+"""Does closed-loop replay on recordings predict true closed-loop driving?
+
+python benchmarks/replay_vs_closed_loop.py --out runs/replay-truth [--minutes 1.0] [--workers 2]
+
+In the synthetic world both exist. The script
+1. records the expert (no drift episodes, centre camera) on every road of the closed-loop suite v1 for
+   `--minutes` each (`sim.world.record(..., suite_roads_ok=True)`: the suite's own road, same length);
+2. trains a handful of zoo models on a short mixed-road recording (seed 3, 4 minutes), with and without side
+   cameras and flips, and keeps a snapshot after chosen epochs, plus the zero and train-mean baselines: at
+   least 20 checkpoints of very different quality;
+3. drives every checkpoint on the suite (the truth: `sim.bench.run_suite`) and replays it on the 11 expert
+   recordings (`sim.replay.run_replay`, recorded speed), summed per checkpoint over the recordings;
+4. reports the Spearman rank correlation (tied values share their mean rank) and R^2 (squared Pearson) of
+   replay against truth, for autonomy and for interventions per km, a Markdown table (`results.md`,
+   `results.csv`) and a scatter plot (`scatter.png`);
+5. measures the viewpoint warp (`data.geometry.shift_view`) against the renderer over lateral offset x
+   heading, for the `sim` and `ch2` cameras (`warp.md`).
+
+Everything already done in `--out` is reused (recordings, snapshots, suite drives, replays per recording), so
+an interrupted run continues where it stopped.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import shutil
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import machine  # noqa: E402
+
+from steerlab.sim.bench import SUITES  # noqa: E402
+
+TRAIN_DATA = {"seed": 3, "minutes": 4.0, "road": "country,twisty,highway,twisty"}
+BASE_TRAIN = {"epochs": 1, "batch_size": 32, "lr": 3e-4, "patience": 99, "min_speed": 4.0}
+# name -> (model section, preprocess overrides, train overrides, epochs whose weights are kept)
+VARIANTS = {
+    "pilotnet-plain": ({"name": "pilotnet", "dropout": 0.3}, {}, {}, [1, 2, 4]),
+    "pilotnet-flip": ({"name": "pilotnet", "dropout": 0.3}, {}, {"flip": True}, [1, 3]),
+    "pilotnet-side": ({"name": "pilotnet", "dropout": 0.3}, {},
+                      {"side_cameras": True, "flip": True, "exclude_episodes": ["drift-out"]}, [1, 2, 4, 6]),
+    "pilotnet-flow-side": ({"name": "pilotnet-flow", "dropout": 0.3}, {},
+                           {"side_cameras": True, "flip": True, "exclude_episodes": ["drift-out"]}, [1, 3]),
+    "cg23-side": ({"name": "cg23", "dropout": 0.3}, {},
+                  {"side_cameras": True, "flip": True, "exclude_episodes": ["drift-out"]}, [1, 3]),
+    "lstm-side": ({"name": "lstm", "dropout": 0.3}, {},
+                  {"side_cameras": True, "exclude_episodes": ["drift-out"], "batch_size": 16}, [1, 3]),
+    "multimodal-lstm-side": ({"name": "multimodal-lstm", "dropout": 0.3}, {},
+                             {"side_cameras": True, "exclude_episodes": ["drift-out"], "batch_size": 16}, [1, 3]),
+    "flow-lstm-side": ({"name": "flow-lstm", "dropout": 0.3}, {"color": "yuv"},
+                       {"side_cameras": True, "exclude_episodes": ["drift-out"], "batch_size": 16}, [1, 3]),
+}
+BASELINES = ["zero", "train-mean"]
+OFFSETS = [0.25, 0.5, 1.0, 1.5]
+HEADINGS = [0.0, 2.0, 5.0, 10.0]
+
+
+def suite_roads(suite: str = "v1") -> list[tuple[str, int]]:
+    return [(t, s) for t, seeds in SUITES[suite]["roads"].items() for s in seeds]
+
+
+def record_expert(out: Path, minutes: float) -> dict[tuple[str, int], Path]:
+    """The expert on every suite road: the suite's own road (same seed, type and length as `drive` makes it)."""
+    from steerlab.sim.world import record
+
+    recs = {}
+    for road, seed in suite_roads():
+        folder = out / "expert" / f"{road}-{seed}"
+        meta = folder / "recording.json"
+        if not (meta.exists() and json.loads(meta.read_text())["minutes"] == minutes):
+            shutil.rmtree(folder, ignore_errors=True)
+            t0 = time.time()
+            record(folder, seed=seed, minutes=minutes, road=road, drift=False, side_cameras=False, progress=False,
+                   suite_roads_ok=True)
+            print(f"recorded the expert on {road} road {seed} ({minutes:g} min) in {time.time() - t0:.0f} s", flush=True)
+        recs[(road, seed)] = folder
+    return recs
+
+
+def training_data(out: Path) -> Path:
+    from steerlab.sim.world import record
+
+    folder = out / "train-data"
+    if not (folder / "recording.json").exists():
+        shutil.rmtree(folder, ignore_errors=True)
+        t0 = time.time()
+        record(folder, seed=TRAIN_DATA["seed"], minutes=TRAIN_DATA["minutes"], road=TRAIN_DATA["road"], progress=False)
+        print(f"recorded the training data ({TRAIN_DATA}) in {time.time() - t0:.0f} s", flush=True)
+    return folder
+
+
+def _config(data: Path, out: Path, run: Path, model: dict, pre: dict, train: dict) -> dict:
+    from steerlab.train.config import load_config
+
+    frames = int(round(TRAIN_DATA["minutes"] * 60 * 20))
+    split = int(frames * 0.8)
+    return load_config(None, base={"data": str(data), "cache": str(out / "cache"), "out": str(run),
+                                   "preprocess": {"preset": "sim", "color": "gray", **pre},
+                                   "split": {"train": f"0:{split}", "val": f"{split}:{frames}"},
+                                   "model": model, "train": {**BASE_TRAIN, **train}})
+
+
+def checkpoints(out: Path, data: Path) -> list[Path]:
+    """Train every variant (one run each, the weights after each kept epoch copied to `out/checkpoints/`) and
+    the baselines; anything already there is reused."""
+    from steerlab.train.loop import train
+
+    ckpts = out / "checkpoints"
+    ckpts.mkdir(parents=True, exist_ok=True)
+    result = []
+    for name in BASELINES:
+        target = ckpts / f"{name}.pt"
+        if not target.exists():
+            run = out / "runs" / name
+            train(_config(data, out, run, {"name": name}, {}, {}), progress=False)
+            shutil.copy(run / "best.pt", target)
+        result.append(target)
+    for name, (model, pre, tr, keep) in VARIANTS.items():
+        targets = {e: ckpts / f"{name}-e{e}.pt" for e in keep}
+        if not all(t.exists() for t in targets.values()):
+            run = out / "runs" / name
+            t0 = time.time()
+
+            def on_epoch(epoch, metrics, run=run, targets=targets, name=name, t0=t0):
+                print(f"  {name} epoch {epoch}: val rmse {metrics['rmse']:.4f} ({time.time() - t0:.0f} s)", flush=True)
+                if epoch in targets:
+                    shutil.copy(run / "last.pt", targets[epoch])
+
+            train(_config(data, out, run, model, pre, {**tr, "epochs": max(keep)}), progress=False, on_epoch=on_epoch)
+            if not targets[max(keep)].exists():  # the run had already finished its epochs before it was stopped
+                shutil.copy(run / "last.pt", targets[max(keep)])
+            missing = [str(t) for t in targets.values() if not t.exists()]
+            if missing:
+                sys.exit(f"{name}: the snapshots {', '.join(missing)} are missing; delete {run} to train it again")
+            print(f"trained {name} ({max(keep)} epochs) in {time.time() - t0:.0f} s", flush=True)
+        result += list(targets.values())
+    return result
+
+
+def true_closed_loop(ckpts: list[Path], out: Path, minutes: float, workers: int) -> dict[str, dict]:
+    from steerlab.sim.bench import run_suite
+
+    t0 = time.time()
+    summary = run_suite(ckpts, out / "suite", "v1", minutes, workers=workers, progress=False)
+    print(f"suite v1 ({minutes:g} min per road) for {len(ckpts)} checkpoints in {time.time() - t0:.0f} s", flush=True)
+    return {r["label"]: r for r in summary if r["road_type"] == "all"}
+
+
+def replay(ckpts: list[Path], recs: dict, out: Path, workers: int) -> tuple[dict[str, dict], list[dict]]:
+    """Every checkpoint on every expert recording (recorded speed); per checkpoint the sums over recordings."""
+    from steerlab.sim.bench import labels_for
+    from steerlab.sim.driving import autonomy
+    from steerlab.sim.replay import run_replay
+
+    labels = labels_for(ckpts)
+    rows = []
+    for (road, seed), folder in recs.items():
+        where = out / "replay" / f"{road}-{seed}"  # one sub-folder per batch of checkpoints replayed together
+
+        def done():
+            return {r["checkpoint"]: r for f in sorted(where.glob("*/replay.csv")) for r in csv.DictReader(open(f))}
+
+        missing = [c for c, label in zip(ckpts, labels) if label not in done()]
+        if missing:
+            t0 = time.time()
+            run_replay(missing, folder, where / str(len(list(where.glob("*/replay.csv")))), speed=None,
+                       workers=workers, progress=False)
+            print(f"replayed {len(missing)} checkpoints on {road}-{seed} in {time.time() - t0:.0f} s", flush=True)
+        have = done()
+        rows += [{**have[label], "road_type": road, "seed": seed} for label in labels]
+    total = {}
+    for label in labels:
+        mine = [r for r in rows if r["checkpoint"] == label]
+        n = sum(int(r["interventions"]) for r in mine)
+        km = sum(float(r["km"]) for r in mine)
+        seconds = sum(float(r["seconds"]) for r in mine)
+        total[label] = {"interventions": n, "km": km, "seconds": seconds, "autonomy": autonomy(n, seconds),
+                        "interventions_per_km": n / max(km, 1e-9),
+                        "mean_offset_m": float(np.mean([float(r["mean_offset_m"]) for r in mine]))}
+    return total, rows
+
+
+def r2(x, y) -> float:
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    if len(x) < 3 or np.ptp(x) == 0 or np.ptp(y) == 0:
+        return float("nan")
+    return float(np.corrcoef(x, y)[0, 1] ** 2)
+
+
+def correlations(true, rep) -> dict:
+    from steerlab.evaluate.plots import rank_correlation
+
+    return {"spearman": rank_correlation(rep, true), "r2": r2(rep, true), "n": len(true)}
+
+
+def per_road_type(out: Path, labels: list[str], rows: list[dict]) -> list[str]:
+    """Spearman of replay against truth (interventions per km) within each road type and over all drives."""
+    from steerlab.evaluate.plots import rank_correlation
+
+    drives = {(d["label"], d["road_type"], int(d["seed"])): d for d in csv.DictReader(open(out / "suite" / "suite.csv"))}
+    lines = ["| roads | pairs (checkpoint x road) | Spearman int/km | R^2 int/km | true int/km (mean) | "
+             "replay int/km (mean) |", "|---|---|---|---|---|---|"]
+    for kind in [*SUITES["v1"]["roads"], "all"]:
+        pairs = []
+        for r in rows:
+            if r["checkpoint"] in labels and kind in ("all", r["road_type"]):
+                d = drives[(r["checkpoint"], r["road_type"], int(r["seed"]))]
+                pairs.append((float(d["interventions_per_km"]), float(r["interventions_per_km"])))
+        t, p = np.array(pairs).T
+        lines.append(f"| {kind} | {len(pairs)} | {rank_correlation(p, t):.3f} | {r2(p, t):.3f} | {t.mean():.2f} | "
+                     f"{p.mean():.2f} |")
+    return lines
+
+
+def scatter(path: Path, table: list[dict], corr: dict) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(1, 2, figsize=(13, 6), dpi=100)
+    for ax, key, unit in ((axes[0], "autonomy", "autonomy [%]"), (axes[1], "interventions_per_km", "interventions / km")):
+        t = np.array([r[f"true_{key}"] for r in table])
+        p = np.array([r[f"replay_{key}"] for r in table])
+        ax.scatter(t, p, s=25)
+        for r, x, y in zip(table, t, p):
+            ax.annotate(r["checkpoint"], (x, y), fontsize=6, alpha=0.8, xytext=(2, 2), textcoords="offset points")
+        lo, hi = min(t.min(), p.min()), max(t.max(), p.max())
+        pad = 0.05 * (hi - lo + 1e-9)
+        ax.plot([lo - pad, hi + pad], [lo - pad, hi + pad], "k:", lw=0.8)
+        c = corr[key]
+        ax.set_title(f"{unit}: Spearman {c['spearman']:.2f}, R$^2$ {c['r2']:.2f} ({c['n']} checkpoints)")
+        ax.set_xlabel(f"true closed loop (suite v1): {unit}")
+        ax.set_ylabel(f"replay on the expert's recordings: {unit}")
+        ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def warp_error(out: Path) -> list[str]:
+    """shift_view against the renderer: the centre frame warped to a car moved sideways and turned, and the
+    unwarped centre frame, each against the frame rendered from that pose, on the road rows (below the far
+    haze, as in tests/test_closed_loop.py)."""
+    import cv2
+
+    from steerlab.data.geometry import CAMERAS, shift_view
+    from steerlab.sim.render import Renderer
+    from steerlab.sim.road import LANE_CENTER, Road
+
+    roads = [Road(3, "country", 3000), Road(5, "twisty", 3000)]
+    positions = [150.0, 400.0, 650.0, 900.0]
+    signs = [(1, 1), (-1, -1), (1, -1), (-1, 1)]  # turned away from the lane centre, and back towards it
+    lines = ["The centre frame warped by `shift_view` (and left unwarped) against the frame the renderer draws from the "
+             "moved and turned pose, on the road rows (below the far haze): mean absolute gray-level error (0-255) and "
+             f"the share of pixels within 40 levels; mean over {len(roads)} roads (country 3, twisty 5) x "
+             f"{len(positions)} positions x {len(signs)} sign combinations (left/right, turned out/in). The last column: "
+             "the share within 40 levels among the pixels the pose change moved by more than 40 levels (markings, "
+             "verges: what the model steers by).", ""]
+    for preset in ("sim", "ch2"):
+        cells = {}
+        for road in roads:
+            r = Renderer(road, preset)
+            rows = slice(int(r.horizon) + r.cam.height // 7, r.cam.height)
+            gray = lambda img: cv2.cvtColor(img, cv2.COLOR_BGR2GRAY).astype(int)[rows]  # noqa: E731
+            for s in positions:
+                x, y, psi = road.pose(s, LANE_CENTER)
+                centre = r.render(x, y, psi, s)
+                for off in OFFSETS:
+                    for head in HEADINGS:
+                        for a, b in signs:
+                            truth = gray(r.render(x, y, psi + math.radians(b * head), s, shift=a * off))
+                            warped = gray(shift_view(centre, CAMERAS[preset], a * off, b * head))
+                            plain = gray(centre)
+                            moved = np.abs(plain - truth) > 40  # markings and verges the new pose moved
+                            cells.setdefault((off, head), []).append(
+                                (np.abs(warped - truth).mean(), (np.abs(warped - truth) <= 40).mean(),
+                                 np.abs(plain - truth).mean(), (np.abs(plain - truth) <= 40).mean(),
+                                 (np.abs(warped - truth) <= 40)[moved].mean() if moved.any() else np.nan))
+        cam = CAMERAS[preset]
+        lines += [f"Camera `{preset}` ({cam.width}x{cam.height}): warped | unwarped", "",
+                  "| offset [m] | heading [deg] | warped: mean abs error | warped: within 40 | unwarped: mean abs error "
+                  "| unwarped: within 40 | warped: within 40 where the view changed |", "|---|---|---|---|---|---|---|"]
+        for (off, head), v in cells.items():
+            m = np.nanmean(v, axis=0)
+            lines.append(f"| {off:g} | {head:g} | {m[0]:.1f} | {100 * m[1]:.1f} % | {m[2]:.1f} | {100 * m[3]:.1f} % | "
+                         f"{100 * m[4]:.1f} % |")
+        lines.append("")
+    return lines
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--out", default="runs/replay-truth")
+    p.add_argument("--minutes", type=float, default=1.0, help="minutes per suite road, for the truth and the recordings")
+    p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--skip-warp", action="store_true", help="leave out the warp-error table")
+    a = p.parse_args()
+    torch.set_num_threads(1)
+    out = Path(a.out)
+    out.mkdir(parents=True, exist_ok=True)
+    t_start, cpu_start = time.time(), time.process_time()
+    print(f"machine: {machine()}; workers {a.workers}", flush=True)
+
+    if not a.skip_warp:
+        t0 = time.time()
+        warp = warp_error(out)
+        (out / "warp.md").write_text("\n".join(warp) + "\n")
+        print("\n".join(warp), flush=True)
+        print(f"(warp table in {time.time() - t0:.0f} s)", flush=True)
+
+    recs = record_expert(out, a.minutes)
+    data = training_data(out)
+    ckpts = checkpoints(out, data)
+    print(f"{len(ckpts)} checkpoints", flush=True)
+    truth = true_closed_loop(ckpts, out, a.minutes, a.workers)
+    rep, rows = replay(ckpts, recs, out, a.workers)
+
+    from steerlab.sim.bench import labels_for
+
+    labels = labels_for(ckpts)
+    table = [{"checkpoint": label, "true_autonomy": truth[label]["autonomy"], "replay_autonomy": rep[label]["autonomy"],
+              "true_interventions": truth[label]["interventions"], "replay_interventions": rep[label]["interventions"],
+              "true_interventions_per_km": truth[label]["interventions_per_km"],
+              "replay_interventions_per_km": rep[label]["interventions_per_km"],
+              "true_km": truth[label]["distance_km"], "replay_km": rep[label]["km"],
+              "true_mean_offset_m": truth[label]["mean_abs_offset_m"], "replay_mean_offset_m": rep[label]["mean_offset_m"]}
+             for label in labels]
+    corr = {k: correlations([r[f"true_{k}"] for r in table], [r[f"replay_{k}"] for r in table])
+            for k in ("autonomy", "interventions_per_km")}
+    with open(out / "results.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, list(table[0]))
+        w.writeheader()
+        w.writerows([{k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in r.items()} for r in table])
+    lines = [f"Replay vs. true closed loop: {len(table)} checkpoints; truth = suite v1 ({a.minutes:g} min on each of its "
+             f"{len(recs)} roads); replay = the same checkpoints on the expert's recordings of those roads (no drift "
+             "episodes, centre camera, recorded speed), summed over the recordings. Autonomy from the summed time "
+             "and interventions.", "",
+             "| quantity | checkpoints | Spearman (replay vs. true) | R^2 (squared Pearson) | n |", "|---|---|---|---|---|"]
+    trained = [r for r in table if r["checkpoint"] not in BASELINES]  # without the two far-off baselines
+    good = [r for r in table if r["true_autonomy"] >= 75]              # the cluster of models that mostly drive
+    for k, c in corr.items():
+        lines.append(f"| {k.replace('_', ' ')} | all | {c['spearman']:.3f} | {c['r2']:.3f} | {c['n']} |")
+        for what, sub in (("trained (no zero, train-mean)", trained), ("true autonomy >= 75 %", good)):
+            s = correlations([r[f"true_{k}"] for r in sub], [r[f"replay_{k}"] for r in sub])
+            lines.append(f"| {k.replace('_', ' ')} | {what} | {s['spearman']:.3f} | {s['r2']:.3f} | {s['n']} |")
+    diff = np.array([r["replay_autonomy"] - r["true_autonomy"] for r in table])
+    lines += ["", f"Replay minus true autonomy: mean {diff.mean():+.2f} points, largest |difference| "
+                  f"{np.abs(diff).max():.1f} points ({table[int(np.argmax(np.abs(diff)))]['checkpoint']})."]
+    lines += ["", "| checkpoint | true autonomy [%] | replay autonomy [%] | true int/km | replay int/km | true interventions "
+              "| replay interventions | true mean abs offset [m] | replay mean abs offset [m] |", "|---" * 9 + "|"]
+    for r in table:
+        lines.append(f"| {r['checkpoint']} | {r['true_autonomy']:.1f} | {r['replay_autonomy']:.1f} | "
+                     f"{r['true_interventions_per_km']:.2f} | {r['replay_interventions_per_km']:.2f} | "
+                     f"{r['true_interventions']} | {r['replay_interventions']} | {r['true_mean_offset_m']:.3f} | "
+                     f"{r['replay_mean_offset_m']:.3f} |")
+    lines += ["", "Per road type (one point per checkpoint and road):", "", *per_road_type(out, labels, rows)]
+    (out / "results.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines), flush=True)
+    scatter(out / "scatter.png", table, corr)
+    print(f"\nwrote {out / 'results.md'}, {out / 'results.csv'}, {out / 'scatter.png'}"
+          f"{'' if a.skip_warp else ', ' + str(out / 'warp.md')}; wall {time.time() - t_start:.0f} s, "
+          f"main-process CPU {time.process_time() - cpu_start:.0f} s", flush=True)
+
+
+if __name__ == "__main__":
+    main()
