@@ -11,6 +11,7 @@ import threading
 import time
 
 import cv2
+import numpy as np
 import pytest
 
 from conftest import write_jpeg
@@ -198,6 +199,18 @@ def _read_only_journal(tmp_path, stack):
     return ["tune", str(cfg), "--trials", "1", "--storage", str(journal)]
 
 
+def _flat_ch2_replay(tmp_path, stack):
+    """5 s of CH2-layout frames of one grey (no speed recorded, no texture to estimate it from), no --speed."""
+    (tmp_path / "flat" / "center").mkdir(parents=True)
+    ids = [1_000_000_000 + i * 50_000_000 for i in range(100)]
+    for fid in ids:
+        cv2.imwrite(str(tmp_path / "flat" / "center" / f"{fid}.jpg"), np.full((480, 640, 3), 90, np.uint8))
+    (tmp_path / "flat" / "labels.csv").write_text("frame_id,steering_angle,public\n"
+                                                  + "".join(f"{fid},0.0,1\n" for fid in ids))
+    return ["replay", str(made(tmp_path, "steering_wheel", "left", "ch2")), "--data", str(tmp_path / "flat"),
+            "--labels", str(tmp_path / "flat" / "labels.csv"), "--out", str(tmp_path / "out")]
+
+
 BAD_INPUTS = {
     # a) recorded values outside their physical range, with file and row
     "sim steering 3.5": (_compile(lambda t: sim_log(t / "sim", {2: "3.5,0.5,0,10"})),
@@ -275,6 +288,13 @@ BAD_INPUTS = {
     "replay limit -1": (_with("--limit", "-1", command="replay"), "--limit must be positive and finite, got -1"),
     "replay max heading inf": (_with("--max-heading", "inf", command="replay"),
                                "--max-heading must be positive and finite, got inf"),
+    # j) closed-loop replay of a recording
+    "replay too short": (_with(command="replay"), "driving_log.csv: too short to replay: no segment lasts 3 s"),
+    "replay another camera": (lambda t, s: ["replay", str(made(t, "steering_wheel", "left", "ch2")), "--data",
+                                            str(sim_log(t / "sim")), "--out", str(t / "out")],
+                              "model.pt was trained on the 'ch2' camera geometry and"),
+    "replay speed -3": (_with("--speed", "-3", command="replay"), "--speed must be positive and finite, got -3"),
+    "replay no speed to estimate": (_flat_ch2_replay, "cannot estimate the speed from the frames"),
     # i) a study's journal this worker cannot write
     "tune read-only journal": (_read_only_journal, "s.journal: the journal file is not writable (permission denied)"),
 }

@@ -376,7 +376,7 @@ OPTIONS = {
     "nproc": (lambda v: v >= 1, "an integer of at least 1"),
     "epochs": (lambda v: v >= 1, "an integer of at least 1"),
     **{name: (_positive, "positive and finite") for name in (
-        "minutes", "suite_minutes", "chunk_minutes", "fps", "limit", "max_heading", "mount_height", "fov")},
+        "minutes", "suite_minutes", "chunk_minutes", "fps", "limit", "max_heading", "mount_height", "fov", "speed")},
     "set_speed": (lambda v: math.isfinite(v) and v >= 0, "a finite number of at least 0 (m/s)"),
 }
 
