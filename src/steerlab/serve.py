@@ -27,13 +27,12 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from steerlab.data.geometry import CAMERAS
+from steerlab.data.geometry import CAMERAS, STEERING_RATIO
 from steerlab.data.preprocess import crop_resize
 from steerlab.data.readers import MPH_TO_MS, SIM_CONVENTION, SIM_FULL_LOCK_RAD
 from steerlab.errors import SteerlabError, warn
 from steerlab.pilot import Pilot
 
-STEERING_RATIO = 14.8  # only used when a steering-wheel model (CH2) drives the simulator
 SIM_FRAME = (CAMERAS["sim"].width, CAMERAS["sim"].height)  # the simulator's centre camera: 320x160
 
 

@@ -61,6 +61,9 @@ CAMERAS = {
 }
 
 
+STEERING_RATIO = 14.8  # hand-wheel / road-wheel angle of the CH2 car (a Lincoln MKZ) and the synthetic world's
+
+
 @dataclass(frozen=True)
 class Car:
     """The car a camera geometry belongs to: wheelbase (m), steering ratio (hand wheel / road wheel, for
@@ -74,7 +77,7 @@ class Car:
     speeds: tuple[float, float]
 
 
-CARS = {"sim": Car(2.85, 14.8, 1.0, (1.0, 45.0)), "ch2": Car(2.85, 14.8, 1.0, (1.0, 45.0)),
+CARS = {"sim": Car(2.85, STEERING_RATIO, 1.0, (1.0, 45.0)), "ch2": Car(2.85, STEERING_RATIO, 1.0, (1.0, 45.0)),
         "donkey": Car(0.26, 1.0, 0.3, (0.3, 8.0))}
 
 

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
+from steerlab.data.geometry import STEERING_RATIO
 from steerlab.data.labels import speed_targets
 from steerlab.data.readers import open_recording
 from steerlab.data.recording import SteeringConvention
@@ -20,7 +21,6 @@ from steerlab.evaluate.scoring import write_predictions
 from steerlab.pilot import Pilot
 from steerlab.video import DriveVideo
 
-RATIO = 14.8  # steering ratio for showing road-wheel conventions as a steering wheel
 
 
 def describe(conv: SteeringConvention) -> str:
@@ -38,9 +38,9 @@ def conventions_match(model: SteeringConvention, data: SteeringConvention) -> bo
 
 
 def convert_steering(values, source: SteeringConvention, target: SteeringConvention):
-    """Steering values from one convention into another, through the road-wheel angle (steering ratio RATIO);
+    """Steering values from one convention into another, through the road-wheel angle (geometry.STEERING_RATIO);
     raises SteerlabError when one of them is normalized steering without a full-lock angle."""
-    return target.from_road_wheel_left(source.to_road_wheel_left(values, RATIO), RATIO)
+    return target.from_road_wheel_left(source.to_road_wheel_left(values, STEERING_RATIO), STEERING_RATIO)
 
 
 def evaluate(checkpoint: str | Path, data: str | Path, frame_range: str | None, out: str | Path,
@@ -70,14 +70,14 @@ def evaluate(checkpoint: str | Path, data: str | Path, frame_range: str | None, 
         try:
             convert_steering(0.0, pilot.convention, rec.convention)
             convert = (pilot.convention, rec.convention)
-            warn(f"{what}: its predictions are converted to the recording's convention (steering ratio {RATIO:g})")
+            warn(f"{what}: its predictions are converted to the recording's convention (steering ratio {STEERING_RATIO:g})")
         except SteerlabError:
             warn(f"{what}: normalized steering without a full-lock angle cannot be converted, so the metrics "
                  "compare unconverted values")
     if video:  # both sides are shown as a steering-wheel angle, which needs a physical scale
         try:
             for conv in (pilot.convention, rec.convention):
-                conv.to_road_wheel_left(0.0, RATIO)
+                conv.to_road_wheel_left(0.0, STEERING_RATIO)
         except SteerlabError as e:
             raise SteerlabError(f"cannot write {video} (it shows steering-wheel angles): {e}") from None
     if pilot.preset != rec.preset:
@@ -88,7 +88,7 @@ def evaluate(checkpoint: str | Path, data: str | Path, frame_range: str | None, 
     offsets = rec.extra.get("lateral_offset")
 
     def wheel(conv, y):  # steering-wheel angle, positive left, for the video
-        return conv.to_road_wheel_left(y, RATIO) * RATIO
+        return conv.to_road_wheel_left(y, STEERING_RATIO) * STEERING_RATIO
 
     controls = []
     with DriveVideo(video, rec.frame_rate(), reference="recorded") if video else nullcontext() as movie:

@@ -6,11 +6,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from steerlab.data.geometry import STEERING_RATIO
+
 
 @dataclass
 class VehicleParams:
     wheelbase: float = 2.85          # m
-    steering_ratio: float = 14.8     # steering-wheel angle / road-wheel angle (CH2-like car)
+    steering_ratio: float = STEERING_RATIO  # steering-wheel angle / road-wheel angle (CH2-like car)
     max_road_wheel: float = 0.55     # rad
     max_accel: float = 3.0           # m/s^2 at full throttle
     max_decel: float = 8.0           # m/s^2 at full brake

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import yaml
 
+from steerlab.data.geometry import STEERING_RATIO
 from steerlab.errors import SteerlabError
 
 DEFAULTS = {
@@ -28,7 +29,7 @@ DEFAULTS = {
                               # epoch is the one with the lowest validation RMSE (mse) or MAE (mae)
         "exclude_episodes": [],  # e.g. [drift-out] to train on the recovery half of drift episodes only
         # side-camera recovery synthesis (paper 002 Eq. 3): left/right frames with a recovery angle added
-        "side_cameras": False, "side_offset_m": 0.508, "recovery_s": 1.0, "steering_ratio": 14.8,
+        "side_cameras": False, "side_offset_m": 0.508, "recovery_s": 1.0, "steering_ratio": STEERING_RATIO,
         # viewpoint shifts (NVIDIA PilotNet): virtual cameras [shift_m (left +), yaw_deg (left +)] warped from
         # the centre camera, labelled like the side cameras; without speed the return distance is fixed
         "views": [], "recovery_distance_m": None,
