@@ -10,6 +10,7 @@ command (or, for DAgger, by whatever `choose` picks)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from tqdm import tqdm
@@ -19,15 +20,20 @@ TRAJECTORY = ["time_s", "x", "y", "s", "lateral_offset_m", "steering", "speed", 
 
 @dataclass
 class Tick:
-    """What one tick saw and did: steering as road-wheel angles in radians, positive left."""
+    """What one tick saw and did: steering as road-wheel angles in radians, positive left. `expert`, the
+    expert's steering in this state, is computed only when something asks for it (a video, a DAgger label)."""
 
     index: int
     frame: np.ndarray
     offset: float
     heading: float
     model: float
-    expert: float
     intervention: bool
+    world: object
+
+    @cached_property
+    def expert(self) -> float:
+        return self.world.expert_steering()
 
 
 def autonomy(interventions: int, elapsed_s: float) -> float:
@@ -64,7 +70,7 @@ def drive_loop(world, pilot, ticks: int, limit_m: float, fps: float, choose=None
         st = world.state
         command = pilot.step(frame, st.v).steering
         tick = Tick(i, frame, offset, heading, pilot.convention.to_road_wheel_left(command, world.steering_ratio),
-                    world.expert_steering(), put_back)
+                    put_back, world)
         if on_step:
             on_step(tick)
         rows.append((i / fps, st.x, st.y, world.s, offset, command, st.v, heading, float(put_back)))
