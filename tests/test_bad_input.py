@@ -211,6 +211,14 @@ def _flat_ch2_replay(tmp_path, stack):
             "--labels", str(tmp_path / "flat" / "labels.csv"), "--out", str(tmp_path / "out")]
 
 
+def _corrupt_frame_replay(tmp_path, stack):
+    """The flat CH2 frames with one JPEG cut off in the middle of the drive, at a given speed."""
+    argv = _flat_ch2_replay(tmp_path, stack)
+    frame = sorted((tmp_path / "flat" / "center").glob("*.jpg"))[50]
+    frame.write_bytes(frame.read_bytes()[:300])
+    return [*argv, "--speed", "10"]
+
+
 BAD_INPUTS = {
     # a) recorded values outside their physical range, with file and row
     "sim steering 3.5": (_compile(lambda t: sim_log(t / "sim", {2: "3.5,0.5,0,10"})),
@@ -295,6 +303,9 @@ BAD_INPUTS = {
                               "model.pt was trained on the 'ch2' camera geometry and"),
     "replay speed -3": (_with("--speed", "-3", command="replay"), "--speed must be positive and finite, got -3"),
     "replay no speed to estimate": (_flat_ch2_replay, "cannot estimate the speed from the frames"),
+    "replay corrupt frame": (_corrupt_frame_replay, ".jpg: cannot decode image (corrupt or not a JPEG/PNG)"),
+    "replay missing recording": (lambda t, s: ["replay", str(made(t)), "--data", str(t / "nothere"), "--out",
+                                               str(t / "out")], "nothere: recording not found"),
     # i) a study's journal this worker cannot write
     "tune read-only journal": (_read_only_journal, "s.journal: the journal file is not writable (permission denied)"),
 }
