@@ -14,7 +14,7 @@ import cv2
 import numpy as np
 import pytest
 
-from conftest import write_jpeg
+from conftest import made, write_jpeg
 from steerlab.cli import main
 
 ROWS = 8  # frames of the tiny driving log and tub
@@ -121,25 +121,6 @@ def _locked(tmp_path, stack):
     (tmp_path / "run").mkdir()
     stack.enter_context(folder_lock(tmp_path / "run", "steerlab train run"))
     return _train()(tmp_path, stack)
-
-
-def made(tmp_path, kind="road_wheel", positive="right", preset="sim", name="model.pt"):
-    """An untrained PilotNet checkpoint with the steering convention and camera preset of a kind of recording:
-    road_wheel/right + sim (the simulator), normalized/right (donkeycar), steering_wheel/left + ch2 (CH2)."""
-    import torch
-
-    from steerlab.checkpoint import save_checkpoint
-    from steerlab.data.preprocess import PreprocessConfig
-    from steerlab.data.recording import SteeringConvention
-    from steerlab.models import create_model
-
-    pre = PreprocessConfig.from_dict({"preset": preset})
-    model_cfg = {"in_channels": 1, "height": pre.height, "width": pre.width}
-    torch.manual_seed(0)
-    path = tmp_path / name
-    save_checkpoint(path, create_model("pilotnet", **model_cfg), model_cfg, pre, {"mean": [100.0], "std": [50.0]},
-                    SteeringConvention(kind, positive), {"rmse": 0.1}, preset=preset, frame_rate=20.0)
-    return path
 
 
 def ch2(folder):

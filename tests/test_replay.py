@@ -6,12 +6,11 @@ import math
 import cv2
 import numpy as np
 import pytest
-from conftest import SHARED
+from conftest import SHARED, made
 
 from steerlab.cli import main
 from steerlab.data.geometry import CAMERAS, CARS
 from steerlab.data.readers import open_recording
-from steerlab.data.recording import SteeringConvention
 from steerlab.pilot import Controls, Pilot
 from steerlab.sim.driving import drive_loop
 from steerlab.sim.replay import RESULT_FIELDS, ReplayWorld, estimate_speed, human_path, replay_recording
@@ -151,7 +150,7 @@ def test_replay_without_speed_needs_one(tiny_checkpoint, twisty, tmp_path, capsy
     for fid in ids:
         cv2.imwrite(str(flat / "center" / f"{fid}.jpg"), np.full((480, 640, 3), 90, np.uint8))
     (flat / "labels.csv").write_text("frame_id,steering_angle,public\n" + "".join(f"{f},0.0,1\n" for f in ids))
-    ch2 = untrained(tmp_path / "ch2.pt", "ch2", SteeringConvention())
+    ch2 = made(tmp_path, "steering_wheel", "left", "ch2", "ch2.pt")
     argv = ["replay", str(ch2), "--data", str(flat), "--labels", str(flat / "labels.csv"), "--workers", "1"]
     assert main([*argv, "--out", str(tmp_path / "x")]) == 2
     assert "cannot estimate the speed" in capsys.readouterr().err and not (tmp_path / "x").exists()
@@ -160,24 +159,11 @@ def test_replay_without_speed_needs_one(tiny_checkpoint, twisty, tmp_path, capsy
     assert row["speed_source"] == "given (--speed)" and float(row["km"]) == pytest.approx(10 * 99 * 0.05 / 1000)
 
 
-def untrained(path, preset: str, convention):
-    """A PilotNet checkpoint with untrained weights for `preset` frames: enough to drive a replay."""
-    from steerlab.checkpoint import save_checkpoint
-    from steerlab.data.preprocess import PreprocessConfig
-    from steerlab.models import create_model
-
-    cfg = PreprocessConfig.from_dict({"preset": preset})
-    model_cfg = {"in_channels": 1, "height": cfg.height, "width": cfg.width}
-    save_checkpoint(path, create_model("pilotnet", **model_cfg), model_cfg, cfg, {"mean": [0.0], "std": [1.0]},
-                    convention, {}, preset=preset)
-    return path
-
-
 @needs_donkey
 def test_replay_a_donkeycar_tub(tmp_path, capsys):
     """A tub replays with the donkeycar geometry and its full-lock angle; the speed estimated from the hall's
     plain floor is no speed a donkeycar drives at, so it asks for --speed."""
-    ckpt = untrained(tmp_path / "donkey.pt", "donkey", SteeringConvention("normalized", "right", math.radians(25)))
+    ckpt = made(tmp_path, "normalized", "right", "donkey", "donkey.pt", full_lock_deg=25)
     argv = ["replay", str(ckpt), "--data", str(HALL), "--reader", "full_lock_deg=25", "--range", "0:400",
             "--workers", "1", "--out", str(tmp_path / "r")]
     assert main(argv) == 2
