@@ -134,9 +134,9 @@ def cmd_models(a) -> None:
 
     for name in list_models():
         cls = model_class(name)
-        notes = [f"{k}={v}" for k, v in getattr(cls, "inputs", {}).items()]
-        notes += ["recurrent"] * getattr(cls, "recurrent", False) + ["not trained"] * (not cls.trainable)
-        notes += [f"predicts {t}, needs speed" for t in getattr(cls, "targets", ())]
+        notes = [f"{k}={v}" for k, v in cls.inputs.items()]
+        notes += ["recurrent"] * cls.recurrent + ["not trained"] * (not cls.trainable)
+        notes += [f"predicts {t}, needs speed" for t in cls.targets]
         print(f"{name:<18} {', '.join(notes)}")
 
 

@@ -35,8 +35,8 @@ class _OneFrame(nn.Module):
     def __init__(self, model: nn.Module, outputs: list[str]):
         super().__init__()
         self.model, self.outputs = model, outputs
-        self.recurrent = getattr(model, "recurrent", False)
-        self.speed_history = getattr(model, "speed_history", 0)
+        self.recurrent = model.recurrent
+        self.speed_history = model.speed_history
 
     def forward(self, x, *rest):
         rest = list(rest)
@@ -63,15 +63,15 @@ def export_onnx(checkpoint: str | Path, out: str | Path) -> Path:
     c = sum(pre.channels().values())
     x = torch.zeros(1, c, pre.height, pre.width)
     args, names = [x], ["x"]
-    history = getattr(model, "speed_history", 0)
+    history = model.speed_history
     if history:
         args.append(torch.zeros(1, history))
         names.append("speeds")
     with torch.no_grad():
-        probe = model(x[:, None]) if getattr(model, "recurrent", False) else model(*args)
+        probe = model(x[:, None]) if model.recurrent else model(*args)
     outputs = [k for k in ("steering", "speed", "command") if k in (probe[0] if isinstance(probe, tuple) else probe)]
     state = None
-    if getattr(model, "recurrent", False):
+    if model.recurrent:
         h, _ = probe[1]
         state = list(h.shape)
         args += [torch.zeros(state), torch.zeros(state)]

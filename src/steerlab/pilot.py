@@ -43,8 +43,8 @@ class TorchModel:
         self.name = ckpt["model"]
         self.preset = ckpt.get("preset")  # the camera geometry it was trained on (ch2, sim, donkey)
         self.standardize = Standardizer(ckpt["stats"])
-        self.recurrent = getattr(self.model, "recurrent", False)
-        self.speed_history = getattr(self.model, "speed_history", 0)
+        self.recurrent = self.model.recurrent
+        self.speed_history = self.model.speed_history
         self.reset()
 
     def reset(self) -> None:

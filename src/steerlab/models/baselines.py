@@ -6,10 +6,10 @@ import numpy as np
 import torch
 import torch.nn as nn
 
-from steerlab.models.registry import register
+from steerlab.models.registry import SteeringModel, register
 
 
-class _Constant(nn.Module):
+class _Constant(SteeringModel):
     trainable = False
 
     def __init__(self, in_channels: int = 1, height: int = 66, width: int = 200, **_):

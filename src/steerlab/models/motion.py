@@ -17,7 +17,7 @@ import torch
 import torch.nn as nn
 
 from steerlab.models.pilotnet import PilotNet, pilotnet_head
-from steerlab.models.registry import register
+from steerlab.models.registry import SteeringModel, register
 
 
 @register("pilotnet-diff")
@@ -31,14 +31,13 @@ class PilotNetFlow(PilotNet):
 
 
 @register("cnn3d")
-class CNN3D(nn.Module):
+class CNN3D(SteeringModel):
     """PilotNet's five layers with kernels of temporal depth 3 over 3 stacked frames.
 
     Temporal size: every layer pads one frame on each side in time (and none in space), so the temporal size
     stays 3 through the network while the spatial sizes follow PilotNet (66x200 -> 1x18). The flattened
     features are 64 x 3 x 1 x 18 = 3456, followed by PilotNet's fully connected layers."""
 
-    trainable = True
     inputs = {"stack": 3, "modalities": ["image"], "color": "gray"}
 
     def __init__(self, in_channels: int = 3, height: int = 66, width: int = 200, dropout: float = 0.5):
@@ -58,8 +57,7 @@ class CNN3D(nn.Module):
 
 
 @register("two-stream-flow")
-class TwoStreamFlow(nn.Module):
-    trainable = True
+class TwoStreamFlow(SteeringModel):
     inputs = {"modalities": ["image", "flow"]}
 
     def __init__(self, in_channels: int = 3, height: int = 66, width: int = 200, dropout: float = 0.5):

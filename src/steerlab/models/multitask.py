@@ -25,7 +25,7 @@ import torch.nn as nn
 import torch.nn.functional as F
 
 from steerlab.models.recurrent import n_features
-from steerlab.models.registry import register
+from steerlab.models.registry import SteeringModel, register
 
 SQUARE = {"width": 96, "height": 96}  # paper 002: the input squeezed to an aspect ratio of 1:1
 
@@ -69,8 +69,7 @@ class _VisualEncoder(nn.Module):
 
 
 @register("yang-base")
-class YangBase(nn.Module):
-    trainable = True
+class YangBase(SteeringModel):
     inputs = SQUARE
 
     def __init__(self, in_channels: int = 3, height: int = 96, width: int = 96, dropout: float = 0.5,
@@ -88,8 +87,7 @@ class YangBase(nn.Module):
 
 
 @register("speed-command")
-class SpeedCommand(nn.Module):
-    trainable = True
+class SpeedCommand(SteeringModel):
     recurrent = True
     inputs = SQUARE
     targets = ("command",)
@@ -114,8 +112,7 @@ class SpeedCommand(nn.Module):
 
 
 @register("multitask-speed")
-class MultitaskSpeed(nn.Module):
-    trainable = True
+class MultitaskSpeed(SteeringModel):
     inputs = SQUARE
     targets = ("speed",)
     speed_history = 10  # the most recent speeds the model is given (paper 002 III-C: 10)
@@ -142,8 +139,7 @@ class MultitaskSpeed(nn.Module):
 
 
 @register("cg23")
-class CG23(nn.Module):
-    trainable = True
+class CG23(SteeringModel):
     inputs: dict = {}
 
     def __init__(self, in_channels: int = 1, height: int = 66, width: int = 200, dropout: float = 0.5):

@@ -10,7 +10,7 @@ from __future__ import annotations
 import torch
 import torch.nn as nn
 
-from steerlab.models.registry import register
+from steerlab.models.registry import SteeringModel, register
 
 
 def pilotnet_convs(in_channels: int) -> nn.Sequential:
@@ -31,8 +31,7 @@ def pilotnet_head(n_features: int, dropout: float) -> nn.Sequential:
 
 
 @register("pilotnet")
-class PilotNet(nn.Module):
-    trainable = True
+class PilotNet(SteeringModel):
     inputs: dict = {}  # any colour space and modalities
 
     def __init__(self, in_channels: int = 1, height: int = 66, width: int = 200, dropout: float = 0.5):

@@ -19,7 +19,7 @@ import torch
 import torch.nn as nn
 
 from steerlab.models.pilotnet import pilotnet_convs
-from steerlab.models.registry import register
+from steerlab.models.registry import SteeringModel, register
 
 
 def n_features(module: nn.Module, channels: int, height: int, width: int) -> int:
@@ -28,8 +28,7 @@ def n_features(module: nn.Module, channels: int, height: int, width: int) -> int
 
 
 @register("lstm")
-class ConvLSTM(nn.Module):
-    trainable = True
+class ConvLSTM(SteeringModel):
     recurrent = True
     inputs = {"modalities": ["image"], "color": "gray"}
 

@@ -65,7 +65,7 @@ def model_options(model: dict, pre: PreprocessConfig) -> dict:
 def model_preprocess(name: str, preprocess: dict | None) -> dict:
     """The config's preprocessing completed with what the model needs (its `inputs`)."""
     pre = dict(preprocess or {})
-    for key, value in getattr(model_class(name), "inputs", {}).items():
+    for key, value in model_class(name).inputs.items():
         if key in pre and pre[key] != value:
             raise SteerlabError(f"model {name!r} needs preprocess {key}={value}, the config sets {pre[key]}")
         pre[key] = value
@@ -272,7 +272,7 @@ def train_one_epoch(model, opt, batches: Batches, samples: np.ndarray, batch_siz
                                for d in (inputs, targets))
         inputs, targets = ({k: v.to(ranks.device) for k, v in d.items()} for d in (inputs, targets))
         out = model(**inputs)
-        loss = objective(net, out[0] if getattr(net, "recurrent", False) else out, targets, loss_name)  # (out, state)
+        loss = objective(net, out[0] if net.recurrent else out, targets, loss_name)  # (out, state)
         opt.zero_grad(set_to_none=True)
         (loss * share if ranks.world > 1 else loss).backward()
         opt.step()
@@ -301,7 +301,7 @@ def predict(model, batches: Batches, idx: np.ndarray, batch_size: int = 256) -> 
         return {k: v.to(device) for k, v in batches.get(frames)[0].items()}
 
     parts = []
-    if not getattr(model, "recurrent", False):
+    if not model.recurrent:
         for s in range(0, len(idx), batch_size):
             parts.append(_numpy(model(**inputs(idx[s: s + batch_size]))))
     else:
@@ -386,11 +386,11 @@ def _train(cfg: dict, ranks: Ranks, progress: bool, on_epoch) -> dict:
         model.load_state_dict(init["state_dict"])
     if hasattr(model, "loss") and tc["loss"] != "mse":
         raise SteerlabError(f"model {name!r} trains on a loss of its own; train.loss={tc['loss']} does not apply")
-    if (getattr(model, "targets", ()) or getattr(model, "speed_history", 0)) and "speed" not in ds.labels:
+    if (model.targets or model.speed_history) and "speed" not in ds.labels:
         raise SteerlabError(f"model {name!r} needs a recording with speed; {ds.meta['source']} has none")
-    batches = Batches(sources, stats, getattr(model, "speed_history", 0))
+    batches = Batches(sources, stats, model.speed_history)
     samples = train_codes
-    if getattr(model, "recurrent", False):
+    if model.recurrent:
         if tc["balance"]:
             raise SteerlabError("balanced sampling picks single frames; recurrent models train on sequences "
                                 "(paper 003 does not balance its LSTM either)")
@@ -412,7 +412,7 @@ def _train(cfg: dict, ranks: Ranks, progress: bool, on_epoch) -> dict:
             save_checkpoint(path, model, model_cfg, ds.config, stats, convention, metrics,
                             preset=ds.meta["preset"], frame_rate=ds.meta["frame_rate"], **extra)
 
-    if not getattr(model, "trainable", True):
+    if not model.trainable:
         model.fit(batches.steering(train_codes))
         pred = predict(model, batches, val_idx)
         metrics = {**all_metrics(pred, truth, convention.degrees_per_unit), "epoch": 0}
@@ -433,7 +433,7 @@ def _train(cfg: dict, ranks: Ranks, progress: bool, on_epoch) -> dict:
         if ranks.main:
             print(f"resuming {out} after epoch {state['epoch']}")
     log_fields = (["epoch", "train_loss", "val_mse", "val_rmse", "val_mae", "val_mae_deg", "val_gamma_deg"]
-                  + [f"val_{METRIC[t]}" for t in getattr(model, "targets", ())] + ["seconds"])
+                  + [f"val_{METRIC[t]}" for t in model.targets] + ["seconds"])
     log_path = out / "log.csv"
     if ranks.main:
         with open(log_path, "w", newline="") as f:  # rewritten from history so a resumed log has no duplicates
