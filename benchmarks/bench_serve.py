@@ -28,7 +28,8 @@ from _common import SHARED, machine
 
 from steerlab.checkpoint import save_checkpoint
 from steerlab.data.preprocess import PreprocessConfig
-from steerlab.data.readers import SIM_CONVENTION, open_recording
+from steerlab.data.readers import open_recording
+from steerlab.data.simlog import SIM_CONVENTION
 from steerlab.export import export_onnx
 from steerlab.models import create_model
 

@@ -55,3 +55,10 @@ def test_the_check_sees_a_violation(tmp_path):
     bad = tmp_path / "bad.py"
     bad.write_text("def f():\n    from steerlab.train.loop import train\n")
     assert imports(bad) == {"train.loop"} and layer_of("train.loop") > layer_of("data.readers")
+
+
+def test_recording_layouts_sit_below_the_dispatcher():
+    """data/readers.py picks a layout's reader; no layout module imports it back (no cycle among the readers)."""
+    back = [p.name for p in sorted((PACKAGE / "data").glob("*.py")) if p.name != "readers.py"
+            and "data.readers" in imports(p)]
+    assert not back, f"these data modules import data/readers.py: {back}"

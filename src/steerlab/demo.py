@@ -45,7 +45,7 @@ def run_demo(out: str | Path, minutes: float, epochs: int, suite_minutes: float,
         (Path(cfg["out"]) / "done").touch()
     print(f"[3/5] open-loop evaluation on the held-out frames {split}:{n}")
     offline = evaluate(ckpt, rec_dir, f"{split}:{n}", out / "open-loop", progress=progress)
-    print(f"[4/5] closed-loop replay of the held-out frames (the recording's frames warped to the car's view)")
+    print("[4/5] closed-loop replay of the held-out frames (the recording's frames warped to the car's view)")
     replay = run_replay([ckpt], rec_dir, out / "replay", f"{split}:{n}", workers=1, progress=progress)
     print(f"[5/5] closed-loop suite: {suite_minutes} min on each of its unseen roads")
     summary = run_suite([ckpt], out / "closed-loop", minutes=suite_minutes, workers=workers, progress=progress)

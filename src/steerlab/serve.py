@@ -21,7 +21,6 @@ import csv
 import math
 import time
 import warnings
-from datetime import datetime, timezone
 from pathlib import Path
 
 import cv2
@@ -29,7 +28,7 @@ import numpy as np
 
 from steerlab.data.geometry import CAMERAS, STEERING_RATIO
 from steerlab.data.preprocess import crop_resize
-from steerlab.data.readers import MPH_TO_MS, SIM_CONVENTION, SIM_FULL_LOCK_RAD
+from steerlab.data.simlog import MPH_TO_MS, image_name, log_row, to_sim_steering
 from steerlab.errors import SteerlabError, warn
 from steerlab.pilot import Pilot
 
@@ -52,8 +51,7 @@ class SpeedController:
 def to_simulator(pilot: Pilot, steering: float) -> float:
     """The pilot's steering (its checkpoint's convention) as the simulator's normalised value."""
     road_wheel_left = pilot.convention.to_road_wheel_left(steering, STEERING_RATIO)
-    return float(np.clip(SIM_CONVENTION.from_road_wheel_left(road_wheel_left, STEERING_RATIO) / SIM_FULL_LOCK_RAD,
-                         -1.0, 1.0))
+    return float(np.clip(to_sim_steering(road_wheel_left, STEERING_RATIO), -1.0, 1.0))
 
 
 def check_drivable(pilot: Pilot, source: str | Path) -> None:
@@ -116,12 +114,10 @@ class DriveSession:
     def _log(self, jpeg: bytes, steering: float, throttle: float, speed: float) -> None:
         ms = max(time.time_ns() // 1_000_000, self._last_ms + 1)  # file names carry the time, so unique ms
         self._last_ms = ms
-        now = datetime.fromtimestamp(ms / 1000, timezone.utc)
-        name = self.record / "IMG" / f"center_{now:%Y_%m_%d_%H_%M_%S}_{ms % 1000:03d}.jpg"
+        name = self.record / "IMG" / image_name("center", ms * 1_000_000)
         name.write_bytes(jpeg)
         with open(self.record / "driving_log.csv", "a", newline="") as f:
-            csv.writer(f).writerow([name, "", "", f"{steering:.6f}", f"{max(throttle, 0.0):.6f}",
-                                    f"{max(-throttle, 0.0):.6f}", f"{speed / MPH_TO_MS:.4f}"])
+            csv.writer(f).writerow(log_row(name, "", "", steering, max(throttle, 0.0), max(-throttle, 0.0), speed))
 
 
 def _decode_base64(text) -> bytes | None:

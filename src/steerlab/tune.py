@@ -48,7 +48,11 @@ from steerlab.errors import SteerlabError, warn
 from steerlab.train.config import DEFAULTS, load_config
 
 OBJECTIVES = {"rmse": ["minimize"], "rmse+gamma": ["minimize", "minimize"], "autonomy": ["maximize"]}
-HEARTBEAT = (30, 90)  # seconds: a worker's heartbeat interval, and the silence after which its trial is failed
+# seconds: a worker's heartbeat interval, and the silence after which its trial is failed and retried (RDB
+# storages). The environment variable STEERLAB_TUNE_HEARTBEAT="INTERVAL,GRACE" (whole seconds) replaces it, e.g. "1,3"
+# in the tests, so that a killed worker's trial is retried within seconds.
+HEARTBEAT = (30, 90)
+CONNECT_TIMEOUT = 10  # seconds to wait for a PostgreSQL or MySQL server (a URL's own connect_timeout= wins)
 
 
 def _optuna():
@@ -125,23 +129,60 @@ def with_params(cfg: dict, params: dict) -> dict:
     return out
 
 
+def heartbeat() -> tuple[int, int]:
+    """(interval, grace period) in seconds: HEARTBEAT, or STEERLAB_TUNE_HEARTBEAT="INTERVAL,GRACE"."""
+    text = os.environ.get("STEERLAB_TUNE_HEARTBEAT", "").strip()
+    if not text:
+        return HEARTBEAT
+    try:
+        interval, grace = (int(x) for x in text.split(","))
+    except ValueError:
+        interval = grace = 0
+    if not 0 < interval < grace:
+        raise SteerlabError(f"STEERLAB_TUNE_HEARTBEAT={text!r}: expected INTERVAL,GRACE in whole seconds with "
+                            "0 < INTERVAL < GRACE, e.g. 30,90")
+    return interval, grace
+
+
+def shown_url(url: str) -> str:
+    """The storage URL as messages show it: without its password."""
+    try:
+        from sqlalchemy.engine import make_url
+
+        return make_url(url).render_as_string(hide_password=True)
+    except Exception:  # noqa: BLE001 - not a URL SQLAlchemy can parse: keep only what precedes the host
+        scheme, sep, rest = url.partition("://")
+        return f"{scheme}{sep}***@{rest.rpartition('@')[2]}" if "@" in rest else url
+
+
 def storage_of(url: str | None, out: Path):
     """An Optuna storage: a journal file (default `<out>/study.journal`, or a path / journal:PATH), or an RDB URL
-    (sqlite:///, postgresql://, mysql://) with heartbeats, so a killed worker's trial is failed and retried."""
+    (sqlite:///, postgresql://, mysql://) with heartbeats, so a killed worker's trial is failed and retried.
+    `postgresql://` uses the psycopg (3) driver; connecting gives up after CONNECT_TIMEOUT seconds."""
     _optuna()
     from optuna.storages import JournalStorage, RDBStorage, RetryHeartbeatStaleTrialCallback
     from optuna.storages.journal import JournalFileBackend
 
     url = url or str(out / "study.journal")
-    if url.split(":", 1)[0].split("+", 1)[0] in ("sqlite", "postgresql", "mysql"):  # postgresql+psycopg2://...
+    scheme = url.split(":", 1)[0]
+    if scheme.split("+", 1)[0] in ("sqlite", "postgresql", "mysql"):  # postgresql+psycopg2://...
+        interval, grace = heartbeat()
+        engine = url
+        if scheme == "postgresql":  # the driver requirements.txt installs, whatever SQLAlchemy's default
+            engine = "postgresql+psycopg" + url[len(scheme):]
+        kwargs = {}
+        if scheme != "sqlite" and "connect_timeout=" not in url:
+            kwargs["connect_args"] = {"connect_timeout": CONNECT_TIMEOUT}
         try:
             with warnings.catch_warnings():  # heartbeats are marked experimental in Optuna
                 warnings.simplefilter("ignore")
-                return RDBStorage(url, heartbeat_interval=HEARTBEAT[0], grace_period=HEARTBEAT[1],
+                return RDBStorage(engine, engine_kwargs=kwargs, heartbeat_interval=interval, grace_period=grace,
                                   heartbeat_stale_trial_callback=RetryHeartbeatStaleTrialCallback(max_retry=2))
+        except ModuleNotFoundError as e:
+            raise SteerlabError(f"cannot open storage {shown_url(url)}: its database driver is not installed "
+                                f"(no module {e.name!r}; for PostgreSQL: pip install 'psycopg[binary]')") from None
         except Exception as e:  # noqa: BLE001 - SQLAlchemy raises many types for a bad URL or server
-            first = str(e).splitlines()[0] if str(e) else ""
-            raise SteerlabError(f"cannot open storage {url}: {e.__class__.__name__}: {first}") from None
+            raise SteerlabError(f"cannot open storage {shown_url(url)}: {_first_line(e)}") from None
     path = url[len("journal:"):] if url.startswith("journal:") else url
     if "://" in path or not path.endswith((".journal", ".log")):
         raise SteerlabError(f"unknown storage {url!r}: use a journal file (*.journal, *.log, journal:PATH) or "
@@ -158,6 +199,14 @@ def storage_of(url: str | None, out: Path):
     except PermissionError as e:
         raise SteerlabError(f"{e.filename or path}: permission denied (the study's journal needs to be readable "
                             "and writable, with its folder writable for the lock file)") from None
+
+
+def _first_line(e: Exception) -> str:
+    """An exception as one line: a database driver's message without SQLAlchemy's wrapping and links."""
+    orig = getattr(e, "orig", None) or e  # sqlalchemy.exc.DBAPIError wraps the driver's exception
+    lines = [line.strip() for line in str(orig).splitlines() if line.strip()]
+    text = "; ".join(lines[:2]) if lines else ""
+    return f"{orig.__class__.__name__}: {text}" if text else orig.__class__.__name__
 
 
 def _check_journal_access(path: Path) -> None:
@@ -216,14 +265,19 @@ def _repair_journal(path: Path) -> None:
 
 
 def _load_study(cfg_text: dict, objective: str, storage, name: str, seed: int, epochs: int,
-                pruning: int | None):
-    """Create the study, or join it if it exists with the same search space and objective."""
+                pruning: int | None, join: bool = False, url: str | None = None):
+    """Create the study, or join it if it exists with the same search space and objective (`join`: it must)."""
     optuna = _optuna()
     signature = json.dumps({"tune": cfg_text["tune"], "objective": objective, "pruning": pruning}, sort_keys=True)
     try:
         existing = optuna.load_study(study_name=name, storage=storage)
     except KeyError:
         existing = None
+    if existing is None and join:
+        names = [repr(n) for n in optuna.get_all_study_names(storage)]
+        there = ", ".join(names[:10]) + (", ..." if len(names) > 10 else "") if names else "none"
+        raise SteerlabError(f"study {name!r} does not exist in {shown_url(url) if url else 'the storage'} (studies "
+                            f"there: {there}); check --study and --storage, or start the study without --join")
     # studies created before the reduction factor was an option stored "prune": true (factor 3) or false
     older = json.dumps({"tune": cfg_text["tune"], "objective": objective, "prune": pruning is not None},
                        sort_keys=True) if pruning in (None, 3) else None
@@ -242,9 +296,11 @@ def _load_study(cfg_text: dict, objective: str, storage, name: str, seed: int, e
 
 def run_tune(config: str | Path, overrides: list[str] = (), trials: int = 20, objective: str = "rmse",
              storage: str | None = None, study_name: str | None = None, seed: int = 0, pruning: int | None = 3,
-             progress: bool = True) -> Path:
+             progress: bool = True, join: bool = False) -> Path:
     """Run trials of the study until it has `trials` finished ones; write the reports. Returns the folder.
-    `pruning`: Hyperband's reduction factor (a rung keeps the best 1/pruning of the trials; None: no pruning)."""
+    `pruning`: Hyperband's reduction factor (a rung keeps the best 1/pruning of the trials; None: no pruning).
+    `join`: the study must exist already (a worker joining a study that another one started: a mistyped
+    study name or storage is an error rather than a new study)."""
     from steerlab.train.loop import train
 
     optuna = _optuna()
@@ -265,12 +321,12 @@ def run_tune(config: str | Path, overrides: list[str] = (), trials: int = 20, ob
     name = study_name or out.name
     epochs = int(cfg["train"]["epochs"])
     store = storage_of(storage, out)
-    study = _load_study(cfg, objective, store, name, seed, epochs, pruning)
+    study = _load_study(cfg, objective, store, name, seed, epochs, pruning, join, storage or str(out / "study.journal"))
     base = {k: v for k, v in cfg.items() if k != "tune"}
     surplus = []
 
     def objective_fn(trial):
-        if trial.number >= trials + _failed(study):  # other workers have started the last trials already
+        if _ahead(study, trial.number) >= trials:  # other workers have started the last trials already
             study.set_user_attr(f"surplus_{trial.number}", True)
             surplus.append(trial.number)
             raise _Surplus()
@@ -315,11 +371,16 @@ def run_tune(config: str | Path, overrides: list[str] = (), trials: int = 20, ob
     # study.optimize runs Optuna's heartbeat (RDB storages) and fails stale trials of dead workers; one trial
     # at a time, so that the count can be checked between trials
     while len(study.get_trials(deepcopy=False, states=done_states)) < trials:
+        surplus.clear()
         study.optimize(objective_fn, n_trials=1, catch=(_Surplus,), callbacks=[report])
-        if surplus:
+        if surplus and not _wait_for_others(study, trials):
             break
     bar.close()
-    write_reports(study, out, base)
+    from steerlab.locks import waiting_lock
+
+    out.mkdir(parents=True, exist_ok=True)
+    with waiting_lock(out / ".reports.lock"):  # workers sharing an out folder write the reports in turn
+        write_reports(study, out, base)
     return out
 
 
@@ -337,12 +398,40 @@ def _suggest(trial, key: str, dist):
     return trial.suggest_float(key, dist.low, dist.high, log=dist.log)
 
 
-def _failed(study) -> int:
-    """Trials that failed for real (a crash, a killed worker): they do not count against the total."""
+def _ahead(study, number: int) -> int:
+    """Trials numbered below `number` that are finished, running or queued (a dead worker's trial, re-queued by
+    the heartbeat check): everything but failed ones (a crash, a killed worker, a surplus trial), which do not
+    count against the total."""
     import optuna
 
-    return sum(1 for t in study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.FAIL,))
-               if not study.user_attrs.get(f"surplus_{t.number}"))
+    return sum(1 for t in study.get_trials(deepcopy=False)
+               if t.number < number and t.state != optuna.trial.TrialState.FAIL)
+
+
+def _wait_for_others(study, trials: int) -> bool:
+    """This worker found the study's last trials started by others. With heartbeats (RDB storages), wait while
+    they run: a trial whose worker dies meanwhile is failed after the grace period and queued again (Optuna's
+    retry callback), and then this worker runs it. True: run another trial; False: the study is done, or
+    nothing is watched (a journal: no heartbeats, so this worker stops here)."""
+    import time
+
+    import optuna
+    from optuna.trial import TrialState
+
+    interval = getattr(study._storage, "get_heartbeat_interval", lambda: None)()  # RDB storages only
+    if not interval:
+        return False
+    interval = min(interval, 5)
+    while True:
+        with warnings.catch_warnings():  # experimental in Optuna
+            warnings.simplefilter("ignore")
+            optuna.storages.fail_stale_trials(study)
+        states = [t.state for t in study.get_trials(deepcopy=False)]
+        if sum(s in (TrialState.COMPLETE, TrialState.PRUNED) for s in states) >= trials:
+            return False
+        if TrialState.WAITING in states or TrialState.RUNNING not in states:
+            return True  # a queued trial, or room for a new one (another worker's trial failed)
+        time.sleep(interval)
 
 
 def _short(v) -> str:

@@ -24,7 +24,8 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from steerlab.data.readers import CH2_CONVENTION, _check_unique, apply_range, nearest
+from steerlab.data.ch2 import CH2_CONVENTION
+from steerlab.data.rows import apply_range, check_unique, nearest
 from steerlab.data.recording import Recording
 from steerlab.errors import DataError, SteerlabError
 
@@ -80,7 +81,7 @@ def read_bag(path: str | Path, frame_range=None, topics: dict | None = None) -> 
     stamps = center[:, 0].astype(np.int64)
     order = np.argsort(stamps, kind="stable")
     center, stamps = center[order], stamps[order]
-    _check_unique(stamps, path, 1)
+    check_unique(stamps, path, 1)
     report = np.array(index["steering"], dtype=np.float64).reshape(-1, 3)
     report = report[np.argsort(report[:, 0], kind="stable")]
     angle = np.interp(stamps, report[:, 0], report[:, 1], left=0.0)

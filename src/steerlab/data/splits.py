@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from steerlab.data.readers import parse_range
+from steerlab.data.rows import parse_range
 from steerlab.errors import SteerlabError
 
 

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from steerlab.data.readers import apply_range
+from steerlab.data.rows import apply_range
 from steerlab.data.recording import Recording, SteeringConvention
 from steerlab.errors import DataError, SteerlabError, warn
 

@@ -18,7 +18,7 @@ import cv2
 import numpy as np
 
 from steerlab.data.preprocess import CROP_PRESETS
-from steerlab.data.readers import _check_unique, _number, _read_rows, apply_range
+from steerlab.data.rows import apply_range, check_unique, number, read_rows
 from steerlab.data.recording import Recording, SteeringConvention, VideoFrames
 from steerlab.errors import DataError
 
@@ -46,7 +46,7 @@ def read_video(path: str | Path, frame_range=None, log: str | Path | None = None
     except ValueError as e:
         raise DataError(log, f"reader options steering/positive/full_lock_deg: {e}") from None
 
-    rows = _read_rows(log)
+    rows = read_rows(log)
     if len(rows) < 2:
         raise DataError(log, "the log has no rows")
     header = [h.strip() for h in rows[0]]
@@ -72,17 +72,17 @@ def read_video(path: str | Path, frame_range=None, log: str | Path | None = None
     for r, row in enumerate(body, start=2):
         if len(row) < len(header):
             raise DataError(log, f"expected {len(header)} columns, got {len(row)}", r)
-    steer = np.array([_number(log, r, "steering", row[col["steering"]]) for r, row in enumerate(body, 2)])
-    speed = (np.array([_number(log, r, "speed", row[col["speed"]]) for r, row in enumerate(body, 2)])
+    steer = np.array([number(log, r, "steering", row[col["steering"]]) for r, row in enumerate(body, 2)])
+    speed = (np.array([number(log, r, "speed", row[col["speed"]]) for r, row in enumerate(body, 2)])
              if "speed" in col else None)
     if time_col == "timestamp_ns":
         stamps = np.array([_integer(log, r, time_col, row[col[time_col]]) for r, row in enumerate(body, 2)])
     elif time_col == "timestamp":
-        stamps = np.round(np.array([_number(log, r, time_col, row[col[time_col]]) for r, row in enumerate(body, 2)])
+        stamps = np.round(np.array([number(log, r, time_col, row[col[time_col]]) for r, row in enumerate(body, 2)])
                           * 1e9).astype(np.int64)
     else:
         stamps = np.round(positions * 1e9 / (fps if fps > 0 else 30.0)).astype(np.int64)
-    _check_unique(stamps, log, 2)
+    check_unique(stamps, log, 2)
     cut = apply_range(len(body), frame_range, log)
     stamps, positions, steer = stamps[cut], positions[cut], steer[cut]
     return Recording(

@@ -22,6 +22,7 @@ import numpy as np
 
 from steerlab.data.geometry import Car, Camera, shift_view
 from steerlab.data.recording import Recording
+from steerlab.data.writer import RecordingWriter
 from steerlab.errors import DataError, SteerlabError, warn
 from steerlab.sim.driving import TRAJECTORY, autonomy, drive_loop, drive_metrics
 from steerlab.sim.vehicle import Vehicle, VehicleParams, VehicleState
@@ -273,7 +274,6 @@ def rollout_recording(pilot, rec: Recording, cam: Camera, car: Car, speed: float
     the expert (pure pursuit of the human's path) steers instead, and record every visited view labelled with
     the expert's steering, in the recording's own convention and camera geometry, as a steerlab recording in
     `out`. Returns the drive's metrics."""
-    from steerlab.sim.world import RecordingWriter
 
     params = VehicleParams(wheelbase=car.wheelbase, steering_ratio=car.steering_ratio)
     human = _road_wheel(rec, params.steering_ratio)

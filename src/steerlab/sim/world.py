@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import csv
 import json
-from datetime import datetime, timedelta, timezone
 from pathlib import Path
 
 import cv2
@@ -16,8 +15,7 @@ import numpy as np
 from tqdm import tqdm
 
 from steerlab.data.geometry import CAMERAS
-from steerlab.data.readers import EPISODES, MPH_TO_MS, NATIVE_COLUMNS, SIM_CONVENTION, SIM_FULL_LOCK_RAD
-from steerlab.data.recording import SteeringConvention
+from steerlab.data.writer import CONVENTION, RecordingWriter
 from steerlab.errors import SteerlabError, warn
 from steerlab.sim.driver import ExpertDriver, cruise, pure_pursuit
 from steerlab.sim.driving import TRAJECTORY, drive_loop, drive_metrics
@@ -27,9 +25,6 @@ from steerlab.sim.road import LANE_CENTER, PRESETS, Road
 from steerlab.sim.vehicle import Vehicle, VehicleParams, VehicleState
 from steerlab.video import DriveVideo
 
-CONVENTION = SteeringConvention("steering_wheel", "left")  # like CH2: steering-wheel angle, positive left
-EPOCH = datetime(2020, 1, 1, tzinfo=timezone.utc)
-JPEG = [cv2.IMWRITE_JPEG_QUALITY, 92]
 RESERVED_SEEDS = range(9000, 10000)  # the roads of the closed-loop benchmark (sim/bench.py): never recorded
 CHUNK_GAP_NS = 1_000_000_000  # between the chunks of a mixed recording: a new segment
 
@@ -111,57 +106,6 @@ class World:
         """Apply a road-wheel angle for one frame; the speed follows the road's speed profile."""
         throttle, brake = cruise(self.road, self.s, self.car.state.v)
         self.car.step(road_wheel, throttle, brake, self.dt)
-
-
-class RecordingWriter:
-    """Writes frames and per-frame rows as a steerlab recording (`recording.json`, `log.csv`, one folder of
-    JPEGs per camera) or in the Udacity simulator's `driving_log.csv` layout. Steering is written in
-    `convention` (the synthetic world's own by default)."""
-
-    def __init__(self, out: str | Path, cameras: list[str], layout: str = "steerlab",
-                 convention: SteeringConvention = CONVENTION):
-        if layout not in ("steerlab", "udacity-sim"):
-            raise SteerlabError(f"unknown layout {layout!r}; choose steerlab or udacity-sim")
-        self.out, self.cameras, self.layout, self.convention = Path(out), cameras, layout, convention
-        if self.out.exists() and any(self.out.iterdir()):
-            raise SteerlabError(f"{self.out} exists and is not empty; choose a new output folder")
-        for cam in cameras:
-            (self.out / ("IMG" if layout == "udacity-sim" else cam)).mkdir(parents=True, exist_ok=True)
-        self.rows: list[dict] = []
-
-    def add(self, frames: dict[str, np.ndarray], row: dict) -> None:
-        """row: timestamp_ns, steering (in the writer's convention), speed, throttle, brake, lateral_offset, heading_error,
-        curvature, episode."""
-        i, ts = len(self.rows), row["timestamp_ns"]
-        names = {}
-        for cam in self.cameras:
-            if self.layout == "udacity-sim":
-                t = EPOCH + timedelta(microseconds=ts // 1000)
-                names[cam] = f"IMG/{cam}_{t.strftime('%Y_%m_%d_%H_%M_%S_')}{(ts // 1_000_000) % 1000:03d}.jpg"
-            else:
-                names[cam] = f"{cam}/{i:06d}.jpg"
-            cv2.imwrite(str(self.out / names[cam]), frames[cam], JPEG)
-        self.rows.append({"frame": i, **{c: names.get(c, "") for c in ("center", "left", "right")}, **row})
-
-    def close(self, meta: dict, ratio: float) -> Path:
-        if self.layout == "udacity-sim":
-            with open(self.out / "driving_log.csv", "w", newline="") as f:
-                w = csv.writer(f)
-                for r in self.rows:  # the simulator's units: steering +-1 = +-25 deg road wheel, positive right; mph
-                    road_wheel = self.convention.to_road_wheel_left(r["steering"], ratio)
-                    steer = SIM_CONVENTION.from_road_wheel_left(road_wheel, ratio) / SIM_FULL_LOCK_RAD
-                    w.writerow([r["center"], r["left"], r["right"], f"{steer:.6f}", f"{r['throttle']:.6f}",
-                                f"{r['brake']:.6f}", f"{r['speed'] / MPH_TO_MS:.6f}"])
-            return self.out
-        with open(self.out / "log.csv", "w", newline="") as f:
-            w = csv.DictWriter(f, NATIVE_COLUMNS)
-            w.writeheader()
-            for r in self.rows:
-                w.writerow({k: (f"{v:.6f}" if isinstance(v, float) else v) for k, v in r.items()})
-        (self.out / "recording.json").write_text(json.dumps(
-            {"format": "steerlab-recording-1", **meta, "steering": self.convention.as_dict(), "steering_ratio": ratio,
-             "episodes": list(EPISODES)}, indent=1))
-        return self.out
 
 
 def _row(world: World, ts: int, steering_road_wheel: float, offset: float, heading: float, episode: str) -> dict:

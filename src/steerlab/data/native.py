@@ -1,0 +1,72 @@
+"""steerlab's native recording layout, written by the synthetic world: `recording.json` (metadata, steering
+convention) + `log.csv` (one row per frame, NATIVE_COLUMNS) + one folder of JPEGs per camera."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from steerlab.data.recording import Recording, SteeringConvention
+from steerlab.data.rows import apply_range, check_images, check_unique, number, read_rows
+from steerlab.errors import DataError
+
+NATIVE_COLUMNS = ["frame", "timestamp_ns", "center", "left", "right", "steering", "speed", "throttle", "brake",
+                  "lateral_offset", "heading_error", "curvature", "episode"]
+EPISODES = ("normal", "drift-out", "recover", "rollout")  # rollout: a DAgger frame, labelled by the expert
+
+
+def read_native(folder: str | Path, frame_range=None) -> Recording:
+    folder = Path(folder)
+    meta_path, log = folder / "recording.json", folder / "log.csv"
+    try:
+        meta = json.loads(meta_path.read_text())
+    except (OSError, json.JSONDecodeError) as e:
+        raise DataError(meta_path, f"cannot read recording metadata: {e}") from None
+    rows = read_rows(log) if log.exists() else []
+    if not rows:
+        raise DataError(log, "missing or empty log")
+    header = [h.strip() for h in rows[0]]
+    missing = [c for c in NATIVE_COLUMNS if c not in header]
+    if missing:
+        raise DataError(log, f"header lacks columns {missing}; expected {','.join(NATIVE_COLUMNS)}", 1)
+    col = {h: i for i, h in enumerate(header)}
+    body = rows[1:]
+    if not body:
+        raise DataError(log, "the recording has no frames")
+    cut = apply_range(len(body), frame_range, log)
+    body, first = body[cut], 2 + cut.start
+    cams = [c for c in ("center", "left", "right") if body[0][col[c]].strip()]
+    frames = {c: [] for c in cams}
+    num_cols = ["steering", "speed", "throttle", "brake", "lateral_offset", "heading_error", "curvature"]
+    vals = {c: [] for c in num_cols}
+    stamps, episodes = [], []
+    for r, row in enumerate(body, start=first):
+        if len(row) < len(header):
+            raise DataError(log, f"expected {len(header)} columns, got {len(row)}", r)
+        try:
+            stamps.append(int(row[col["timestamp_ns"]]))
+        except ValueError:
+            raise DataError(log, f"timestamp_ns must be an integer, got {row[col['timestamp_ns']]!r}", r) from None
+        for c in cams:
+            frames[c].append(folder / row[col[c]])
+        for c in num_cols:
+            vals[c].append(number(log, r, c, row[col[c]]))
+        ep = row[col["episode"]]
+        if ep not in EPISODES:
+            raise DataError(log, f"episode must be one of {EPISODES}, got {ep!r}", r)
+        episodes.append(ep)
+    stamps_a = np.array(stamps, dtype=np.int64)
+    check_unique(stamps_a, log, first)
+    for paths in frames.values():
+        check_images(paths, log, first)
+    conv = meta.get("steering", {})
+    return Recording(
+        name=folder.name, source=folder, frames=frames, timestamps_ns=stamps_a,
+        steering=np.array(vals["steering"]), convention=SteeringConvention(**conv), frame_ids=stamps_a,
+        speed=np.array(vals["speed"]), throttle=np.array(vals["throttle"]), brake=np.array(vals["brake"]),
+        extra={"lateral_offset": np.array(vals["lateral_offset"]), "heading_error": np.array(vals["heading_error"]),
+               "curvature": np.array(vals["curvature"]), "episode": np.array(episodes)},
+        preset=meta.get("preset", "sim"),
+    )

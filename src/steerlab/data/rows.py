@@ -1,0 +1,87 @@
+"""What every reader shares: frame ranges, CSV rows, numbers and image checks that name the file and row,
+unique frame ids, and matching frames by time."""
+
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import numpy as np
+
+from steerlab.errors import DataError
+
+
+def parse_range(text: str | None) -> tuple[int | None, int | None] | None:
+    """Parse "a:b" (either side may be empty) into a tuple; None stays None."""
+    if text is None:
+        return None
+    if not isinstance(text, str):
+        raise DataError("<range>", f"frame range {text!r} must be text like \"0:1800\" (quote it in YAML files)")
+    parts = str(text).split(":")
+    if len(parts) != 2:
+        raise DataError("<range>", f"frame range {text!r} must look like START:STOP, e.g. 0:1800")
+    try:
+        return tuple(int(p) if p.strip() else None for p in parts)  # type: ignore[return-value]
+    except ValueError:
+        raise DataError("<range>", f"frame range {text!r} must hold integers, e.g. 0:1800") from None
+
+
+def apply_range(n: int, rng, source: Path) -> slice:
+    if rng is None:
+        return slice(0, n)
+    start = 0 if rng[0] is None else rng[0]
+    stop = n if rng[1] is None else rng[1]
+    if not (0 <= start < stop <= n):
+        raise DataError(source, f"frame range {start}:{stop} is outside the {n} labelled frames (0:{n})")
+    return slice(start, stop)
+
+
+def read_rows(path: Path) -> list[list[str]]:
+    try:
+        with open(path, newline="") as f:
+            return [row for row in csv.reader(f) if row and any(c.strip() for c in row)]
+    except UnicodeDecodeError:
+        raise DataError(path, "not a text CSV file") from None
+
+
+def number(path: Path, row: int, column: str, text: str, allow_nan: bool = False) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise DataError(path, f"column {column!r} must be a number, got {text!r}", row) from None
+    if not allow_nan and not math.isfinite(value):
+        raise DataError(path, f"column {column!r} is {text!r}; a finite number is expected", row)
+    return value
+
+
+def check_images(paths: list[Path], source: Path, first_row: int) -> None:
+    for i, p in enumerate(paths):
+        if not p.is_file():
+            raise DataError(source, f"image {p} is missing (use a frame range that covers only the frames that exist, "
+                                    f"e.g. --range 0:{i})" if i else f"image {p} is missing", first_row + i)
+
+
+def nearest(sorted_times: np.ndarray, times: np.ndarray) -> np.ndarray:
+    """Index of the entry of `sorted_times` nearest to each of `times` (the earlier one on a tie)."""
+    if len(sorted_times) == 1:
+        return np.zeros(len(times), dtype=np.int64)
+    j = np.clip(np.searchsorted(sorted_times, times), 1, len(sorted_times) - 1)
+    return np.where(np.abs(sorted_times[j - 1] - times) <= np.abs(sorted_times[j] - times), j - 1, j)
+
+
+def check_unique(ids: np.ndarray, path: Path, first_row: int) -> None:
+    order = np.argsort(ids, kind="stable")
+    dup = np.flatnonzero(np.diff(ids[order]) == 0)
+    if dup.size:
+        row = int(order[dup[0] + 1])
+        raise DataError(path, f"duplicate frame id {ids[row]}", first_row + row)
+
+
+
+
+def ends_torn(path: Path, row: list[str]) -> bool:
+    """Whether the last line of a file was cut off mid-write: NUL bytes in it, or no line end after it."""
+    with open(path, "rb") as f:
+        f.seek(-1, 2)
+        return any("\x00" in c for c in row) or f.read(1) not in (b"\n", b"\r")
