@@ -28,7 +28,7 @@ from steerlab.data.recording import SteeringConvention
 from steerlab.export import export_onnx
 from steerlab.models import create_model, list_models
 from steerlab.pilot import Pilot
-from steerlab.train.loop import model_preprocess
+from steerlab.train.sources import model_preprocess
 
 FRAMES, WARMUP = 200, 20
 

@@ -20,7 +20,8 @@ from steerlab.data.preprocess import PreprocessConfig
 from steerlab.data.readers import open_recording
 from steerlab.models import create_model, list_models, model_class
 from steerlab.data.inputs import channel_stats
-from steerlab.train.loop import Batches, model_preprocess, sequence_windows, train_one_epoch
+from steerlab.train.loop import train_one_epoch
+from steerlab.train.sources import Batches, model_preprocess, sequence_windows
 
 SIM = SHARED / "udacity-sim-track1"
 N = 640

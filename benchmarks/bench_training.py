@@ -21,7 +21,7 @@ from steerlab.data.preprocess import PreprocessConfig, preprocess
 from steerlab.data.readers import open_recording
 from steerlab.models import create_model
 from steerlab.data.inputs import Standardizer, channel_stats, stack_modalities
-from steerlab.train.loop import Batches
+from steerlab.train.sources import Batches
 
 N, BATCH = 1200, 100
 

@@ -158,7 +158,7 @@ def test_rollout_labels_are_the_experts(tmp_path):
 def test_dagger_aggregates_rollouts(tiny_recording, tmp_path):
     from steerlab.dagger import run_dagger
     from steerlab.train.config import load_config
-    from steerlab.train.loop import Batches, training_sources, prepare_dataset
+    from steerlab.train.sources import Batches, prepare_dataset, training_sources
 
     cfg = load_config(None, base={
         "data": str(tiny_recording), "cache": str(tmp_path / "cache"), "out": str(tmp_path / "dagger"),
@@ -226,7 +226,7 @@ def test_viewpoint_shift_identity_and_frame_size():
 
 def test_viewpoint_views_on_ch2_layout(ch2_folder, tmp_path):
     """Centre-only recordings without speed (like CH2) get virtual views once a return distance is set."""
-    from steerlab.train import loop
+    from steerlab.train import loop, sources
     from steerlab.train.config import load_config
 
     cfg = load_config(None, base={"data": str(ch2_folder), "labels": str(ch2_folder / "labels.csv"),
@@ -236,8 +236,8 @@ def test_viewpoint_views_on_ch2_layout(ch2_folder, tmp_path):
     with pytest.raises(SteerlabError, match="recovery_distance_m"):
         loop.train(cfg, progress=False)
     cfg["train"]["recovery_distance_m"] = 20.0
-    ds = loop.prepare_dataset(cfg, progress=False)
-    sources, codes = loop.training_sources(cfg, ds, np.arange(4), progress=False)
+    ds = sources.prepare_dataset(cfg, progress=False)
+    sources, codes = sources.training_sources(cfg, ds, np.arange(4), progress=False)
     assert len(sources) == 3 and len(codes) == 12
     # 0.5 m to the right: steer left by arctan(0.5 / 20 m); turned 2 deg left: steer 2 deg right; x 14.8 at the
     # steering wheel

@@ -12,7 +12,7 @@ from steerlab.models import create_model
 from steerlab.sim.bench import suite_minutes
 from steerlab.dagger import dagger_options
 from steerlab.train.config import load_config
-from steerlab.train.loop import model_options, model_preprocess
+from steerlab.train.sources import model_options, model_preprocess
 
 CONFIGS = sorted((Path(__file__).parent.parent / "configs").glob("*.yaml"))
 

@@ -22,7 +22,7 @@ from steerlab.export import export_onnx, sidecar_path
 from steerlab.models import create_model, list_models
 from steerlab.pilot import Pilot
 from steerlab.serve import DriveSession, SpeedController, to_simulator
-from steerlab.train.loop import model_preprocess
+from steerlab.train.sources import model_preprocess
 
 
 def untrained(tmp_path, name: str, preset: str = "ch2"):

@@ -10,7 +10,7 @@ from steerlab.models.multitask import weighted_mae
 from steerlab.pilot import Pilot
 from steerlab.checkpoint import load_checkpoint, save_checkpoint
 from steerlab.data.inputs import stack_modalities
-from steerlab.train.loop import model_preprocess
+from steerlab.train.sources import model_preprocess
 
 
 def _model_config(name: str, **pre) -> PreprocessConfig:

@@ -7,7 +7,7 @@ import torch
 from steerlab.errors import SteerlabError
 from steerlab.models import list_models, model_class
 from steerlab.evaluate.offline import evaluate
-from steerlab.train import loop
+from steerlab.train import loop, sources
 from steerlab.train.config import load_config
 
 
@@ -63,21 +63,21 @@ def test_side_cameras_and_episode_filter(tiny_recording, tmp_path):
 
 
 def test_side_camera_labels_hand_computed(tiny_recording, tmp_path):
-    ds = loop.prepare_dataset(_cfg(tiny_recording, tmp_path), progress=False, camera="left")
+    ds = sources.prepare_dataset(_cfg(tiny_recording, tmp_path), progress=False, camera="left")
     tc = {"recovery_s": 1.0, "steering_ratio": 10.0}
-    y = loop.recovery_labels(ds, ds.steering, 0.5, 0.0, tc)
+    y = sources.recovery_labels(ds, ds.steering, 0.5, 0.0, tc)
     v = ds.labels["speed"][0]
     # left camera: steer right by arctan(0.5 / v) at the road wheel = 10x that at the steering wheel
     assert y[0] == pytest.approx(ds.steering[0] - 10 * np.arctan(0.5 / v))
     # turned 2 degrees to the left as well: 2 more degrees to the right at the road wheel
-    y = loop.recovery_labels(ds, ds.steering, 0.5, 2.0, tc)
+    y = sources.recovery_labels(ds, ds.steering, 0.5, 2.0, tc)
     assert y[0] == pytest.approx(ds.steering[0] - 10 * (np.arctan(0.5 / v) + np.radians(2.0)))
 
 
 def test_balanced_sampling_thins_straight_driving():
     steering = np.concatenate([np.zeros(1000), np.linspace(-1, -0.1, 25), np.linspace(0.1, 1, 25)])
     codes = np.arange(len(steering))
-    kept = loop.balanced(codes, steering, np.random.default_rng(0))
+    kept = sources.balanced(codes, steering, np.random.default_rng(0))
     # 25 bins of 0.08: 1000 straight frames in the middle one, 1-2 turning frames in 22 others; the cap is
     # the mean count of the non-empty bins, 1050 / 23 = 46: every turning frame stays, ~46 straight ones do
     assert np.isin(codes[1000:], kept).all()
@@ -100,12 +100,12 @@ def test_augmentation_hand_computed():
 
 
 def test_min_speed_drops_slow_frames(tiny_recording, tmp_path):
-    ds = loop.prepare_dataset(_cfg(tiny_recording, tmp_path), progress=False)
+    ds = sources.prepare_dataset(_cfg(tiny_recording, tmp_path), progress=False)
     v = ds.labels["speed"]
-    idx = loop.usable_frames(ds, np.arange(len(ds)), "training", min_speed=np.median(v))
+    idx = sources.usable_frames(ds, np.arange(len(ds)), "training", min_speed=np.median(v))
     assert (v[idx] >= np.median(v)).all() and len(idx) < len(ds)
     with pytest.raises(SteerlabError, match="split is empty once frames slower than 1000"):
-        loop.usable_frames(ds, np.arange(len(ds)), "validation", min_speed=1000)
+        sources.usable_frames(ds, np.arange(len(ds)), "validation", min_speed=1000)
 
 
 def test_balance_refuses_recurrent_models(tiny_recording, tmp_path):
@@ -150,7 +150,7 @@ def test_baselines(tiny_recording, tmp_path):
     cfg = _cfg(tiny_recording, tmp_path)
     cfg["model"] = {"name": "train-mean"}
     m = loop.train(cfg, progress=False)
-    ds = loop.prepare_dataset(cfg, progress=False)
+    ds = sources.prepare_dataset(cfg, progress=False)
     mean = ds.steering[:240].mean()
     assert m["rmse"] == pytest.approx(np.sqrt(np.mean((ds.steering[240:300] - mean) ** 2)))
 
@@ -195,8 +195,8 @@ def test_every_model_learns_and_streams_as_in_batch(model, pre, tiny_recording, 
         streamed = list(csv.DictReader(f))
     ckpt = load_checkpoint(tmp_path / "run" / "best.pt")
     net = model_from_checkpoint(ckpt)[0]
-    ds = loop.prepare_dataset({**cfg, "preprocess": loop.model_preprocess(model, pre)}, progress=False)
-    batches = loop.Batches([(ds, ds.steering)], ckpt["stats"], getattr(net, "speed_history", 0))
+    ds = sources.prepare_dataset({**cfg, "preprocess": sources.model_preprocess(model, pre)}, progress=False)
+    batches = sources.Batches([(ds, ds.steering)], ckpt["stats"], net.speed_history)
     batch = loop.predict(net, batches, np.arange(140), batch_size=64)
     np.testing.assert_allclose([float(r["steering_angle"]) for r in streamed], batch["steering"], atol=1e-4)
     for k in set(batch) - {"steering"}:

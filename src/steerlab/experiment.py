@@ -33,7 +33,8 @@ from steerlab.sim.bench import closed_loop_metrics, suite_minutes
 from steerlab.dagger import dagger_options, run_dagger
 from steerlab.sim.replay import SplitReplay
 from steerlab.train.config import load_config
-from steerlab.train.loop import model_preprocess, prepare_dataset, train
+from steerlab.train.loop import train
+from steerlab.train.sources import model_preprocess, prepare_dataset
 
 ALPHA = 0.2  # exponential smoothing of paper 002 Eq. 2, reported beside the raw predictions
 LATENCY_FRAMES = 200
