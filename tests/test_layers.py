@@ -7,9 +7,9 @@ from pathlib import Path
 PACKAGE = Path(__file__).resolve().parents[1] / "src" / "steerlab"
 
 LAYERS = [
-    ("base", ["errors", "locks", "video"]),
+    ("base", ["errors", "locks", "video", "figures"]),
     ("data", ["data"]),
-    ("models", ["models", "checkpoint", "export", "pilot"]),
+    ("models", ["models", "checkpoint", "export", "pilot", "donkey"]),
     ("train / sim", ["train", "sim", "evaluate", "serve"]),
     ("orchestration", ["experiment", "dagger", "tune", "demo"]),
     ("cli", ["cli", "__main__"]),

@@ -20,6 +20,8 @@ def test_gamma_hand_computed():
 
 def test_exponential_smoothing_hand_computed():
     np.testing.assert_allclose(exponential_smoothing([0, 10, 10], 0.2), [0, 2, 3.6])
+    # restarted at index 2 (a new segment): the third value starts afresh
+    np.testing.assert_allclose(exponential_smoothing([0, 10, 10, 0], 0.5, restarts=[2]), [0, 5, 10, 5])
 
 
 def test_speed_commands_hand_made_series():

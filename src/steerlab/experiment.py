@@ -24,7 +24,8 @@ from steerlab.data.recording import SteeringConvention
 from steerlab.data.splits import make_split
 from steerlab.errors import SteerlabError
 from steerlab.data.labels import COMMANDS, speed_targets
-from steerlab.evaluate.metrics import accuracy, all_metrics, exponential_smoothing, speed_mae, steering_metrics
+from steerlab.evaluate.metrics import (SMOOTHING_ALPHA, accuracy, all_metrics, exponential_smoothing, speed_mae,
+                                       steering_metrics)
 from steerlab.evaluate.plots import plot_open_vs_closed, plot_recovery, plot_steering, rank_correlation
 from steerlab.evaluate.scoring import read_steering_csv
 from steerlab.models import model_class
@@ -36,7 +37,6 @@ from steerlab.train.config import load_config
 from steerlab.train.loop import train
 from steerlab.train.sources import model_preprocess, prepare_dataset
 
-ALPHA = 0.2  # exponential smoothing of paper 002 Eq. 2, reported beside the raw predictions
 LATENCY_FRAMES = 200
 
 
@@ -175,7 +175,7 @@ def _smoothed(run: Path, labels: dict, deg_per_unit: float) -> dict:
     pos = {int(f): i for i, f in enumerate(labels["frame_ids"])}
     idx = np.array([pos[int(f)] for f in ids])
     breaks = np.flatnonzero((np.diff(idx) != 1) | (np.diff(labels["segment"][idx]) != 0)) + 1
-    smooth = np.concatenate([exponential_smoothing(p, ALPHA) for p in np.split(pred, breaks)])
+    smooth = exponential_smoothing(pred, restarts=breaks)
     m = steering_metrics(smooth, labels["steering"][idx], deg_per_unit)
     truth = {"steering": labels["steering"][idx]}
     if "speed" in labels:  # as training has it: the next frame's speed
@@ -238,7 +238,7 @@ def _write(out: Path, rows: list[dict], preds: dict, cfg: dict, seeds: int, refe
     lines = [f"{seeds} seed(s) per model (mean +- std over seeds); validation split {cfg['split']}; plot: "
              "predictions.png (seed 0).", "", "Paper 000 Table I form:", "",
              "| model | input | input shape | MSE | gamma [deg] | target gamma [deg] | RMSE | RMSE smoothed "
-             f"a={ALPHA} | gamma smoothed [deg] | best epoch | train time [s] | latency p50 / p99 [ms] |"
+             f"a={SMOOTHING_ALPHA} | gamma smoothed [deg] | best epoch | train time [s] | latency p50 / p99 [ms] |"
              + (" autonomy [%] | country / highway / twisty [%] | interventions/km | command gamma [deg] |"
                 if closed else "") + (" worst seed: country / highway / twisty [%] |" if worst else ""),
              "|---" * (12 + 4 * closed + worst) + "|"]

@@ -15,6 +15,7 @@ from steerlab.errors import SteerlabError
 DEG = math.degrees(1.0)
 TRE_THRESHOLD = 0.1  # relative error threshold of TRE
 QCE_EDGES_DEG = (-1.0, 1.0)  # class edges of QCE, degrees of the measured wheel: one way, straight, the other
+SMOOTHING_ALPHA = 0.2  # the exponential smoothing reported beside raw predictions (paper 002 Eq. 2)
 
 
 def mse(pred, target) -> float:
@@ -41,13 +42,15 @@ def gamma_deg(series, deg_per_unit: float = DEG) -> float:
     return float(np.std(np.diff(y))) * deg_per_unit
 
 
-def exponential_smoothing(series, alpha: float = 0.2) -> np.ndarray:
-    """s_t = alpha * y_t + (1 - alpha) * s_{t-1}, s_0 = y_0 (paper 002 Eq. 2)."""
+def exponential_smoothing(series, alpha: float = SMOOTHING_ALPHA, restarts=()) -> np.ndarray:
+    """s_t = alpha * y_t + (1 - alpha) * s_{t-1}, s_0 = y_0 (paper 002 Eq. 2), started afresh at each index in
+    `restarts` (a new segment, a gap in the frames), as the streaming Pilot restarts on `reset()`."""
     y = np.asarray(series, float)
     out = np.empty_like(y)
-    s = y[0] if len(y) else 0.0
+    starts = set(int(r) for r in restarts) | {0}
+    s = 0.0
     for i, v in enumerate(y):
-        s = alpha * v + (1 - alpha) * s
+        s = v if i in starts else alpha * v + (1 - alpha) * s
         out[i] = s
     return out
 

@@ -14,7 +14,7 @@ from steerlab.data.geometry import STEERING_RATIO
 from steerlab.data.labels import speed_targets
 from steerlab.data.readers import open_recording
 from steerlab.data.recording import SteeringConvention
-from steerlab.evaluate.metrics import all_metrics, exponential_smoothing, steering_metrics
+from steerlab.evaluate.metrics import SMOOTHING_ALPHA, all_metrics, exponential_smoothing, steering_metrics
 from steerlab.errors import SteerlabError, warn
 from steerlab.evaluate.plots import plot_steering
 from steerlab.evaluate.scoring import write_predictions
@@ -111,8 +111,8 @@ def evaluate(checkpoint: str | Path, data: str | Path, frame_range: str | None, 
         truth.update(speed_targets(rec.speed, rec.timestamps_ns, seg))
     deg = rec.convention.degrees_per_unit
     metrics = all_metrics(pred, truth, deg)
-    smooth = np.concatenate([exponential_smoothing(pred["steering"][a:b], 0.2) for a, b in rec.segments()])
-    metrics["smoothed_a0.2"] = steering_metrics(smooth, rec.steering, deg)
+    smooth = exponential_smoothing(pred["steering"], restarts=[a for a, _ in rec.segments()])
+    metrics[f"smoothed_a{SMOOTHING_ALPHA}"] = steering_metrics(smooth, rec.steering, deg)
     write_predictions(out / "predictions.csv", rec.frame_ids, pred["steering"],
                       {k: v for k, v in pred.items() if k != "steering"})
     t = (rec.timestamps_ns - rec.timestamps_ns[0]) / 1e9

@@ -4,32 +4,26 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+from steerlab.figures import COLORS, MANY_COLORS, figure
 
 
 def plot_steering(path: str | Path, t_s: np.ndarray, target: np.ndarray, preds: dict[str, np.ndarray],
                   title: str = "") -> None:
     """Target vs prediction(s) over time, in degrees (paper 000 Fig. 7)."""
-    fig, ax = plt.subplots(figsize=(11, 3.6), dpi=110)
-    ax.plot(t_s, np.degrees(target), color="black", lw=1.4, label="target")
-    colors = plt.get_cmap("tab20").colors  # distinct colours for up to 20 models
-    for (name, p), color in zip(preds.items(), colors[::2] + colors[1::2]):
-        ax.plot(t_s, np.degrees(p), lw=1.0, label=name, color=color)
-    ax.set_xlabel("time [s]")
-    ax.set_ylabel("steering [deg]")
-    ax.set_title(title)
-    ax.grid(alpha=0.3)
-    if len(preds) > 3:  # many models: the legend goes beside the plot, not over the curves
-        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
-    else:
-        ax.legend(loc="upper right", fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
+    with figure(path, figsize=(11, 3.6), dpi=110) as (fig, ax):
+        ax.plot(t_s, np.degrees(target), color="black", lw=1.4, label="target")
+        for (name, p), color in zip(preds.items(), MANY_COLORS):
+            ax.plot(t_s, np.degrees(p), lw=1.0, label=name, color=color)
+        ax.set_xlabel("time [s]")
+        ax.set_ylabel("steering [deg]")
+        ax.set_title(title)
+        ax.grid(alpha=0.3)
+        if len(preds) > 3:  # many models: the legend goes beside the plot, not over the curves
+            ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
+        else:
+            ax.legend(loc="upper right", fontsize=8)
 
 
 def episodes_of(labels: np.ndarray) -> list[tuple[int, int, int]]:
@@ -61,28 +55,24 @@ def plot_recovery(path: str | Path, t_s: np.ndarray, target: np.ndarray, preds: 
         return 0
     cols = min(3, len(found))
     rows = -(-len(found) // cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(4.6 * cols, 3.2 * rows), dpi=100, squeeze=False)
-    colors = plt.get_cmap("tab10").colors
-    for ax, (a, b, c) in zip(axes.ravel(), found):
-        pad = int(round(2.0 / max(np.median(np.diff(t_s)), 1e-3)))
-        w = slice(max(a - pad, 0), min(c + pad, len(t_s)))
-        ax.plot(t_s[w], np.degrees(target[w]), color="black", lw=1.4, label="driver")
-        ax.plot(t_s[b:c], np.degrees(target[b:c]), color="white", lw=1.0, ls="--")
-        ax.plot(t_s[b], np.degrees(target[b]), "o", mfc="none", mec="black", ms=9)
-        for (name, p), color in zip(preds.items(), colors * 3):
-            ax.plot(t_s[w], np.degrees(p[w]), lw=1.0, color=color, label=name)
-        ax.axvspan(t_s[a], t_s[b], color="tab:red", alpha=0.08)
-        ax.set_xlabel("time [s]")
-        ax.set_ylabel("steering [deg]")
-        ax.grid(alpha=0.3)
-    for ax in axes.ravel()[len(found):]:
-        ax.axis("off")
-    axes[0, 0].legend(fontsize=7)
-    fig.suptitle("drift out (shaded) and back: the circle marks where the driver starts to correct, the correction "
-                 "is dashed", fontsize=9)
-    fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
+    with figure(path, rows, cols, figsize=(4.6 * cols, 3.2 * rows), squeeze=False) as (fig, axes):
+        for ax, (a, b, c) in zip(axes.ravel(), found):
+            pad = int(round(2.0 / max(np.median(np.diff(t_s)), 1e-3)))
+            w = slice(max(a - pad, 0), min(c + pad, len(t_s)))
+            ax.plot(t_s[w], np.degrees(target[w]), color="black", lw=1.4, label="driver")
+            ax.plot(t_s[b:c], np.degrees(target[b:c]), color="white", lw=1.0, ls="--")
+            ax.plot(t_s[b], np.degrees(target[b]), "o", mfc="none", mec="black", ms=9)
+            for (name, p), color in zip(preds.items(), COLORS * 3):
+                ax.plot(t_s[w], np.degrees(p[w]), lw=1.0, color=color, label=name)
+            ax.axvspan(t_s[a], t_s[b], color="tab:red", alpha=0.08)
+            ax.set_xlabel("time [s]")
+            ax.set_ylabel("steering [deg]")
+            ax.grid(alpha=0.3)
+        for ax in axes.ravel()[len(found):]:
+            ax.axis("off")
+        axes[0, 0].legend(fontsize=7)
+        fig.suptitle("drift out (shaded) and back: the circle marks where the driver starts to correct, the correction "
+                     "is dashed", fontsize=9)
     return len(found)
 
 
@@ -91,29 +81,26 @@ def plot_open_vs_closed(path: str | Path, tables: dict[str, list[dict]], metric:
     """Each model's open-loop validation error against its closed-loop autonomy (`autonomy`: on the suite, or
     `replay_autonomy` in replay of the recording), one marker per table (e.g. before and after a training
     recipe), with an arrow from a model's first table to its last."""
-    fig, ax = plt.subplots(figsize=(8, 5.5), dpi=100)
-    markers = "osD^v"
-    points: dict[str, list[tuple[float, float]]] = {}
-    for (name, rows), marker in zip(tables.items(), markers):
-        x = [float(r[f"{metric}_mean"]) for r in rows]
-        y = [float(r[f"{autonomy}_mean"]) for r in rows]
-        ax.scatter(x, y, marker=marker, s=40, label=name, zorder=3)
-        for r, xi, yi in zip(rows, x, y):
-            points.setdefault(r["label"], []).append((xi, yi))
-            ax.annotate(r["label"], (xi, yi), fontsize=7, xytext=(4, 3), textcoords="offset points")
-    if len(tables) > 1:
-        for pts in points.values():
-            if len(pts) > 1:
-                ax.annotate("", pts[-1], pts[0], arrowprops={"arrowstyle": "->", "color": "0.6", "lw": 0.8})
-    ax.set_xlabel(f"open-loop validation {metric.upper()} [rad]")
-    ax.set_ylabel("closed-loop autonomy, all suite roads [%]" if autonomy == "autonomy"
-                  else "closed-loop replay autonomy, validation frames [%]")
-    ax.set_ylim(top=101)  # autonomy is at most 100 %
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
+    with figure(path, figsize=(8, 5.5)) as (fig, ax):
+        markers = "osD^v"
+        points: dict[str, list[tuple[float, float]]] = {}
+        for (name, rows), marker in zip(tables.items(), markers):
+            x = [float(r[f"{metric}_mean"]) for r in rows]
+            y = [float(r[f"{autonomy}_mean"]) for r in rows]
+            ax.scatter(x, y, marker=marker, s=40, label=name, zorder=3)
+            for r, xi, yi in zip(rows, x, y):
+                points.setdefault(r["label"], []).append((xi, yi))
+                ax.annotate(r["label"], (xi, yi), fontsize=7, xytext=(4, 3), textcoords="offset points")
+        if len(tables) > 1:
+            for pts in points.values():
+                if len(pts) > 1:
+                    ax.annotate("", pts[-1], pts[0], arrowprops={"arrowstyle": "->", "color": "0.6", "lw": 0.8})
+        ax.set_xlabel(f"open-loop validation {metric.upper()} [rad]")
+        ax.set_ylabel("closed-loop autonomy, all suite roads [%]" if autonomy == "autonomy"
+                      else "closed-loop replay autonomy, validation frames [%]")
+        ax.set_ylim(top=101)  # autonomy is at most 100 %
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
 
 
 def rank_correlation(x, y) -> float:

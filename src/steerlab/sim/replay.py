@@ -25,6 +25,7 @@ from steerlab.data.recording import Recording
 from steerlab.data.writer import RecordingWriter
 from steerlab.errors import DataError, SteerlabError, warn
 from steerlab.sim.driving import TRAJECTORY, autonomy, drive_loop, drive_metrics
+from steerlab.sim.plots import plot_offsets
 from steerlab.sim.vehicle import Vehicle, VehicleParams, VehicleState
 
 MAX_HEADING_DEG = 10.0  # beyond this the warped view shows too much of what the camera never saw
@@ -405,33 +406,6 @@ def markdown(rows: list[dict], limit_m: float, max_heading_deg: float) -> str:
                      f"{r['autonomy']:.1f} | {r['mean_offset_m']:.3f} | {r['max_offset_m']:.3f} | "
                      f"{r['mean_heading_deg']:.2f} | {r['gamma']:.3f} |")
     return "\n".join(lines) + "\n"
-
-
-def plot_offsets(path: Path, trajs: dict[str, np.ndarray], limit_m: float, title: str) -> None:
-    """The lateral offset of every checkpoint along the route (km driven), interventions marked."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(12, 4), dpi=100)
-    for (label, t), color in zip(trajs.items(), plt.get_cmap("tab10").colors * 5):
-        dt = np.diff(t[:, 0], prepend=t[0, 0])
-        km = np.cumsum(np.where(dt > 0, dt, 0) * t[:, 6]) / 1000
-        hits = t[:, 8] > 0
-        ax.plot(km, t[:, 4], color=color, lw=0.8, label=f"{label} ({int(hits.sum())} interventions)")
-        pre = np.flatnonzero(hits) - 1  # where the car was just before it was put back
-        ax.plot(km[hits], t[np.clip(pre, 0, None), 4], "x", color=color, ms=7)
-    for d in (-limit_m, limit_m):
-        ax.axhline(d, color="tab:red", ls=":", lw=0.8)
-    ax.set_xlabel("distance along the route [km]")
-    ax.set_ylabel("offset from the human's path [m] (left +)")
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
-    ax.set_title(title)
-    fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
 
 
 def _replay_rollout_job(checkpoint: str, out: str, source: dict, beta: float, seed: int) -> dict:

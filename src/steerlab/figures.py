@@ -1,0 +1,27 @@
+"""Figures: matplotlib without a display, one way to make, save and close a figure, and the colours."""
+
+from __future__ import annotations
+
+from contextlib import contextmanager
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+COLORS = plt.get_cmap("tab10").colors
+MANY_COLORS = plt.get_cmap("tab20").colors[::2] + plt.get_cmap("tab20").colors[1::2]  # up to 20 distinct lines
+
+
+@contextmanager
+def figure(path: str | Path, rows: int = 1, cols: int = 1, figsize=(8, 5), dpi: int = 100, **kw):
+    """`with figure(path, ...) as (fig, axes):` draw; on leaving, the figure is laid out, written to `path` and
+    closed (also when drawing fails). `kw` goes to `plt.subplots`."""
+    fig, axes = plt.subplots(rows, cols, figsize=figsize, dpi=dpi, **kw)
+    try:
+        yield fig, axes
+        fig.tight_layout()
+        fig.savefig(path)
+    finally:
+        plt.close(fig)
