@@ -124,7 +124,8 @@ def test_speed_models_need_speed(model, ch2_folder, tmp_path):
 
 
 def test_resume_after_interruption(tiny_recording, tmp_path, monkeypatch):
-    cfg = _cfg(tiny_recording, tmp_path, epochs=3)
+    """Also with TensorBoard logging: the resumed run's events continue the first one's, epoch for epoch."""
+    cfg = _cfg(tiny_recording, tmp_path, epochs=3, tensorboard=True)
     real = loop.train_one_epoch
     calls = []
 
@@ -140,7 +141,16 @@ def test_resume_after_interruption(tiny_recording, tmp_path, monkeypatch):
     assert [r["epoch"] for r in _log(tmp_path)] == ["1"]
     monkeypatch.setattr(loop, "train_one_epoch", real)
     loop.train(cfg, progress=False)
-    assert [r["epoch"] for r in _log(tmp_path)] == ["1", "2", "3"]
+    rows = _log(tmp_path)
+    assert [r["epoch"] for r in rows] == ["1", "2", "3"]
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    board = EventAccumulator(str(tmp_path / "run" / "tensorboard"))
+    board.Reload()
+    assert {"train/loss", "val/rmse", "val/gamma_deg", "seconds"} <= set(board.Tags()["scalars"])
+    rmse = board.Scalars("val/rmse")
+    assert [e.step for e in rmse] == [1, 2, 3]
+    np.testing.assert_allclose([e.value for e in rmse], [float(r["val_rmse"]) for r in rows], rtol=1e-6)
     other = _cfg(tiny_recording, tmp_path, epochs=3, lr=0.1)
     with pytest.raises(SteerlabError, match="another config"):
         loop.train(other, progress=False)

@@ -42,6 +42,7 @@ DEFAULTS = {
         "recovery_weight": 1,   # samples in recovery episodes are drawn this many times per epoch
         "init": None,           # start from the weights of this checkpoint (same model and options)
         "device": "auto",       # auto (CUDA when present, else the CPU), cpu or cuda
+        "tensorboard": False,   # also log every epoch to out/tensorboard (tensorboard --logdir out)
     },
     "out": "runs/train",
     "dagger": None,          # DAgger rounds (steerlab sim dagger; options in dagger.py)
@@ -72,6 +73,7 @@ SCHEMA = {
     "train.patience": (int, lambda v: v >= 1, "an integer of at least 1"),
     "train.seed": (int, None, "an integer"),
     "train.flip": (bool, None, "true or false"),
+    "train.tensorboard": (bool, None, "true or false"),
     "train.loss": (str, lambda v: v in LOSSES, " or ".join(LOSSES)),
     "train.exclude_episodes": (list, lambda v: all(isinstance(e, str) for e in v), "a list of episode names"),
     "train.side_cameras": (bool, None, "true or false"),

@@ -115,10 +115,43 @@ def predict(model, batches: Batches, idx: np.ndarray, batch_size: int = 256) -> 
 METRIC = {"speed": "speed_mae", "command": "command_accuracy"}  # the metric of each extra target
 
 
-def _log_row(epoch: int, loss: float, m: dict, seconds: float) -> dict:
-    row = {"epoch": epoch, "train_loss": loss, "seconds": round(seconds, 2)}
-    row.update({f"val_{k}": m[k] for k in ("mse", "rmse", "mae", "mae_deg", "gamma_deg", *METRIC.values()) if k in m})
-    return row
+class EpochLog:
+    """One row per epoch in `out/log.csv` (rewritten from the history first, so that a resumed run has no
+    duplicate epochs) and, with `tensorboard`, the same values as scalars in `out/tensorboard`."""
+
+    def __init__(self, out: Path, targets: tuple, history: list[dict], tensorboard: bool = False):
+        self.path = out / "log.csv"
+        self.fields = (["epoch", "train_loss", "val_mse", "val_rmse", "val_mae", "val_mae_deg", "val_gamma_deg"]
+                       + [f"val_{METRIC[t]}" for t in targets] + ["seconds"])
+        with open(self.path, "w", newline="") as f:
+            w = csv.DictWriter(f, self.fields)
+            w.writeheader()
+            w.writerows(history)
+        self.board = None
+        if tensorboard:
+            try:
+                from torch.utils.tensorboard import SummaryWriter
+            except ImportError:
+                raise SteerlabError("train.tensorboard needs the tensorboard package: pip install tensorboard") from None
+            start = history[-1]["epoch"] + 1 if history else 1  # a resumed run drops later events first
+            self.board = SummaryWriter(str(out / "tensorboard"), purge_step=start)
+
+    def write(self, epoch: int, loss: float, m: dict, seconds: float) -> dict:
+        row = {"epoch": epoch, "train_loss": loss, "seconds": round(seconds, 2)}
+        row.update({f"val_{k}": m[k] for k in ("mse", "rmse", "mae", "mae_deg", "gamma_deg", *METRIC.values())
+                    if k in m})
+        with open(self.path, "a", newline="") as f:
+            csv.DictWriter(f, self.fields).writerow(row)
+        if self.board is not None:
+            for key, value in row.items():
+                if key != "epoch":  # train_loss -> train/loss, val_rmse -> val/rmse
+                    self.board.add_scalar(key.replace("_", "/", 1), value, epoch)
+            self.board.flush()
+        return row
+
+    def close(self) -> None:
+        if self.board is not None:
+            self.board.close()
 
 
 def _write_predictions(path: Path, ds: CompiledDataset, idx: np.ndarray, pred: dict) -> None:
@@ -229,14 +262,7 @@ def _train(cfg: dict, ranks: Ranks, progress: bool, on_epoch) -> dict:
         torch.set_rng_state(state["torch_rng"])
         if ranks.main:
             print(f"resuming {out} after epoch {state['epoch']}")
-    log_fields = (["epoch", "train_loss", "val_mse", "val_rmse", "val_mae", "val_mae_deg", "val_gamma_deg"]
-                  + [f"val_{METRIC[t]}" for t in model.targets] + ["seconds"])
-    log_path = out / "log.csv"
-    if ranks.main:
-        with open(log_path, "w", newline="") as f:  # rewritten from history so a resumed log has no duplicates
-            w = csv.DictWriter(f, log_fields)
-            w.writeheader()
-            w.writerows(history)
+    log = EpochLog(out, model.targets, history, bool(tc["tensorboard"])) if ranks.main else None
 
     rotation, brightness = float(tc["rotation_deg"]), float(tc["brightness"])
     for epoch in range(start, int(tc["epochs"]) + 1):
@@ -258,11 +284,8 @@ def _train(cfg: dict, ranks: Ranks, progress: bool, on_epoch) -> dict:
                 kept = "no checkpoint was saved" if best is None else f"best.pt keeps epoch {best['epoch']}"
                 raise SteerlabError(f"training diverged in epoch {epoch}: the {what} is {value} (train.lr "
                                     f"{tc['lr']} may be too high); {kept}")
-        row = _log_row(epoch, loss, m, time.time() - t0)
-        history.append(row)
-        if ranks.main:
-            with open(log_path, "a", newline="") as f:
-                csv.DictWriter(f, log_fields).writerow(row)
+        if log is not None:
+            history.append(log.write(epoch, loss, m, time.time() - t0))
         if progress:
             extra = "".join(f"  {k} {m[k]:.3f}" for k in ("speed_mae", "command_accuracy") if k in m)
             angles = (f"mae {m['mae_deg']:.2f} deg  gamma {m['gamma_deg']:.3f} (target {m['target_gamma_deg']:.3f})"
@@ -279,4 +302,6 @@ def _train(cfg: dict, ranks: Ranks, progress: bool, on_epoch) -> dict:
                    since_best=since_best, history=history, torch_rng=torch.get_rng_state())
         if on_epoch is not None:
             on_epoch(epoch, m)
+    if log is not None:
+        log.close()
     return best
