@@ -166,6 +166,25 @@ def _flipped_onnx(tmp_path, stack):
     return ["evaluate", str(onnx), "--data", str(sim_log(tmp_path / "sim")), "--out", str(tmp_path / "eval")]
 
 
+def _onnx_metadata(change):
+    """An exported model whose metadata_props `change(props)` edits (a dict key -> value), then evaluated."""
+    def command(tmp_path, stack):
+        import onnx
+
+        from steerlab.export import export_onnx
+
+        path = export_onnx(made(tmp_path), tmp_path / "m.onnx")
+        proto = onnx.load(path)
+        props = {e.key: e.value for e in proto.metadata_props}
+        change(props)
+        del proto.metadata_props[:]
+        for key, value in props.items():
+            proto.metadata_props.add(key=key, value=value)
+        onnx.save(proto, path)
+        return ["evaluate", str(path), "--data", str(sim_log(tmp_path / "sim")), "--out", str(tmp_path / "eval")]
+    return command
+
+
 def _read_only_journal(tmp_path, stack):
     cfg = config(tmp_path, sim_log(tmp_path / "sim"))
     cfg.write_text(cfg.read_text() + "tune: {train.lr: {low: 1.0e-5, high: 0.1, log: true}}\n")
@@ -198,6 +217,20 @@ def _corrupt_frame_replay(tmp_path, stack):
     frame = sorted((tmp_path / "flat" / "center").glob("*.jpg"))[50]
     frame.write_bytes(frame.read_bytes()[:300])
     return [*argv, "--speed", "10"]
+
+
+def _tune_storage(storage, heartbeat=None):
+    """`steerlab tune` of a one-parameter space into `storage` (a URL), with STEERLAB_TUNE_HEARTBEAT set if given."""
+    def build(tmp_path, stack):
+        cfg = config(tmp_path, sim_log(tmp_path / "sim"))
+        cfg.write_text(cfg.read_text() + "tune: {train.lr: {low: 1.0e-5, high: 0.1, log: true}}\n")
+        if heartbeat is not None:
+            old = os.environ.get("STEERLAB_TUNE_HEARTBEAT")
+            os.environ["STEERLAB_TUNE_HEARTBEAT"] = heartbeat
+            stack.callback(lambda: os.environ.pop("STEERLAB_TUNE_HEARTBEAT") if old is None
+                           else os.environ.update(STEERLAB_TUNE_HEARTBEAT=old))
+        return ["tune", str(cfg), "--trials", "1", "--study", "s", "--storage", storage.format(tmp=tmp_path)]
+    return build
 
 
 BAD_INPUTS = {
@@ -248,8 +281,14 @@ BAD_INPUTS = {
     "checkpoint flipped bytes": (_flipped, "best.pt: the weights do not match the checkpoint's sha256"),
     "checkpoint with code": (_code_in_checkpoint, "evil.pt: the checkpoint holds objects other than tensors and "
                                                   "plain values (posix.system)"),
-    "onnx flipped bytes": (_flipped_onnx, "m.onnx: the model does not match the sha256 in m.json: the file is "
-                                          "damaged"),
+    "onnx flipped bytes": (_flipped_onnx, "m.onnx: the model does not match the sha256 in its metadata: the file "
+                                          "is damaged"),
+    "onnx metadata edited": (_onnx_metadata(lambda m: m.update(steerlab=m["steerlab"].replace('"sim"', '"ch2"'))),
+                             "m.onnx: the model does not match the sha256 in its metadata"),
+    "onnx without steerlab metadata": (_onnx_metadata(dict.clear),
+                                       "m.onnx: no steerlab metadata in the model: not written by steerlab export"),
+    "export to a file not .onnx": (lambda t, s: ["export", str(made(t)), "--out", str(t / "m.bin")],
+                                   "m.bin: the export file must end in .onnx"),
     # g) steering conventions where a checkpoint meets data or the simulator
     "evaluate simulator checkpoint on CH2": (_evaluate_on_ch2(), "model.pt predicts road_wheel/right steering and "),
     "evaluate donkeycar checkpoint on CH2": (_evaluate_on_ch2(kind="normalized", preset="donkey"),
@@ -289,6 +328,14 @@ BAD_INPUTS = {
                                                str(t / "out")], "nothere: recording not found"),
     # i) a study's journal this worker cannot write
     "tune read-only journal": (_read_only_journal, "s.journal: the journal file is not writable (permission denied)"),
+    # k) a study's storage that cannot be opened: the URL without its password, what the server or driver said
+    "tune unreachable postgres": (_tune_storage("postgresql://tuner:secret@127.0.0.1:1/steerlab"),
+                                  "cannot open storage postgresql://tuner:***@127.0.0.1:1/steerlab: OperationalError: "
+                                  'connection failed: connection to server at "127.0.0.1", port 1 failed: Connection '
+                                  "refused"),
+    "tune heartbeat 5,2": (_tune_storage("sqlite:///{tmp}/s.db", heartbeat="5,2"),
+                           "STEERLAB_TUNE_HEARTBEAT='5,2': expected INTERVAL,GRACE in whole seconds with 0 < INTERVAL "
+                           "< GRACE"),
 }
 
 

@@ -18,7 +18,7 @@ from steerlab.data.preprocess import PreprocessConfig
 from steerlab.data.readers import open_recording
 from steerlab.data.recording import SteeringConvention
 from steerlab.errors import SteerlabError
-from steerlab.export import export_onnx, sidecar_path
+from steerlab.export import export_onnx
 from steerlab.models import create_model, list_models
 from steerlab.pilot import Pilot
 from steerlab.serve import DriveSession, SpeedController, to_simulator
@@ -52,7 +52,7 @@ def frames(n: int) -> list[np.ndarray]:
 def test_onnx_pilot_matches_torch(tmp_path, name):
     ckpt = untrained(tmp_path, name)
     onnx = export_onnx(ckpt, tmp_path / "m.onnx")
-    assert sidecar_path(onnx).is_file()
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([ckpt.name, "m.onnx"])  # self-contained
     torch_pilot, onnx_pilot = Pilot(ckpt), Pilot(onnx)
     assert onnx_pilot.convention == torch_pilot.convention and onnx_pilot.config == torch_pilot.config
     for i, frame in enumerate(frames(12)):
@@ -67,33 +67,62 @@ def test_onnx_pilot_matches_torch(tmp_path, name):
 
 
 def test_onnx_bad_files(tmp_path):
-    onnx = export_onnx(untrained(tmp_path, "pilotnet"), tmp_path / "m.onnx")
-    sidecar_path(onnx).unlink()
-    with pytest.raises(SteerlabError, match=r"m.onnx: its metadata m.json is missing"):
-        Pilot(onnx)
+    import onnx
+
+    onnx_path = export_onnx(untrained(tmp_path, "pilotnet"), tmp_path / "m.onnx")
+    good = onnx_path.read_bytes()
+    proto = onnx.load(onnx_path)
+    del proto.metadata_props[:]  # an ONNX model from elsewhere, or exported when the metadata was a sidecar
+    onnx.save(proto, tmp_path / "plain.onnx")
+    with pytest.raises(SteerlabError, match=r"plain.onnx: no steerlab metadata in the model: not written by "
+                                            r"steerlab export, or by a version that kept it in a .json sidecar"):
+        Pilot(tmp_path / "plain.onnx")
+    (tmp_path / "half.onnx").write_bytes(good[: len(good) // 3])  # cut off mid-weights
+    with pytest.raises(SteerlabError, match=r"half.onnx: not an ONNX model \(damaged or truncated\?\)"):
+        Pilot(tmp_path / "half.onnx")
+    with pytest.raises(SteerlabError, match=r"nothere.onnx: ONNX file not found"):
+        Pilot(tmp_path / "nothere.onnx")
     with pytest.raises(SteerlabError, match="must end in .onnx"):
         export_onnx(untrained(tmp_path, "pilotnet"), tmp_path / "m.bin")
 
 
-def test_onnx_carries_a_hash_checked_on_load(tmp_path):
+def test_onnx_is_self_contained_and_checks_its_hash_on_load(tmp_path):
+    """The metadata lives in the model (ONNX Runtime reads it as custom metadata); a sha256 over the graph,
+    the weights and the metadata, kept in the metadata too, refuses flipped weight bytes and edited metadata."""
     import json
 
-    from steerlab.export import file_sha256
+    import onnx
+    import onnxruntime as ort
 
-    onnx = export_onnx(untrained(tmp_path, "pilotnet"), tmp_path / "m.onnx")
-    meta = json.loads(sidecar_path(onnx).read_text())
-    assert meta["sha256"] == file_sha256(onnx)
-    good = onnx.read_bytes()
+    from steerlab.export import content_sha256
+
+    onnx_path = export_onnx(untrained(tmp_path, "lstm"), tmp_path / "m.onnx")
+    props = ort.InferenceSession(str(onnx_path)).get_modelmeta().custom_metadata_map
+    meta = json.loads(props["steerlab"])
+    assert meta["model"] == "lstm" and meta["state_shape"] and meta["stats"]["mean"] == [100.0]
+    assert meta["convention"] == SteeringConvention().as_dict() and meta["preset"] == "ch2"
+    assert props["steerlab_sha256"] == content_sha256(onnx_path.read_bytes())[0]
+    copied = tmp_path / "elsewhere" / "copy.onnx"  # a copied model drives on its own
+    copied.parent.mkdir()
+    copied.write_bytes(onnx_path.read_bytes())
+    frame = frames(1)[0]
+    assert Pilot(copied).step(frame).steering == pytest.approx(Pilot(onnx_path).step(frame).steering, abs=1e-6)
+    good = onnx_path.read_bytes()
     data = bytearray(good)
     for i in range(len(data) // 2, len(data) // 2 + 16):  # flipped bytes in the middle: in the weights
         data[i] ^= 0xFF
-    onnx.write_bytes(bytes(data))
-    with pytest.raises(SteerlabError, match=r"m.onnx: the model does not match the sha256 in m.json"):
-        Pilot(onnx)
-    onnx.write_bytes(good)
-    del meta["sha256"]  # an export written before the hash existed still loads
-    sidecar_path(onnx).write_text(json.dumps(meta))
-    Pilot(onnx).step(frames(1)[0])
+    onnx_path.write_bytes(bytes(data))
+    with pytest.raises(SteerlabError, match=r"m.onnx: the model does not match the sha256 in its metadata: the "
+                                            r"file is damaged or was changed after export"):
+        Pilot(onnx_path)
+    proto = onnx.load_from_string(good)  # the metadata edited: other statistics
+    entry = next(p for p in proto.metadata_props if p.key == "steerlab")
+    entry.value = entry.value.replace("100.0", "90.0")
+    onnx_path.write_bytes(proto.SerializeToString())
+    with pytest.raises(SteerlabError, match=r"m.onnx: the model does not match the sha256 in its metadata"):
+        Pilot(onnx_path)
+    onnx_path.write_bytes(good)
+    Pilot(onnx_path).step(frame)
 
 
 def test_speed_controller_holds_the_set_speed():
@@ -218,6 +247,7 @@ def test_export_command(tmp_path, capsys):
 
     ckpt = untrained(tmp_path, "lstm")
     assert main(["export", str(ckpt), "--out", str(tmp_path / "out" / "lstm.onnx")]) == 0
-    assert (tmp_path / "out" / "lstm.onnx").is_file() and (tmp_path / "out" / "lstm.json").is_file()
+    assert [p.name for p in (tmp_path / "out").iterdir()] == ["lstm.onnx"]  # no sidecar: one file
+    assert "preprocessing and statistics in its metadata" in capsys.readouterr().out
     assert main(["export", str(tmp_path / "missing.pt"), "--out", str(tmp_path / "m.onnx")]) == 2
     assert "missing.pt: checkpoint not found" in capsys.readouterr().err

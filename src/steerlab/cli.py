@@ -111,10 +111,11 @@ def cmd_tune(a) -> None:
 
 
 def cmd_export(a) -> None:
-    from steerlab.export import export_onnx, sidecar_path
+    from steerlab.export import export_onnx
 
     out = export_onnx(a.checkpoint, a.out)
-    print(f"wrote {out} and {sidecar_path(out)} (run it with Pilot('{out}') or steerlab serve {out})")
+    print(f"wrote {out}, preprocessing and statistics in its metadata (run it with Pilot('{out}'), "
+          f"steerlab serve {out} or on a donkeycar: steerlab.donkey.SteerlabPilot('{out}'))")
 
 
 def cmd_serve(a) -> None:
@@ -273,10 +274,10 @@ def build_parser() -> argparse.ArgumentParser:
     q.add_argument("--no-pruning", action="store_true", help="run every trial to completion (no Hyperband)")
     q.set_defaults(func=cmd_tune)
 
-    q = sub.add_parser("export", help="export a checkpoint to ONNX (+ a .json sidecar) for ONNX Runtime",
+    q = sub.add_parser("export", help="export a checkpoint to one self-contained ONNX file for ONNX Runtime",
                        epilog="example: steerlab export runs/demo/model/best.pt --out model.onnx")
     q.add_argument("checkpoint", help="checkpoint (.pt)")
-    q.add_argument("--out", required=True, help="ONNX file to write (.onnx); the sidecar .json goes beside it")
+    q.add_argument("--out", required=True, help="ONNX file to write (.onnx); it carries its preprocessing and statistics")
     q.set_defaults(func=cmd_export)
 
     q = sub.add_parser("serve", help="drive the Udacity simulator (socket.io server on port 4567)",

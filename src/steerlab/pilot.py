@@ -5,7 +5,8 @@ difference and optical flow, the last frames for stacked input, the last speeds 
 history and the recurrent state, standardises with the checkpoint's statistics, runs the model and optionally
 smooths the steering (paper 002 Eq. 2). Offline evaluation and closed-loop driving both use it, so what is
 measured is what runs. The model runs on PyTorch (a .pt checkpoint) or on ONNX Runtime (an exported .onnx
-file); everything around the model is the same code.
+file); everything around the model is the same code. torch is imported only for a .pt checkpoint: the Pilot
+on an exported .onnx file needs numpy, OpenCV and ONNX Runtime alone (what a car's computer has).
 """
 
 from __future__ import annotations
@@ -15,13 +16,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import torch
 
+from steerlab.data.inputs import Standardizer, stack_modalities
 from steerlab.data.modalities import frame_difference, optical_flow
 from steerlab.data.preprocess import preprocess
 from steerlab.errors import SteerlabError
-from steerlab.checkpoint import load_checkpoint, model_from_checkpoint
-from steerlab.data.inputs import Standardizer, stack_modalities
 
 
 @dataclass(frozen=True)
@@ -39,41 +38,53 @@ class TorchModel:
     state between calls. `export.OnnxModel` is the same on ONNX Runtime."""
 
     def __init__(self, ckpt: dict):
+        import torch
+
+        from steerlab.checkpoint import model_from_checkpoint
+
+        self.torch = torch
         self.model, self.config, self.convention = model_from_checkpoint(ckpt)
         self.name = ckpt["model"]
         self.preset = ckpt.get("preset")  # the camera geometry it was trained on (ch2, sim, donkey)
         self.standardize = Standardizer(ckpt["stats"])
         self.recurrent = self.model.recurrent
         self.speed_history = self.model.speed_history
+        self.targets = tuple(self.model.targets)  # what it predicts besides steering: ("speed",), ("command",)
         self.reset()
 
     def reset(self) -> None:
         self.state = None
 
-    @torch.inference_mode()
     def __call__(self, x_nhwc: np.ndarray, speeds: list[float] | None = None) -> dict[str, np.ndarray]:
-        inputs = {"x": self.standardize(x_nhwc)}
-        if self.speed_history:
-            inputs["speeds"] = torch.tensor([speeds], dtype=torch.float32)
-        if self.recurrent:
-            out, self.state = self.model(**{k: v[None] for k, v in inputs.items()}, state=self.state)
-            out = {k: v[0] for k, v in out.items()}
-        else:
-            out = self.model(**inputs)
-        return {k: v[0].numpy() for k, v in out.items()}
+        torch = self.torch
+        with torch.inference_mode():
+            inputs = {"x": self.standardize(x_nhwc)}
+            if self.speed_history:
+                inputs["speeds"] = torch.tensor([speeds], dtype=torch.float32)
+            if self.recurrent:
+                out, self.state = self.model(**{k: v[None] for k, v in inputs.items()}, state=self.state)
+                out = {k: v[0] for k, v in out.items()}
+            else:
+                out = self.model(**inputs)
+            return {k: v[0].numpy() for k, v in out.items()}
 
 
 class Pilot:
     def __init__(self, checkpoint: str | Path | dict, smoothing: float | None = None):
-        """`checkpoint`: a .pt checkpoint (path or loaded dict) or an exported .onnx file with its sidecar."""
+        """`checkpoint`: a .pt checkpoint (path or loaded dict) or an exported .onnx file (self-contained: its
+        preprocessing, statistics and convention are in its metadata)."""
         if not isinstance(checkpoint, dict) and Path(checkpoint).suffix == ".onnx":
             from steerlab.export import OnnxModel
 
             self.net = OnnxModel(checkpoint)
         else:
-            self.net = TorchModel(checkpoint if isinstance(checkpoint, dict) else load_checkpoint(checkpoint))
+            if not isinstance(checkpoint, dict):
+                from steerlab.checkpoint import load_checkpoint
+
+                checkpoint = load_checkpoint(checkpoint)
+            self.net = TorchModel(checkpoint)
         self.name, self.config, self.convention = self.net.name, self.net.config, self.net.convention
-        self.preset, self.speed_history = self.net.preset, self.net.speed_history
+        self.preset, self.speed_history, self.targets = self.net.preset, self.net.speed_history, self.net.targets
         self.smoothing = smoothing
         self.reset()
 

@@ -24,6 +24,7 @@ trial under `trials/`.
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import csv
 import inspect
@@ -174,7 +175,7 @@ def storage_of(url: str | None, out: Path):
         if scheme != "sqlite" and "connect_timeout=" not in url:
             kwargs["connect_args"] = {"connect_timeout": CONNECT_TIMEOUT}
         try:
-            with warnings.catch_warnings():  # heartbeats are marked experimental in Optuna
+            with warnings.catch_warnings(), _schema_lock(engine, kwargs):  # heartbeats: experimental in Optuna
                 warnings.simplefilter("ignore")
                 return RDBStorage(engine, engine_kwargs=kwargs, heartbeat_interval=interval, grace_period=grace,
                                   heartbeat_stale_trial_callback=RetryHeartbeatStaleTrialCallback(max_retry=2))
@@ -199,6 +200,28 @@ def storage_of(url: str | None, out: Path):
     except PermissionError as e:
         raise SteerlabError(f"{e.filename or path}: permission denied (the study's journal needs to be readable "
                             "and writable, with its folder writable for the lock file)") from None
+
+
+@contextlib.contextmanager
+def _schema_lock(url: str, kwargs: dict):
+    """On PostgreSQL, one worker at a time opens the storage: workers started together on an empty database
+    would otherwise create Optuna's tables together, and all but one fail (a unique violation in PostgreSQL's
+    catalog). A session-level advisory lock, released when its connection closes, also if the worker dies."""
+    if not url.startswith("postgresql"):
+        yield
+        return
+    import sqlalchemy
+
+    engine = sqlalchemy.create_engine(url, poolclass=sqlalchemy.pool.NullPool, **kwargs)
+    try:
+        with engine.connect() as conn:
+            conn.execute(sqlalchemy.text("SELECT pg_advisory_lock(7355608)"))  # any fixed key: steerlab's
+            try:
+                yield
+            finally:
+                conn.execute(sqlalchemy.text("SELECT pg_advisory_unlock(7355608)"))
+    finally:
+        engine.dispose()
 
 
 def _first_line(e: Exception) -> str:
@@ -372,7 +395,15 @@ def run_tune(config: str | Path, overrides: list[str] = (), trials: int = 20, ob
     # at a time, so that the count can be checked between trials
     while len(study.get_trials(deepcopy=False, states=done_states)) < trials:
         surplus.clear()
-        study.optimize(objective_fn, n_trials=1, catch=(_Surplus,), callbacks=[report])
+        try:
+            study.optimize(objective_fn, n_trials=1, catch=(_Surplus,), callbacks=[report])
+        except (optuna.exceptions.UpdateFinishedTrialError, ValueError) as e:
+            if isinstance(e, ValueError) and not str(e).startswith("Cannot tell a FAIL trial"):
+                raise
+            # our trial was failed by another worker's heartbeat check: Optuna refuses its result
+            warn(f"study {name}: another worker failed this worker's trial after no heartbeat for {heartbeat()[1]} s "
+                 "(this worker was stalled or cut off from the storage); the trial is retried, this worker goes on")
+            continue
         if surplus and not _wait_for_others(study, trials):
             break
     bar.close()
@@ -480,7 +511,8 @@ def write_reports(study, out: Path, base: dict) -> None:
     else:
         best = study.best_trial
         _plot_history(out / "history.png", trials, study.directions[0] == optuna.study.StudyDirection.MINIMIZE)
-        if len(complete) >= 2 and params:
+        varied = len({t.values[0] for t in complete}) > 1 and len({repr(t.params) for t in complete}) > 1
+        if varied and params:  # fANOVA needs trials that differ (a rerun with the same --seed repeats them)
             importance = optuna.importance.get_param_importances(
                 study, evaluator=optuna.importance.FanovaImportanceEvaluator(seed=0), normalize=True)
             total = sum(importance.values()) or 1.0

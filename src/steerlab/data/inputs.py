@@ -1,12 +1,18 @@
-"""Turning compiled arrays into standardised network input: shared by training and the streaming Pilot."""
+"""Turning compiled arrays into standardised network input: shared by training and the streaming Pilot.
+
+torch is imported only where a tensor is made (`Standardizer`), so the Pilot on ONNX Runtime runs without it."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import cv2
 import numpy as np
-import torch
 
 from steerlab.data.preprocess import PreprocessConfig
+
+if TYPE_CHECKING:
+    import torch
 
 
 def stack_modalities(arrays: dict[str, np.ndarray], cfg: PreprocessConfig) -> np.ndarray:
@@ -60,11 +66,15 @@ class Standardizer:
     oneDNN convolutions on the CPU run about a quarter faster on it)."""
 
     def __init__(self, stats: dict[str, list[float]]):
+        import torch
+
         self.mean = torch.tensor(stats["mean"], dtype=torch.float32)
         self.std = torch.tensor(stats["std"], dtype=torch.float32)
 
     def __call__(self, x_nhwc: np.ndarray) -> torch.Tensor:
         """Standardises in place when given a contiguous float32 array: the array is consumed."""
+        import torch
+
         x = torch.from_numpy(np.ascontiguousarray(x_nhwc, dtype=np.float32))
         return x.sub_(self.mean).div_(self.std).permute(0, 3, 1, 2)
 

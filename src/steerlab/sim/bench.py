@@ -91,13 +91,11 @@ def _drive_job(checkpoint: str, road: str, seed: int, minutes: float, out: str, 
 
 def cache_key(checkpoint: Path, suite: str, minutes: float, smoothing: float | None) -> dict:
     """Everything that changes a drive's result besides its road: the checkpoint's content (the sha256 of the
-    file, and of an exported model's sidecar), the suite version, the minutes and the smoothing. A finished
-    drive is reused only when its drive.json holds exactly this key."""
-    from steerlab.export import file_sha256, sidecar_path
+    file; an exported .onnx carries its metadata inside), the suite version, the minutes and the smoothing. A
+    finished drive is reused only when its drive.json holds exactly this key."""
+    from steerlab.export import file_sha256
 
     key = {"checkpoint_sha256": file_sha256(checkpoint), "suite": suite, "minutes": minutes, "smoothing": smoothing}
-    if checkpoint.suffix == ".onnx" and sidecar_path(checkpoint).is_file():
-        key["sidecar_sha256"] = file_sha256(sidecar_path(checkpoint))
     return json.loads(json.dumps(key))  # as drive.json gives it back
 
 

@@ -1,0 +1,192 @@
+"""A steerlab model as a donkeycar part: `SteerlabPilot("model.onnx")` in a donkeycar `manage.py`.
+
+donkeycar runs parts in its vehicle loop: each loop, `run(*inputs)` gets the values named by `inputs` from the
+vehicle's memory and its return value is stored under `outputs`; `shutdown()` is called when the loop stops.
+This part takes the camera frame (`cam/image_array`: the H x W x 3 uint8 RGB array donkeycar's camera parts
+deliver) and, optionally, the measured speed (`enc/speed`, m/s, from donkeycar's odometry), and returns
+`(angle, throttle)` in donkeycar's units for `pilot/angle` and `pilot/throttle`:
+
+- **angle**: the servo command in [-1, 1], positive right (donkeycar's, and its tubs' `user/angle`). A model
+  trained on tubs (steering convention `normalized`, positive right) is passed through. A model trained on angles
+  (CH2's steering-wheel angle, positive left, through the steering ratio 14.8; the simulator's road-wheel angle,
+  positive right) needs the car's full-lock road-wheel angle, `full_lock_deg`: angle = road-wheel angle / full
+  lock, positive right. Without it such a model is refused when the part is made. A tub model whose checkpoint
+  knows its car's full lock (reader option `full_lock_deg`) is rescaled to this car's when both are known.
+  Values beyond full lock are clipped to [-1, 1].
+- **throttle** ([0, `max_throttle`]): the constant `throttle` for a steering model; for a model that predicts
+  the next frame's speed (`multitask-speed`, which also needs the measured speed with every frame) a PI
+  controller drives the measured speed to the predicted one around `throttle` as the cruising throttle; for a
+  speed-command model (`speed-command`: decelerate / maintain / accelerate) the throttle steps down, stays or
+  steps up by `command_step` each frame. donkeycar's `DriveMode` part multiplies it by `AI_THROTTLE_MULT`.
+
+The streaming state lives in the steerlab `Pilot` (previous frame for difference and flow, frame stack, speed
+history, recurrent state): the same code `steerlab evaluate` runs, so what was evaluated is what drives. The
+part converts RGB to the BGR the Pilot takes (OpenCV's order, as recordings are read). A gap of more than
+`reset_after_s` (0.5 s, the gap that starts a new segment in a recording) between two frames, e.g. when the
+pilot was switched off in the web UI and on again, starts a new segment: the model forgets the past. A frame of
+another size than the model's camera, or not 3-channel uint8, raises an error naming the expected shape (a
+donkeycar vehicle loop prints it and stops the car). A missing frame (`None`: the camera is not ready) gives
+(0, 0) and starts a new segment.
+
+On the car, `Pilot("model.onnx")` needs numpy, OpenCV and onnxruntime; torch is imported for .pt checkpoints
+only. donkeycar itself is not imported here: a part is any object with `run`.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from steerlab.data.geometry import CAMERAS, STEERING_RATIO
+from steerlab.data.recording import SteeringConvention
+from steerlab.errors import SteerlabError, warn
+from steerlab.pilot import Pilot
+
+
+def _check(name: str, value, low: float, high: float, low_open: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
+            or not (low < value if low_open else low <= value) or value > high:
+        interval = f"{'(' if low_open else '['}{low:g}, {high:g}]"
+        raise SteerlabError(f"SteerlabPilot: {name} must be a number in {interval}, got {value!r}")
+    return float(value)
+
+
+def servo_angle(value: float, convention: SteeringConvention, full_lock: float | None) -> float:
+    """A model's steering (its checkpoint's convention) as donkeycar's servo command: in [-1, 1], positive right,
+    `full_lock` (radians) the car's road-wheel angle at +-1. Normalized steering passes through (rescaled when
+    both full-lock angles are known); angles need `full_lock`."""
+    if convention.kind == "normalized" and (convention.full_lock is None or full_lock is None):
+        servo = value if convention.positive == "right" else -value
+    elif full_lock is None:
+        raise SteerlabError("an angle needs the car's full-lock angle to become a servo command")
+    else:
+        servo = -convention.to_road_wheel_left(value, STEERING_RATIO) / full_lock
+    return float(np.clip(servo, -1.0, 1.0))
+
+
+class SpeedControl:
+    """donkeycar's throttle toward a target speed (m/s): `cruise + kp e + ki sum(e)`, e = target - measured, the
+    sum bounded to +-`limit` (no wind-up) and the throttle to [0, `max_throttle`] (no reverse: donkeycar's ESC
+    treats a negative throttle as brake or reverse)."""
+
+    def __init__(self, cruise: float, max_throttle: float, kp: float = 0.1, ki: float = 0.01, limit: float = 20.0):
+        self.cruise, self.max_throttle, self.kp, self.ki, self.limit = cruise, max_throttle, kp, ki, limit
+        self.reset()
+
+    def reset(self) -> None:
+        self.integral = 0.0
+
+    def update(self, target: float, measured: float) -> float:
+        error = target - measured
+        self.integral = min(max(self.integral + error, -self.limit), self.limit)
+        return float(np.clip(self.cruise + self.kp * error + self.ki * self.integral, 0.0, self.max_throttle))
+
+
+class SteerlabPilot:
+    """A donkeycar part: `run(img_arr, speed=None) -> (angle, throttle)`; see the module's docstring.
+
+    model: an exported `.onnx` file (self-contained; needs onnxruntime, not torch) or a `.pt` checkpoint.
+    throttle: the constant throttle of a steering model, and the cruising throttle of the speed controllers.
+    full_lock_deg: the car's road-wheel angle at full lock, in degrees; needed for models trained on angles.
+    max_throttle: the throttle of a speed or speed-command model never exceeds it.
+    kp, ki: the PI gains of the speed controller (throttle per m/s, per m/s and frame).
+    command_step: the throttle change per frame of a speed-command model's accelerate / decelerate.
+    smoothing: exponential smoothing of the steering (paper 002 Eq. 2), as `steerlab sim drive --smoothing`.
+    reset_after_s: a longer gap between frames starts a new segment (None: never).
+    clock: seconds, for the gap (`time.monotonic`).
+    """
+
+    def __init__(self, model: str | Path, throttle: float = 0.3, *, full_lock_deg: float | None = None,
+                 max_throttle: float = 0.5, kp: float = 0.1, ki: float = 0.01, command_step: float = 0.01,
+                 smoothing: float | None = None, reset_after_s: float | None = 0.5,
+                 clock: Callable[[], float] = time.monotonic):
+        self.throttle = _check("throttle", throttle, 0.0, 1.0)
+        self.full_lock = None if full_lock_deg is None else math.radians(
+            _check("full_lock_deg", full_lock_deg, 0.0, 89.0, low_open=True))
+        if smoothing is not None:
+            _check("smoothing", smoothing, 0.0, 1.0, low_open=True)
+        self.source = Path(model)
+        self.pilot = Pilot(model, smoothing=smoothing)
+        conv = self.pilot.convention
+        if conv.kind != "normalized" and self.full_lock is None:
+            wheel = "steering-wheel" if conv.kind == "steering_wheel" else "road-wheel"
+            raise SteerlabError(f"{self.source} predicts the {wheel} angle (positive {conv.positive}); donkeycar "
+                                "steers with a servo command in [-1, 1]: give the car's full-lock road-wheel angle, "
+                                f"SteerlabPilot({str(self.source)!r}, full_lock_deg=...)")
+        self.max_throttle = _check("max_throttle", max_throttle, 0.0, 1.0)
+        if self.pilot.targets and self.throttle > self.max_throttle:
+            raise SteerlabError(f"SteerlabPilot: the cruising throttle {self.throttle:g} exceeds max_throttle "
+                                f"{self.max_throttle:g}")
+        self.speed_control = SpeedControl(self.throttle, self.max_throttle, _check("kp", kp, 0.0, 10.0),
+                                          _check("ki", ki, 0.0, 10.0))
+        self.command_step = _check("command_step", command_step, 0.0, 1.0)
+        self.reset_after_s = None if reset_after_s is None else _check("reset_after_s", reset_after_s, 0.0, 1e9,
+                                                                       low_open=True)
+        self.clock = clock
+        cam = CAMERAS.get(self.pilot.preset)
+        self.shape = None if cam is None else (cam.height, cam.width, 3)  # the frames the model was trained on
+        self.frames = 0
+        self._last = None
+        self._commanded = self.throttle
+        self._closed = self._warned = False
+
+    def reset(self) -> None:
+        """Forget the past: the next frame starts a segment (previous frame, histories, recurrent state)."""
+        self.pilot.reset()
+        self.speed_control.reset()
+        self._commanded = self.throttle
+
+    def expected(self) -> str:
+        if self.shape is None:
+            return "H x W x 3 uint8 RGB frames"
+        h, w, _ = self.shape
+        return (f"{h}x{w}x3 uint8 RGB frames of the {self.pilot.preset!r} camera it was trained on "
+                f"(donkeycar config: IMAGE_H = {h}, IMAGE_W = {w}, IMAGE_DEPTH = 3)")
+
+    def run(self, img_arr: np.ndarray | None, speed: float | None = None) -> tuple[float, float]:
+        """One camera frame (RGB, as donkeycar's cameras give it) and optionally the measured speed (m/s) ->
+        (angle in [-1, 1] positive right, throttle)."""
+        if self._closed:
+            raise SteerlabError("SteerlabPilot: run() after shutdown()")
+        now = self.clock()
+        gap = self._last is not None and self.reset_after_s is not None and now - self._last > self.reset_after_s
+        self._last = now
+        if img_arr is None:
+            if not self._warned:
+                warn("SteerlabPilot: no camera frame (cam/image_array is None): steering 0, throttle 0 (said once)")
+                self._warned = True
+            self.reset()
+            self._last = None
+            return 0.0, 0.0
+        img = np.asarray(img_arr)
+        if img.dtype != np.uint8 or img.ndim != 3 or img.shape[2] != 3 or (self.shape and img.shape != self.shape):
+            got = "x".join(map(str, img.shape)) or "a scalar"
+            raise SteerlabError(f"SteerlabPilot: the camera frame is {got} {img.dtype}; {self.source.name} "
+                                f"(model {self.pilot.name!r}) expects {self.expected()}")
+        if (self.pilot.speed_history or "speed" in self.pilot.targets) and speed is None:
+            raise SteerlabError(f"SteerlabPilot: model {self.pilot.name!r} needs the measured speed (m/s) with every "
+                                "frame: add the car's odometry (HAVE_ODOM = True) and inputs=['cam/image_array', "
+                                "'enc/speed']")
+        if gap:
+            self.reset()
+        self.frames += 1
+        out = self.pilot.step(np.ascontiguousarray(img[..., ::-1]), None if speed is None else float(speed))
+        angle = servo_angle(out.steering, self.pilot.convention, self.full_lock)
+        if out.speed is not None:
+            throttle = self.speed_control.update(out.speed, float(speed))
+        elif out.command is not None:
+            self._commanded = float(np.clip(self._commanded + self.command_step * (out.command - 1), 0.0,
+                                            self.max_throttle))
+            throttle = self._commanded
+        else:
+            throttle = self.throttle
+        return angle, throttle
+
+    def shutdown(self) -> None:
+        """donkeycar calls it when the vehicle stops: the model is released."""
+        self._closed = True
+        self.pilot = None

@@ -1,0 +1,292 @@
+"""steerlab tune across machines: workers share a study on a real PostgreSQL server that this module starts
+itself (the server binaries come with the pgserver package, the driver is psycopg; both from requirements.txt).
+The server runs in a temporary folder on 127.0.0.1 and a free port; as root it runs as `nobody` (PostgreSQL
+refuses to run as root). Workers are real `steerlab tune` processes; each has its own out folder, as on
+separate machines."""
+
+import importlib.util
+import os
+import pwd
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import pytest
+
+from test_tune import rows, tune_config
+
+HEARTBEAT = "1,3"  # STEERLAB_TUNE_HEARTBEAT: beat every second, fail a trial silent for 3 s
+
+
+def _bin() -> Path:
+    spec = importlib.util.find_spec("pgserver")
+    assert spec is not None, "pgserver (PostgreSQL server binaries) is not installed: make install"
+    return Path(spec.submodule_search_locations[0]) / "pginstall" / "bin"
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _connect(port: int, db: str = "postgres"):
+    import psycopg
+
+    return psycopg.connect(host="127.0.0.1", port=port, user="postgres", dbname=db, connect_timeout=2,
+                           autocommit=True)
+
+
+class Server:
+    def __init__(self, port: int):
+        self.port = port
+        self.made = 0
+
+    def url(self, db: str) -> str:
+        return f"postgresql://postgres@127.0.0.1:{self.port}/{db}"
+
+    def database(self) -> str:
+        """A new, empty database; its URL."""
+        self.made += 1
+        name = f"t{self.made}"
+        with _connect(self.port) as conn:
+            conn.execute(f"CREATE DATABASE {name}")
+        return self.url(name)
+
+
+@pytest.fixture(scope="module")
+def postgres():
+    """A throwaway PostgreSQL server for this module; stopped and deleted at the end."""
+    root = Path(tempfile.mkdtemp(prefix="steerlab-pg-"))  # not pytest's tmp_path: `nobody` cannot enter that
+    user = {}
+    if os.geteuid() == 0:
+        nobody = pwd.getpwnam("nobody")
+        os.chown(root, nobody.pw_uid, nobody.pw_gid)
+        user = {"user": nobody.pw_uid, "group": nobody.pw_gid, "extra_groups": []}
+    server = None
+    try:
+        subprocess.run([str(_bin() / "initdb"), "-D", str(root / "data"), "-U", "postgres", "--auth=trust",
+                        "-E", "UTF8", "--no-sync"], cwd=root, check=True, capture_output=True, **user)
+        for _ in range(3):  # a port taken between picking and binding: another one
+            port = _free_port()
+            with open(root / "log", "ab") as log:
+                server = subprocess.Popen(
+                    [str(_bin() / "postgres"), "-D", str(root / "data"), "-h", "127.0.0.1", "-p", str(port), "-k",
+                     str(root), "-c", "fsync=off", "-c", "synchronous_commit=off", "-c", "full_page_writes=off"],
+                    cwd=root, stdout=log, stderr=subprocess.STDOUT, **user)
+            deadline = time.monotonic() + 30
+            while server.poll() is None and time.monotonic() < deadline:
+                try:
+                    _connect(port).close()
+                    break
+                except Exception:  # noqa: BLE001 - starting up
+                    time.sleep(0.1)
+            if server.poll() is None:
+                break
+        assert server.poll() is None, (root / "log").read_text()
+        yield Server(port)
+    finally:
+        for storage in _storages.values():  # this process's connections
+            storage.engine.dispose()
+        if server is not None and server.poll() is None:
+            server.send_signal(signal.SIGQUIT)  # immediate shutdown: the data is thrown away
+            try:
+                server.wait(timeout=15)
+            except subprocess.TimeoutExpired:
+                server.kill()
+                server.wait()
+        shutil.rmtree(root, ignore_errors=True)
+
+
+def steerlab() -> list[str]:
+    """The installed `steerlab` command (what a user runs), else `python -m steerlab`."""
+    exe = Path(sys.executable).with_name("steerlab")
+    return [str(exe)] if exe.exists() else [sys.executable, "-m", "steerlab"]
+
+
+def worker(cfg, url, study, trials, *options, seed=0):
+    env = {**os.environ, "STEERLAB_TUNE_HEARTBEAT": HEARTBEAT, "OMP_NUM_THREADS": "1"}
+    return subprocess.Popen([*steerlab(), "tune", str(cfg), "--trials", str(trials), "--storage", url, "--study",
+                             study, "--seed", str(seed), *options],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env)
+
+
+_storages = {}
+
+
+def _storage(url):
+    """One Optuna storage per database for this process's reads (an engine keeps its connections)."""
+    import optuna
+
+    if url not in _storages:
+        _storages[url] = optuna.storages.RDBStorage(url.replace("postgresql://", "postgresql+psycopg://"))
+    return _storages[url]
+
+
+def load(url, study):
+    import optuna
+
+    return optuna.load_study(study_name=study, storage=_storage(url))
+
+
+def trial_folders(*outs) -> list[int]:
+    """The trial numbers that trained, over the workers' out folders (one folder per trained trial)."""
+    return sorted(int(p.name) for out in outs if (out / "trials").exists() for p in (out / "trials").iterdir())
+
+
+def test_postgres_two_workers_share_one_study(postgres, tmp_path, tiny_recording):
+    from optuna.trial import TrialState
+
+    url = postgres.database()
+    outs = [tmp_path / f"machine{i}" for i in range(2)]
+    workers = [worker(tune_config(tmp_path, tiny_recording, out, epochs=1), url, "shared", 3, seed=i)
+               for i, out in enumerate(outs)]
+    for w in workers:
+        assert w.wait(timeout=120) == 0, w.stderr.read()
+    study = load(url, "shared")
+    done = [t for t in study.trials if t.state in (TrialState.COMPLETE, TrialState.PRUNED)]
+    assert len(done) == 3  # --trials counts the study's finished trials, over all workers
+    assert len({tuple(sorted(t.params.items())) for t in done}) == 3  # no configuration ran twice
+    others = [t for t in study.trials if t not in done]  # only trials a worker found surplus, never trained
+    assert all(t.state == TrialState.FAIL and study.user_attrs.get(f"surplus_{t.number}") for t in others)
+    assert trial_folders(*outs) == sorted(t.number for t in done)  # each trial trained once, on one machine
+    for out in outs:  # each worker reports the whole study
+        assert sorted(int(r["number"]) for r in rows(out)) == sorted(t.number for t in done)
+        assert (out / "best.yaml").exists()
+
+
+def test_postgres_killed_worker_trial_is_failed_and_retried(postgres, tmp_path, tiny_recording):
+    """Worker a is killed (SIGKILL) mid-trial; worker b's heartbeat check fails that trial after the grace
+    period, the retry callback queues a copy with the same parameters, and b runs it."""
+    from optuna.trial import TrialState
+
+    url = postgres.database()
+    a_out, b_out = tmp_path / "a", tmp_path / "b"
+    a = worker(tune_config(tmp_path, tiny_recording, a_out, epochs=3), url, "s", 3, "--no-pruning", seed=0)
+    b = worker(tune_config(tmp_path, tiny_recording, b_out, epochs=3), url, "s", 3, "--no-pruning", seed=1)
+    killed = None
+    try:
+        deadline = time.monotonic() + 90
+        while killed is None and time.monotonic() < deadline and a.poll() is None:
+            time.sleep(0.1)
+            mine = set(trial_folders(a_out))  # the trials worker a trains
+            if not mine:
+                continue
+            try:
+                trials = load(url, "s").trials
+            except KeyError:  # not created yet
+                continue
+            for t in trials:
+                if t.number in mine and t.state == TrialState.RUNNING and t.user_attrs.get("epochs_run", 0) >= 1:
+                    a.send_signal(signal.SIGKILL)  # after its first epoch, two to go
+                    killed = t
+                    break
+    finally:
+        if a.poll() is None:
+            a.send_signal(signal.SIGKILL)
+        a.wait()
+        assert b.wait(timeout=120) == 0, b.stderr.read()
+    assert killed is not None and a.returncode == -signal.SIGKILL, f"worker a never trained an epoch: {a.stderr.read()}"
+    study = load(url, "s")
+    trials = study.trials
+    assert trials[killed.number].state == TrialState.FAIL  # failed by b's heartbeat check
+    retried = [t for t in trials if t.system_attrs.get("failed_trial") == killed.number]
+    assert len(retried) == 1 and retried[0].state == TrialState.COMPLETE
+    assert retried[0].params == killed.params and retried[0].user_attrs["epochs_run"] == 3
+    complete = [t for t in trials if t.state == TrialState.COMPLETE]
+    assert len(complete) == 3  # as requested: the killed trial's retry counts once, the killed trial not at all
+    assert len({tuple(sorted(t.params.items())) for t in complete}) == 3
+    failed = [t for t in trials if t.state == TrialState.FAIL and not study.user_attrs.get(f"surplus_{t.number}")]
+    assert failed == [trials[killed.number]]
+    assert all(t.state in (TrialState.COMPLETE, TrialState.FAIL) for t in trials)  # nothing left running or queued
+    assert sorted(trial_folders(b_out)) == sorted(t.number for t in complete if t.number not in trial_folders(a_out))
+    report = rows(b_out)  # b's reports: the killed trial listed as failed, the three complete ones
+    assert sorted((int(r["number"]), r["state"]) for r in report) == sorted(
+        [(killed.number, "fail")] + [(t.number, "complete") for t in complete])
+    assert (b_out / "summary.md").read_text().startswith("4 trials: 3 complete, 0 pruned, 1 failed or running.")
+
+
+def _error(capsys, argv):
+    from steerlab.cli import main
+
+    capsys.readouterr()
+    code = main(argv)
+    err = capsys.readouterr().err
+    assert code == 2, err
+    assert err.startswith("error: ") and err.count("\n") == 1 and "Traceback" not in err, err
+    return err
+
+
+def test_postgres_bad_storage_is_one_line(postgres, tmp_path, tiny_recording, capsys, monkeypatch):
+    cfg = str(tune_config(tmp_path, tiny_recording, tmp_path / "x", epochs=1))
+    tune = ["tune", cfg, "--trials", "1", "--study", "s", "--storage"]
+    # a database that does not exist on a running server
+    err = _error(capsys, [*tune, postgres.url("nosuchdb")])
+    assert f"cannot open storage {postgres.url('nosuchdb')}: OperationalError: " in err
+    assert 'database "nosuchdb" does not exist' in err
+    # a server that accepts the connection but never answers: given up after the connect timeout
+    monkeypatch.setattr("steerlab.tune.CONNECT_TIMEOUT", 2)
+    with socket.socket() as silent:
+        silent.bind(("127.0.0.1", 0))
+        silent.listen(1)
+        port = silent.getsockname()[1]
+        start = time.monotonic()
+        err = _error(capsys, [*tune, f"postgresql://tuner:secret@127.0.0.1:{port}/db"])
+    assert time.monotonic() - start < 15
+    assert f"cannot open storage postgresql://tuner:***@127.0.0.1:{port}/db: " in err and "secret" not in err
+    assert "timeout" in err.lower()
+    assert not (tmp_path / "x").exists()  # nothing written
+
+
+def test_postgres_joining_a_study_that_does_not_exist(postgres, tmp_path, tiny_recording):
+    from steerlab.errors import SteerlabError
+    from steerlab.tune import run_tune
+
+    import optuna
+
+    url = postgres.database()
+    study = optuna.create_study(study_name="mm-lstm", storage=_storage(url))  # started by another worker
+    dists = {"train.lr": optuna.distributions.FloatDistribution(1e-5, 0.1, log=True),
+             "model.dropout": optuna.distributions.FloatDistribution(0.0, 0.6)}
+    study.add_trial(optuna.trial.create_trial(params={"train.lr": 1e-3, "model.dropout": 0.1}, distributions=dists,
+                                              value=0.2))
+    cfg = tune_config(tmp_path, tiny_recording, tmp_path / "j", epochs=1)
+    with pytest.raises(SteerlabError, match=r"study 'mm-lstn' does not exist in postgresql://postgres@127\.0\.0\.1:"
+                                            r"\d+/t\d+ \(studies there: 'mm-lstm'\); check --study and --storage"):
+        run_tune(cfg, trials=1, storage=url, study_name="mm-lstn", progress=False, join=True)
+    assert not (tmp_path / "j").exists()  # nothing written
+    assert optuna.get_all_study_names(_storage(url)) == ["mm-lstm"]  # no study made
+    run_tune(cfg, trials=1, storage=url, study_name="mm-lstm", progress=False, join=True)  # it exists: joined
+    assert [(r["state"], r["value_0"]) for r in rows(tmp_path / "j")] == [("complete", "0.2")]  # and has its trial
+
+
+def test_postgres_worker_whose_trial_was_failed_goes_on(postgres, tmp_path, tiny_recording, monkeypatch, capsys):
+    """A worker that was stalled or cut off past the grace period finds its trial failed by another worker
+    (Optuna then refuses its result): one warning, and it goes on with the study instead of a traceback."""
+    import optuna
+
+    from steerlab.tune import run_tune
+
+    url = postgres.database()
+    trained = []
+
+    def train(cfg, progress=False, on_epoch=None):  # stands in for training; the first trial is failed meanwhile
+        trained.append(cfg["out"])
+        if len(trained) == 1:
+            study = load(url, "s")
+            running = [t for t in study.trials if t.state == optuna.trial.TrialState.RUNNING]
+            study._storage.set_trial_state_values(running[0]._trial_id, optuna.trial.TrialState.FAIL)
+        on_epoch(1, {"rmse": 0.1 * len(trained)})
+        return {"rmse": 0.1 * len(trained), "epoch": 1}
+
+    monkeypatch.setattr("steerlab.train.loop.train", train)
+    cfg = tune_config(tmp_path, tiny_recording, tmp_path / "w", epochs=1)
+    run_tune(cfg, trials=1, storage=url, study_name="s", progress=False)
+    assert "another worker failed this worker's trial" in capsys.readouterr().err
+    assert len(trained) == 2
+    assert [(r["number"], r["state"]) for r in rows(tmp_path / "w")] == [("0", "fail"), ("1", "complete")]
