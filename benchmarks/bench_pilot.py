@@ -21,48 +21,24 @@ import torch
 
 from _common import CH2, machine, need_ch2
 
-from steerlab.checkpoint import save_checkpoint
-from steerlab.data.preprocess import PreprocessConfig
 from steerlab.data.readers import open_recording
-from steerlab.data.recording import SteeringConvention
+from steerlab.evaluate.latency import TimedModel, untrained_checkpoint
 from steerlab.export import export_onnx
-from steerlab.models import create_model, list_models
+from steerlab.models import list_models
 from steerlab.pilot import Pilot
-from steerlab.train.sources import model_preprocess
 
 FRAMES, WARMUP = 200, 20
 
 
 def checkpoint(folder: Path, name: str, flow: str) -> Path:
-    cfg = PreprocessConfig.from_dict(model_preprocess(name, {"preset": "ch2", "flow": flow}))
-    c = sum(cfg.channels().values())
-    model_cfg = {"in_channels": c, "height": cfg.height, "width": cfg.width}
-    path = folder / f"{name}-{flow}.pt"
-    save_checkpoint(path, create_model(name, **model_cfg), model_cfg, cfg, {"mean": [0.0] * c, "std": [1.0] * c},
-                    SteeringConvention(), {}, preset="ch2")
-    return path
-
-
-class Timed:
-    """Wraps a pilot's model and records the time of every call."""
-
-    def __init__(self, net):
-        self.net, self.ms = net, []
-
-    def __call__(self, *args):
-        t = time.perf_counter()
-        out = self.net(*args)
-        self.ms.append((time.perf_counter() - t) * 1000)
-        return out
-
-    def reset(self):
-        self.net.reset()
+    """An untrained checkpoint of model `name` for CH2 frames, its flow computed with `flow`."""
+    return untrained_checkpoint(folder, name, "ch2", flow=flow)
 
 
 def run(model_file: Path, jpegs: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(whole-pilot ms, model ms, steering) per frame after the warm-up."""
     pilot = Pilot(model_file, smoothing=0.2)
-    pilot.net = timed = Timed(pilot.net)
+    pilot.net = timed = TimedModel(pilot.net)
     times, steering = [], []
     for data in jpegs:
         t = time.perf_counter()

@@ -18,8 +18,8 @@ cv2.setNumThreads(1)
 
 
 def main() -> None:
-    for preset in ("country", "twisty"):
-        road = Road(1, preset, 3000)
+    for kind in ("country", "twisty"):
+        road = Road(1, kind, 3000)
         r = Renderer(road, "sim")
         poses = [road.pose(10 + 0.9 * i) for i in range(1000)]
         for p in poses[:50]:
@@ -28,7 +28,7 @@ def main() -> None:
         for i, (x, y, psi) in enumerate(poses):
             r.render(x, y, psi, 10 + 0.9 * i)
         fps = len(poses) / (time.perf_counter() - t)
-        print(f"{preset:8s} road, 320x160, one core: {fps:6.0f} frames/s  (x{fps / 300:.2f} the 300 frames/s target)")
+        print(f"{kind:8s} road, 320x160, one core: {fps:6.0f} frames/s  (x{fps / 300:.2f} the 300 frames/s target)")
 
 
 if __name__ == "__main__":

@@ -42,7 +42,7 @@ def pilotnet(folder: Path) -> Path:
     model_cfg = {"in_channels": 1, "height": cfg.height, "width": cfg.width}
     path = folder / "pilotnet.pt"
     save_checkpoint(path, create_model("pilotnet", **model_cfg), model_cfg, cfg, {"mean": [0.0], "std": [1.0]},
-                    SIM_CONVENTION, {}, preset="sim")
+                    SIM_CONVENTION, {}, geometry="sim")
     return path
 
 

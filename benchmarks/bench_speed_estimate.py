@@ -43,7 +43,7 @@ def main() -> None:
                 continue
             rec = open_recording(source, frames, labels, reader)
             start = time.perf_counter()
-            estimate = estimate_speed(rec, CAMERAS[rec.preset])
+            estimate = estimate_speed(rec, CAMERAS[rec.geometry])
             recorded = "none" if rec.speed is None else f"{np.median(rec.speed):.2f}"
             print(f"| {name} | {estimate:.2f} | {recorded} | {time.perf_counter() - start:.1f} |")
 

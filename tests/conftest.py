@@ -60,8 +60,8 @@ def tiny_checkpoint(tiny_recording, tmp_path_factory):
     return out / "best.pt"
 
 
-def made(tmp_path, kind="road_wheel", positive="right", preset="sim", name="model.pt", full_lock_deg=None):
-    """An untrained PilotNet checkpoint with the steering convention and camera preset of a kind of recording:
+def made(tmp_path, kind="road_wheel", positive="right", geometry="sim", name="model.pt", full_lock_deg=None):
+    """An untrained PilotNet checkpoint with the steering convention and camera geometry of a kind of recording:
     road_wheel/right + sim (the simulator), normalized/right (donkeycar, with `full_lock_deg` if known),
     steering_wheel/left + ch2 (CH2)."""
     import torch
@@ -71,10 +71,10 @@ def made(tmp_path, kind="road_wheel", positive="right", preset="sim", name="mode
     from steerlab.data.recording import SteeringConvention
     from steerlab.models import create_model
 
-    pre = PreprocessConfig.from_dict({"preset": preset})
+    pre = PreprocessConfig.from_dict({"preset": geometry})
     model_cfg = {"in_channels": 1, "height": pre.height, "width": pre.width}
     torch.manual_seed(0)
     path = tmp_path / name
     save_checkpoint(path, create_model("pilotnet", **model_cfg), model_cfg, pre, {"mean": [100.0], "std": [50.0]},
-                    SteeringConvention(kind, positive, full_lock_deg and math.radians(full_lock_deg)), {"rmse": 0.1}, preset=preset, frame_rate=20.0)
+                    SteeringConvention(kind, positive, full_lock_deg and math.radians(full_lock_deg)), {"rmse": 0.1}, geometry=geometry, frame_rate=20.0)
     return path

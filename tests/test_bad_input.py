@@ -166,6 +166,12 @@ def _flipped_onnx(tmp_path, stack):
     return ["evaluate", str(onnx), "--data", str(sim_log(tmp_path / "sim")), "--out", str(tmp_path / "eval")]
 
 
+def _exported(tmp_path):
+    from steerlab.export import export_onnx
+
+    return export_onnx(made(tmp_path), tmp_path / "m.onnx")
+
+
 def _onnx_metadata(change):
     """An exported model whose metadata_props `change(props)` edits (a dict key -> value), then evaluated."""
     def command(tmp_path, stack):
@@ -289,14 +295,19 @@ BAD_INPUTS = {
                                        "m.onnx: no steerlab metadata in the model: not written by steerlab export"),
     "export to a file not .onnx": (lambda t, s: ["export", str(made(t)), "--out", str(t / "m.bin")],
                                    "m.bin: the export file must end in .onnx"),
+    "export int8 without calibration data": (lambda t, s: ["export", str(made(t)), "--out", str(t / "m.onnx"),
+                                                           "--int8"], "--int8 needs calibration data: --calib"),
+    "export int8 calibration data missing": (lambda t, s: ["export", str(made(t)), "--out", str(t / "m.onnx"),
+                                                           "--int8", "--calib", str(t / "nothere")],
+                                             "nothere: recording not found"),
     # g) steering conventions where a checkpoint meets data or the simulator
     "evaluate simulator checkpoint on CH2": (_evaluate_on_ch2(), "model.pt predicts road_wheel/right steering and "),
-    "evaluate donkeycar checkpoint on CH2": (_evaluate_on_ch2(kind="normalized", preset="donkey"),
+    "evaluate donkeycar checkpoint on CH2": (_evaluate_on_ch2(kind="normalized", geometry="donkey"),
                                              "records steering_wheel/left steering: the metrics would mix units; "),
-    "serve donkeycar checkpoint": (_serve(kind="normalized", preset="donkey"),
+    "serve donkeycar checkpoint": (_serve(kind="normalized", geometry="donkey"),
                                    "model.pt cannot drive the simulator: it predicts normalized steering without "
                                    "a full-lock angle"),
-    "serve CH2-cropped checkpoint": (_serve(kind="steering_wheel", positive="left", preset="ch2"),
+    "serve CH2-cropped checkpoint": (_serve(kind="steering_wheel", positive="left", geometry="ch2"),
                                      "model.pt cannot drive the simulator: crop (268, 0, 0, 0) removes the whole "
                                      "320x160 frame"),
     # h) options of the closed-loop commands, checked before anything drives
@@ -336,6 +347,17 @@ BAD_INPUTS = {
     "tune heartbeat 5,2": (_tune_storage("sqlite:///{tmp}/s.db", heartbeat="5,2"),
                            "STEERLAB_TUNE_HEARTBEAT='5,2': expected INTERVAL,GRACE in whole seconds with 0 < INTERVAL "
                            "< GRACE"),
+    # l) latency: models, threads and checkpoints checked before anything is timed
+    "latency unknown model": (lambda t, s: ["latency", "--models", "pilotnet,pilot-net", "--out", str(t / "out")],
+                              "unknown model 'pilot-net'; available: cg23,"),
+    "latency threads 0": (lambda t, s: ["latency", "--models", "zero", "--threads", "0", "--out", str(t / "out")],
+                          "--threads must be an integer of at least 1, got 0"),
+    "latency threads -1": (lambda t, s: ["latency", "--models", "zero", "--threads", "-1", "--out", str(t / "out")],
+                           "--threads must be an integer of at least 1, got -1"),
+    "latency missing checkpoint": (lambda t, s: ["latency", str(t / "gone.pt"), "--out", str(t / "out")],
+                                   "gone.pt: checkpoint not found"),
+    "latency onnx file on torch": (lambda t, s: ["latency", str(_exported(t)), "--runtime", "torch"],
+                                   "m.onnx runs on ONNX Runtime only: time it with --runtime onnx or both"),
 }
 
 

@@ -31,7 +31,7 @@ def frame_count(path) -> int:
 class ConstantPilot:
     """A stand-in for the Pilot that always steers the same (steering-wheel angle, positive left)."""
 
-    name, preset, convention = "constant", "sim", SteeringConvention("steering_wheel", "left")
+    name, geometry, convention = "constant", "sim", SteeringConvention("steering_wheel", "left")
 
     def __init__(self, steering: float):
         self.steering = steering
@@ -198,19 +198,19 @@ def test_dagger_aggregates_rollouts(tiny_recording, tmp_path):
     np.testing.assert_allclose(batches.steering(np.array([first_rollout])), rollouts[0].steering[:1])
 
 
-@pytest.mark.parametrize("preset", ["sim", "ch2"])
-def test_viewpoint_shift_matches_the_renderer(preset):
+@pytest.mark.parametrize("geometry", ["sim", "ch2"])
+def test_viewpoint_shift_matches_the_renderer(geometry):
     """A frame rendered with the car moved sideways (and turned) and the centre frame warped by the same
     amount agree on the road; the unwarped frame does not."""
     road = Road(3, "country", 3000)
-    r = Renderer(road, preset)
+    r = Renderer(road, geometry)
     x, y, psi = road.pose(300.0, LANE_CENTER)
     centre = r.render(x, y, psi, 300.0)
     rows = slice(int(r.horizon) + r.cam.height // 7, r.cam.height)  # the road, below the far haze
     gray = lambda img: cv2.cvtColor(img, cv2.COLOR_BGR2GRAY).astype(int)[rows]  # noqa: E731
     for shift, yaw in [(0.5, 0.0), (-0.8, 0.0), (0.4, 3.0)]:
         truth = r.render(x, y, psi + np.radians(yaw), 300.0, shift=shift)
-        warped = shift_view(centre, CAMERAS[preset], shift, yaw)
+        warped = shift_view(centre, CAMERAS[geometry], shift, yaw)
         moved = np.abs(gray(truth) - gray(centre)) > 40  # markings and verges that moved
         agree = np.abs(gray(truth) - gray(warped)) <= 40
         assert moved.mean() > 0.05
@@ -258,11 +258,11 @@ def test_drive_and_evaluate_videos(tiny_checkpoint, tiny_recording, tmp_path):
     assert first.shape[1] == 640 and first.shape[0] > 320  # the camera view with the wheels below it
 
 
-def test_preset_mismatch_warns(tiny_checkpoint, ch2_folder, tmp_path, capsys):
+def test_geometry_mismatch_warns(tiny_checkpoint, ch2_folder, tmp_path, capsys):
     from steerlab.evaluate.offline import evaluate
     from steerlab.pilot import Pilot
 
-    drive(Pilot(tiny_checkpoint), None, seed=101, minutes=0.01, camera="ch2", progress=False)
+    drive(Pilot(tiny_checkpoint), None, seed=101, minutes=0.01, geometry="ch2", progress=False)
     assert "trained on the 'sim' camera geometry" in capsys.readouterr().err
     evaluate(tiny_checkpoint, ch2_folder, None, tmp_path / "e", labels=ch2_folder / "labels.csv", progress=False)
     assert "has the 'ch2' geometry" in capsys.readouterr().err

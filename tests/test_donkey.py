@@ -51,14 +51,14 @@ def one_torch_thread():
     torch.set_num_threads(threads)
 
 
-def checkpoint(folder, name, convention=TUB_RIGHT, preset="donkey"):
+def checkpoint(folder, name, convention=TUB_RIGHT, geometry="donkey"):
     """An untrained checkpoint of model `name` for the donkey camera, with per-modality statistics."""
     import torch
 
     from steerlab.checkpoint import save_checkpoint
     from steerlab.models import create_model, model_class
 
-    pre = PreprocessConfig.from_dict({"preset": preset, **model_class(name).inputs})
+    pre = PreprocessConfig.from_dict({"preset": geometry, **model_class(name).inputs})
     per = {"image": (100.0, 50.0), "diff": (128.0, 30.0), "flow": (0.0, 1.0)}
     stats = {"mean": [], "std": []}
     for modality, channels in pre.channels().items():
@@ -68,7 +68,7 @@ def checkpoint(folder, name, convention=TUB_RIGHT, preset="donkey"):
     torch.manual_seed(1)
     path = folder / f"{name}.pt"
     save_checkpoint(path, create_model(name, **model_cfg), model_cfg, pre, stats, convention, {"rmse": 0.1},
-                    preset=preset, frame_rate=20.0)
+                    geometry=geometry, frame_rate=20.0)
     return path
 
 

@@ -25,16 +25,16 @@ from steerlab.serve import DriveSession, SpeedController, to_simulator
 from steerlab.train.sources import model_preprocess
 
 
-def untrained(tmp_path, name: str, preset: str = "ch2"):
+def untrained(tmp_path, name: str, geometry: str = "ch2"):
     """A checkpoint of `name` with random weights and non-trivial standardisation statistics."""
-    pre = PreprocessConfig.from_dict(model_preprocess(name, {"preset": preset}))
+    pre = PreprocessConfig.from_dict(model_preprocess(name, {"preset": geometry}))
     c = sum(pre.channels().values())
     model_cfg = {"in_channels": c, "height": pre.height, "width": pre.width}
     torch.manual_seed(0)
     model = create_model(name, **model_cfg)
     path = tmp_path / f"{name}.pt"
     save_checkpoint(path, model, model_cfg, pre, {"mean": [100.0] * c, "std": [50.0] * c},
-                    SteeringConvention(), {"rmse": 0.1}, preset=preset, frame_rate=20.0)
+                    SteeringConvention(), {"rmse": 0.1}, geometry=geometry, frame_rate=20.0)
     return path
 
 
@@ -100,7 +100,7 @@ def test_onnx_is_self_contained_and_checks_its_hash_on_load(tmp_path):
     props = ort.InferenceSession(str(onnx_path)).get_modelmeta().custom_metadata_map
     meta = json.loads(props["steerlab"])
     assert meta["model"] == "lstm" and meta["state_shape"] and meta["stats"]["mean"] == [100.0]
-    assert meta["convention"] == SteeringConvention().as_dict() and meta["preset"] == "ch2"
+    assert meta["convention"] == SteeringConvention().as_dict() and meta["geometry"] == "ch2"
     assert props["steerlab_sha256"] == content_sha256(onnx_path.read_bytes())[0]
     copied = tmp_path / "elsewhere" / "copy.onnx"  # a copied model drives on its own
     copied.parent.mkdir()

@@ -167,8 +167,8 @@ def test_postgres_killed_worker_trial_is_failed_and_retried(postgres, tmp_path, 
 
     url = postgres.database()
     a_out, b_out = tmp_path / "a", tmp_path / "b"
-    a = worker(tune_config(tmp_path, tiny_recording, a_out, epochs=3), url, "s", 3, "--no-pruning", seed=0)
-    b = worker(tune_config(tmp_path, tiny_recording, b_out, epochs=3), url, "s", 3, "--no-pruning", seed=1)
+    a = worker(tune_config(tmp_path, tiny_recording, a_out, epochs=2), url, "s", 3, "--no-pruning", seed=0)
+    b = worker(tune_config(tmp_path, tiny_recording, b_out, epochs=2), url, "s", 3, "--no-pruning", seed=1)
     killed = None
     try:
         deadline = time.monotonic() + 90
@@ -183,7 +183,7 @@ def test_postgres_killed_worker_trial_is_failed_and_retried(postgres, tmp_path, 
                 continue
             for t in trials:
                 if t.number in mine and t.state == TrialState.RUNNING and t.user_attrs.get("epochs_run", 0) >= 1:
-                    a.send_signal(signal.SIGKILL)  # after its first epoch, two to go
+                    a.send_signal(signal.SIGKILL)  # after its first epoch, one to go
                     killed = t
                     break
     finally:
@@ -197,7 +197,7 @@ def test_postgres_killed_worker_trial_is_failed_and_retried(postgres, tmp_path, 
     assert trials[killed.number].state == TrialState.FAIL  # failed by b's heartbeat check
     retried = [t for t in trials if t.system_attrs.get("failed_trial") == killed.number]
     assert len(retried) == 1 and retried[0].state == TrialState.COMPLETE
-    assert retried[0].params == killed.params and retried[0].user_attrs["epochs_run"] == 3
+    assert retried[0].params == killed.params and retried[0].user_attrs["epochs_run"] == 2
     complete = [t for t in trials if t.state == TrialState.COMPLETE]
     assert len(complete) == 3  # as requested: the killed trial's retry counts once, the killed trial not at all
     assert len({tuple(sorted(t.params.items())) for t in complete}) == 3

@@ -33,7 +33,7 @@ def twisty(tmp_path_factory):
 class Scripted:
     """A stand-in for the Pilot: answers tick k with `steering(k)` and counts its resets."""
 
-    name, preset = "scripted", "sim"
+    name, geometry = "scripted", "sim"
 
     def __init__(self, rec, steering):
         self.convention, self.steering, self.k, self.resets = rec.convention, steering, 0, 0
@@ -191,7 +191,7 @@ def test_dagger_in_replay(twisty, tmp_path):
     assert [r["round"] for r in rows] == ["0", "1"] and all(r["replay_interventions_per_km"] != "" for r in rows)
     assert rows[0]["autonomy_all"] == "" and rows[1]["recordings"] == "2"
     rollout = open_recording(tmp_path / "dagger" / "round1" / "rollouts" / "replay")
-    assert rollout.convention == twisty.convention and rollout.preset == "sim" and len(rollout) == 199
+    assert rollout.convention == twisty.convention and rollout.geometry == "sim" and len(rollout) == 199
     assert set(rollout.extra["episode"]) == {"rollout"}
     np.testing.assert_array_equal(rollout.timestamps_ns, twisty.timestamps_ns[:199])
     # off the path, the label steers back towards it: left of the human's steering when the car is right of it

@@ -30,12 +30,12 @@ def test_same_seed_same_bytes(tmp_path):
     assert _digest(a) == _digest(b) != _digest(c)
 
 
-def test_roads_from_seeds_and_presets():
+def test_roads_from_seeds_and_types():
     assert np.array_equal(Road(1).kappa, Road(1).kappa)
     assert not np.array_equal(Road(1).kappa[:2000], Road(2).kappa[:2000])
     radius = {p: 1 / np.abs(Road(5, p, 8000).kappa).max() for p in ("highway", "country", "twisty")}
     assert radius["highway"] > radius["country"] > radius["twisty"] >= 35
-    with pytest.raises(SteerlabError, match="unknown road preset"):
+    with pytest.raises(SteerlabError, match="unknown road type"):
         Road(1, "autobahn")
 
 
@@ -110,11 +110,11 @@ def test_udacity_sim_layout_round_trip(tmp_path):
 
 def test_bad_inputs_give_clear_errors(tmp_path, capsys):
     assert main(["sim", "record", "--out", str(tmp_path / "x"), "--road", "moon"]) == 2
-    assert "unknown road preset 'moon'" in capsys.readouterr().err
+    assert "unknown road type 'moon'" in capsys.readouterr().err
     assert main(["sim", "record", "--out", str(tmp_path / "y"), "--minutes", "-1"]) == 2
     assert "minutes must be positive" in capsys.readouterr().err
-    assert main(["sim", "record", "--out", str(tmp_path / "z"), "--camera", "fisheye", "--minutes", "0.01"]) == 2
-    assert "unknown camera preset" in capsys.readouterr().err
+    assert main(["sim", "record", "--out", str(tmp_path / "z"), "--geometry", "fisheye", "--minutes", "0.01"]) == 2
+    assert "unknown camera geometry" in capsys.readouterr().err
     assert main(["sim", "drive", str(tmp_path / "missing.pt")]) == 2
     assert "checkpoint not found" in capsys.readouterr().err
 
@@ -138,5 +138,5 @@ def test_mixed_recording_interleaves_one_road_per_type(tmp_path):
     speed = [rec.speed[a:b] for a, b in rec.segments()]  # country starts at 19 m/s, twisty at 13 m/s
     assert speed[0].mean() > 16 > speed[1].mean() and speed[2].mean() < 16 and speed[3].mean() > 16
     assert abs(speed[2][0] - speed[1][-1]) < 0.1  # the second twisty chunk continues the first one's drive
-    with pytest.raises(SteerlabError, match="unknown road preset"):
+    with pytest.raises(SteerlabError, match="unknown road type"):
         record(tmp_path / "x", road="country,mountain", minutes=0.01, progress=False)

@@ -22,7 +22,7 @@ needs_tubs = pytest.mark.skipif(not (TUBS / "hall" / "manifest.json").exists(), 
 @needs_tubs
 def test_real_tub_hall():
     rec = open_recording(TUBS / "hall")
-    assert len(rec) == 5015 and rec.preset == "donkey"
+    assert len(rec) == 5015 and rec.geometry == "donkey"
     assert rec.convention == SteeringConvention("normalized", "right")
     assert np.abs(rec.steering).max() <= 1.0 and 0.5 < np.mean(rec.steering == 0) < 0.6
     assert len(rec.segments()) == 3  # one session with two gaps longer than 0.5 s
@@ -230,7 +230,7 @@ def test_train_and_evaluate_on_a_tub_split_by_session(tmp_path, capsys):
         "model": {"name": "pilotnet"}, "train": {"epochs": 1, "batch_size": 8}}), progress=False)
     assert best["frames"] == 15 and math.isnan(best["mae_deg"]) and best["mae"] > 0
     ckpt = load_checkpoint(tmp_path / "run" / "best.pt")
-    assert ckpt["convention"] == {"kind": "normalized", "positive": "right"} and ckpt["preset"] == "donkey"
+    assert ckpt["convention"] == {"kind": "normalized", "positive": "right"} and ckpt["geometry"] == "donkey"
     assert main(["evaluate", str(tmp_path / "run" / "best.pt"), "--data", str(tub), "--range", "30:45",
                  "--reader", "full_lock_deg=25", "--out", str(tmp_path / "eval")]) == 0
     metrics = json.loads((tmp_path / "eval" / "metrics.json").read_text())

@@ -187,12 +187,12 @@ def test_config_errors(tmp_path):
 @pytest.mark.parametrize("model, pre", [(n, {}) for n in list_models()] + [
     ("pilotnet", {"modalities": ["image", "diff", "flow"], "stack": 3, "color": "yuv"})])
 def test_every_model_learns_and_streams_as_in_batch(model, pre, tiny_recording, tmp_path):
-    """A few epochs lower the training loss; then the Pilot, fed the raw frames (and speeds) of the whole
+    """Two epochs lower the training loss; then the Pilot, fed the raw frames (and speeds) of the whole
     recording one by one, reproduces the batch path (which runs recurrent models statefully through the range)
     for every output: stacked frames, difference, flow, speed history and LSTM state."""
     from steerlab.checkpoint import load_checkpoint, model_from_checkpoint
 
-    cfg = _cfg(tiny_recording, tmp_path, epochs=4, batch_size=5)  # recurrent: 5 windows of 10 frames
+    cfg = _cfg(tiny_recording, tmp_path, epochs=2, batch_size=5)  # recurrent: 5 windows of 10 frames
     cfg["split"] = {"train": "0:100", "val": "100:140"}
     cfg["model"] = {"name": model, "dropout": 0.0}
     cfg["preprocess"] = pre

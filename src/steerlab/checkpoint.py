@@ -88,6 +88,8 @@ def load_checkpoint(path: str | Path) -> dict:
     # checkpoints written before the hash existed have none
     if "sha256" in ckpt and weights_hash(ckpt["state_dict"]) != ckpt["sha256"]:
         raise SteerlabError(f"{path}: the weights do not match the checkpoint's sha256: the file is damaged")
+    if "preset" in ckpt:  # the camera geometry's earlier name
+        ckpt.setdefault("geometry", ckpt.pop("preset"))
     return ckpt
 
 

@@ -30,7 +30,7 @@ def cmd_compile(a) -> None:
 
     rec = open_recording(a.data, a.range, a.labels, _reader_options(a.reader))
     cfg = {"color": a.color, "modalities": a.modalities.split(","), "flow": a.flow}
-    cfg["preset"] = a.preset or rec.preset
+    cfg["preset"] = a.preset or rec.geometry
     ds = compile_recording(rec, PreprocessConfig.from_dict(cfg), a.cache, a.camera)
     print(f"{len(ds)} frames, {len(rec.segments())} segment(s) -> {ds.path}")
     for m, arr in ds.arrays.items():
@@ -113,9 +113,29 @@ def cmd_tune(a) -> None:
 def cmd_export(a) -> None:
     from steerlab.export import export_onnx
 
-    out = export_onnx(a.checkpoint, a.out)
-    print(f"wrote {out}, preprocessing and statistics in its metadata (run it with Pilot('{out}'), "
+    if a.int8 and a.calib is None:
+        raise SteerlabError("--int8 needs calibration data: --calib RECORDING (frames like the ones it was trained on)")
+    if not a.int8 and (a.calib or a.calib_range):
+        raise SteerlabError("--calib and --calib-range calibrate an --int8 export: add --int8")
+    out = export_onnx(a.checkpoint, a.out, a.calib, a.calib_range)
+    print(f"wrote {out}{' (int8)' if a.int8 else ''}, preprocessing and statistics in its metadata (run it with "
+          f"Pilot('{out}'), "
           f"steerlab serve {out} or on a donkeycar: steerlab.donkey.SteerlabPilot('{out}'))")
+
+
+def cmd_latency(a) -> None:
+    from steerlab.evaluate.latency import latency_table, run_latency
+
+    models = [m.strip() for m in (a.models or ("" if a.checkpoints else "all")).split(",") if m.strip()]
+    if models == ["all"]:
+        from steerlab.models import list_models
+
+        models = list_models()
+    rows = run_latency(a.checkpoints, models, a.geometry, a.threads, a.runtime, a.frames, a.data, a.range, a.labels,
+                       _reader_options(a.reader), a.decode, a.out)
+    print(latency_table(rows))
+    if a.out:
+        print(f"wrote {a.out}/latency.csv, {a.out}/latency.md")
 
 
 def cmd_serve(a) -> None:
@@ -144,7 +164,7 @@ def cmd_models(a) -> None:
 def cmd_sim_record(a) -> None:
     from steerlab.sim.world import record
 
-    out = record(a.out, a.seed, a.minutes, a.road, a.camera, a.fps, not a.no_drift, not a.no_side_cameras, a.layout,
+    out = record(a.out, a.seed, a.minutes, a.road, a.geometry, a.fps, not a.no_drift, not a.no_side_cameras, a.layout,
                  a.chunk_minutes)
     print(f"wrote {out}")
 
@@ -154,7 +174,7 @@ def cmd_sim_drive(a) -> None:
     from steerlab.sim.world import drive
 
     pilot = Pilot(a.checkpoint, smoothing=a.smoothing)
-    r = drive(pilot, a.out, a.seed, a.minutes, a.road, a.camera, a.fps, video=a.video)
+    r = drive(pilot, a.out, a.seed, a.minutes, a.road, a.geometry, a.fps, video=a.video)
     _print_table(r)
     print(f"wrote {a.out}/trajectory.csv, path.png, frames.png, drive.json" + (f", {a.video}" if a.video else ""))
 
@@ -275,10 +295,38 @@ def build_parser() -> argparse.ArgumentParser:
     q.set_defaults(func=cmd_tune)
 
     q = sub.add_parser("export", help="export a checkpoint to one self-contained ONNX file for ONNX Runtime",
-                       epilog="example: steerlab export runs/demo/model/best.pt --out model.onnx")
+                       epilog="example: steerlab export runs/demo/pilotnet/best.pt --out model.onnx; int8, calibrated "
+                              "on the training frames: steerlab export runs/demo/pilotnet/best.pt --out "
+                              "model-int8.onnx --int8 --calib runs/demo/recording --calib-range 0:7680")
     q.add_argument("checkpoint", help="checkpoint (.pt)")
     q.add_argument("--out", required=True, help="ONNX file to write (.onnx); it carries its preprocessing and statistics")
+    q.add_argument("--int8", action="store_true", help="quantize to int8 (ONNX Runtime static quantization, "
+                                                       "calibrated on --calib)")
+    q.add_argument("--calib", metavar="DATA", help="recording whose frames calibrate --int8 (any layout)")
+    q.add_argument("--calib-range", metavar="A:B", help="its frames to calibrate on (default: the first 500; "
+                                                        "up to 300 of them, evenly spread, are kept)")
     q.set_defaults(func=cmd_export)
+
+    q = sub.add_parser("latency", help="per-frame streaming latency of the Pilot on N threads: which models fit "
+                       "a 20 Hz loop", epilog="example: steerlab latency --threads 1 --data "
+                       "../shared/data/donkeycar/hall --out runs/latency")
+    q.add_argument("checkpoints", nargs="*", help="checkpoints (.pt) or exported models (.onnx) to time")
+    q.add_argument("--models", help="'all' or a comma list of registered models to time untrained (the weights do "
+                   "not change the cost); default: all when no checkpoint is given")
+    q.add_argument("--geometry", choices=["donkey", "ch2", "sim"], help="camera geometry of the untrained models "
+                   "and the synthetic frames (default: the recording's with --data, else donkey, 160x120)")
+    q.add_argument("--threads", type=int, default=1, help="threads of torch, OpenCV and ONNX Runtime (default 1: "
+                   "one core)")
+    q.add_argument("--runtime", default="both", choices=["torch", "onnx", "both"],
+                   help="PyTorch, ONNX Runtime (a .pt is exported first) or both (default)")
+    q.add_argument("--frames", type=int, default=500, help="frames timed, after 10 warm-up frames (default 500)")
+    q.add_argument("--data", help="recording to take the frames from (any layout; default: synthetic frames)")
+    q.add_argument("--range", help="its frames, START:STOP, cycled through (default 0:100)")
+    q.add_argument("--labels", help="CH2: label CSV when the folder holds several")
+    q.add_argument("--reader", action="append", default=[], metavar="KEY=VALUE", help="reader option, repeatable")
+    q.add_argument("--decode", action="store_true", help="time JPEG decoding too (frames encoded once, quality 95)")
+    q.add_argument("--out", help="folder for latency.csv and latency.md")
+    q.set_defaults(func=cmd_latency)
 
     q = sub.add_parser("serve", help="drive the Udacity simulator (socket.io server on port 4567)",
                        epilog="example: steerlab serve runs/sim/best.pt --record runs/sim-drive; then start the "
@@ -299,10 +347,10 @@ def build_parser() -> argparse.ArgumentParser:
     q.add_argument("--minutes", type=float, default=1.0)
     q.add_argument("--out", required=True)
     q.add_argument("--road", default="country",
-                   help="road preset: highway, country, twisty, mixed (all three), or a comma list")
+                   help="road type: highway, country, twisty, mixed (all three), or a comma list")
     q.add_argument("--chunk-minutes", type=float, default=1.0,
                    help="with several road types: minutes before the recording turns to the next one (default 1)")
-    q.add_argument("--camera", default="sim", help="camera preset: sim (320x160) or ch2 (640x480)")
+    q.add_argument("--geometry", default="sim", help="camera geometry: sim (320x160) or ch2 (640x480)")
     q.add_argument("--fps", type=float, default=20.0)
     q.add_argument("--no-drift", action="store_true", help="no drift-and-recover episodes")
     q.add_argument("--no-side-cameras", action="store_true", help="centre camera only")
@@ -313,7 +361,7 @@ def build_parser() -> argparse.ArgumentParser:
     q.add_argument("--seed", type=int, default=100, help="road seed (default 100, not used for training data)")
     q.add_argument("--minutes", type=float, default=1.0)
     q.add_argument("--road", default="country")
-    q.add_argument("--camera", help="camera preset; default: the one matching the checkpoint")
+    q.add_argument("--geometry", help="camera geometry (sim, ch2); default: the checkpoint's")
     q.add_argument("--fps", type=float, default=20.0)
     q.add_argument("--smoothing", type=float, help="exponential smoothing factor a (paper 002: 0.2)")
     q.add_argument("--out", default="runs/drive")
@@ -376,6 +424,8 @@ OPTIONS = {
     "seeds": (lambda v: v >= 1, "an integer of at least 1"),
     "nproc": (lambda v: v >= 1, "an integer of at least 1"),
     "epochs": (lambda v: v >= 1, "an integer of at least 1"),
+    "threads": (lambda v: v >= 1, "an integer of at least 1"),
+    "frames": (lambda v: v >= 1, "an integer of at least 1"),
     **{name: (_positive, "positive and finite") for name in (
         "minutes", "suite_minutes", "chunk_minutes", "fps", "limit", "max_heading", "mount_height", "fov", "speed")},
     "set_speed": (lambda v: math.isfinite(v) and v >= 0, "a finite number of at least 0 (m/s)"),

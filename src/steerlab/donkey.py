@@ -127,7 +127,7 @@ class SteerlabPilot:
         self.reset_after_s = None if reset_after_s is None else _check("reset_after_s", reset_after_s, 0.0, 1e9,
                                                                        low_open=True)
         self.clock = clock
-        cam = CAMERAS.get(self.pilot.preset)
+        cam = CAMERAS.get(self.pilot.geometry)
         self.shape = None if cam is None else (cam.height, cam.width, 3)  # the frames the model was trained on
         self.frames = 0
         self._last = None
@@ -144,7 +144,7 @@ class SteerlabPilot:
         if self.shape is None:
             return "H x W x 3 uint8 RGB frames"
         h, w, _ = self.shape
-        return (f"{h}x{w}x3 uint8 RGB frames of the {self.pilot.preset!r} camera it was trained on "
+        return (f"{h}x{w}x3 uint8 RGB frames of the {self.pilot.geometry!r} camera it was trained on "
                 f"(donkeycar config: IMAGE_H = {h}, IMAGE_W = {w}, IMAGE_DEPTH = 3)")
 
     def run(self, img_arr: np.ndarray | None, speed: float | None = None) -> tuple[float, float]:

@@ -12,7 +12,6 @@ import copy
 import csv
 import filecmp
 import json
-import time
 from pathlib import Path
 
 import numpy as np
@@ -26,6 +25,7 @@ from steerlab.errors import SteerlabError
 from steerlab.data.labels import COMMANDS, speed_targets
 from steerlab.evaluate.metrics import (SMOOTHING_ALPHA, accuracy, all_metrics, exponential_smoothing, speed_mae,
                                        steering_metrics)
+from steerlab.evaluate.latency import measure
 from steerlab.evaluate.plots import plot_open_vs_closed, plot_recovery, plot_steering, rank_correlation
 from steerlab.evaluate.scoring import read_steering_csv
 from steerlab.models import model_class
@@ -211,14 +211,8 @@ def _latency_frames(cfg: dict) -> list[tuple]:
 
 def _latency(run: Path, frames: list[tuple]) -> dict:
     """p50 and p99 of the Pilot's time per decoded frame (preprocessing, flow, model), in milliseconds."""
-    pilot = Pilot(run / "best.pt")
-    times = []
-    for frame, speed in frames:
-        t = time.perf_counter()
-        pilot.step(frame, speed)
-        times.append(time.perf_counter() - t)
-    ms = np.array(times[10:]) * 1000
-    return {"latency_p50_ms": float(np.percentile(ms, 50)), "latency_p99_ms": float(np.percentile(ms, 99))}
+    ms = measure(Pilot(run / "best.pt"), frames)["pilot"]
+    return {"latency_p50_ms": ms["median_ms"], "latency_p99_ms": ms["p99_ms"]}
 
 
 def _fmt(value: float, digits: int, std: float | None = None) -> str:

@@ -9,7 +9,7 @@ The file is self-contained: what the Pilot needs to feed it raw frames lives in 
 (ONNX `metadata_props`), so a copied `model.onnx` runs on its own:
 
 - `steerlab`: a JSON document with the preprocessing, standardisation statistics, steering convention, camera
-  preset, frame rate, input and output names, recurrent state shape, speed history and validation metrics;
+  geometry, frame rate, input and output names, recurrent state shape, speed history and validation metrics;
 - `steerlab_sha256`: the sha256 of everything else in the file: every top-level field of the ONNX model but
   the metadata (graph, weights, opset, producer: the bytes as stored), then each metadata entry but this one
   (key and value, in key order). `OnnxModel` recomputes it from the file's bytes before ONNX Runtime sees
@@ -17,6 +17,10 @@ The file is self-contained: what the Pilot needs to feed it raw frames lives in 
 
 Writing needs torch and the `onnx` package; reading needs neither (the top level of the protobuf is walked here,
 and ONNX Runtime runs the graph), so the Pilot and the donkeycar part run on a car with onnxruntime alone.
+
+An int8 export (`steerlab export --int8 --calib DATA`) is the same file quantized by ONNX Runtime, calibrated on
+the inputs the fp32 graph receives in the Pilot on a recording's frames; its metadata adds `int8` (calibration
+source, range, frames) and its sha256 is computed again, so the Pilot runs it unchanged.
 """
 
 from __future__ import annotations
@@ -38,13 +42,21 @@ FORMAT = "steerlab-onnx-2"  # 1: the metadata in a sidecar model.json beside the
 OPSET = 18
 META_KEY, HASH_KEY = "steerlab", "steerlab_sha256"
 _METADATA_PROPS = 14  # ModelProto field number of metadata_props (entries: key = 1, value = 2)
+CALIB_FRAMES, CALIB_SAMPLES = 500, 300  # int8 calibration: default frames of the recording, inputs kept
+QUANTIZED_OPS = ["Conv", "MatMul", "Gemm"]
 
 
-def export_onnx(checkpoint: str | Path, out: str | Path) -> Path:
-    """Write `out` (.onnx) with its metadata inside; returns its path."""
+def export_onnx(checkpoint: str | Path, out: str | Path, calib: str | Path | None = None,
+                calib_range: str | None = None) -> Path:
+    """Write `out` (.onnx) with its metadata inside; returns its path. With `calib`, a recording, the model is
+    quantized to int8 (`quantize_int8`) on its frames `calib_range` (default: its first CALIB_FRAMES)."""
     out = Path(out)
     if out.suffix != ".onnx":
         raise SteerlabError(f"{out}: the export file must end in .onnx")
+    if calib is not None:
+        from steerlab.data.readers import open_recording
+
+        calib_rec = open_recording(calib, calib_range)  # bad calibration data is refused before any work
     import torch
 
     from steerlab.checkpoint import load_checkpoint, model_from_checkpoint
@@ -77,11 +89,15 @@ def export_onnx(checkpoint: str | Path, out: str | Path) -> Path:
                               output_names=outputs + (["h_out", "c_out"] if state else []), opset_version=OPSET,
                               dynamo=False)
         meta = {"format": FORMAT, "model": ckpt["model"], "preprocess": pre.as_dict(), "stats": ckpt["stats"],
-                "convention": convention.as_dict(), "preset": ckpt.get("preset"),
+                "convention": convention.as_dict(), "geometry": ckpt.get("geometry"),
                 "frame_rate": ckpt.get("frame_rate"), "inputs": names, "outputs": outputs, "state_shape": state,
                 "speed_history": history,
                 "metrics": {k: v for k, v in ckpt.get("metrics", {}).items() if isinstance(v, (int, float))}}
-        tmp.write_bytes(_with_metadata(tmp.read_bytes(), json.dumps(meta)))
+        data = _with_metadata(tmp.read_bytes(), json.dumps(meta))
+        if calib is not None:
+            data, meta["int8"] = quantize_int8(data, calib_rec, calib_range)
+            data = _with_metadata(data, json.dumps(meta))
+        tmp.write_bytes(data)
         os.replace(tmp, out)  # a model without its metadata is never left at `out`
     finally:
         tmp.unlink(missing_ok=True)
@@ -109,6 +125,63 @@ def _one_frame(model, outputs: list[str]):
             return tuple(out[k] for k in self.outputs)
 
     return OneFrame()
+
+
+def quantize_int8(fp32: bytes, rec, calib_range: str | None) -> tuple[bytes, dict]:
+    """The exported fp32 model (its bytes) quantized statically by ONNX Runtime (QDQ, int8 weights per channel,
+    int8 activations; convolutions and matrix products only, so an LSTM stays fp32), and what it was calibrated
+    on: the recording `rec`'s frames `calib_range` (default: its first CALIB_FRAMES)."""
+    import tempfile
+
+    import onnx
+    from onnxruntime.quantization import (CalibrationDataReader, QuantFormat, QuantType, quant_pre_process,
+                                          quantize_static)
+
+    if not any(node.op_type in QUANTIZED_OPS for node in onnx.load_from_string(fp32).graph.node):
+        raise SteerlabError("the model has no convolution or matrix product to quantize: export it without --int8")
+    n = len(rec) if calib_range else min(len(rec), CALIB_FRAMES)
+    with tempfile.TemporaryDirectory() as folder:
+        fp32_path, pre, int8 = (Path(folder) / f"{k}.onnx" for k in ("fp32", "pre", "int8"))
+        fp32_path.write_bytes(fp32)
+        feeds = _calibration_inputs(fp32_path, rec, n)
+
+        class Feeds(CalibrationDataReader):
+            def __init__(self):
+                self.feeds = iter(feeds)
+
+            def get_next(self):
+                return next(self.feeds, None)
+
+        quant_pre_process(fp32_path, pre)
+        quantize_static(pre, int8, Feeds(), quant_format=QuantFormat.QDQ, op_types_to_quantize=QUANTIZED_OPS,
+                        per_channel=True, activation_type=QuantType.QInt8, weight_type=QuantType.QInt8)
+        data = int8.read_bytes()
+    return data, {"calibration": str(rec.source), "range": calib_range or f"0:{n}", "frames": len(feeds)}
+
+
+def _calibration_inputs(fp32: Path, rec, n: int) -> list[dict[str, np.ndarray]]:
+    """What the graph sees in the Pilot: the fp32 model drives the recording's first `n` frames, reset at every
+    segment start, and the inputs (standardised frame, speeds, recurrent state) of up to CALIB_SAMPLES frames
+    spread evenly over them are kept."""
+    from steerlab.pilot import Pilot
+
+    keep = set(np.linspace(0, n - 1, min(n, CALIB_SAMPLES)).round().astype(int).tolist())
+    pilot = Pilot(fp32)
+    session, feeds = pilot.net.session, []
+
+    class Recorder:  # the session as the Pilot calls it, keeping the last input
+        def run(self, outputs, feed):
+            self.feed = feed
+            return session.run(outputs, feed)
+
+    pilot.net.session = recorder = Recorder()
+    for start, stop in rec.segments():
+        pilot.reset()
+        for i in range(start, min(stop, n)):
+            pilot.step(rec.load_frame(i), None if rec.speed is None else float(rec.speed[i]))
+            if i in keep:
+                feeds.append(recorder.feed)
+    return feeds
 
 
 def _with_metadata(data: bytes, meta_json: str) -> bytes:
@@ -221,9 +294,10 @@ def read_metadata(path: str | Path) -> tuple[dict, bytes]:
 
 class OnnxModel:
     """The Pilot's model on ONNX Runtime: standardised NHWC frame (and speeds) in, numpy outputs out; keeps
-    the recurrent state between calls."""
+    the recurrent state between calls. `threads`: ONNX Runtime's intra-op threads (default: torch's thread
+    count when torch is loaded, else ONNX Runtime's own choice)."""
 
-    def __init__(self, path: str | Path):
+    def __init__(self, path: str | Path, threads: int | None = None):
         path = Path(path)
         meta, data = read_metadata(path)
         try:
@@ -231,7 +305,9 @@ class OnnxModel:
         except ImportError:
             raise SteerlabError("running .onnx models needs onnxruntime: pip install onnxruntime") from None
         options = ort.SessionOptions()
-        if "torch" in sys.modules:  # share the cores as torch was told to (one thread per test worker, say)
+        if threads is not None:
+            options.intra_op_num_threads = threads
+        elif "torch" in sys.modules:  # share the cores as torch was told to (one thread per test worker, say)
             options.intra_op_num_threads = sys.modules["torch"].get_num_threads()
         try:
             self.session = ort.InferenceSession(data, options, providers=["CPUExecutionProvider"])
@@ -240,7 +316,7 @@ class OnnxModel:
         self.name = meta["model"]
         self.config = PreprocessConfig.from_dict(meta["preprocess"])
         self.convention = SteeringConvention(**meta["convention"])
-        self.preset = meta.get("preset")
+        self.geometry = meta.get("geometry")
         self.frame_rate = meta.get("frame_rate")
         self.recurrent = meta["state_shape"] is not None
         self.speed_history = int(meta["speed_history"])

@@ -4,7 +4,9 @@ It applies exactly the preprocessing the model was trained with, keeps the previ
 difference and optical flow, the last frames for stacked input, the last speeds for models with a speed
 history and the recurrent state, standardises with the checkpoint's statistics, runs the model and optionally
 smooths the steering (paper 002 Eq. 2). Offline evaluation and closed-loop driving both use it, so what is
-measured is what runs. The model runs on PyTorch (a .pt checkpoint) or on ONNX Runtime (an exported .onnx
+measured is what runs. `step` takes one frame; `stream` takes a sequence and decodes and preprocesses the next
+frames on worker threads while the model runs (OpenCV, ONNX Runtime and torch release the GIL), with exactly
+the outputs of `step`. The model runs on PyTorch (a .pt checkpoint) or on ONNX Runtime (an exported .onnx
 file); everything around the model is the same code. torch is imported only for a .pt checkpoint: the Pilot
 on an exported .onnx file needs numpy, OpenCV and ONNX Runtime alone (what a car's computer has).
 """
@@ -12,15 +14,24 @@ on an exported .onnx file needs numpy, OpenCV and ONNX Runtime alone (what a car
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
+from itertools import repeat
 from pathlib import Path
 
+import cv2
 import numpy as np
 
-from steerlab.data.inputs import Standardizer, stack_modalities
+from steerlab.data.inputs import Standardizer
 from steerlab.data.modalities import frame_difference, optical_flow
 from steerlab.data.preprocess import preprocess
 from steerlab.errors import SteerlabError
+
+
+# `stream`: worker threads (three: a worker computing a frame's motion may wait for the previous frame's
+# decode, and a third keeps decoding; measured best on two cores) and frames prepared ahead of the model
+WORKERS, AHEAD = 3, 8
 
 
 @dataclass(frozen=True)
@@ -45,7 +56,7 @@ class TorchModel:
         self.torch = torch
         self.model, self.config, self.convention = model_from_checkpoint(ckpt)
         self.name = ckpt["model"]
-        self.preset = ckpt.get("preset")  # the camera geometry it was trained on (ch2, sim, donkey)
+        self.geometry = ckpt.get("geometry")  # the camera geometry it was trained on (ch2, sim, donkey)
         self.standardize = Standardizer(ckpt["stats"])
         self.recurrent = self.model.recurrent
         self.speed_history = self.model.speed_history
@@ -84,13 +95,17 @@ class Pilot:
                 checkpoint = load_checkpoint(checkpoint)
             self.net = TorchModel(checkpoint)
         self.name, self.config, self.convention = self.net.name, self.net.config, self.net.convention
-        self.preset, self.speed_history, self.targets = self.net.preset, self.net.speed_history, self.net.targets
+        self.geometry, self.speed_history, self.targets = self.net.geometry, self.net.speed_history, self.net.targets
         self.smoothing = smoothing
+        self._channels, c = {}, 0  # each modality's channels of the network input, in input order
+        for m, n in self.config.channels().items():
+            self._channels[m], c = slice(c, c + n), c + n
+        self._x = np.empty((1, self.config.height, self.config.width, c), np.float32)  # refilled every frame
         self.reset()
 
     def reset(self) -> None:
         """Forget the past: the next frame is treated as the first of a segment."""
-        self._prev_img = self._prev_gray = None
+        self._prev = None  # the previous frame's (image, gray)
         self._frames: deque = deque(maxlen=self.config.stack)
         self._speeds: deque = deque(maxlen=self.speed_history)
         self._smoothed = None
@@ -103,25 +118,81 @@ class Pilot:
             history.append(item)
         history.append(item)
 
-    def step(self, bgr: np.ndarray, speed: float | None = None) -> Controls:
-        """One raw BGR frame (and the measured speed in m/s, for models that use it) -> controls."""
-        img, gray = preprocess(bgr, self.config)
-        prev_img = img if self._prev_img is None else self._prev_img
-        prev_gray = gray if self._prev_gray is None else self._prev_gray
-        self._push(self._frames, img)
-        arrays = {"image": np.concatenate(self._frames, axis=-1)}
-        if "diff" in self.config.modalities:
-            arrays["diff"] = frame_difference(prev_img, img)
-        if "flow" in self.config.modalities:
-            arrays["flow"] = optical_flow(prev_gray, gray, self.config.flow).astype(np.float16)
-        self._prev_img, self._prev_gray = img, gray
+    def step(self, frame: np.ndarray | bytes, speed: float | None = None) -> Controls:
+        """One raw frame (and the measured speed in m/s, for models that use it) -> controls. The frame is a
+        BGR array or an encoded image (JPEG or PNG bytes, or a 1-D uint8 array of them)."""
+        cur = self._prepare(frame)
+        return self._drive(cur, self._motion(cur if self._prev is None else self._prev, cur), speed)
+
+    def stream(self, frames: Iterable, speeds: Iterable[float] | None = None,
+               load: Callable[[object], np.ndarray] | None = None) -> Iterator[Controls]:
+        """`step` over a sequence of frames, pipelined: WORKERS threads decode, preprocess and compute the
+        motion modalities up to AHEAD frames ahead while the model runs. The controls are exactly those of
+        `step` frame by frame, continuing from the Pilot's state as `step` does (call `reset()` before a new
+        segment). `load`, when given, turns each item into a BGR frame on the worker threads (a frame index or
+        a file, say)."""
+        prepare = self._prepare if load is None else lambda item: self._prepare(load(item))
+        pairs = zip(frames, repeat(None)) if speeds is None else zip(frames, speeds, strict=True)
+        before = self._prev  # the frame before the first one (None: the first starts a segment)
+
+        def motion(prev: Future | None, cur: Future) -> tuple:
+            """Runs on a worker after both frames' preparation was submitted, so it never waits on later work."""
+            cur = cur.result()
+            prev = prev.result() if prev is not None else cur if before is None else before
+            return cur, self._motion(prev, cur)
+
+        pending: deque = deque()
+        with ThreadPoolExecutor(WORKERS) as pool:
+            prev = None
+            for frame, speed in pairs:
+                cur = pool.submit(prepare, frame)
+                pending.append((pool.submit(motion, prev, cur), speed))
+                prev = cur
+                if len(pending) > AHEAD:
+                    yield self._drive_next(pending)
+            while pending:
+                yield self._drive_next(pending)
+
+    def _drive_next(self, pending: deque) -> Controls:
+        done, speed = pending.popleft()
+        return self._drive(*done.result(), speed)
+
+    def _prepare(self, frame: np.ndarray | bytes) -> tuple[np.ndarray, np.ndarray]:
+        """Decode if encoded, then preprocess: (image, gray). Depends on the config alone (thread safe)."""
+        if isinstance(frame, bytes):
+            frame = np.frombuffer(frame, np.uint8)
+        if frame.ndim == 1:
+            encoded, frame = frame, cv2.imdecode(frame, cv2.IMREAD_COLOR)
+            if frame is None:
+                raise SteerlabError(f"cannot decode a frame of {encoded.size} bytes (not a JPEG or PNG image)")
+        return preprocess(frame, self.config)
+
+    def _motion(self, prev: tuple[np.ndarray, np.ndarray], cur: tuple[np.ndarray, np.ndarray]) -> dict:
+        """The motion modalities from the previous prepared frame to this one (thread safe)."""
+        (prev_img, prev_gray), (img, gray) = prev, cur
+        out = {}
+        if "diff" in self._channels:
+            out["diff"] = frame_difference(prev_img, img)
+        if "flow" in self._channels:
+            out["flow"] = optical_flow(prev_gray, gray, self.config.flow).astype(np.float16)
+        return out
+
+    def _drive(self, cur: tuple[np.ndarray, np.ndarray], motion: dict, speed: float | None) -> Controls:
+        """The stateful part of a step: histories, the input buffer, model, smoothing."""
+        self._prev = cur
+        self._push(self._frames, cur[0])
+        x, c = self._x[0], self.config.image_channels
+        for k, frame in enumerate(self._frames):  # the image channels come first, oldest frame first
+            x[:, :, k * c: (k + 1) * c] = frame
+        for m, array in motion.items():
+            x[:, :, self._channels[m]] = array
         speeds = None
         if self.speed_history:
             if speed is None:
                 raise SteerlabError(f"model {self.name!r} needs the measured speed with every frame")
             self._push(self._speeds, float(speed))
             speeds = list(self._speeds)
-        out = self.net(stack_modalities(arrays, self.config)[None], speeds)
+        out = self.net(self._x, speeds)
         y = float(out["steering"])
         if self.smoothing is not None:
             self._smoothed = y if self._smoothed is None else self.smoothing * y + (1 - self.smoothing) * self._smoothed

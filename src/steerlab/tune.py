@@ -35,17 +35,15 @@ import warnings
 from dataclasses import fields
 from pathlib import Path
 
-import matplotlib
 import numpy as np
 import yaml
 from tqdm import tqdm
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter  # noqa: E402
+from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
 from steerlab.data.preprocess import PreprocessConfig
 from steerlab.errors import SteerlabError, warn
+from steerlab.figures import figure
 from steerlab.train.config import DEFAULTS, load_config
 
 OBJECTIVES = {"rmse": ["minimize"], "rmse+gamma": ["minimize", "minimize"], "autonomy": ["maximize"]}
@@ -372,17 +370,22 @@ def run_tune(config: str | Path, overrides: list[str] = (), trials: int = 20, ob
             return best["rmse"], best["gamma_deg"]
         from steerlab.sim.bench import closed_loop_metrics
 
-        return closed_loop_metrics(Path(run_cfg["out"]) / "best.pt", closed, False)["autonomy"]
+        # a trial's suite keeps its tables; road figures for every trial of a study would go unseen
+        return closed_loop_metrics(Path(run_cfg["out"]) / "best.pt", closed, False, plots=False)["autonomy"]
 
     done_states = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED)
     finished = len(study.get_trials(deepcopy=False, states=done_states))
     bar = tqdm(total=trials, initial=min(finished, trials), desc=f"study {name}", unit="trial",
                disable=not progress or None)
 
+    board = _Board(out, objective) if cfg["train"]["tensorboard"] else None
+
     def report(study, trial):
         if study.user_attrs.get(f"surplus_{trial.number}"):
             return
         bar.update(1)
+        if board:
+            board.add(trial)
         if progress:
             value = trial.values if trial.values is not None else trial.intermediate_values
             state = "pruned" if trial.state == optuna.trial.TrialState.PRUNED else trial.state.name.lower()
@@ -407,12 +410,37 @@ def run_tune(config: str | Path, overrides: list[str] = (), trials: int = 20, ob
         if surplus and not _wait_for_others(study, trials):
             break
     bar.close()
+    if board:
+        board.close()
     from steerlab.locks import waiting_lock
 
     out.mkdir(parents=True, exist_ok=True)
     with waiting_lock(out / ".reports.lock"):  # workers sharing an out folder write the reports in turn
         write_reports(study, out, base)
     return out
+
+
+class _Board:
+    """With `train.tensorboard: true`: every trial's curves are in `trials/NNNN/tensorboard` (the training run's
+    own log), and each finished trial's parameters and objective(s) go to TensorBoard's HParams view under
+    `tensorboard/` (a pruned trial with its last epoch's value), so `tensorboard --logdir OUT` shows the study."""
+
+    def __init__(self, out: Path, objective: str):
+        from torch.utils.tensorboard import SummaryWriter
+
+        self.writer = SummaryWriter(str(out / "tensorboard"))
+        self.names = objective.split("+")
+
+    def add(self, trial) -> None:
+        values = trial.values or list(trial.intermediate_values.values())[-1:]
+        if not values:  # failed before its first epoch
+            return
+        self.writer.add_hparams(dict(trial.params), {f"objective/{n}": v for n, v in zip(self.names, values)},
+                                run_name=f"{trial.number:04d}")
+        self.writer.flush()
+
+    def close(self) -> None:
+        self.writer.close()
 
 
 class _Surplus(Exception):
@@ -548,70 +576,61 @@ def _plot_marginals(path: Path, study, complete: list, best) -> None:
     x = np.array([[_encode(dists[k], t.params[k]) for k in names] for t in complete])
     y = np.array([t.values[0] for t in complete])
     forest = RandomForestRegressor(n_estimators=64, min_samples_leaf=1, random_state=0).fit(x, y)
-    fig, axes = plt.subplots(1, len(names), figsize=(3.6 * len(names), 3.2), squeeze=False)
-    for j, (k, ax) in enumerate(zip(names, axes[0])):
-        d = dists[k]
-        categorical = isinstance(d, optuna.distributions.CategoricalDistribution)
-        grid = (np.arange(len(d.choices), dtype=float) if categorical
-                else np.linspace(_encode(d, d.low), _encode(d, d.high), 40))
-        pd_ = []
-        for g in grid:
-            xg = x.copy()
-            xg[:, j] = g
-            pd_.append(forest.predict(xg).mean())
-        shown = grid if categorical or not d.log else np.exp(grid)
-        ax.plot(shown, pd_, color="tab:blue", lw=2, label="predicted",  # no line between unordered choices
-                **({"ls": "", "marker": "_", "ms": 24, "mew": 2} if categorical else {}))
-        ax.scatter(x[:, j] if categorical or not d.log else np.exp(x[:, j]), y, s=12, color="gray", label="trials")
-        b = _encode(d, best.params[k])
-        ax.axvline(b if categorical or not d.log else math.exp(b), color="tab:red", ls="--", label="best")
-        if categorical:
-            ax.set_xticks(grid, [str(c) for c in d.choices])
-            ax.set_xlim(-0.5, len(d.choices) - 0.5)
-        elif d.log:
-            ax.set_xscale("log")
-            ax.xaxis.set_minor_formatter(NullFormatter())
-            if d.high / d.low < 30:  # a decade or so: label 1, 2 and 5 of it, not overlapping minor ticks
-                ax.xaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
-                ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
-        ax.set_xlabel(k)
-        ax.set_ylabel("validation error" if j == 0 else "")
-    axes[0][0].legend(fontsize=7)
-    _save(fig, path)
-
-
-def _save(fig, path: Path) -> None:
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    with figure(path, 1, len(names), figsize=(3.6 * len(names), 3.2), squeeze=False, dpi=110) as (fig, axes):
+        for j, (k, ax) in enumerate(zip(names, axes[0])):
+            d = dists[k]
+            categorical = isinstance(d, optuna.distributions.CategoricalDistribution)
+            grid = (np.arange(len(d.choices), dtype=float) if categorical
+                    else np.linspace(_encode(d, d.low), _encode(d, d.high), 40))
+            pd_ = []
+            for g in grid:
+                xg = x.copy()
+                xg[:, j] = g
+                pd_.append(forest.predict(xg).mean())
+            shown = grid if categorical or not d.log else np.exp(grid)
+            ax.plot(shown, pd_, color="tab:blue", lw=2, label="predicted",  # no line between unordered choices
+                    **({"ls": "", "marker": "_", "ms": 24, "mew": 2} if categorical else {}))
+            ax.scatter(x[:, j] if categorical or not d.log else np.exp(x[:, j]), y, s=12, color="gray", label="trials")
+            b = _encode(d, best.params[k])
+            ax.axvline(b if categorical or not d.log else math.exp(b), color="tab:red", ls="--", label="best")
+            if categorical:
+                ax.set_xticks(grid, [str(c) for c in d.choices])
+                ax.set_xlim(-0.5, len(d.choices) - 0.5)
+            elif d.log:
+                ax.set_xscale("log")
+                ax.xaxis.set_minor_formatter(NullFormatter())
+                if d.high / d.low < 30:  # a decade or so: label 1, 2 and 5 of it, not overlapping minor ticks
+                    ax.xaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+                    ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+            ax.set_xlabel(k)
+            ax.set_ylabel("validation error" if j == 0 else "")
+        axes[0][0].legend(fontsize=7)
 
 
 def _plot_history(path: Path, trials: list, minimize: bool) -> None:
     from optuna.trial import TrialState
 
-    fig, ax = plt.subplots(figsize=(6.5, 3.5))
-    done = [t for t in trials if t.state == TrialState.COMPLETE]
-    pruned = [t for t in trials if t.state == TrialState.PRUNED and t.intermediate_values]
-    ax.scatter([t.number for t in done], [t.values[0] for t in done], s=18, label="complete")
-    ax.scatter([t.number for t in pruned], [list(t.intermediate_values.values())[-1] for t in pruned], marker="x",
-               color="gray", s=18, label="pruned (last epoch)")
-    if done:
-        pick = np.minimum.accumulate if minimize else np.maximum.accumulate
-        order = sorted(done, key=lambda t: t.number)
-        ax.step([t.number for t in order], pick([t.values[0] for t in order]), where="post", color="tab:red",
-                label="best so far")
-    ax.set_xlabel("trial")
-    ax.set_ylabel("objective")
-    ax.legend(fontsize=8)
-    _save(fig, path)
+    with figure(path, figsize=(6.5, 3.5), dpi=110) as (fig, ax):
+        done = [t for t in trials if t.state == TrialState.COMPLETE]
+        pruned = [t for t in trials if t.state == TrialState.PRUNED and t.intermediate_values]
+        ax.scatter([t.number for t in done], [t.values[0] for t in done], s=18, label="complete")
+        ax.scatter([t.number for t in pruned], [list(t.intermediate_values.values())[-1] for t in pruned], marker="x",
+                   color="gray", s=18, label="pruned (last epoch)")
+        if done:
+            pick = np.minimum.accumulate if minimize else np.maximum.accumulate
+            order = sorted(done, key=lambda t: t.number)
+            ax.step([t.number for t in order], pick([t.values[0] for t in order]), where="post", color="tab:red",
+                    label="best so far")
+        ax.set_xlabel("trial")
+        ax.set_ylabel("objective")
+        ax.legend(fontsize=8)
 
 
 def _plot_pareto(path: Path, complete: list, front: list) -> None:
-    fig, ax = plt.subplots(figsize=(5, 4))
-    ax.scatter([t.values[0] for t in complete], [t.values[1] for t in complete], s=14, color="gray", label="trials")
-    front = sorted(front, key=lambda t: t.values[0])
-    ax.plot([t.values[0] for t in front], [t.values[1] for t in front], "o-", color="tab:red", label="Pareto front")
-    ax.set_xlabel("validation RMSE")
-    ax.set_ylabel("gamma [deg]")
-    ax.legend(fontsize=8)
-    _save(fig, path)
+    with figure(path, figsize=(5, 4), dpi=110) as (fig, ax):
+        ax.scatter([t.values[0] for t in complete], [t.values[1] for t in complete], s=14, color="gray", label="trials")
+        front = sorted(front, key=lambda t: t.values[0])
+        ax.plot([t.values[0] for t in front], [t.values[1] for t in front], "o-", color="tab:red", label="Pareto front")
+        ax.set_xlabel("validation RMSE")
+        ax.set_ylabel("gamma [deg]")
+        ax.legend(fontsize=8)

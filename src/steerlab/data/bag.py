@@ -94,7 +94,7 @@ def read_bag(path: str | Path, frame_range=None, topics: dict | None = None) -> 
     cut = apply_range(len(stamps), frame_range, path)
     return Recording(
         name=path.stem, source=path, frames={c: p[cut] for c, p in frames.items()}, timestamps_ns=stamps[cut],
-        steering=angle[cut], convention=CH2_CONVENTION, frame_ids=stamps[cut], speed=speed[cut], preset="ch2",
+        steering=angle[cut], convention=CH2_CONVENTION, frame_ids=stamps[cut], speed=speed[cut], geometry="ch2",
     )
 
 

@@ -58,7 +58,7 @@ def read_ch2(folder: str | Path, frame_range=None, labels: str | Path | None = N
         check_images(paths, label_path, first_row)
     return Recording(
         name=folder.name, source=folder, frames=frames, timestamps_ns=ids.astype(np.int64), steering=steer,
-        convention=CH2_CONVENTION, frame_ids=ids, speed=speed, preset="ch2",
+        convention=CH2_CONVENTION, frame_ids=ids, speed=speed, geometry="ch2",
     )
 
 

@@ -36,7 +36,7 @@ CHUNK = 64
 
 def source_key(rec: Recording, camera: str) -> str:
     """Hash of what the cache depends on: image files (path, size, mtime) and every label."""
-    h = hashlib.sha1()
+    h = hashlib.sha1(b"layout 2\n")  # the entry's layout: a new one never reads an older entry
     for p in rec.frames[camera]:
         st = os.stat(p)
         h.update(f"{p}|{st.st_size}|{st.st_mtime_ns}\n".encode())
@@ -130,7 +130,7 @@ def _build(rec: Recording, cfg: PreprocessConfig, camera: str, view, final: Path
                                            dtype=np.float16 if m == "flow" else np.uint8)
               for m, c in ch.items()}
     seg = rec.segment_ids()
-    geometry = None if view is None else geometry_of(rec.preset)
+    geometry = None if view is None else geometry_of(rec.geometry)
 
     def load(i: int) -> np.ndarray:
         frame = rec.load_frame(i, camera)
@@ -165,7 +165,7 @@ def _build(rec: Recording, cfg: PreprocessConfig, camera: str, view, final: Path
         np.savez(tmp / "labels.npz", **_labels(rec))
         meta = {"preprocess": cfg.as_dict(), "source": str(rec.source), "name": rec.name, "camera": camera,
                 "view": view,
-                "frames": n, "convention": rec.convention.as_dict(), "preset": rec.preset,
+                "frames": n, "convention": rec.convention.as_dict(), "geometry": rec.geometry,
                 "frame_rate": rec.frame_rate()}
         (tmp / "meta.json").write_text(json.dumps(meta, indent=1))
         try:

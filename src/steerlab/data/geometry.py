@@ -98,7 +98,7 @@ def with_overrides(cam: Camera, mount_height: float | None = None, pitch_deg: fl
 
 def camera(name: str) -> Camera:
     if name not in CAMERAS:
-        raise SteerlabError(f"unknown camera preset {name!r}; choose one of {', '.join(CAMERAS)}")
+        raise SteerlabError(f"unknown camera geometry {name!r}; choose one of {', '.join(CAMERAS)}")
     return CAMERAS[name]
 
 

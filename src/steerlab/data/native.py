@@ -68,5 +68,5 @@ def read_native(folder: str | Path, frame_range=None) -> Recording:
         speed=np.array(vals["speed"]), throttle=np.array(vals["throttle"]), brake=np.array(vals["brake"]),
         extra={"lateral_offset": np.array(vals["lateral_offset"]), "heading_error": np.array(vals["heading_error"]),
                "curvature": np.array(vals["curvature"]), "episode": np.array(episodes)},
-        preset=meta.get("preset", "sim"),
+        geometry=meta.get("geometry", meta.get("preset", "sim")),  # "preset" in older recordings
     )

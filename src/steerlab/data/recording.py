@@ -98,7 +98,7 @@ class Recording:
     throttle: np.ndarray | None = None
     brake: np.ndarray | None = None
     extra: dict[str, np.ndarray] = field(default_factory=dict)
-    preset: str = "ch2"  # preprocessing preset that fits this camera geometry
+    geometry: str = "ch2"  # camera geometry (data/geometry.CAMERAS); the crop preset of the same name fits it
     video: "VideoFrames | None" = None  # frames decoded from one video file instead of image files
 
     def __post_init__(self):

@@ -131,5 +131,5 @@ def read_sim_log(log: str | Path, frame_range=None, strict: bool = False) -> Rec
         name=log.parent.name, source=log, frames=frames, timestamps_ns=stamps_a,
         steering=np.array(vals["steering"]) * SIM_FULL_LOCK_RAD, convention=SIM_CONVENTION, frame_ids=stamps_a,
         speed=np.array(vals["speed"]) * MPH_TO_MS, throttle=np.array(vals["throttle"]),
-        brake=np.array(vals["brake"]), preset="sim",
+        brake=np.array(vals["brake"]), geometry="sim",
     )

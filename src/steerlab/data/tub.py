@@ -165,5 +165,5 @@ def read_tub(folder: str | Path, frame_range=None, full_lock_deg: float | None =
         steering=np.array([float(r["user/angle"]) for r in recs]), convention=convention,
         frame_ids=np.array([int(r["_index"]) for r in recs], dtype=np.int64),
         throttle=throttle if np.all(np.isfinite(throttle)) else None,
-        extra={"session": np.array([str(r.get("_session_id", "")) for r in recs])}, preset="donkey",
+        extra={"session": np.array([str(r.get("_session_id", "")) for r in recs])}, geometry="donkey",
     )

@@ -4,9 +4,9 @@ The log sits beside the video with the same name (`drive.mp4` + `drive.csv`) or 
 `log`. Its columns: `steering` and optionally `speed` (m/s), and one of `timestamp_ns` (integer nanoseconds),
 `timestamp` (seconds) or `frame` (the video frame each row labels; without a time column the video's frame
 rate gives the times). Without `frame`, row i labels video frame i and the log must have as many rows as the
-video has frames. The steering convention and the crop preset are reader options too: `steering` (kind,
-default "steering_wheel"), `positive` (default "left"), `full_lock_deg` (for normalized steering) and `preset`
-(default "ch2").
+video has frames. The steering convention and the camera geometry are reader options too: `steering` (kind,
+default "steering_wheel"), `positive` (default "left"), `full_lock_deg` (for normalized steering) and `geometry`
+(default "ch2"; its crop preset of the same name is used).
 """
 
 from __future__ import annotations
@@ -22,11 +22,11 @@ from steerlab.data.rows import apply_range, check_unique, number, read_rows
 from steerlab.data.recording import Recording, SteeringConvention, VideoFrames
 from steerlab.errors import DataError
 
-OPTIONS = ("log", "steering", "positive", "full_lock_deg", "preset")
+OPTIONS = ("log", "steering", "positive", "full_lock_deg", "geometry")
 
 
 def read_video(path: str | Path, frame_range=None, log: str | Path | None = None, steering: str = "steering_wheel",
-               positive: str = "left", full_lock_deg: float | None = None, preset: str = "ch2") -> Recording:
+               positive: str = "left", full_lock_deg: float | None = None, geometry: str = "ch2") -> Recording:
     path = Path(path)
     log = Path(log) if log else path.with_suffix(".csv")
     if not log.is_file():
@@ -38,8 +38,8 @@ def read_video(path: str | Path, frame_range=None, log: str | Path | None = None
     capture.release()
     if not ok or count <= 0:
         raise DataError(path, "cannot decode this video with OpenCV")
-    if preset not in CROP_PRESETS:
-        raise DataError(path, f"unknown preset {preset!r}; choose one of {', '.join(CROP_PRESETS)}")
+    if geometry not in CROP_PRESETS:
+        raise DataError(path, f"unknown camera geometry {geometry!r}; choose one of {', '.join(CROP_PRESETS)}")
     try:
         convention = SteeringConvention(steering, positive,
                                         None if full_lock_deg is None else math.radians(float(full_lock_deg)))
@@ -88,7 +88,7 @@ def read_video(path: str | Path, frame_range=None, log: str | Path | None = None
     return Recording(
         name=path.stem, source=path, frames={"center": [path] * len(stamps)}, timestamps_ns=stamps,
         steering=steer, convention=convention, frame_ids=stamps, speed=None if speed is None else speed[cut],
-        preset=preset, video=VideoFrames(path, positions),
+        geometry=geometry, video=VideoFrames(path, positions),
     )
 
 

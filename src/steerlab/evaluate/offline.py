@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import json
 import math
-from contextlib import nullcontext
+from functools import partial
+from itertools import islice
 from pathlib import Path
 
 import numpy as np
@@ -80,9 +81,9 @@ def evaluate(checkpoint: str | Path, data: str | Path, frame_range: str | None, 
                 conv.to_road_wheel_left(0.0, STEERING_RATIO)
         except SteerlabError as e:
             raise SteerlabError(f"cannot write {video} (it shows steering-wheel angles): {e}") from None
-    if pilot.preset != rec.preset:
-        warn(f"{checkpoint} was trained on the {pilot.preset!r} camera geometry and {rec.source} has the "
-             f"{rec.preset!r} geometry: expect worse predictions than the model can make")
+    if pilot.geometry != rec.geometry:
+        warn(f"{checkpoint} was trained on the {pilot.geometry!r} camera geometry and {rec.source} has the "
+             f"{rec.geometry!r} geometry: expect worse predictions than the model can make")
     out.mkdir(parents=True, exist_ok=True)  # only once the inputs are known to be good
     seg = rec.segment_ids()
     offsets = rec.extra.get("lateral_offset")
@@ -90,16 +91,23 @@ def evaluate(checkpoint: str | Path, data: str | Path, frame_range: str | None, 
     def wheel(conv, y):  # steering-wheel angle, positive left, for the video
         return conv.to_road_wheel_left(y, STEERING_RATIO) * STEERING_RATIO
 
+    if rec.video is None:  # image files: read and decoded on the Pilot's worker threads
+        frames, load = iter(range(len(rec))), partial(rec.load_frame, camera=camera)
+    else:  # a video decodes fastest in order, as it is read
+        frames, load = (rec.load_frame(i, camera) for i in range(len(rec))), None
     controls = []
-    with DriveVideo(video, rec.frame_rate(), reference="recorded") if video else nullcontext() as movie:
-        for i in tqdm(range(len(rec)), desc="evaluate", unit="frame", disable=None if progress else True):
-            if i > 0 and seg[i] != seg[i - 1]:
-                pilot.reset()
-            frame = rec.load_frame(i, camera)
-            controls.append(pilot.step(frame, None if rec.speed is None else rec.speed[i]))
-            if movie:
-                movie.add(frame, wheel(pilot.convention, controls[-1].steering), wheel(rec.convention, rec.steering[i]),
-                          None if offsets is None else float(offsets[i]), f"{rec.name}  frame {i}")
+    with tqdm(total=len(rec), desc="evaluate", unit="frame", disable=None if progress else True) as bar:
+        for a, b in rec.segments():  # the Pilot streams each segment from a fresh start
+            pilot.reset()
+            for c in pilot.stream(islice(frames, b - a), None if rec.speed is None else rec.speed[a:b], load):
+                controls.append(c)
+                bar.update()
+    if video:  # drawn once the predictions are made, reading the frames again
+        with DriveVideo(video, rec.frame_rate(), reference="recorded") as movie:
+            for i, c in enumerate(controls):
+                movie.add(rec.load_frame(i, camera), wheel(pilot.convention, c.steering),
+                          wheel(rec.convention, rec.steering[i]), None if offsets is None else float(offsets[i]),
+                          f"{rec.name}  frame {i}")
     pred = {"steering": np.array([c.steering for c in controls])}
     if convert:
         pred["steering"] = convert_steering(pred["steering"], *convert)

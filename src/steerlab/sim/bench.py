@@ -78,12 +78,13 @@ def run_parallel(fn, jobs: list[tuple], workers: int, minutes_per_job: float, pr
 
 def _drive_job(checkpoint: str, road: str, seed: int, minutes: float, out: str, smoothing: float | None,
                key: dict | None = None) -> dict:
-    """One drive of the suite; with `key`, its drive.json also holds the key, which later runs compare."""
+    """One drive of the suite (its path is drawn with the other checkpoints' in the suite's roads/ figure); with
+    `key`, its drive.json also holds the key, which later runs compare."""
     from steerlab.pilot import Pilot
     from steerlab.sim.world import drive
 
     result = drive(Pilot(checkpoint, smoothing=smoothing), out, seed=seed, minutes=minutes, road=road,
-                   progress=False, on_tick=tick_reporter())
+                   progress=False, on_tick=tick_reporter(), plot=False)
     if key is not None:
         (Path(out) / "drive.json").write_text(json.dumps({**result, "cache_key": key}, indent=1))
     return result
@@ -132,10 +133,11 @@ def suite_minutes(suite: str, minutes: float | None = None, where: str = "") -> 
 
 
 def run_suite(checkpoints, out: str | Path, suite: str = "v1", minutes: float | None = None, workers: int = 2,
-              smoothing: float | None = None, roads: str | None = None, progress: bool = True) -> list[dict]:
+              smoothing: float | None = None, roads: str | None = None, progress: bool = True,
+              plots: bool = True) -> list[dict]:
     """Drive every checkpoint on every road of the suite (or of the road types in the comma list `roads`);
-    write `suite.csv` (one row per drive), `summary.csv` and `suite.md` (per checkpoint and road type) and
-    one trajectory plot per road in `out/roads/`.
+    write `suite.csv` (one row per drive), `summary.csv` and `suite.md` (per checkpoint and road type) and,
+    with `plots`, one trajectory plot per road in `out/roads/`.
     Returns the summary rows."""
     minutes = suite_minutes(suite, minutes)
     if smoothing is not None and not 0 < smoothing <= 1:
@@ -178,15 +180,16 @@ def run_suite(checkpoints, out: str | Path, suite: str = "v1", minutes: float | 
     _write_csv(out / "suite.csv", DRIVE_FIELDS, drives)
     _write_csv(out / "summary.csv", SUMMARY_FIELDS, summary)
     (out / "suite.md").write_text(markdown(summary, suite, minutes))
-    _plot_roads(out, drives, minutes)
+    if plots:
+        _plot_roads(out, drives, minutes)
     return summary
 
 
-def closed_loop_metrics(checkpoint: Path, closed: dict, progress: bool) -> dict:
+def closed_loop_metrics(checkpoint: Path, closed: dict, progress: bool, plots: bool = True) -> dict:
     """A checkpoint on the closed-loop suite (drives kept in the `suite` folder beside it): autonomy over all
     roads and per road type, interventions per km and command gamma."""
     summary = run_suite([checkpoint], checkpoint.parent / "suite", closed.get("suite", "v1"), closed.get("minutes"),
-                        int(closed.get("workers", 2)), progress=progress)
+                        int(closed.get("workers", 2)), progress=progress, plots=plots)
     out = {f"autonomy_{s['road_type']}": s["autonomy"] for s in summary}
     overall = next(s for s in summary if s["road_type"] == "all")
     return {**out, "autonomy": overall["autonomy"], "interventions_per_km": overall["interventions_per_km"],

@@ -14,7 +14,7 @@ import cv2
 import numpy as np
 
 from steerlab.data.geometry import Camera, camera
-from steerlab.sim.road import DS, EDGE, LANE, LINE_WIDTH, PRESETS, VERGE, Road
+from steerlab.sim.road import DS, EDGE, LANE, LINE_WIDTH, ROAD_TYPES, VERGE, Road
 
 MAX_RANGE = 250.0   # m: ground further away is drawn as haze
 SIDE_OFFSET = 0.508  # m: left/right cameras sit 20 inches beside the centre one (paper 002 V-D)
@@ -64,7 +64,7 @@ class Scenery:
         self.obj_y = road.y[idx] + objs[:, 1] * np.cos(road.psi[idx])
         self.obj_size = rng.uniform(0.8, 1.3, len(objs))
         # the look of the place differs from road to road: shades of grass, verge, asphalt and paint
-        look = np.random.default_rng([road.seed, 6, list(PRESETS).index(road.preset)])
+        look = np.random.default_rng([road.seed, 6, list(ROAD_TYPES).index(road.kind)])
         shade = np.concatenate([look.uniform(0.75, 1.25, (3, 1)) * look.uniform(0.9, 1.1, (3, 3)),
                                 look.uniform(0.85, 1.0, (1, 1)) * np.ones((1, 3))])
         self.palette = np.array([GRASS, VERGE_C, ASPHALT, MARKING], np.float32) * shade.astype(np.float32)

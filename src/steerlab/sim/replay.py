@@ -295,7 +295,7 @@ def rollout_recording(pilot, rec: Recording, cam: Camera, car: Car, speed: float
         trajs.append(drive_loop(world, pilot, b - a, car.lane_limit_m if limit_m is None else limit_m, fps,
                                 choose=lambda t: t.expert if rng.random() < beta else t.model, on_step=on_step,
                                 progress=False, on_tick=on_tick))
-    writer.close({"source": str(rec.source), "preset": rec.preset, "fps": fps, "beta": beta, "policy": pilot.name,
+    writer.close({"source": str(rec.source), "geometry": rec.geometry, "fps": fps, "beta": beta, "policy": pilot.name,
                   "wheelbase": car.wheelbase, "side_camera_offset_m": None}, params.steering_ratio)
     return _result(np.vstack(trajs), fps, "all", len(rec) if frames is None else len(frames))
 
@@ -348,14 +348,14 @@ def run_replay(checkpoints, data: str | Path, out: str | Path, frame_range: str 
         if not c.is_file():
             raise SteerlabError(f"{c}: checkpoint not found")
     rec = open_recording(data, frame_range, labels, reader)
-    if rec.preset not in CAMERAS:
-        raise DataError(rec.source, f"no camera geometry for its {rec.preset!r} frames; replay knows {', '.join(CAMERAS)}")
-    cam, car = with_overrides(CAMERAS[rec.preset], **(camera or {})), CARS[rec.preset]
+    if rec.geometry not in CAMERAS:
+        raise DataError(rec.source, f"no camera geometry for its {rec.geometry!r} frames; replay knows {', '.join(CAMERAS)}")
+    cam, car = with_overrides(CAMERAS[rec.geometry], **(camera or {})), CARS[rec.geometry]
     for c in checkpoints:
         pilot = Pilot(c)
-        if pilot.preset != rec.preset:
-            raise SteerlabError(f"{c} was trained on the {pilot.preset!r} camera geometry and {rec.source} has the "
-                                f"{rec.preset!r} geometry: replay it on recordings of its own camera")
+        if pilot.geometry != rec.geometry:
+            raise SteerlabError(f"{c} was trained on the {pilot.geometry!r} camera geometry and {rec.source} has the "
+                                f"{rec.geometry!r} geometry: replay it on recordings of its own camera")
         if pilot.speed_history and rec.speed is None and speed is None:
             warn(f"{c} reads the speed; {rec.source} records none, so it gets the estimated constant speed")
         try:
@@ -428,10 +428,10 @@ class SplitReplay:
         from steerlab.data.splits import make_split
 
         rec = open_recording(cfg["data"], cfg.get("range"), cfg.get("labels"), cfg.get("reader"))
-        if rec.preset not in CAMERAS:
-            raise SteerlabError(f"{rec.source}: replay knows no camera geometry for {rec.preset!r} frames")
+        if rec.geometry not in CAMERAS:
+            raise SteerlabError(f"{rec.source}: replay knows no camera geometry for {rec.geometry!r} frames")
         self.train_idx, self.val_idx = make_split(cfg["split"], len(rec), rec.extra.get("session"))
-        cam, car = CAMERAS[rec.preset], CARS[rec.preset]
+        cam, car = CAMERAS[rec.geometry], CARS[rec.geometry]
         speed, self.speed_source = replay_speed(rec, cam, car, speed)
         self.fps = rec.frame_rate()
         self.source = {"data": cfg["data"], "range": cfg.get("range"), "labels": cfg.get("labels"),

@@ -22,7 +22,7 @@ LANE_CENTER = -LANE / 2
 
 
 @dataclass(frozen=True)
-class RoadPreset:
+class RoadType:
     radius: tuple[float, float]        # arc radius range [m]
     straight: tuple[float, float]      # straight length range [m]
     transition: tuple[float, float]    # clothoid length range [m]
@@ -30,18 +30,18 @@ class RoadPreset:
     speed: float                       # cruise speed on straights [m/s]
 
 
-PRESETS = {
-    "highway": RoadPreset((450, 1200), (150, 500), (80, 160), (10, 40), 27.0),
-    "country": RoadPreset((90, 400), (40, 250), (30, 80), (20, 90), 19.0),
-    "twisty": RoadPreset((35, 120), (15, 90), (15, 40), (30, 120), 13.0),
+ROAD_TYPES = {
+    "highway": RoadType((450, 1200), (150, 500), (80, 160), (10, 40), 27.0),
+    "country": RoadType((90, 400), (40, 250), (30, 80), (20, 90), 19.0),
+    "twisty": RoadType((35, 120), (15, 90), (15, 40), (30, 120), 13.0),
 }
 
 
 class Road:
-    def __init__(self, seed: int, preset: str = "country", length_m: float = 5000.0):
-        if preset not in PRESETS:
-            raise SteerlabError(f"unknown road preset {preset!r}; choose one of {', '.join(PRESETS)}")
-        self.seed, self.preset, self.params = int(seed), preset, PRESETS[preset]
+    def __init__(self, seed: int, kind: str = "country", length_m: float = 5000.0):
+        if kind not in ROAD_TYPES:
+            raise SteerlabError(f"unknown road type {kind!r}; choose one of {', '.join(ROAD_TYPES)}")
+        self.seed, self.kind, self.params = int(seed), kind, ROAD_TYPES[kind]
         rng = np.random.default_rng([self.seed, 1])
         p = self.params
         kappa = [np.zeros(int(60 / DS))]  # every road starts straight

@@ -21,7 +21,7 @@ from steerlab.sim.driver import ExpertDriver, cruise, pure_pursuit
 from steerlab.sim.driving import TRAJECTORY, drive_loop, drive_metrics
 from steerlab.sim.plots import plot_trajectory
 from steerlab.sim.render import SIDE_OFFSET, Renderer
-from steerlab.sim.road import LANE_CENTER, PRESETS, Road
+from steerlab.sim.road import LANE_CENTER, ROAD_TYPES, Road
 from steerlab.sim.vehicle import Vehicle, VehicleParams, VehicleState
 from steerlab.video import DriveVideo
 
@@ -38,12 +38,12 @@ def _frames(minutes: float, fps: float) -> int:
 
 
 def road_types(road: str) -> list[str]:
-    """"country", "mixed" (every preset) or a comma list such as "country,twisty"."""
-    types = list(PRESETS) if road == "mixed" else [t.strip() for t in road.split(",") if t.strip()]
-    bad = [t for t in types if t not in PRESETS]
+    """"country", "mixed" (every road type) or a comma list such as "country,twisty"."""
+    types = list(ROAD_TYPES) if road == "mixed" else [t.strip() for t in road.split(",") if t.strip()]
+    bad = [t for t in types if t not in ROAD_TYPES]
     if bad or not types:
-        raise SteerlabError(f"unknown road preset {','.join(bad) or road!r}; choose one of "
-                            f"{', '.join(PRESETS)}, mixed, or a comma list")
+        raise SteerlabError(f"unknown road type {','.join(bad) or road!r}; choose one of "
+                            f"{', '.join(ROAD_TYPES)}, mixed, or a comma list")
     return types
 
 
@@ -60,9 +60,9 @@ def make_road(seed: int, road: str, seconds: float) -> Road:
 class World:
     """A car on its lane at the start of a road made from `seed`, long enough for `seconds` of driving."""
 
-    def __init__(self, seed: int, road: str, camera: str, seconds: float, fps: float = 20.0):
+    def __init__(self, seed: int, road: str, geometry: str, seconds: float, fps: float = 20.0):
         self.road = make_road(seed, road, seconds)
-        self.renderer = Renderer(self.road, camera)
+        self.renderer = Renderer(self.road, geometry)
         self.params = VehicleParams()
         self.car = Vehicle(start_state(self.road), self.params)
         self.dt = 1.0 / fps
@@ -121,7 +121,7 @@ def _check_seed(seed: int) -> None:
                             "closed-loop benchmark roads and never recorded; choose another seed")
 
 
-def record(out: str | Path, seed: int = 0, minutes: float = 1.0, road: str = "country", camera: str = "sim",
+def record(out: str | Path, seed: int = 0, minutes: float = 1.0, road: str = "country", geometry: str = "sim",
            fps: float = 20.0, drift: bool = True, side_cameras: bool = True, layout: str = "steerlab",
            chunk_minutes: float = 1.0, progress: bool = True, *, suite_roads_ok: bool = False) -> Path:
     """Drive the expert on roads made from `seed` and write a labelled recording. Same arguments, same bytes.
@@ -140,7 +140,7 @@ def record(out: str | Path, seed: int = 0, minutes: float = 1.0, road: str = "co
     chunk = n if len(types) == 1 else _frames(chunk_minutes, fps)
     schedule = [types[(i // chunk) % len(types)] for i in range(n)]  # a type may be listed twice for a larger share
     extra = 0 if suite_roads_ok else chunk  # the suite's roads: as long as `drive` makes them
-    worlds = {t: World(seed, t, camera, (schedule.count(t) + extra) / fps, fps) for t in dict.fromkeys(types)}
+    worlds = {t: World(seed, t, geometry, (schedule.count(t) + extra) / fps, fps) for t in dict.fromkeys(types)}
     drivers = {t: ExpertDriver(w.road, seed, w.params, w.dt, drift_every_s=25.0 if drift else None)
                for t, w in worlds.items()}
     clocks = dict.fromkeys(worlds, 0)
@@ -160,34 +160,35 @@ def record(out: str | Path, seed: int = 0, minutes: float = 1.0, road: str = "co
         clocks[kind] += 1
         ts += int(round(1e9 / fps))
     p = VehicleParams()
-    return writer.close({"seed": seed, "road": road, "roads": types, "camera": camera, "preset": camera,
+    return writer.close({"seed": seed, "road": road, "roads": types, "geometry": geometry,
                          "fps": fps, "minutes": minutes, "wheelbase": p.wheelbase,
                          "side_camera_offset_m": SIDE_OFFSET if side_cameras else None}, p.steering_ratio)
 
 
-def camera_for(pilot, camera: str | None) -> str:
+def geometry_for(pilot, geometry: str | None) -> str:
     """The camera geometry to drive a pilot with: by default the one it was trained on; warns on a mismatch."""
-    if camera is None:
-        if pilot.preset in CAMERAS:
-            return pilot.preset
-        warn(f"the checkpoint was trained on the {pilot.preset!r} camera geometry, which the synthetic world "
+    if geometry is None:
+        if pilot.geometry in CAMERAS:
+            return pilot.geometry
+        warn(f"the checkpoint was trained on the {pilot.geometry!r} camera geometry, which the synthetic world "
              "does not render; driving with the 'sim' camera")
         return "sim"
-    if camera != pilot.preset:
-        warn(f"the checkpoint was trained on the {pilot.preset!r} camera geometry and is driven with the "
-             f"{camera!r} camera: expect it to drive worse than it can")
-    return camera
+    if geometry != pilot.geometry:
+        warn(f"the checkpoint was trained on the {pilot.geometry!r} camera geometry and is driven with the "
+             f"{geometry!r} camera: expect it to drive worse than it can")
+    return geometry
 
 
 def drive(pilot, out: str | Path | None, seed: int = 100, minutes: float = 1.0, road: str = "country",
-          camera: str | None = None, fps: float = 20.0, limit_m: float = 1.0, video: str | Path | None = None,
-          progress: bool = True, on_tick=None) -> dict:
+          geometry: str | None = None, fps: float = 20.0, limit_m: float = 1.0, video: str | Path | None = None,
+          progress: bool = True, on_tick=None, plot: bool = True) -> dict:
     """Closed loop: each tick renders the centre camera, asks `pilot.step(frame, speed)` for controls and
     applies their steering (in `pilot.convention`); the speed follows the road's speed profile. Off the lane
     centre by more than `limit_m` is an intervention: the car is put back on the lane centre and
-    `pilot.reset()` clears the pilot's memory. `on_tick(k)` is called every 100 ticks (progress of the suite)."""
+    `pilot.reset()` clears the pilot's memory. `on_tick(k)` is called every 100 ticks (progress of the suite).
+    With `out`: trajectory.csv, frames.png, drive.json and, with `plot`, path.png."""
     n = _frames(minutes, fps)
-    world = World(seed, road, camera_for(pilot, camera), n / fps, fps)
+    world = World(seed, road, geometry_for(pilot, geometry), n / fps, fps)
     ratio = world.steering_ratio
     strip = []
     movie = DriveVideo(video, fps) if video else None
@@ -216,9 +217,10 @@ def drive(pilot, out: str | Path | None, seed: int = 100, minutes: float = 1.0, 
             w = csv.writer(f)
             w.writerow(TRAJECTORY[:7])
             w.writerows([[f"{v:.4f}" for v in row[:7]] for row in t])
-        plot_trajectory(out / "path.png", world.road, {pilot.name: t},
-                        f"{pilot.name} on {road} road {seed}: autonomy {result['autonomy']:.1f} %, "
-                        f"{interventions} interventions, mean |offset| {result['mean_abs_offset_m']:.2f} m")
+        if plot:
+            plot_trajectory(out / "path.png", world.road, {pilot.name: t},
+                            f"{pilot.name} on {road} road {seed}: autonomy {result['autonomy']:.1f} %, "
+                            f"{interventions} interventions, mean |offset| {result['mean_abs_offset_m']:.2f} m")
         rows = [np.hstack(strip[k:k + 4]) for k in range(0, len(strip) - 3, 4)] or [np.hstack(strip)]
         cv2.imwrite(str(out / "frames.png"), np.vstack(rows))  # one frame every 5 s
         (out / "drive.json").write_text(json.dumps(result, indent=1))
@@ -226,15 +228,15 @@ def drive(pilot, out: str | Path | None, seed: int = 100, minutes: float = 1.0, 
 
 
 def rollout(pilot, out: str | Path, seed: int, minutes: float, road: str = "country", beta: float = 0.0,
-            camera: str | None = None, fps: float = 20.0, limit_m: float = 1.0, side_cameras: bool = True,
+            geometry: str | None = None, fps: float = 20.0, limit_m: float = 1.0, side_cameras: bool = True,
             progress: bool = True, on_tick=None) -> dict:
     """DAgger's data collection: drive with the model's steering (or, with probability `beta` each tick,
     the expert's) and record every visited frame labelled with the expert's steering in that state, as a
     steerlab recording in `out`. Interventions as in `drive`. Returns the drive's metrics."""
     _check_seed(seed)
     n = _frames(minutes, fps)
-    camera = camera_for(pilot, camera)
-    world = World(seed, road, camera, n / fps, fps)
+    geometry = geometry_for(pilot, geometry)
+    world = World(seed, road, geometry, n / fps, fps)
     ratio = world.steering_ratio
     rng = np.random.default_rng([seed, 5])
     cams = {"center": 0.0, **({"left": SIDE_OFFSET, "right": -SIDE_OFFSET} if side_cameras else {})}
@@ -246,7 +248,7 @@ def rollout(pilot, out: str | Path, seed: int, minutes: float, road: str = "coun
 
     t = drive_loop(world, pilot, n, limit_m, fps, choose=lambda t: t.expert if rng.random() < beta else t.model,
                    on_step=on_step, desc=f"rollout {road} {seed}", progress=progress, on_tick=on_tick)
-    writer.close({"seed": seed, "road": road, "roads": [road], "camera": camera, "preset": camera, "fps": fps, "minutes": minutes, "beta": beta,
+    writer.close({"seed": seed, "road": road, "roads": [road], "geometry": geometry, "fps": fps, "minutes": minutes, "beta": beta,
                   "policy": pilot.name, "wheelbase": world.params.wheelbase,
                   "side_camera_offset_m": SIDE_OFFSET if side_cameras else None}, ratio)
     model = np.array([pilot.convention.to_road_wheel_left(c, ratio) for c in t[:, 5]])

@@ -240,7 +240,7 @@ def _train(cfg: dict, ranks: Ranks, progress: bool, on_epoch) -> dict:
     def checkpoint(path, metrics, **extra):
         if ranks.main:
             save_checkpoint(path, model, model_cfg, ds.config, stats, convention, metrics,
-                            preset=ds.meta["preset"], frame_rate=ds.meta["frame_rate"], **extra)
+                            geometry=ds.meta["geometry"], frame_rate=ds.meta["frame_rate"], **extra)
 
     if not model.trainable:
         model.fit(batches.steering(train_codes))

@@ -29,12 +29,12 @@ def prepare_dataset(cfg: dict, progress: bool = True, camera: str | None = None,
     camera = camera or cfg.get("camera", "center")
     if camera not in rec.frames:
         raise SteerlabError(f"{rec.source} has no {camera!r} camera (it has {', '.join(rec.cameras)})")
-    if view is not None and rec.preset not in CAMERAS:
+    if view is not None and rec.geometry not in CAMERAS:
         raise SteerlabError(f"viewpoint shifts need the camera geometry of the recording; {rec.source} has the "
-                            f"{rec.preset!r} preset, and geometry is known for {', '.join(CAMERAS)}")
+                            f"{rec.geometry!r} preset, and geometry is known for {', '.join(CAMERAS)}")
     pre_cfg = dict(cfg.get("preprocess") or {})
     if "crop" not in pre_cfg:
-        pre_cfg.setdefault("preset", rec.preset)
+        pre_cfg.setdefault("preset", rec.geometry)
     return compile_recording(rec, PreprocessConfig.from_dict(pre_cfg), cfg["cache"], camera, progress=progress,
                              view=view)
 
