@@ -72,6 +72,15 @@ def test_rerun_reproduces_the_trials(tmp_path, tiny_recording):
         assert (tmp_path / "b" / "trials" / f"{int(r['number']):04d}" / "tensorboard").is_dir()
 
 
+def test_continuing_a_study_with_the_same_seed_proposes_new_configurations(tmp_path, tiny_recording):
+    cfg = tune_config(tmp_path, tiny_recording, tmp_path / "c", epochs=1)
+    journal = str(tmp_path / "c.journal")
+    run_tune(cfg, trials=1, storage=journal, study_name="c", seed=0, progress=False)
+    run_tune(cfg, trials=2, storage=journal, study_name="c", seed=0, progress=False)  # one more, same seed
+    params = [(r["train.lr"], r["model.dropout"]) for r in rows(tmp_path / "c")]
+    assert len(params) == 2 and len(set(params)) == 2  # still drawing at random: not the first one again
+
+
 def test_two_workers_share_one_journal(tmp_path, tiny_recording):
     import optuna
 

@@ -305,7 +305,11 @@ def _load_study(cfg_text: dict, objective: str, storage, name: str, seed: int, e
     if existing is not None and existing.user_attrs.get("signature") not in (None, signature, older):
         raise SteerlabError(f"study {name!r} exists in this storage with a different search space, objective or "
                             "pruning; choose another --study name")
-    sampler = optuna.samplers.TPESampler(seed=seed, multivariate=True, n_startup_trials=min(10, max(2, epochs)))
+    # a worker that continues a study draws anew: seeded with the trials already there, so that the same --seed
+    # does not propose the study's first configurations again (a new study with a seed is reproducible)
+    done = len(existing.trials) if existing is not None else 0
+    sampler = optuna.samplers.TPESampler(seed=int(np.random.SeedSequence([seed, done]).generate_state(1)[0]) if done
+                                         else seed, multivariate=True, n_startup_trials=min(10, max(2, epochs)))
     pruner = (optuna.pruners.HyperbandPruner(min_resource=1, max_resource=epochs, reduction_factor=pruning)
               if pruning and len(OBJECTIVES[objective]) == 1 else optuna.pruners.NopPruner())
     study = optuna.create_study(study_name=name, storage=storage, sampler=sampler, pruner=pruner,

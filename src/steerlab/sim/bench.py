@@ -83,11 +83,8 @@ def _drive_job(checkpoint: str, road: str, seed: int, minutes: float, out: str, 
     from steerlab.pilot import Pilot
     from steerlab.sim.world import drive
 
-    result = drive(Pilot(checkpoint, smoothing=smoothing), out, seed=seed, minutes=minutes, road=road,
-                   progress=False, on_tick=tick_reporter(), plot=False)
-    if key is not None:
-        (Path(out) / "drive.json").write_text(json.dumps({**result, "cache_key": key}, indent=1))
-    return result
+    return drive(Pilot(checkpoint, smoothing=smoothing), out, seed=seed, minutes=minutes, road=road,
+                 progress=False, on_tick=tick_reporter(), plot=False, meta=None if key is None else {"cache_key": key})
 
 
 def cache_key(checkpoint: Path, suite: str, minutes: float, smoothing: float | None) -> dict:

@@ -181,12 +181,12 @@ def geometry_for(pilot, geometry: str | None) -> str:
 
 def drive(pilot, out: str | Path | None, seed: int = 100, minutes: float = 1.0, road: str = "country",
           geometry: str | None = None, fps: float = 20.0, limit_m: float = 1.0, video: str | Path | None = None,
-          progress: bool = True, on_tick=None, plot: bool = True) -> dict:
+          progress: bool = True, on_tick=None, plot: bool = True, meta: dict | None = None) -> dict:
     """Closed loop: each tick renders the centre camera, asks `pilot.step(frame, speed)` for controls and
     applies their steering (in `pilot.convention`); the speed follows the road's speed profile. Off the lane
     centre by more than `limit_m` is an intervention: the car is put back on the lane centre and
     `pilot.reset()` clears the pilot's memory. `on_tick(k)` is called every 100 ticks (progress of the suite).
-    With `out`: trajectory.csv, frames.png, drive.json and, with `plot`, path.png."""
+    With `out`: trajectory.csv, frames.png, drive.json (the result and `meta`) and, with `plot`, path.png."""
     n = _frames(minutes, fps)
     world = World(seed, road, geometry_for(pilot, geometry), n / fps, fps)
     ratio = world.steering_ratio
@@ -223,7 +223,7 @@ def drive(pilot, out: str | Path | None, seed: int = 100, minutes: float = 1.0, 
                             f"{interventions} interventions, mean |offset| {result['mean_abs_offset_m']:.2f} m")
         rows = [np.hstack(strip[k:k + 4]) for k in range(0, len(strip) - 3, 4)] or [np.hstack(strip)]
         cv2.imwrite(str(out / "frames.png"), np.vstack(rows))  # one frame every 5 s
-        (out / "drive.json").write_text(json.dumps(result, indent=1))
+        (out / "drive.json").write_text(json.dumps({**result, **(meta or {})}, indent=1))
     return result
 
 
