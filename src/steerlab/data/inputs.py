@@ -1,4 +1,5 @@
-"""Turning compiled arrays into standardised network input: shared by training and the streaming Pilot.
+"""Turning compiled arrays into standardised network input for training; the streaming Pilot fills the same
+channel layout frame by frame and shares the `Standardizer`.
 
 torch is imported only where a tensor is made (`Standardizer`), so the Pilot on ONNX Runtime runs without it."""
 
