@@ -347,6 +347,9 @@ BAD_INPUTS = {
     "tune heartbeat 5,2": (_tune_storage("sqlite:///{tmp}/s.db", heartbeat="5,2"),
                            "STEERLAB_TUNE_HEARTBEAT='5,2': expected INTERVAL,GRACE in whole seconds with 0 < INTERVAL "
                            "< GRACE"),
+    "tune join a study that does not exist": (
+        lambda t, s: _tune_storage("{tmp}/s.journal")(t, s) + ["--join"],
+        "s.journal: no such file, so no study to join; check --storage, or start the study without --join"),
     # l) latency: models, threads and checkpoints checked before anything is timed
     "latency unknown model": (lambda t, s: ["latency", "--models", "pilotnet,pilot-net", "--out", str(t / "out")],
                               "unknown model 'pilot-net'; available: cg23,"),

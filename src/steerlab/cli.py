@@ -102,7 +102,7 @@ def cmd_tune(a) -> None:
     from steerlab.tune import run_tune
 
     out = run_tune(a.config, a.overrides, a.trials, a.objective, a.storage, a.study, a.seed,
-                   None if a.no_pruning else a.reduction_factor)
+                   None if a.no_pruning else a.reduction_factor, join=a.join)
     for name in ("summary.md", "importance.md", "pareto.md"):
         if (out / name).exists():
             print((out / name).read_text())
@@ -292,6 +292,8 @@ def build_parser() -> argparse.ArgumentParser:
     q.add_argument("--reduction-factor", type=int, default=3, metavar="N",
                    help="Hyperband: each rung keeps the best 1/N of the trials (default 3)")
     q.add_argument("--no-pruning", action="store_true", help="run every trial to completion (no Hyperband)")
+    q.add_argument("--join", action="store_true", help="join a study that another worker started: a study that does "
+                   "not exist in the storage is an error (a mistyped --study or --storage), not a new study")
     q.set_defaults(func=cmd_tune)
 
     q = sub.add_parser("export", help="export a checkpoint to one self-contained ONNX file for ONNX Runtime",

@@ -154,16 +154,21 @@ def shown_url(url: str) -> str:
         return f"{scheme}{sep}***@{rest.rpartition('@')[2]}" if "@" in rest else url
 
 
-def storage_of(url: str | None, out: Path):
+def storage_of(url: str | None, out: Path, join: bool = False):
     """An Optuna storage: a journal file (default `<out>/study.journal`, or a path / journal:PATH), or an RDB URL
     (sqlite:///, postgresql://, mysql://) with heartbeats, so a killed worker's trial is failed and retried.
-    `postgresql://` uses the psycopg (3) driver; connecting gives up after CONNECT_TIMEOUT seconds."""
+    `postgresql://` uses the psycopg (3) driver; connecting gives up after CONNECT_TIMEOUT seconds. `join`: the
+    storage must exist (a journal or SQLite file is not created)."""
     _optuna()
     from optuna.storages import JournalStorage, RDBStorage, RetryHeartbeatStaleTrialCallback
     from optuna.storages.journal import JournalFileBackend
 
     url = url or str(out / "study.journal")
     scheme = url.split(":", 1)[0]
+    local = url[len("sqlite:///"):] if scheme == "sqlite" else None if "://" in url else url.removeprefix("journal:")
+    if join and local is not None and not Path(local).is_file():
+        raise SteerlabError(f"{local}: no such file, so no study to join; check --storage, or start the study "
+                            "without --join")
     if scheme.split("+", 1)[0] in ("sqlite", "postgresql", "mysql"):  # postgresql+psycopg2://...
         interval, grace = heartbeat()
         engine = url
@@ -345,7 +350,7 @@ def run_tune(config: str | Path, overrides: list[str] = (), trials: int = 20, ob
     out = Path(cfg["out"])
     name = study_name or out.name
     epochs = int(cfg["train"]["epochs"])
-    store = storage_of(storage, out)
+    store = storage_of(storage, out, join)
     study = _load_study(cfg, objective, store, name, seed, epochs, pruning, join, storage or str(out / "study.journal"))
     base = {k: v for k, v in cfg.items() if k != "tune"}
     surplus = []
