@@ -300,6 +300,10 @@ BAD_INPUTS = {
     "export int8 calibration data missing": (lambda t, s: ["export", str(made(t)), "--out", str(t / "m.onnx"),
                                                            "--int8", "--calib", str(t / "nothere")],
                                              "nothere: recording not found"),
+    "export int8 calibration range inverted": (lambda t, s: ["export", str(made(t)), "--out", str(t / "m.onnx"),
+                                                             "--int8", "--calib", str(sim_log(t / "sim")),
+                                                             "--calib-range", "5:2"],
+                                               "driving_log.csv: frame range 5:2 is empty: START must be below STOP"),
     # g) steering conventions where a checkpoint meets data or the simulator
     "evaluate simulator checkpoint on CH2": (_evaluate_on_ch2(), "model.pt predicts road_wheel/right steering and "),
     "evaluate donkeycar checkpoint on CH2": (_evaluate_on_ch2(kind="normalized", geometry="donkey"),

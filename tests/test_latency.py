@@ -7,8 +7,9 @@ import torch
 
 from conftest import made
 from steerlab.cli import main
-from steerlab.evaluate.latency import COLUMNS, measure, open_pilot, synthetic_frames
+from steerlab.evaluate.latency import COLUMNS, measure, synthetic_frames
 from steerlab.export import export_onnx
+from steerlab.pilot import Pilot
 
 
 def test_cli_times_untrained_models_and_writes_the_table(tmp_path, capsys):
@@ -30,7 +31,7 @@ def test_cli_times_untrained_models_and_writes_the_table(tmp_path, capsys):
 
 
 def test_threads_are_held_inside_the_timed_steps_and_restored(tmp_path):
-    pilot = open_pilot(made(tmp_path))
+    pilot = Pilot(made(tmp_path))
     seen, step = [], pilot.step
     pilot.step = lambda *a: seen.append((torch.get_num_threads(), cv2.getNumThreads())) or step(*a)
     before = torch.get_num_threads(), cv2.getNumThreads()
@@ -46,7 +47,7 @@ def test_threads_are_held_inside_the_timed_steps_and_restored(tmp_path):
 
 def test_onnx_runtime_with_its_threads(tmp_path, capsys):
     onnx = export_onnx(made(tmp_path), tmp_path / "m.onnx")
-    assert open_pilot(onnx, 1).net.session.get_session_options().intra_op_num_threads == 1
+    assert Pilot(onnx, threads=1).net.session.get_session_options().intra_op_num_threads == 1
     assert main(["latency", str(onnx), "--runtime", "onnx", "--frames", "3", "--out", str(tmp_path / "o")]) == 0
     with open(tmp_path / "o" / "latency.csv") as f:
         rows = list(csv.DictReader(f))

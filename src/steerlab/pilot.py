@@ -81,13 +81,14 @@ class TorchModel:
 
 
 class Pilot:
-    def __init__(self, checkpoint: str | Path | dict, smoothing: float | None = None):
+    def __init__(self, checkpoint: str | Path | dict, smoothing: float | None = None, threads: int | None = None):
         """`checkpoint`: a .pt checkpoint (path or loaded dict) or an exported .onnx file (self-contained: its
-        preprocessing, statistics and convention are in its metadata)."""
+        preprocessing, statistics and convention are in its metadata). `threads`: ONNX Runtime's intra-op
+        threads for an .onnx file (default: see `export.OnnxModel`)."""
         if not isinstance(checkpoint, dict) and Path(checkpoint).suffix == ".onnx":
             from steerlab.export import OnnxModel
 
-            self.net = OnnxModel(checkpoint)
+            self.net = OnnxModel(checkpoint, threads)
         else:
             if not isinstance(checkpoint, dict):
                 from steerlab.checkpoint import load_checkpoint

@@ -39,7 +39,7 @@ import numpy as np
 import yaml
 from tqdm import tqdm
 
-from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+from matplotlib.ticker import FuncFormatter, LogLocator, MaxNLocator, NullFormatter
 
 from steerlab.data.preprocess import PreprocessConfig
 from steerlab.errors import SteerlabError, warn
@@ -187,7 +187,7 @@ def storage_of(url: str | None, out: Path, join: bool = False):
                                 f"(no module {e.name!r}; for PostgreSQL: pip install 'psycopg[binary]')") from None
         except Exception as e:  # noqa: BLE001 - SQLAlchemy raises many types for a bad URL or server
             raise SteerlabError(f"cannot open storage {shown_url(url)}: {_first_line(e)}") from None
-    path = url[len("journal:"):] if url.startswith("journal:") else url
+    path = url.removeprefix("journal:")
     if "://" in path or not path.endswith((".journal", ".log")):
         raise SteerlabError(f"unknown storage {url!r}: use a journal file (*.journal, *.log, journal:PATH) or "
                             "an RDB URL (sqlite:///study.db, postgresql://user:pass@host/db)")
@@ -631,6 +631,7 @@ def _plot_history(path: Path, trials: list, minimize: bool) -> None:
             ax.step([t.number for t in order], pick([t.values[0] for t in order]), where="post", color="tab:red",
                     label="best so far")
         ax.set_xlabel("trial")
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
         ax.set_ylabel("objective")
         ax.legend(fontsize=8)
 

@@ -32,7 +32,9 @@ def apply_range(n: int, rng, source: Path) -> slice:
         return slice(0, n)
     start = 0 if rng[0] is None else rng[0]
     stop = n if rng[1] is None else rng[1]
-    if not (0 <= start < stop <= n):
+    if start >= stop:
+        raise DataError(source, f"frame range {start}:{stop} is empty: START must be below STOP")
+    if not (0 <= start and stop <= n):
         raise DataError(source, f"frame range {start}:{stop} is outside the {n} labelled frames (0:{n})")
     return slice(start, stop)
 

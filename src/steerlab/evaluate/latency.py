@@ -27,7 +27,7 @@ from tqdm import tqdm
 from steerlab.data.geometry import camera
 from steerlab.data.readers import open_recording
 from steerlab.errors import SteerlabError
-from steerlab.export import OnnxModel, export_onnx
+from steerlab.export import export_onnx
 from steerlab.pilot import Pilot
 
 WARMUP = 10  # frames run before the timing starts
@@ -71,14 +71,6 @@ def limited_threads(threads: int | None):
         cv2.setNumThreads(before[0])
         if torch:
             torch.set_num_threads(before[1])
-
-
-def open_pilot(model_file: str | Path, threads: int | None = None) -> Pilot:
-    """The Pilot of a .pt checkpoint or an .onnx file; ONNX Runtime's session with `threads` intra-op threads."""
-    pilot = Pilot(model_file)
-    if threads is not None and isinstance(pilot.net, OnnxModel):
-        pilot.net = OnnxModel(model_file, threads)
-    return pilot
 
 
 def _stats(ms: np.ndarray) -> dict:
@@ -178,7 +170,7 @@ def run_latency(checkpoints=(), models=(), geometry: str | None = None, threads:
             pt = Path(item) if source != "untrained" else untrained_checkpoint(Path(tmp), item, geometry)
             for rt in ("onnx",) if pt.suffix == ".onnx" else runtimes:
                 onnx = rt == "onnx" and pt.suffix != ".onnx"
-                pilot = open_pilot(export_onnx(pt, Path(tmp) / f"{len(rows)}.onnx") if onnx else pt, threads)
+                pilot = Pilot(export_onnx(pt, Path(tmp) / f"{len(rows)}.onnx") if onnx else pt, threads=threads)
                 geo = pilot.geometry or geometry
                 cam = camera(geo)
                 if rec is not None and size != (cam.height, cam.width):
