@@ -7,14 +7,21 @@ which every model is scored (steering MAE in the tub's own unit, [-1, 1]). steer
 number of epochs on the first 70 % / next 10 % (best validation MAE, patience 5) and then trains on the whole
 first 80 % for that many epochs; donkeycar's trainer gets the whole first 80 % as a tub (the rest marked deleted)
 and splits it itself, as its users run it (`donkey train`, default config: 80/20 random split, early
-stopping). Training time is the wall-clock time of each trainer (for steerlab both of its runs).
+stopping). Training time is the wall-clock time of each trainer (for steerlab both of its runs). steerlab's
+settings are its defaults for a tub (`TUB_DEFAULTS` in train/config.py: batch 32, Adam 3e-4, MAE loss), only the
+model is named; multimodal-lstm is the tub default.
+
+Each steerlab model is also replayed in closed loop on the held-out block (`steerlab replay`: the recorded
+frames warped to the simulated car's view, at an assumed REPLAY_SPEED, with an assumed full-lock angle of
+FULL_LOCK_DEG so that the tub's normalized steering becomes a wheel angle; lane limit 0.3 m).
 
 donkeycar is never a dependency of steerlab: it lives in its own virtual environment ($DONKEY_VENV, default
 runs/donkeycar-venv, made on first use with `pip install donkeycar[pc]`) and `_donkey_eval.py` runs there.
 
-python benchmarks/bench_donkeycar.py [--epochs 30] [--skip-donkey]
+python benchmarks/bench_donkeycar.py [--epochs 30] [--skip-donkey] [--models pilotnet,cg23,...]
 donkeycar's models are trained once; a later run reuses their results (delete runs/bench-donkeycar/<tub> to
-train them again).
+train them again). The table shows every result kept in runs/bench-donkeycar/<tub>/results.json, the models of
+this run replacing their earlier rows.
 """
 
 import argparse
@@ -30,6 +37,7 @@ from _common import ROOT, SHARED, machine
 
 from steerlab.data.readers import open_recording
 from steerlab.evaluate.offline import evaluate
+from steerlab.sim.replay import run_replay
 from steerlab.train.config import load_config
 from steerlab.train.loop import train
 
@@ -39,7 +47,9 @@ VENV = Path(os.environ.get("DONKEY_VENV", ROOT / "runs" / "donkeycar-venv"))
 DONKEY = "donkeycar[pc]==5.3.0"  # 5.4 needs Python >= 3.12
 STEERLAB_MODELS = ["pilotnet", "cg23", "multimodal-lstm", "train-mean"]
 DONKEY_MODELS = ["linear", "rnn"]
-READER = {"skip_missing": True}
+FULL_LOCK_DEG = 25.0  # assumed: the tubs do not record it
+READER = {"skip_missing": True, "full_lock_deg": FULL_LOCK_DEG}
+REPLAY_SPEED = 2.0    # m/s, assumed: the tubs record no speed, and the frames' flow cannot tell it on a plain floor
 
 
 def blocks(n: int) -> tuple[int, int]:
@@ -109,12 +119,12 @@ def run_donkey(python: Path, tub: Path, rec, a: int, n: int, work: Path) -> dict
     return results
 
 
-def run_steerlab(tub: Path, n: int, epochs: int, work: Path) -> dict:
+def run_steerlab(tub: Path, n: int, epochs: int, work: Path, models: list[str]) -> dict:
     """Each model: pick the number of epochs on the selection block (train 0:a, validate a:b), then train again
-    on all of 0:b for exactly that many epochs and score that last model on the held-out block."""
+    on all of 0:b for exactly that many epochs, score that last model on the held-out block and replay it there."""
     a, b = blocks(n)
     results = {}
-    for name in STEERLAB_MODELS:
+    for name in models:
         seconds, run = 0.0, None
         for stage, split, n_epochs in (("select", {"train": f"0:{a}", "val": f"{a}:{b}"}, epochs),
                                        ("refit", {"train": f"0:{b}", "val": f"{b}:{n}"}, None)):
@@ -124,16 +134,19 @@ def run_steerlab(tub: Path, n: int, epochs: int, work: Path) -> dict:
             shutil.rmtree(run_dir, ignore_errors=True)  # a fresh run: its time is what is measured
             cfg = load_config(None, base={
                 "data": str(tub), "reader": READER, "cache": str(OUT / "cache"), "out": str(run_dir),
-                "split": split, "model": {"name": name}, "preprocess": {"preset": "donkey"},
-                "train": {"epochs": n_epochs or run["epoch"], "patience": 5 if n_epochs else run["epoch"],
-                          "batch_size": 32, "lr": 3e-4, "loss": "mae"}})
+                "split": split, "model": {"name": name},
+                "train": {"epochs": n_epochs or run["epoch"], "patience": 5, "keep": "best" if n_epochs else "last"}})
             t = time.time()
-            run = train(cfg, progress=False)  # the refit never stops early: its validation block is held out
+            run = train(cfg, progress=False)  # the refit keeps its last epoch: its validation block is held out
             seconds += time.time() - t
-        ckpt = run_dir / ("last.pt" if (run_dir / "last.pt").exists() else "best.pt")
+        ckpt = run_dir / "best.pt"
         m = evaluate(ckpt, tub, f"{b}:{n}", run_dir / "test", reader=READER, progress=False)
-        results[name] = {"mae": m["mae"], "train_s": seconds}
-        print(f"  steerlab {name}: held-out MAE {m['mae']:.4f}, {seconds:.0f} s", flush=True)
+        r = run_replay([ckpt], tub, run_dir / "replay", f"{b}:{n}", reader=READER, speed=REPLAY_SPEED, workers=1,
+                       progress=False)[0]
+        results[name] = {"mae": m["mae"], "train_s": seconds, "interventions_per_km": r["interventions_per_km"],
+                         "interventions": r["interventions"], "autonomy": r["autonomy"], "km": r["km"]}
+        print(f"  steerlab {name}: held-out MAE {m['mae']:.4f}, {seconds:.0f} s; replay {r['interventions']} "
+              f"interventions in {r['km']:.2f} km", flush=True)
     return results
 
 
@@ -141,14 +154,17 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--epochs", type=int, default=30, help="steerlab's epochs (early stopping after 5)")
     ap.add_argument("--skip-donkey", action="store_true", help="steerlab models only")
+    ap.add_argument("--models", default=",".join(STEERLAB_MODELS), help="steerlab models (comma list; default "
+                    f"{','.join(STEERLAB_MODELS)})")
     args = ap.parse_args()
     if not (TUBS / "hall" / "manifest.json").exists():
         print(f"skipped: {TUBS} not found")
         return
     python = None if args.skip_donkey else donkey_python()
     os.environ.setdefault("STEERLAB_CACHE", str(OUT / "cache"))
-    lines = [f"machine: {machine()}", "", "| tub | model | trainer | held-out MAE [-1, 1] | train time [s] |",
-             "|---|---|---|---|---|"]
+    lines = [f"machine: {machine()}", "", f"replay: held-out block at an assumed {REPLAY_SPEED} m/s, full lock "
+             f"{FULL_LOCK_DEG} deg", "", "| tub | model | trainer | held-out MAE [-1, 1] | train time [s] | "
+             "replay: interventions (per km) | replay autonomy [%] |", "|---|---|---|---|---|---|---|"]
     for name in ("hall", "taped-track"):
         tub = TUBS / name
         rec = open_recording(tub, options=READER)
@@ -158,13 +174,17 @@ def main() -> None:
               f"trains on 0:{b}; everyone is scored on {b}:{n}", flush=True)
         work = OUT / name
         work.mkdir(parents=True, exist_ok=True)
-        results = {f"steerlab {k}": v for k, v in run_steerlab(tub, n, args.epochs, work).items()}
+        results = json.loads((work / "results.json").read_text()) if (work / "results.json").exists() else {}
+        results.update({f"steerlab {k}": v for k, v in run_steerlab(tub, n, args.epochs, work,
+                                                                     args.models.split(",")).items()})
         if python:
             results.update({f"donkeycar {k}": v for k, v in run_donkey(python, tub, rec, b, n, work).items()})
         for label, r in results.items():
             trainer, model = label.split(" ", 1)
             mae = f"{r['mae']:.4f}" if "mae" in r else r["error"]
-            lines.append(f"| {name} | {model} | {trainer} | {mae} | {r.get('train_s', float('nan')):.0f} |")
+            replay = (f"{r['interventions']} ({r['interventions_per_km']:.1f}) | {r['autonomy']:.1f}"
+                      if "autonomy" in r else "- | -")
+            lines.append(f"| {name} | {model} | {trainer} | {mae} | {r.get('train_s', float('nan')):.0f} | {replay} |")
         (work / "results.json").write_text(json.dumps(results, indent=1))
     table = "\n".join(lines) + "\n"
     (OUT / "table.md").write_text(table)

@@ -60,21 +60,28 @@ def tiny_checkpoint(tiny_recording, tmp_path_factory):
     return out / "best.pt"
 
 
-def made(tmp_path, kind="road_wheel", positive="right", geometry="sim", name="model.pt", full_lock_deg=None):
-    """An untrained PilotNet checkpoint with the steering convention and camera geometry of a kind of recording:
-    road_wheel/right + sim (the simulator), normalized/right (donkeycar, with `full_lock_deg` if known),
-    steering_wheel/left + ch2 (CH2)."""
+def made(tmp_path, kind="road_wheel", positive="right", geometry="sim", name="model.pt", full_lock_deg=None,
+         model="pilotnet", seed=0):
+    """An untrained checkpoint of `model` (initialised with `seed`; per-modality statistics) with the steering
+    convention and camera geometry of a kind of recording: road_wheel/right + sim (the simulator),
+    normalized/right (donkeycar, with `full_lock_deg` if known), steering_wheel/left + ch2 (CH2)."""
     import torch
 
     from steerlab.checkpoint import save_checkpoint
     from steerlab.data.preprocess import PreprocessConfig
     from steerlab.data.recording import SteeringConvention
-    from steerlab.models import create_model
+    from steerlab.models import create_model, model_class
 
-    pre = PreprocessConfig.from_dict({"preset": geometry})
-    model_cfg = {"in_channels": 1, "height": pre.height, "width": pre.width}
-    torch.manual_seed(0)
+    pre = PreprocessConfig.from_dict({"preset": geometry, **model_class(model).inputs})
+    per = {"image": (100.0, 50.0), "diff": (128.0, 30.0), "flow": (0.0, 1.0)}
+    stats = {"mean": [], "std": []}
+    for modality, channels in pre.channels().items():
+        stats["mean"] += [per[modality][0]] * channels
+        stats["std"] += [per[modality][1]] * channels
+    model_cfg = {"in_channels": len(stats["mean"]), "height": pre.height, "width": pre.width}
+    torch.manual_seed(seed)
     path = tmp_path / name
-    save_checkpoint(path, create_model("pilotnet", **model_cfg), model_cfg, pre, {"mean": [100.0], "std": [50.0]},
-                    SteeringConvention(kind, positive, full_lock_deg and math.radians(full_lock_deg)), {"rmse": 0.1}, geometry=geometry, frame_rate=20.0)
+    save_checkpoint(path, create_model(model, **model_cfg), model_cfg, pre, stats,
+                    SteeringConvention(kind, positive, full_lock_deg and math.radians(full_lock_deg)), {"rmse": 0.1},
+                    geometry=geometry, frame_rate=20.0)
     return path

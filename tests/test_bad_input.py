@@ -277,10 +277,30 @@ BAD_INPUTS = {
         ("train.batch_size=ten", "an integer of at least 1", "'ten'"),
         ("model.dropout=2", "a number in [0, 1)", "2"),
         ("train.loss=l2", "mse or mae", "'l2'"),
+        ("train.keep=first", "best or last", "'first'"),
     ]},
     # d) a loss that is not finite stops training and never becomes the best checkpoint
     "train diverges": (_train("train.lr=1e30", "train.epochs=2"), "training diverged in epoch 1: the training loss is",
                        ("run/", "cache/")),
+    # pretraining (train.init): a checkpoint that is not there, or of another camera geometry
+    "train init missing": (lambda t, s: _train(f"train.init={t / 'pretrained.pt'}")(t, s),
+                           "pretrained.pt: checkpoint not found"),
+    "train init of another geometry": (lambda t, s: _train(f"train.init={made(t, geometry='ch2')}")(t, s),
+                                       "model.pt: train.init was trained on the 'ch2' camera geometry and ",
+                                       ("run/", "cache/")),  # known once the data is compiled (kept for reuse)
+    # ensembles: members that the Pilot would run differently
+    "ensemble of mixed conventions": (lambda t, s: ["ensemble", str(made(t, name="a.pt")),
+                                                    str(made(t, "normalized", "right", name="b.pt")), "--out",
+                                                    str(t / "e.pt")], "a.pt differ in steering convention ("),
+    "ensemble of two geometries": (lambda t, s: ["ensemble", str(made(t, name="a.pt")),
+                                                 str(made(t, geometry="ch2", name="b.pt")), "--out", str(t / "e.pt")],
+                                   "a.pt differ in camera geometry (ch2 and sim): an ensemble averages models of one "
+                                   "camera geometry"),
+    "ensemble to a file not .pt": (lambda t, s: ["ensemble", str(made(t, name="a.pt")), str(made(t, name="b.pt")),
+                                                 "--out", str(t / "e.onnx")],
+                                   "e.onnx: the ensemble is a checkpoint: its file must end in .pt"),
+    "ensemble of one": (lambda t, s: ["ensemble", str(made(t)), "--out", str(t / "e.pt")],
+                        "an ensemble needs at least two checkpoints"),
     # e) a second run into the same out folder
     "train out in use": (_locked, f"run is in use by another steerlab train run (pid {os.getpid()})"),
     # f) checkpoints: damaged, or holding code

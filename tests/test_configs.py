@@ -52,3 +52,22 @@ def test_run_config_merges_entry_over_shared_sections():
     assert (cfg["train"]["epochs"], cfg["train"]["batch_size"], cfg["train"]["seed"], cfg["train"]["lr"]) == (
         5, 8, 2, 0.001)
     assert cfg["out"] == str(Path("runs/exp") / "flow b8" / "seed2")
+
+
+def test_a_donkeycar_tub_gets_the_tub_defaults_under_the_users_settings(tmp_path):
+    """A config that names only a tub trains the tub default (multimodal-lstm on the MAE, batch 32, Adam 3e-4);
+    what the user sets still wins, and other recordings keep the general defaults."""
+    tub = tmp_path / "tub"
+    tub.mkdir()
+    (tub / "manifest.json").write_text("{}")
+    (tub / "catalog_0.catalog").write_text("")
+    cfg = load_config(None, [f"data={tub}"])
+    assert cfg["model"]["name"] == "multimodal-lstm"
+    assert (cfg["train"]["loss"], cfg["train"]["batch_size"], cfg["train"]["lr"]) == ("mae", 32, 3e-4)
+    assert cfg["train"]["epochs"] == 30  # the general defaults stay under it
+    (tmp_path / "mine.yaml").write_text(f"data: {tub}\nmodel: {{name: pilotnet}}\ntrain: {{epochs: 4}}\n")
+    cfg = load_config(tmp_path / "mine.yaml", ["train.loss=mse"])
+    assert (cfg["model"]["name"], cfg["train"]["loss"], cfg["train"]["epochs"], cfg["train"]["batch_size"]) == (
+        "pilotnet", "mse", 4, 32)
+    cfg = load_config(None, [f"data={tmp_path / 'ch2'}"])
+    assert (cfg["model"]["name"], cfg["train"]["loss"], cfg["train"]["batch_size"]) == ("pilotnet", "mse", 100)

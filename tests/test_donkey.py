@@ -16,9 +16,7 @@ import numpy as np
 import pytest
 
 from conftest import SHARED, made
-from steerlab.data.preprocess import PreprocessConfig
 from steerlab.data.readers import open_recording
-from steerlab.data.recording import SteeringConvention
 from steerlab.donkey import SpeedControl, SteerlabPilot
 from steerlab.errors import SteerlabError
 from steerlab.pilot import Pilot
@@ -36,7 +34,6 @@ _root.setLevel(_level)
 
 TUBS = SHARED / "donkeycar"
 needs_tubs = pytest.mark.skipif(not (TUBS / "hall" / "manifest.json").exists(), reason="../shared/data absent")
-TUB_RIGHT = SteeringConvention("normalized", "right")
 N = 40  # records played through the vehicle loop
 
 
@@ -51,27 +48,6 @@ def one_torch_thread():
     torch.set_num_threads(threads)
 
 
-def checkpoint(folder, name, convention=TUB_RIGHT, geometry="donkey"):
-    """An untrained checkpoint of model `name` for the donkey camera, with per-modality statistics."""
-    import torch
-
-    from steerlab.checkpoint import save_checkpoint
-    from steerlab.models import create_model, model_class
-
-    pre = PreprocessConfig.from_dict({"preset": geometry, **model_class(name).inputs})
-    per = {"image": (100.0, 50.0), "diff": (128.0, 30.0), "flow": (0.0, 1.0)}
-    stats = {"mean": [], "std": []}
-    for modality, channels in pre.channels().items():
-        stats["mean"] += [per[modality][0]] * channels
-        stats["std"] += [per[modality][1]] * channels
-    model_cfg = {"in_channels": len(stats["mean"]), "height": pre.height, "width": pre.width}
-    torch.manual_seed(1)
-    path = folder / f"{name}.pt"
-    save_checkpoint(path, create_model(name, **model_cfg), model_cfg, pre, stats, convention, {"rmse": 0.1},
-                    geometry=geometry, frame_rate=20.0)
-    return path
-
-
 @pytest.fixture(scope="module")
 def models(tmp_path_factory):
     """The models a donkeycar drives with here: PilotNet (donkeycar convention), flow-lstm (recurrent, with
@@ -79,7 +55,7 @@ def models(tmp_path_factory):
     from steerlab.export import export_onnx
 
     folder = tmp_path_factory.mktemp("models")
-    lstm = checkpoint(folder, "flow-lstm")
+    lstm = made(folder, "normalized", "right", "donkey", "flow-lstm.pt", model="flow-lstm", seed=1)
     return {"pilotnet": made(folder, "normalized", "right", "donkey"), "flow-lstm": lstm,
             "flow-lstm.onnx": export_onnx(lstm, folder / "flow-lstm.onnx")}
 
@@ -280,7 +256,7 @@ def frames(n, seed=0):
 def test_donkey_throttle_of_speed_models(tmp_path):
     """multitask-speed: PI control of the measured speed to the predicted one (it needs the measured speed);
     speed-command: the throttle steps with the commands."""
-    speed_model = checkpoint(tmp_path, "multitask-speed")
+    speed_model = made(tmp_path, "normalized", "right", "donkey", "speed.pt", model="multitask-speed", seed=1)
     part = SteerlabPilot(speed_model, throttle=0.2, max_throttle=0.6)
     with pytest.raises(SteerlabError, match=r"model 'multitask-speed' needs the measured speed \(m/s\) with every "
                                             r"frame: add the car's odometry \(HAVE_ODOM = True\) and "
@@ -291,7 +267,7 @@ def test_donkey_throttle_of_speed_models(tmp_path):
         v = 1.0 + 0.1 * i
         out = pilot.step(f[..., ::-1].copy(), v)
         assert part.run(f, v) == pytest.approx((np.clip(out.steering, -1, 1), pi.update(out.speed, v)))
-    command_model = checkpoint(tmp_path, "speed-command")
+    command_model = made(tmp_path, "normalized", "right", "donkey", "command.pt", model="speed-command", seed=1)
     part, pilot, throttle = SteerlabPilot(command_model, 0.3, command_step=0.05), Pilot(command_model), 0.3
     for f in frames(6):
         throttle = np.clip(throttle + 0.05 * (pilot.step(f[..., ::-1].copy()).command - 1), 0, 0.5)

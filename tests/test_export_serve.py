@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 import torch
 
-from conftest import CH2, SIM
+from conftest import CH2, SIM, made
 from steerlab.checkpoint import save_checkpoint
 from steerlab.data.preprocess import PreprocessConfig
 from steerlab.data.readers import open_recording
@@ -64,6 +64,34 @@ def test_onnx_pilot_matches_torch(tmp_path, name):
         assert (a.speed is None) == (b.speed is None) and a.command == b.command
         if a.speed is not None:
             assert b.speed == pytest.approx(a.speed, abs=1e-4)
+
+
+@pytest.mark.parametrize("name", ["pilotnet", "flow-lstm", "multitask-speed"])
+def test_an_ensemble_runs_the_mean_of_its_members_on_torch_and_onnx(tmp_path, name):
+    """`steerlab ensemble`: each member standardises with its own statistics (one member's differ here) and
+    keeps its own recurrent state; the steering (and speed) is the members' mean, also after a reset and in
+    the ONNX export."""
+    from steerlab.cli import main
+
+    members = [made(tmp_path, "steering_wheel", "left", "ch2", f"m{s}.pt", model=name, seed=s) for s in range(3)]
+    ckpt = torch.load(members[1], weights_only=True)
+    ckpt["stats"] = {"mean": [m + 60.0 for m in ckpt["stats"]["mean"]], "std": [s / 8 for s in ckpt["stats"]["std"]]}
+    torch.save(ckpt, members[1])
+    assert main(["ensemble", *map(str, members), "--out", str(tmp_path / "ens.pt")]) == 0
+    ensemble = Pilot(tmp_path / "ens.pt")
+    onnx = Pilot(export_onnx(tmp_path / "ens.pt", tmp_path / "ens.onnx"))
+    pilots = [Pilot(m) for m in members]
+    for i, frame in enumerate(frames(8)):
+        if i == 5:
+            for p in [ensemble, onnx, *pilots]:
+                p.reset()
+        outs = [p.step(frame, 10.0 + i) for p in pilots]
+        mean = np.mean([o.steering for o in outs])
+        assert np.ptp([o.steering for o in outs]) > 1e-4  # the members differ: the mean is a real test
+        for e in (ensemble.step(frame, 10.0 + i), onnx.step(frame, 10.0 + i)):
+            assert e.steering == pytest.approx(mean, abs=1e-4)
+            if name == "multitask-speed":
+                assert e.speed == pytest.approx(np.mean([o.speed for o in outs]), abs=1e-4)
 
 
 def test_onnx_bad_files(tmp_path):

@@ -121,11 +121,15 @@ def test_bad_inputs_give_clear_errors(tmp_path, capsys):
 
 def test_tiny_demo_end_to_end(tmp_path, capsys):
     out = tmp_path / "demo"
-    assert main(["demo", "--out", str(out), "--minutes", "0.3", "--epochs", "1", "--suite-minutes", "0.05"]) == 0
+    assert main(["demo", "--out", str(out), "--minutes", "0.3", "--epochs", "1", "--suite-minutes", "0.05",
+                 "--dagger-minutes", "0.05"]) == 0
     printed = capsys.readouterr().out
     assert "| pilotnet | twisty | 3 |" in printed and "report:" in printed  # the suite's table, at the end
     text = (out / "report.md").read_text()
     assert "Open loop" in text and "| pilotnet | all | 11 |" in text
+    assert "| 0 | 1 | - |" in text and "| 1 | 2 | " in text  # the DAgger round added the rollout
+    assert len(list((out / "pilotnet" / "round1" / "rollouts").iterdir())) == 1
+    assert not list((out / "pilotnet").glob("round*/suite"))  # dagger suite: null, the demo drives the suite once
     assert "## Closed-loop replay (the held-out frames)" in text and "| pilotnet | recording |" in text
     assert len(list((out / "closed-loop" / "roads").glob("*.png"))) == 11
 

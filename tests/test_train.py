@@ -39,6 +39,20 @@ def test_training_lowers_loss_and_checkpoint_reproduces(tiny_recording, tmp_path
         assert next(csv.reader(f)) == ["frame_id", "steering_angle"]
 
 
+@pytest.mark.parametrize("keep, epochs, best_epoch", [("best", 2, 1), ("last", 3, 3)])
+def test_keep_best_stops_early_and_keep_last_keeps_the_final_epoch(tiny_recording, tmp_path, monkeypatch, keep,
+                                                                   epochs, best_epoch):
+    """The validation RMSE is made to rise every epoch. keep: best stops after `patience` (1) epochs without a
+    better one and keeps epoch 1; keep: last (a refit whose validation block is held out) trains every epoch
+    and keeps the final one."""
+    scripted = iter([0.1, 0.2, 0.3])
+    real = loop.all_metrics
+    monkeypatch.setattr(loop, "all_metrics", lambda *a: {**real(*a), "rmse": next(scripted)})
+    best = loop.train(_cfg(tiny_recording, tmp_path, epochs=3, patience=1, keep=keep), progress=False)
+    assert len(_log(tmp_path)) == epochs and best["epoch"] == best_epoch
+    assert torch.load(tmp_path / "run" / "best.pt", weights_only=True)["metrics"]["epoch"] == best_epoch
+
+
 def test_mae_loss_hand_computed_and_picks_best_epoch_by_mae(tiny_recording, tmp_path):
     out, y = {"steering": torch.tensor([0.5, -1.0, 0.0])}, {"steering": torch.tensor([0.0, 1.0, 0.0])}
     net = torch.nn.Linear(1, 1)  # a model without a loss of its own
@@ -60,6 +74,24 @@ def test_side_cameras_and_episode_filter(tiny_recording, tmp_path):
     cfg = _cfg(tiny_recording, tmp_path, epochs=1, side_cameras=True, exclude_episodes=["drift-out"])
     loop.train(cfg, progress=False)
     assert len(_log(tmp_path)) == 1
+
+
+def test_an_extra_recording_without_side_cameras_adds_its_centre_frames(tiny_recording, tmp_path):
+    """A DAgger rollout in replay records only the view the car saw: with side cameras on, the main recording
+    gives three streams and such an extra recording one; a main recording without side cameras is an error."""
+    from steerlab.sim.world import record
+
+    centre_only = record(tmp_path / "centre", seed=4, minutes=0.02, side_cameras=False, progress=False)
+    cfg = {**_cfg(tiny_recording, tmp_path, side_cameras=True), "extra_data": [str(centre_only)]}
+    ds = sources.prepare_dataset(cfg, progress=False)
+    train_idx = np.arange(240)
+    streams, codes = sources.training_sources(cfg, ds, train_idx, progress=False)
+    n_extra = len(sources.prepare_dataset(cfg, progress=False, data=str(centre_only)))
+    assert len(streams) == 4 and len(codes) == 3 * 240 + n_extra
+    with pytest.raises(SteerlabError, match="has no 'left' camera"):
+        sources.training_sources({**cfg, "data": str(centre_only), "extra_data": []},
+                                 sources.prepare_dataset({**cfg, "data": str(centre_only)}, progress=False),
+                                 np.arange(n_extra), progress=False)
 
 
 def test_side_camera_labels_hand_computed(tiny_recording, tmp_path):

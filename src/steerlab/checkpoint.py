@@ -21,6 +21,7 @@ from steerlab.data.preprocess import PreprocessConfig
 from steerlab.data.recording import SteeringConvention
 from steerlab.errors import SteerlabError
 from steerlab.models import create_model
+from steerlab.models.ensemble import Ensemble
 
 FORMAT = "steerlab-checkpoint-1"
 
@@ -95,7 +96,39 @@ def load_checkpoint(path: str | Path) -> dict:
 
 def model_from_checkpoint(ckpt: dict):
     pre = PreprocessConfig.from_dict(ckpt["preprocess"])
-    model = create_model(ckpt["model"], **ckpt["model_cfg"])
+    model = Ensemble(**ckpt["model_cfg"]) if ckpt["model"] == "ensemble" else create_model(ckpt["model"], **ckpt["model_cfg"])
     model.load_state_dict(ckpt["state_dict"])
     model.eval()
     return model, pre, SteeringConvention(**ckpt["convention"])
+
+
+def save_ensemble(checkpoints: list[str | Path], out: str | Path) -> Path:
+    """One checkpoint that runs the mean of several (`steerlab ensemble`). They must agree on everything the
+    Pilot does around the model: preprocessing, camera geometry, steering convention, speed history, outputs
+    and recurrence; a one-line error names the first that differs."""
+    if len(checkpoints) < 2:
+        raise SteerlabError("an ensemble needs at least two checkpoints")
+    ckpts = [load_checkpoint(c) for c in checkpoints]
+    models = [model_from_checkpoint(c)[0] for c in ckpts]
+    first, path0 = ckpts[0], checkpoints[0]
+    for path, ckpt, model in zip(checkpoints, ckpts, models):
+        if ckpt["model"] == "ensemble":
+            raise SteerlabError(f"{path} is an ensemble already: name its members instead")
+        for what, key in (("steering convention", "convention"), ("camera geometry", "geometry"),
+                          ("preprocessing", "preprocess")):
+            if ckpt.get(key) != first.get(key):
+                raise SteerlabError(f"{path} and {path0} differ in {what} ({ckpt.get(key)} and {first.get(key)}): "
+                                    f"an ensemble averages models of one {what}")
+        for what in ("recurrent", "speed_history", "targets"):
+            if getattr(model, what) != getattr(models[0], what):
+                raise SteerlabError(f"{path} ({ckpt['model']}) and {path0} ({first['model']}) differ in "
+                                    f"{what.replace('_', ' ')}: an ensemble averages models that run alike")
+    members = [{"model": c["model"], "model_cfg": c["model_cfg"], "stats": c["stats"]} for c in ckpts]
+    ensemble = Ensemble(members)
+    ensemble.nets.load_state_dict({f"{k}.{name}": t for k, c in enumerate(ckpts) for name, t in c["state_dict"].items()})
+    channels = len(first["stats"]["mean"])
+    save_checkpoint(out, ensemble, {"members": members}, PreprocessConfig.from_dict(first["preprocess"]),
+                    {"mean": [0.0] * channels, "std": [1.0] * channels},
+                    SteeringConvention(**first["convention"]), {}, geometry=first.get("geometry"),
+                    frame_rate=first.get("frame_rate"), members=[str(c) for c in checkpoints])
+    return Path(out)

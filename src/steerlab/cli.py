@@ -123,6 +123,17 @@ def cmd_export(a) -> None:
           f"steerlab serve {out} or on a donkeycar: steerlab.donkey.SteerlabPilot('{out}'))")
 
 
+def cmd_ensemble(a) -> None:
+    from steerlab.checkpoint import save_ensemble
+
+    out = Path(a.out)
+    if out.suffix != ".pt":
+        raise SteerlabError(f"{out}: the ensemble is a checkpoint: its file must end in .pt")
+    save_ensemble(a.checkpoints, out)
+    print(f"wrote {out}: the mean of {len(a.checkpoints)} models (evaluate, replay, drive or export it like any "
+          "checkpoint)")
+
+
 def cmd_latency(a) -> None:
     from steerlab.evaluate.latency import latency_table, run_latency
 
@@ -215,7 +226,8 @@ def cmd_replay(a) -> None:
 def cmd_demo(a) -> None:
     from steerlab.demo import run_demo
 
-    report = run_demo(a.out, minutes=a.minutes, epochs=a.epochs, suite_minutes=a.suite_minutes, workers=a.workers)
+    report = run_demo(a.out, minutes=a.minutes, epochs=a.epochs, suite_minutes=a.suite_minutes,
+                      dagger_minutes=a.dagger_minutes, workers=a.workers)
     print("\n" + (Path(a.out) / "closed-loop" / "suite.md").read_text())
     print(f"report: {report}")
 
@@ -295,6 +307,14 @@ def build_parser() -> argparse.ArgumentParser:
     q.add_argument("--join", action="store_true", help="join a study that another worker started: a study that does "
                    "not exist in the storage is an error (a mistyped --study or --storage), not a new study")
     q.set_defaults(func=cmd_tune)
+
+    q = sub.add_parser("ensemble", help="one checkpoint that runs the mean of several (seeds, or models with the "
+                       "same inputs)", epilog="example: steerlab ensemble runs/ch2/seed0/best.pt runs/ch2/seed1/best.pt "
+                                              "runs/ch2/seed2/best.pt --out runs/ch2-ensemble.pt")
+    q.add_argument("checkpoints", nargs="+", help="checkpoints (.pt) of the same preprocessing, camera geometry and "
+                                                  "steering convention")
+    q.add_argument("--out", required=True, help="checkpoint to write (.pt)")
+    q.set_defaults(func=cmd_ensemble)
 
     q = sub.add_parser("export", help="export a checkpoint to one self-contained ONNX file for ONNX Runtime",
                        epilog="example: steerlab export runs/demo/pilotnet/best.pt --out model.onnx; int8, calibrated "
@@ -404,11 +424,15 @@ def build_parser() -> argparse.ArgumentParser:
     q.add_argument("--workers", type=int, default=2, help="checkpoints replayed in parallel (default 2)")
     q.set_defaults(func=cmd_replay)
 
-    q = sub.add_parser("demo", help="the whole pipeline on synthetic data: record, train, evaluate, drive, report")
+    q = sub.add_parser("demo", help="the whole pipeline on synthetic data: record, train (with one DAgger round), "
+                       "evaluate, replay, drive, report")
     q.add_argument("--out", default="runs/demo")
     q.add_argument("--minutes", type=float, default=8.0, help="minutes of expert driving on mixed roads to train on")
-    q.add_argument("--epochs", type=int, default=5)
-    q.add_argument("--suite-minutes", type=float, default=1.0, help="minutes on each road of the closed-loop suite")
+    q.add_argument("--epochs", type=int, default=5, help="epochs of the first training (default 5)")
+    q.add_argument("--suite-minutes", type=float, help="minutes on each road of the closed-loop suite (default: "
+                   "the suite's 3)")
+    q.add_argument("--dagger-minutes", type=float, default=2.0, help="minutes the trained model drives a fresh "
+                   "twisty road in its DAgger round (default 2)")
     q.add_argument("--workers", type=int, default=2, help="roads driven in parallel")
     q.set_defaults(func=cmd_demo)
     return p
@@ -429,7 +453,7 @@ OPTIONS = {
     "threads": (lambda v: v >= 1, "an integer of at least 1"),
     "frames": (lambda v: v >= 1, "an integer of at least 1"),
     **{name: (_positive, "positive and finite") for name in (
-        "minutes", "suite_minutes", "chunk_minutes", "fps", "limit", "max_heading", "mount_height", "fov", "speed")},
+        "minutes", "suite_minutes", "dagger_minutes", "chunk_minutes", "fps", "limit", "max_heading", "mount_height", "fov", "speed")},
     "set_speed": (lambda v: math.isfinite(v) and v >= 0, "a finite number of at least 0 (m/s)"),
 }
 

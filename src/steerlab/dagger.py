@@ -4,7 +4,8 @@ Round 0 trains the model on the config's data. Every later round rolls the curre
 probability beta per tick the expert steers instead: beta = `beta` x `beta_decay`^(round - 1)), lets the
 expert label every visited frame, adds those recordings to the training data (`extra_data`) and trains again,
 starting from the previous round's weights. `world: synthetic` rolls out on fresh procedural roads (the
-expert: pure pursuit of the lane centre, `world.rollout`) and drives the closed-loop suite after every round;
+expert: pure pursuit of the lane centre, `world.rollout`) and drives the closed-loop suite after every round
+(unless `suite` is null);
 `world: replay` rolls out in closed-loop replay over the training frames of the config's recording (the
 expert: pure pursuit of the human's path, `replay.rollout_recording`) and replays the validation frames after
 every round. `dagger.csv` and `dagger.png` show autonomy against the round. Every step is
@@ -34,7 +35,7 @@ DEFAULTS = {
     "beta_decay": 0.5,   # ... multiplied by this every round
     "epochs": 4,         # epochs of every retraining (round 0 uses train.epochs)
     "warm_start": True,  # retrain from the previous round's weights (else from scratch)
-    "suite": "v1",       # closed-loop suite after every round
+    "suite": "v1",       # closed-loop suite after every round (null: none, e.g. when the caller drives it after)
     "suite_minutes": None,  # minutes per suite road (default: the suite's)
     "workers": 2,        # parallel rollouts and suite drives
     "world": "synthetic",  # where the rollouts drive: synthetic (fresh roads) or replay (the config's recording)
@@ -112,11 +113,13 @@ def run_dagger(cfg: dict, progress: bool = True) -> Path:
         metrics = json.loads((run / "metrics.json").read_text())
         if replay:
             closed = replay.evaluate(run / "best.pt", run / "replay", progress)
-        else:
+        elif opts["suite"]:
             summary = run_suite([run / "best.pt"], run / "suite", opts["suite"], opts["suite_minutes"],
                                 int(opts["workers"]), progress=progress)
             closed = {f"autonomy_{s['road_type']}": s["autonomy"] for s in summary}
             closed["interventions_per_km"] = next(s for s in summary if s["road_type"] == "all")["interventions_per_km"]
+        else:
+            closed = {}
         if r >= len(rows):
             rows.append(_log_row(r, beta, extra, rollout_metrics, metrics, closed))
             _write_log(out, rows)

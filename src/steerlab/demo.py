@@ -1,28 +1,33 @@
-"""The main job: synthetic recording on mixed roads -> compile -> train PilotNet -> open-loop evaluation,
-closed-loop replay of the held-out frames and the closed-loop suite -> a Markdown report with plots. Every step reuses what an interrupted earlier run
-already finished."""
+"""The main job: synthetic recording on mixed roads -> compile -> train PilotNet -> one DAgger round ->
+open-loop evaluation, closed-loop replay of the held-out frames and the closed-loop suite -> a Markdown report
+with plots. Every step reuses what an interrupted earlier run already finished."""
 
 from __future__ import annotations
 
+import csv
 import json
 from pathlib import Path
 
+from steerlab.dagger import run_dagger
 from steerlab.evaluate.offline import evaluate
 from steerlab.sim.bench import run_suite
 from steerlab.sim.replay import run_replay
 from steerlab.sim.world import record
 from steerlab.train.config import load_config
-from steerlab.train.loop import train
 
 TRAIN_SEED = 1
 ROADS = "country,twisty,highway,twisty"  # the recipe of configs/experiment_recipe.yaml: half the time on tight curves
+# one DAgger round: the model drives a fresh twisty road (`dagger_minutes`; the expert steers a tick with
+# probability 0.5), the expert labels every frame, 2 more epochs from the trained weights (docs/RESULTS.md, the demo)
+DAGGER = {"iterations": 1, "roads": "twisty", "beta": 0.5, "epochs": 2, "suite": None}
 
 
-def run_demo(out: str | Path, minutes: float, epochs: int, suite_minutes: float, workers: int = 2,
-             progress: bool = True) -> Path:
+def run_demo(out: str | Path, minutes: float, epochs: int, suite_minutes: float | None, dagger_minutes: float,
+             workers: int = 2, progress: bool = True) -> Path:
     """Defaults live in the `steerlab demo` command (cli.py); configs/recipe_pilotnet.yaml is the same recipe
     on the recording of road seed 3, with batches of 64 where the demo takes 16 (four times the updates: the
-    single-frame models drive twisty roads better with them, docs/RESULTS.md "Batches of 16")."""
+    single-frame models drive twisty roads better with them, docs/RESULTS.md "Batches of 16").
+    `suite_minutes`: minutes on each suite road (None: the suite's own, 3)."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     rec_dir = out / "recording"
@@ -38,32 +43,39 @@ def run_demo(out: str | Path, minutes: float, epochs: int, suite_minutes: float,
         "model": {"name": "pilotnet", "dropout": 0.3},
         "train": {"epochs": epochs, "patience": 3, "batch_size": 16, "lr": 3e-4, "flip": True,
                   "exclude_episodes": ["drift-out"], "side_cameras": True},
+        "dagger": {**DAGGER, "minutes": dagger_minutes, "workers": workers},
     })
-    ckpt = Path(cfg["out"]) / "best.pt"
-    if not (Path(cfg["out"]) / "done").exists():
-        print(f"[2/5] training PilotNet on frames 0:{split} (drift-out frames excluded)")
-        train(cfg, progress=progress)
-        (Path(cfg["out"]) / "done").touch()
+    print(f"[2/5] training PilotNet on frames 0:{split} (drift-out frames excluded), then one DAgger round")
+    ckpt = run_dagger(cfg, progress=progress)
     print(f"[3/5] open-loop evaluation on the held-out frames {split}:{n}")
     offline = evaluate(ckpt, rec_dir, f"{split}:{n}", out / "open-loop", progress=progress)
     print("[4/5] closed-loop replay of the held-out frames (the recording's frames warped to the car's view)")
     replay = run_replay([ckpt], rec_dir, out / "replay", f"{split}:{n}", workers=1, progress=progress)
-    print(f"[5/5] closed-loop suite: {suite_minutes} min on each of its unseen roads")
+    print(f"[5/5] closed-loop suite: {suite_minutes or 3:g} min on each of its unseen roads")
     summary = run_suite([ckpt], out / "closed-loop", minutes=suite_minutes, workers=workers, progress=progress)
+    with open(out / "pilotnet" / "dagger.csv") as f:
+        rounds = list(csv.DictReader(f))
     report = out / "report.md"
-    report.write_text(_report(offline, (out / "replay" / "replay.md").read_text(),
+    report.write_text(_report(offline, rounds, dagger_minutes, (out / "replay" / "replay.md").read_text(),
                               (out / "closed-loop" / "suite.md").read_text(), split, n))
-    (out / "summary.json").write_text(json.dumps({"open_loop": offline, "replay": replay, "closed_loop": summary},
-                                                 indent=1))
+    (out / "summary.json").write_text(json.dumps({"open_loop": offline, "dagger": rounds, "replay": replay,
+                                                 "closed_loop": summary}, indent=1))
     return report
 
 
-def _report(m: dict, replay_table: str, suite_table: str, split: int, n: int) -> str:
+def _report(m: dict, rounds: list[dict], dagger_minutes: float, replay_table: str, suite_table: str, split: int, n: int) -> str:
     sm = m["smoothed_a0.2"]
     lines = [
         "# steerlab demo report", "",
-        f"PilotNet trained on a synthetic recording (road seed {TRAIN_SEED}, frames 0:{split}), "
-        f"evaluated open loop on frames {split}:{n} and driven in closed loop on unseen roads.", "",
+        f"PilotNet trained on a synthetic recording (road seed {TRAIN_SEED}, frames 0:{split}) and by one DAgger "
+        f"round, evaluated open loop on frames {split}:{n} and driven in closed loop on unseen roads.", "",
+        "## DAgger", "",
+        f"Round 1: the trained model drove {dagger_minutes:g} minutes of a fresh {DAGGER['roads']} road (the "
+        f"expert steering a tick with probability {DAGGER['beta']}), the expert labelled every frame it saw, and "
+        f"{DAGGER['epochs']} more epochs trained on the recording and that drive.", "",
+        "| round | recordings | rollout autonomy [%] | val RMSE [rad] |", "|---|---|---|---|",
+        *[f"| {r['round']} | {r['recordings']} | {_pct(r['rollout_autonomy'])} | {float(r['val_rmse']):.4f} |"
+          for r in rounds], "",
         "## Open loop (held-out frames)", "",
         "| | RMSE [rad] | MAE [deg] | gamma [deg] | target gamma [deg] |", "|---|---|---|---|---|",
         f"| PilotNet | {m['rmse']:.4f} | {m['mae_deg']:.3f} | {m['gamma_deg']:.3f} | {m['target_gamma_deg']:.3f} |",
@@ -76,3 +88,7 @@ def _report(m: dict, replay_table: str, suite_table: str, split: int, n: int) ->
         "Trajectories: closed-loop/roads/*.png", "",
     ]
     return "\n".join(lines)
+
+
+def _pct(value: str) -> str:
+    return f"{float(value):.1f}" if value else "-"

@@ -10,6 +10,7 @@ from pathlib import Path
 import yaml
 
 from steerlab.data.geometry import STEERING_RATIO
+from steerlab.data.tub import is_tub
 from steerlab.errors import SteerlabError
 
 DEFAULTS = {
@@ -40,6 +41,9 @@ DEFAULTS = {
         "motion_dropout": 0.0,  # fraction of samples shown "no motion seen" (difference, flow, stacked frames)
         "target_shift_s": 0.0,  # train on the steering this many seconds ahead
         "recovery_weight": 1,   # samples in recovery episodes are drawn this many times per epoch
+        "keep": "best",         # best.pt: the epoch with the best validation score (stopping after `patience`
+                                # epochs without a better one), or the last epoch (validation only watched: a
+                                # refit whose validation block is the held-out one)
         "init": None,           # start from the weights of this checkpoint (same model and options)
         "device": "auto",       # auto (CUDA when present, else the CPU), cpu or cuda
         "tensorboard": False,   # also log every epoch to out/tensorboard (tensorboard --logdir out)
@@ -50,6 +54,15 @@ DEFAULTS = {
     "closed_loop": None,     # suite for steerlab tune --objective autonomy: {suite: v1, minutes, workers}
 }
 
+
+# What a config that leaves them out gets on a donkeycar tub, under the user's own settings: the model and loss
+# chosen on the selection blocks of both shared tubs (docs/RESULTS.md, "steerlab side by side with donkeycar").
+# multimodal-lstm had the lowest mean selection MAE of the two tubs; the MAE loss suits the nearly binary
+# steering of an RC car. The general defaults above (PilotNet, MSE) lose to donkeycar's linear model there.
+TUB_DEFAULTS = {
+    "model": {"name": "multimodal-lstm"},
+    "train": {"batch_size": 32, "lr": 3.0e-4, "loss": "mae"},
+}
 
 LOSSES = {"mse": "rmse", "mae": "mae"}  # train.loss -> the validation metric that picks the best epoch
 
@@ -89,6 +102,7 @@ SCHEMA = {
     "train.motion_dropout": (float, _finite(0, 1), "a number in [0, 1]"),
     "train.target_shift_s": (float, _finite(0), "a finite number of at least 0"),
     "train.recovery_weight": (int, lambda v: v >= 1, "an integer of at least 1"),
+    "train.keep": (str, lambda v: v in ("best", "last"), "best or last"),
     "train.init": (str, None, "a checkpoint path"),
     "train.device": (str, lambda v: v in ("auto", "cpu", "cuda"), "auto, cpu or cuda"),
     "model.dropout": (float, _finite(0, 1, hi_open=True), "a number in [0, 1)"),
@@ -145,8 +159,18 @@ def apply_override(cfg: dict, text: str) -> None:
     node[parts[-1]] = value if re.fullmatch(r"\s*\d*:\d*\s*", value) else yaml.safe_load(value)
 
 
+def _layered(layers: list[dict | None], overrides: list[str]) -> dict:
+    cfg = {}
+    for layer in layers:
+        cfg = _merge(cfg, layer)
+    for o in overrides:
+        apply_override(cfg, o)
+    return cfg
+
+
 def load_config(path: str | Path | None = None, overrides: list[str] = (), base: dict | None = None) -> dict:
-    """Defaults <- YAML file <- overrides. Relative data paths are taken relative to the working directory."""
+    """Defaults <- (on a donkeycar tub) TUB_DEFAULTS <- `base` <- YAML file <- overrides. Relative data paths
+    are taken relative to the working directory."""
     user = {}
     if path is not None:
         path = Path(path)
@@ -158,9 +182,9 @@ def load_config(path: str | Path | None = None, overrides: list[str] = (), base:
             raise SteerlabError(f"{path}: not valid YAML: {e}") from None
         if not isinstance(user, dict):
             raise SteerlabError(f"{path}: expected a mapping of sections (data, split, model, train, ...)")
-    cfg = _merge(_merge(DEFAULTS, base or {}), user)
-    for o in overrides:
-        apply_override(cfg, o)
+    cfg = _layered([DEFAULTS, base, user], overrides)
+    if isinstance(cfg["data"], str) and is_tub(Path(cfg["data"])):
+        cfg = _layered([DEFAULTS, TUB_DEFAULTS, base, user], overrides)
     unknown = set(cfg) - set(DEFAULTS)
     if unknown:
         raise SteerlabError(f"unknown config sections {sorted(unknown)}; known: {sorted(DEFAULTS)}")

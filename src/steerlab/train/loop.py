@@ -170,16 +170,17 @@ def train(cfg: dict, progress: bool = True, on_epoch=None) -> dict:
     if int(cfg["train"]["batch_size"]) % ranks.world:
         raise SteerlabError(f"train.batch_size {cfg['train']['batch_size']} is the global batch; it must divide "
                             f"evenly over {ranks.world} ranks")
+    init = load_checkpoint(cfg["train"]["init"]) if cfg["train"].get("init") else None  # a bad one: before any work
     if not ranks.main:  # rank 0 holds the lock for all ranks
-        return _train(cfg, ranks, progress, on_epoch)
+        return _train(cfg, ranks, progress, on_epoch, init)
     out.mkdir(parents=True, exist_ok=True)
     with folder_lock(out, "steerlab train run"):
         for tmp in out.glob("*.tmp-*"):  # left by a killed run: only the holder of the lock writes here
             tmp.unlink(missing_ok=True)
-        return _train(cfg, ranks, progress, on_epoch)
+        return _train(cfg, ranks, progress, on_epoch, init)
 
 
-def _train(cfg: dict, ranks: Ranks, progress: bool, on_epoch) -> dict:
+def _train(cfg: dict, ranks: Ranks, progress: bool, on_epoch, init: dict | None) -> dict:
     out = Path(cfg["out"])
     tc = cfg["train"]
     score = LOSSES[tc["loss"]]
@@ -208,8 +209,11 @@ def _train(cfg: dict, ranks: Ranks, progress: bool, on_epoch) -> dict:
     torch.manual_seed(int(tc["seed"]))
     model_cfg = model_options(cfg["model"], ds.config)
     model = create_model(name, **model_cfg)
-    if tc.get("init"):
-        init = load_checkpoint(tc["init"])
+    if init:
+        if init.get("geometry") != ds.meta["geometry"]:
+            raise SteerlabError(f"{tc['init']}: train.init was trained on the {init.get('geometry')!r} camera "
+                                f"geometry and {ds.meta['source']} has the {ds.meta['geometry']!r} geometry: "
+                                "pretrain on recordings of the same camera (steerlab sim record --geometry)")
         if init["model"] != name or init["model_cfg"] != model_cfg:
             raise SteerlabError(f"{tc['init']}: train.init must be a checkpoint of the same model and options "
                                 f"({name}, {model_cfg}); it holds {init['model']}, {init['model_cfg']}")
@@ -266,7 +270,7 @@ def _train(cfg: dict, ranks: Ranks, progress: bool, on_epoch) -> dict:
 
     rotation, brightness = float(tc["rotation_deg"]), float(tc["brightness"])
     for epoch in range(start, int(tc["epochs"]) + 1):
-        if since_best >= int(tc["patience"]):
+        if since_best >= int(tc["patience"]) and tc["keep"] == "best":
             break
         t0 = time.time()
         rng = np.random.default_rng([int(tc["seed"]), epoch])  # the same on every rank: the same global batches
@@ -291,7 +295,7 @@ def _train(cfg: dict, ranks: Ranks, progress: bool, on_epoch) -> dict:
             angles = (f"mae {m['mae_deg']:.2f} deg  gamma {m['gamma_deg']:.3f} (target {m['target_gamma_deg']:.3f})"
                       if np.isfinite(m["mae_deg"]) else f"mae {m['mae']:.4f} ({convention.unit})")
             print(f"epoch {epoch}: train loss {loss:.5f}  val rmse {m['rmse']:.4f}  {angles}{extra}")
-        if best is None or m[score] < best[score]:
+        if tc["keep"] == "last" or best is None or m[score] < best[score]:
             best, since_best = {**m, "epoch": epoch}, 0
             checkpoint(out / "best.pt", best)
             if ranks.main:

@@ -175,20 +175,22 @@ def steering_ahead(ds: CompiledDataset, seconds: float) -> np.ndarray:
 
 def training_sources(cfg: dict, ds: CompiledDataset, train_idx: np.ndarray, progress: bool):
     """The training streams and the codes of their training frames (see `Batches`): the main recording's
-    training split and every usable frame of the extra recordings, each with its side cameras (`side_cameras`)
-    and virtual views (`views`: [shift_m, yaw_deg] pairs) labelled with the recovery steering."""
+    training split and every usable frame of the extra recordings, each with its side cameras (`side_cameras`;
+    an extra recording without them, such as a DAgger rollout in replay, which records the view the car saw,
+    adds its centre frames only) and virtual views (`views`: [shift_m, yaw_deg] pairs) labelled with the
+    recovery steering."""
     tc = cfg["train"]
-    recordings = [(None, ds, train_idx)]
+    recordings = [(None, ds, train_idx, True)]
     for path in cfg.get("extra_data") or []:
         extra = prepare_dataset(cfg, progress, data=path)
         idx = usable_frames(extra, np.arange(len(extra)), f"extra recording {path}", float(tc["min_speed"]),
                             tc.get("exclude_episodes"))
-        recordings.append((path, extra, idx))
+        recordings.append((path, extra, idx, {"left", "right"} <= set(open_recording(path).cameras)))
     sources, codes, offset = [], [], 0
-    for path, main, idx in recordings:
+    for path, main, idx, sides in recordings:
         ahead = steering_ahead(main, float(tc["target_shift_s"]))
         streams = [(main, ahead)]
-        if tc["side_cameras"]:
+        if tc["side_cameras"] and sides:
             for cam, sign in (("left", 1.0), ("right", -1.0)):
                 side = prepare_dataset(cfg, progress, camera=cam, data=path)
                 streams.append((side, recovery_labels(side, ahead, sign * float(tc["side_offset_m"]), 0.0, tc)))
