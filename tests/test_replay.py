@@ -84,7 +84,7 @@ def test_replay_world_matches_the_renderer_and_labels_point_back(twisty):
         world.step(wheel[world.k])
     assert world.observe() == pytest.approx((0.0, 0.0), abs=1e-9)
     on_path = world.expert_steering()
-    assert on_path == pytest.approx(wheel[100], abs=0.01)  # on the path the label is about the human's steering
+    assert on_path == pytest.approx(wheel[100], abs=1e-9)  # on the path the label is the human's steering
     st = world.car.state
     world.car.state = type(st)(st.x + 0.5 * math.sin(st.psi), st.y - 0.5 * math.cos(st.psi), st.psi, st.v)
     offset, heading = world.observe()

@@ -37,7 +37,8 @@ RESULT_FIELDS = ["checkpoint", "recording", "segment", "frames", "km", "seconds"
 
 @dataclass
 class HumanPath:
-    """The path the human drove, one point per frame: time (s), pose (m, rad) and arc length (m), speed (m/s)."""
+    """The path the human drove, one point per frame: time (s), pose (m, rad) and arc length (m), speed (m/s)
+    and the human's road-wheel angle (rad, positive left)."""
 
     t: np.ndarray
     x: np.ndarray
@@ -45,6 +46,7 @@ class HumanPath:
     psi: np.ndarray
     s: np.ndarray
     v: np.ndarray
+    wheel: np.ndarray
 
 
 def human_path(road_wheel: np.ndarray, speed: np.ndarray, times_s: np.ndarray, params: VehicleParams) -> HumanPath:
@@ -57,7 +59,7 @@ def human_path(road_wheel: np.ndarray, speed: np.ndarray, times_s: np.ndarray, p
         pose.append((st.x, st.y, st.psi))
     x, y, psi = np.array(pose).T
     s = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(x), np.diff(y)))])
-    return HumanPath(np.asarray(times_s, float), x, y, psi, s, np.asarray(speed, float))
+    return HumanPath(np.asarray(times_s, float), x, y, psi, s, np.asarray(speed, float), np.asarray(road_wheel, float))
 
 
 class ReplayWorld:
@@ -136,13 +138,23 @@ class ReplayWorld:
         return shift_view(self.rec.load_frame(self.start + j), self.cam, shift, yaw)
 
     def expert_steering(self) -> float:
-        """Pure pursuit of the human's path: the road-wheel angle (rad, positive left) that brings the car back
-        to it (the label of a visited state; on the path it is about the human's own steering)."""
+        """The label of a visited state: the road-wheel angle (rad, positive left) that brings the car back to
+        the human's path. The human's own steering at the car's place on the path, plus the correction of pure
+        pursuit (pure pursuit of the path from the car's pose, minus pure pursuit from the path's own pose
+        there): on the path exactly the human's steering, as the recording labels it, and off it the
+        generalisation of paper 002's side-camera label (Eq. 3)."""
         st = self.car.state
-        lookahead = max(0.9 * st.v, 3.0 * self.params.wheelbase)
+        x, y, psi = self._pose(self.s)
+        return (float(self.path.wheel[self.frame_index()]) + self._pursuit(st.x, st.y, st.psi, st.v)
+                - self._pursuit(x, y, psi, st.v))
+
+    def _pursuit(self, x: float, y: float, psi: float, v: float) -> float:
+        """Pure pursuit of the path from a pose: the road-wheel angle towards the path point one lookahead
+        ahead of the car's arc length."""
+        lookahead = max(0.9 * v, 3.0 * self.params.wheelbase)
         tx, ty, _ = self._pose(self.s + lookahead)
-        alpha = (math.atan2(ty - st.y, tx - st.x) - st.psi + math.pi) % (2 * math.pi) - math.pi
-        return math.atan2(2 * self.params.wheelbase * math.sin(alpha), math.hypot(tx - st.x, ty - st.y))
+        alpha = (math.atan2(ty - y, tx - x) - psi + math.pi) % (2 * math.pi) - math.pi
+        return math.atan2(2 * self.params.wheelbase * math.sin(alpha), math.hypot(tx - x, ty - y))
 
     def step(self, road_wheel: float) -> None:
         p = self.path
@@ -272,7 +284,7 @@ def rollout_recording(pilot, rec: Recording, cam: Camera, car: Car, speed: float
                       beta: float, seed: int, frames=None, limit_m: float | None = None,
                       max_heading_deg: float = MAX_HEADING_DEG, on_tick=None) -> dict:
     """DAgger in replay: drive `pilot` over `rec` (or its `frames`) while, with probability `beta` each tick,
-    the expert (pure pursuit of the human's path) steers instead, and record every visited view labelled with
+    the expert (`ReplayWorld.expert_steering`: back to the human's path) steers instead, and record every visited view labelled with
     the expert's steering, in the recording's own convention and camera geometry, as a steerlab recording in
     `out`. Returns the drive's metrics."""
 
