@@ -96,7 +96,8 @@ def load_checkpoint(path: str | Path) -> dict:
 
 def model_from_checkpoint(ckpt: dict):
     pre = PreprocessConfig.from_dict(ckpt["preprocess"])
-    model = Ensemble(**ckpt["model_cfg"]) if ckpt["model"] == "ensemble" else create_model(ckpt["model"], **ckpt["model_cfg"])
+    name, options = ckpt["model"], ckpt["model_cfg"]
+    model = Ensemble(**options) if name == "ensemble" else create_model(name, **options)
     model.load_state_dict(ckpt["state_dict"])
     model.eval()
     return model, pre, SteeringConvention(**ckpt["convention"])
@@ -125,7 +126,8 @@ def save_ensemble(checkpoints: list[str | Path], out: str | Path) -> Path:
                                     f"{what.replace('_', ' ')}: an ensemble averages models that run alike")
     members = [{"model": c["model"], "model_cfg": c["model_cfg"], "stats": c["stats"]} for c in ckpts]
     ensemble = Ensemble(members)
-    ensemble.nets.load_state_dict({f"{k}.{name}": t for k, c in enumerate(ckpts) for name, t in c["state_dict"].items()})
+    ensemble.nets.load_state_dict({f"{k}.{name}": t for k, c in enumerate(ckpts)
+                                   for name, t in c["state_dict"].items()})
     channels = len(first["stats"]["mean"])
     save_checkpoint(out, ensemble, {"members": members}, PreprocessConfig.from_dict(first["preprocess"]),
                     {"mean": [0.0] * channels, "std": [1.0] * channels},

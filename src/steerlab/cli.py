@@ -309,8 +309,8 @@ def build_parser() -> argparse.ArgumentParser:
     q.set_defaults(func=cmd_tune)
 
     q = sub.add_parser("ensemble", help="one checkpoint that runs the mean of several (seeds, or models with the "
-                       "same inputs)", epilog="example: steerlab ensemble runs/ch2/seed0/best.pt runs/ch2/seed1/best.pt "
-                                              "runs/ch2/seed2/best.pt --out runs/ch2-ensemble.pt")
+                       "same inputs)", epilog="example: steerlab ensemble runs/ch2/seed0/best.pt "
+                                              "runs/ch2/seed1/best.pt runs/ch2/seed2/best.pt --out runs/ens.pt")
     q.add_argument("checkpoints", nargs="+", help="checkpoints (.pt) of the same preprocessing, camera geometry and "
                                                   "steering convention")
     q.add_argument("--out", required=True, help="checkpoint to write (.pt)")
@@ -453,7 +453,8 @@ OPTIONS = {
     "threads": (lambda v: v >= 1, "an integer of at least 1"),
     "frames": (lambda v: v >= 1, "an integer of at least 1"),
     **{name: (_positive, "positive and finite") for name in (
-        "minutes", "suite_minutes", "dagger_minutes", "chunk_minutes", "fps", "limit", "max_heading", "mount_height", "fov", "speed")},
+        "minutes", "suite_minutes", "dagger_minutes", "chunk_minutes", "fps", "limit", "max_heading", "mount_height",
+        "fov", "speed")},
     "set_speed": (lambda v: math.isfinite(v) and v >= 0, "a finite number of at least 0 (m/s)"),
 }
 

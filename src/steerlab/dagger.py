@@ -5,11 +5,11 @@ probability beta per tick the expert steers instead: beta = `beta` x `beta_decay
 expert label every visited frame, adds those recordings to the training data (`extra_data`) and trains again,
 starting from the previous round's weights. `world: synthetic` rolls out on fresh procedural roads (the
 expert: pure pursuit of the lane centre, `world.rollout`) and drives the closed-loop suite after every round
-(unless `suite` is null);
-`world: replay` rolls out in closed-loop replay over the training frames of the config's recording (the
-expert: the human's steering plus pure pursuit's way back to the path, `replay.rollout_recording`) and replays the validation frames after
-every round. `dagger.csv` and `dagger.png` show autonomy against the round. Every step is
-kept on disk and reused, so an interrupted run continues where it stopped. The final round's `best.pt`,
+(unless `suite` is null); `world: replay` rolls out in closed-loop replay over the training frames of the
+config's recording (the expert: the human's steering plus pure pursuit's way back to the path,
+`replay.rollout_recording`) and replays the validation frames after every round. `dagger.csv` and
+`dagger.png` show autonomy against the round. Every step is kept on disk and reused, so an interrupted run
+continues where it stopped. The final round's `best.pt`,
 `log.csv`, `val_predictions.csv` and `metrics.json` are copied to the output folder.
 """
 

@@ -63,7 +63,8 @@ def run_demo(out: str | Path, minutes: float, epochs: int, suite_minutes: float 
     return report
 
 
-def _report(m: dict, rounds: list[dict], dagger_minutes: float, replay_table: str, suite_table: str, split: int, n: int) -> str:
+def _report(m: dict, rounds: list[dict], dagger_minutes: float, replay_table: str, suite_table: str, split: int,
+            n: int) -> str:
     sm = m["smoothed_a0.2"]
     lines = [
         "# steerlab demo report", "",

@@ -284,9 +284,9 @@ def rollout_recording(pilot, rec: Recording, cam: Camera, car: Car, speed: float
                       beta: float, seed: int, frames=None, limit_m: float | None = None,
                       max_heading_deg: float = MAX_HEADING_DEG, on_tick=None) -> dict:
     """DAgger in replay: drive `pilot` over `rec` (or its `frames`) while, with probability `beta` each tick,
-    the expert (`ReplayWorld.expert_steering`: back to the human's path) steers instead, and record every visited view labelled with
-    the expert's steering, in the recording's own convention and camera geometry, as a steerlab recording in
-    `out`. Returns the drive's metrics."""
+    the expert (`ReplayWorld.expert_steering`: back to the human's path) steers instead, and record every
+    visited view labelled with the expert's steering, in the recording's own convention and camera geometry,
+    as a steerlab recording in `out`. Returns the drive's metrics."""
 
     params = VehicleParams(wheelbase=car.wheelbase, steering_ratio=car.steering_ratio)
     human = _road_wheel(rec, params.steering_ratio)
