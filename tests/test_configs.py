@@ -69,5 +69,7 @@ def test_a_donkeycar_tub_gets_the_tub_defaults_under_the_users_settings(tmp_path
     cfg = load_config(tmp_path / "mine.yaml", ["train.loss=mse"])
     assert (cfg["model"]["name"], cfg["train"]["loss"], cfg["train"]["epochs"], cfg["train"]["batch_size"]) == (
         "pilotnet", "mse", 4, 32)
+    cfg = load_config(None, [f"data={tub}", "model.name=two-stream-flow"])  # trains on a loss of its own
+    assert (cfg["train"]["loss"], cfg["train"]["batch_size"]) == ("mse", 32)
     cfg = load_config(None, [f"data={tmp_path / 'ch2'}"])
     assert (cfg["model"]["name"], cfg["train"]["loss"], cfg["train"]["batch_size"]) == ("pilotnet", "mse", 100)

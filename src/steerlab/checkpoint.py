@@ -20,7 +20,7 @@ import torch
 from steerlab.data.preprocess import PreprocessConfig
 from steerlab.data.recording import SteeringConvention
 from steerlab.errors import SteerlabError
-from steerlab.models import create_model
+from steerlab.models import create_model, model_class
 from steerlab.models.ensemble import Ensemble
 
 FORMAT = "steerlab-checkpoint-1"
@@ -110,7 +110,7 @@ def save_ensemble(checkpoints: list[str | Path], out: str | Path) -> Path:
     if len(checkpoints) < 2:
         raise SteerlabError("an ensemble needs at least two checkpoints")
     ckpts = [load_checkpoint(c) for c in checkpoints]
-    models = [model_from_checkpoint(c)[0] for c in ckpts]
+    models = [Ensemble if c["model"] == "ensemble" else model_class(c["model"]) for c in ckpts]
     first, path0 = ckpts[0], checkpoints[0]
     for path, ckpt, model in zip(checkpoints, ckpts, models):
         if ckpt["model"] == "ensemble":
@@ -129,6 +129,7 @@ def save_ensemble(checkpoints: list[str | Path], out: str | Path) -> Path:
     ensemble.nets.load_state_dict({f"{k}.{name}": t for k, c in enumerate(ckpts)
                                    for name, t in c["state_dict"].items()})
     channels = len(first["stats"]["mean"])
+    Path(out).parent.mkdir(parents=True, exist_ok=True)
     save_checkpoint(out, ensemble, {"members": members}, PreprocessConfig.from_dict(first["preprocess"]),
                     {"mean": [0.0] * channels, "std": [1.0] * channels},
                     SteeringConvention(**first["convention"]), {}, geometry=first.get("geometry"),

@@ -4,7 +4,8 @@ model, or models with the same preprocessing), built by `steerlab ensemble` (`ch
 It takes the frame as the Pilot prepares it before standardisation (its checkpoint's statistics are the
 identity), and each member standardises it with its own training statistics. Recurrent members' states are
 concatenated along the hidden axis, so a recurrent ensemble carries one (h, c) pair like a single recurrent
-model, and exports to ONNX the same way. It is not in the model registry: nothing trains it.
+model, and exports to ONNX the same way. Speed-command logits are averaged too (the command is their
+argmax). It is not in the model registry: nothing trains it.
 """
 
 from __future__ import annotations
@@ -34,14 +35,13 @@ class Ensemble(SteeringModel):
     def forward(self, x: torch.Tensor, speeds: torch.Tensor | None = None, state=None):
         kwargs = {} if speeds is None else {"speeds": speeds}
         outs, states = [], []
-        hs = cs = [None] * len(self.nets)
-        if state is not None:
-            hs, cs = (torch.split(s, self.hidden, dim=-1) for s in state)
+        if state is not None:  # one (h, c) pair: the members' states side by side on the hidden axis
+            state = list(zip(*(torch.split(s, self.hidden, dim=-1) for s in state)))
         for k, net in enumerate(self.nets):
             mean, std = getattr(self, f"mean{k}"), getattr(self, f"std{k}")
             if self.recurrent:
-                out, s = net((x - mean.unsqueeze(1)) / std.unsqueeze(1), state=None if state is None else
-                             (hs[k].contiguous(), cs[k].contiguous()), **kwargs)
+                own = None if state is None else tuple(s.contiguous() for s in state[k])
+                out, s = net((x - mean.unsqueeze(1)) / std.unsqueeze(1), state=own, **kwargs)
                 states.append(s)
             else:
                 out = net((x - mean) / std, **kwargs)

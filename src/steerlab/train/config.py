@@ -159,6 +159,12 @@ def apply_override(cfg: dict, text: str) -> None:
     node[parts[-1]] = value if re.fullmatch(r"\s*\d*:\d*\s*", value) else yaml.safe_load(value)
 
 
+def _model_class(name):
+    from steerlab.models import list_models, model_class
+
+    return model_class(name) if name in list_models() else None
+
+
 def _layered(layers: list[dict | None], overrides: list[str]) -> dict:
     cfg = {}
     for layer in layers:
@@ -184,7 +190,9 @@ def load_config(path: str | Path | None = None, overrides: list[str] = (), base:
             raise SteerlabError(f"{path}: expected a mapping of sections (data, split, model, train, ...)")
     cfg = _layered([DEFAULTS, base, user], overrides)
     if isinstance(cfg["data"], str) and is_tub(Path(cfg["data"])):
-        cfg = _layered([DEFAULTS, TUB_DEFAULTS, base, user], overrides)
+        plain, cfg = cfg, _layered([DEFAULTS, TUB_DEFAULTS, base, user], overrides)
+        if hasattr(_model_class(cfg["model"].get("name")), "loss"):  # a model that trains on a loss of its own
+            cfg["train"]["loss"] = plain["train"]["loss"]
     unknown = set(cfg) - set(DEFAULTS)
     if unknown:
         raise SteerlabError(f"unknown config sections {sorted(unknown)}; known: {sorted(DEFAULTS)}")

@@ -200,6 +200,15 @@ def _train(cfg: dict, ranks: Ranks, progress: bool, on_epoch, init: dict | None)
     ds = prepare_dataset(cfg, progress)
     if ranks.main:
         ranks.barrier()
+    model_cfg = model_options(cfg["model"], ds.config)
+    if init:  # before the other streams compile
+        if init.get("geometry", ds.meta["geometry"]) != ds.meta["geometry"]:  # older checkpoints record none
+            raise SteerlabError(f"{tc['init']}: train.init was trained on the {init['geometry']!r} camera "
+                                f"geometry and {ds.meta['source']} has the {ds.meta['geometry']!r} geometry: "
+                                "pretrain on recordings of the same camera (steerlab sim record --geometry)")
+        if init["model"] != name or init["model_cfg"] != model_cfg:
+            raise SteerlabError(f"{tc['init']}: train.init must be a checkpoint of the same model and options "
+                                f"({name}, {model_cfg}); it holds {init['model']}, {init['model_cfg']}")
     train_idx, val_idx = make_split(cfg["split"], len(ds), ds.labels.get("session"))
     min_speed = float(tc["min_speed"])
     train_idx = usable_frames(ds, train_idx, "training", min_speed, tc.get("exclude_episodes"))
@@ -207,16 +216,8 @@ def _train(cfg: dict, ranks: Ranks, progress: bool, on_epoch, init: dict | None)
     stats = channel_stats(ds.arrays, ds.config, train_idx, segment_starts(ds.labels["segment"]))
     sources, train_codes = training_sources(cfg, ds, train_idx, progress)
     torch.manual_seed(int(tc["seed"]))
-    model_cfg = model_options(cfg["model"], ds.config)
     model = create_model(name, **model_cfg)
     if init:
-        if init.get("geometry") != ds.meta["geometry"]:
-            raise SteerlabError(f"{tc['init']}: train.init was trained on the {init.get('geometry')!r} camera "
-                                f"geometry and {ds.meta['source']} has the {ds.meta['geometry']!r} geometry: "
-                                "pretrain on recordings of the same camera (steerlab sim record --geometry)")
-        if init["model"] != name or init["model_cfg"] != model_cfg:
-            raise SteerlabError(f"{tc['init']}: train.init must be a checkpoint of the same model and options "
-                                f"({name}, {model_cfg}); it holds {init['model']}, {init['model_cfg']}")
         model.load_state_dict(init["state_dict"])
     if hasattr(model, "loss") and tc["loss"] != "mse":
         raise SteerlabError(f"model {name!r} trains on a loss of its own; train.loss={tc['loss']} does not apply")
