@@ -26,6 +26,7 @@ from steerlab.data.writer import RecordingWriter
 from steerlab.errors import DataError, SteerlabError, warn
 from steerlab.sim.driving import TRAJECTORY, autonomy, drive_loop, drive_metrics
 from steerlab.sim.plots import plot_offsets
+from steerlab.sim.render import SIDE_OFFSET
 from steerlab.sim.vehicle import Vehicle, VehicleParams, VehicleState
 
 MAX_HEADING_DEG = 10.0  # beyond this the warped view shows too much of what the camera never saw
@@ -127,15 +128,17 @@ class ReplayWorld:
         lo, hi = np.searchsorted(s, s[j], "left"), np.searchsorted(s, s[j], "right")
         return int(np.clip(self.k, lo, hi - 1))
 
-    def render(self) -> np.ndarray:
+    def render(self, lateral: float = 0.0) -> np.ndarray:
         """The recorded frame at the car's arc length seen from the car: moved sideways and turned by the car's
-        pose relative to the human's pose at that frame."""
+        pose relative to the human's pose at that frame. `lateral`: seen from a camera that far to the left of
+        the car's centre (a rollout's side cameras)."""
         j, p, st = self.frame_index(), self.path, self.car.state
         dx, dy = st.x - p.x[j], st.y - p.y[j]
         shift = -math.sin(p.psi[j]) * dx + math.cos(p.psi[j]) * dy
         yaw = math.degrees((st.psi - p.psi[j] + math.pi) % (2 * math.pi) - math.pi)
-        self.view = (shift, yaw)
-        return shift_view(self.rec.load_frame(self.start + j), self.cam, shift, yaw)
+        if not lateral:
+            self.view = (shift, yaw)
+        return shift_view(self.rec.load_frame(self.start + j), self.cam, shift + lateral, yaw)
 
     def expert_steering(self) -> float:
         """The label of a visited state: the road-wheel angle (rad, positive left) that brings the car back to
@@ -286,19 +289,23 @@ def rollout_recording(pilot, rec: Recording, cam: Camera, car: Car, speed: float
     """DAgger in replay: drive `pilot` over `rec` (or its `frames`) while, with probability `beta` each tick,
     the expert (`ReplayWorld.expert_steering`: back to the human's path) steers instead, and record every
     visited view labelled with the expert's steering, in the recording's own convention and camera geometry,
-    as a steerlab recording in `out`. Returns the drive's metrics."""
+    as a steerlab recording in `out`. A recording with side cameras gets them in the rollout too, warped from
+    the recorded centre frame to SIDE_OFFSET either side of the car (training labels them as it labels recorded
+    side cameras). Returns the drive's metrics."""
 
     params = VehicleParams(wheelbase=car.wheelbase, steering_ratio=car.steering_ratio)
     human = _road_wheel(rec, params.steering_ratio)
     rng = np.random.default_rng([seed, 7])
-    writer = RecordingWriter(out, ["center"], convention=rec.convention)
+    sides = {"left", "right"} <= set(rec.cameras)
+    writer = RecordingWriter(out, ["center", "left", "right"] if sides else ["center"], convention=rec.convention)
     fps, trajs = rec.frame_rate(), []
     for a, b in replay_segments(rec, frames):
         world = _replay_world(rec, a, b, human, cam, params, speed, max_heading_deg)
         pilot.reset()
 
         def on_step(t, world=world, a=a):
-            writer.add({"center": t.frame}, {
+            views = {"left": world.render(SIDE_OFFSET), "right": world.render(-SIDE_OFFSET)} if sides else {}
+            writer.add({"center": t.frame, **views}, {
                 "timestamp_ns": int(rec.timestamps_ns[a + t.index]),
                 "steering": float(rec.convention.from_road_wheel_left(t.expert, params.steering_ratio)),
                 "speed": world.state.v, "throttle": 0.0, "brake": 0.0, "lateral_offset": t.offset,
@@ -308,7 +315,8 @@ def rollout_recording(pilot, rec: Recording, cam: Camera, car: Car, speed: float
                                 choose=lambda t: t.expert if rng.random() < beta else t.model, on_step=on_step,
                                 progress=False, on_tick=on_tick))
     writer.close({"source": str(rec.source), "geometry": rec.geometry, "fps": fps, "beta": beta, "policy": pilot.name,
-                  "wheelbase": car.wheelbase, "side_camera_offset_m": None}, params.steering_ratio)
+                  "wheelbase": car.wheelbase, "side_camera_offset_m": SIDE_OFFSET if sides else None},
+                 params.steering_ratio)
     return _result(np.vstack(trajs), fps, "all", len(rec) if frames is None else len(frames))
 
 

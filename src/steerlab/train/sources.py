@@ -176,8 +176,7 @@ def steering_ahead(ds: CompiledDataset, seconds: float) -> np.ndarray:
 def training_sources(cfg: dict, ds: CompiledDataset, train_idx: np.ndarray, progress: bool):
     """The training streams and the codes of their training frames (see `Batches`): the main recording's
     training split and every usable frame of the extra recordings, each with its side cameras (`side_cameras`;
-    an extra recording without them, such as a DAgger rollout in replay, which records the view the car saw,
-    adds its centre frames only) and virtual views (`views`: [shift_m, yaw_deg] pairs) labelled with the
+    an extra recording without them adds its centre frames only) and virtual views (`views`: [shift_m, yaw_deg] pairs) labelled with the
     recovery steering."""
     tc = cfg["train"]
     recordings = [(None, ds, train_idx, True)]
