@@ -1,0 +1,65 @@
+"""What an intervention count means on a recording: replay of the human's own steering, of the human's steering
+a few ticks late, and of steering straight, on the same frames and at the same speed as `steerlab replay`.
+
+The human's own steering rebuilds the path exactly (0 interventions: the replay is consistent); a human who
+reacts 0.1 or 0.2 s late and a driver who never steers bracket what a model's count means there.
+
+python benchmarks/replay_references.py --data ../shared/data/donkeycar/hall --range 4012:5015 \
+    --reader skip_missing=true --reader full_lock_deg=25 --speed 2
+"""
+
+import argparse
+
+from _common import machine
+
+from steerlab.data.geometry import CAMERAS, CARS
+from steerlab.data.readers import open_recording
+from steerlab.pilot import Controls
+from steerlab.sim.replay import replay_recording
+
+
+class Scripted:
+    """A pilot that answers tick k with the recorded steering of frame k - delay (or 0 for `None`)."""
+
+    def __init__(self, rec, delay: int | None):
+        self.rec, self.delay, self.k = rec, delay, 0
+        self.name, self.geometry, self.convention = "reference", rec.geometry, rec.convention
+
+    def reset(self) -> None:
+        pass
+
+    def step(self, frame, speed=None) -> Controls:
+        self.k += 1
+        if self.delay is None:
+            return Controls(0.0)
+        return Controls(float(self.rec.steering[min(max(self.k - 1 - self.delay, 0), len(self.rec) - 1)]))
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--data", required=True)
+    ap.add_argument("--range")
+    ap.add_argument("--labels")
+    ap.add_argument("--reader", action="append", default=[], help="reader option KEY=VALUE (repeatable)")
+    ap.add_argument("--speed", type=float, help="m/s (default: the recorded speed)")
+    args = ap.parse_args()
+    options = {}
+    for item in args.reader:
+        key, value = item.split("=", 1)
+        options[key] = {"true": True, "false": False}.get(value, float(value) if value.replace(".", "").isdigit()
+                                                          else value)
+    rec = open_recording(args.data, args.range, args.labels, options)
+    fps = rec.frame_rate()
+    print(f"machine: {machine()}\n\n{rec.name} {args.range or ''} at {args.speed or 'the recorded'} m/s:\n")
+    print("| reference | km | interventions | interventions/km | mean abs offset [m] |\n|---|---|---|---|---|")
+    for label, delay in (("the human's steering", 0), (f"the human's steering 2 ticks ({2 / fps:.2f} s) late", 2),
+                         (f"the human's steering 4 ticks ({4 / fps:.2f} s) late", 4), ("straight ahead (zero)", None)):
+        rows, _ = replay_recording(Scripted(rec, delay), rec, CAMERAS[rec.geometry], CARS[rec.geometry], args.speed,
+                                   CARS[rec.geometry].lane_limit_m)
+        r = next(r for r in rows if r["segment"] == "all")
+        print(f"| {label} | {r['km']:.3f} | {r['interventions']} | {r['interventions_per_km']:.1f} | "
+              f"{r['mean_offset_m']:.3f} |")
+
+
+if __name__ == "__main__":
+    main()
