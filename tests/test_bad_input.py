@@ -288,6 +288,12 @@ BAD_INPUTS = {
     "train init of another geometry": (lambda t, s: _train(f"train.init={made(t, geometry='ch2')}")(t, s),
                                        "model.pt: train.init was trained on the 'ch2' camera geometry and ",
                                        ("run/", "cache/")),  # known once the data is compiled (kept for reuse)
+    # distillation (train.teacher): a checkpoint that is not there, or that predicts in other units
+    "train teacher missing": (lambda t, s: _train(f"train.teacher={t / 'teacher.pt'}")(t, s),
+                              "teacher.pt: checkpoint not found"),
+    "train teacher of another convention": (
+        lambda t, s: _train(f"train.teacher={made(t, 'steering_wheel', 'left')}")(t, s),
+        "model.pt: train.teacher predicts steering_wheel/left steering and ", ("run/", "cache/")),
     # ensembles: members that the Pilot would run differently
     "ensemble of mixed conventions": (lambda t, s: ["ensemble", str(made(t, name="a.pt")),
                                                     str(made(t, "normalized", "right", name="b.pt")), "--out",

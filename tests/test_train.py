@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 import torch
 
+from steerlab.checkpoint import load_checkpoint
 from steerlab.errors import SteerlabError
 from steerlab.models import list_models, model_class
 from steerlab.evaluate.offline import evaluate
@@ -92,6 +93,23 @@ def test_an_extra_recording_without_side_cameras_adds_its_centre_frames(tiny_rec
         sources.training_sources({**cfg, "data": str(centre_only), "extra_data": []},
                                  sources.prepare_dataset({**cfg, "data": str(centre_only)}, progress=False),
                                  np.arange(n_extra), progress=False)
+
+
+def test_distillation_trains_on_the_teachers_predictions(tiny_recording, tiny_checkpoint, tmp_path):
+    """train.teacher: the main recording's targets are the teacher's streamed predictions (what `steerlab
+    evaluate` writes for it), side cameras add their recovery angle to them, validation keeps the recording."""
+    cfg = _cfg(tiny_recording, tmp_path, epochs=1, side_cameras=True, teacher=str(tiny_checkpoint))
+    ds = sources.prepare_dataset(cfg, progress=False)
+    streams, _ = sources.training_sources(cfg, ds, np.arange(240), False, load_checkpoint(tiny_checkpoint))
+    evaluate(tiny_checkpoint, tiny_recording, None, tmp_path / "teacher", progress=False)
+    with open(tmp_path / "teacher" / "predictions.csv") as f:
+        taught = np.array([float(r["steering_angle"]) for r in csv.DictReader(f)])
+    assert streams[0][1] == pytest.approx(taught, abs=1e-5)
+    assert not np.allclose(taught, ds.steering, atol=1e-3)  # the teacher is not the recording
+    left = sources.recovery_labels(streams[1][0], taught, 0.508, 0.0, cfg["train"])
+    assert streams[1][1] == pytest.approx(left, abs=1e-5)
+    best = loop.train(cfg, progress=False)
+    assert np.isfinite(best["rmse"])
 
 
 def test_side_camera_labels_hand_computed(tiny_recording, tmp_path):

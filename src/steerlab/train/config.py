@@ -45,6 +45,8 @@ DEFAULTS = {
                                 # epochs without a better one), or the last epoch (validation only watched: a
                                 # refit whose validation block is the held-out one)
         "init": None,           # start from the weights of this checkpoint (same model and options)
+        "teacher": None,        # distillation: train on this checkpoint's predictions (an ensemble, say) instead
+                                # of the recorded steering of the main recording
         "device": "auto",       # auto (CUDA when present, else the CPU), cpu or cuda
         "tensorboard": False,   # also log every epoch to out/tensorboard (tensorboard --logdir out)
     },
@@ -104,6 +106,7 @@ SCHEMA = {
     "train.recovery_weight": (int, lambda v: v >= 1, "an integer of at least 1"),
     "train.keep": (str, lambda v: v in ("best", "last"), "best or last"),
     "train.init": (str, None, "a checkpoint path"),
+    "train.teacher": (str, None, "a checkpoint path"),
     "train.device": (str, lambda v: v in ("auto", "cpu", "cuda"), "auto, cpu or cuda"),
     "model.dropout": (float, _finite(0, 1, hi_open=True), "a number in [0, 1)"),
 }

@@ -170,17 +170,18 @@ def train(cfg: dict, progress: bool = True, on_epoch=None) -> dict:
     if int(cfg["train"]["batch_size"]) % ranks.world:
         raise SteerlabError(f"train.batch_size {cfg['train']['batch_size']} is the global batch; it must divide "
                             f"evenly over {ranks.world} ranks")
-    init = load_checkpoint(cfg["train"]["init"]) if cfg["train"].get("init") else None  # a bad one: before any work
+    # checkpoints named by the config are read before any work: a bad one fails at once
+    init, teacher = (load_checkpoint(cfg["train"][k]) if cfg["train"].get(k) else None for k in ("init", "teacher"))
     if not ranks.main:  # rank 0 holds the lock for all ranks
-        return _train(cfg, ranks, progress, on_epoch, init)
+        return _train(cfg, ranks, progress, on_epoch, init, teacher)
     out.mkdir(parents=True, exist_ok=True)
     with folder_lock(out, "steerlab train run"):
         for tmp in out.glob("*.tmp-*"):  # left by a killed run: only the holder of the lock writes here
             tmp.unlink(missing_ok=True)
-        return _train(cfg, ranks, progress, on_epoch, init)
+        return _train(cfg, ranks, progress, on_epoch, init, teacher)
 
 
-def _train(cfg: dict, ranks: Ranks, progress: bool, on_epoch, init: dict | None) -> dict:
+def _train(cfg: dict, ranks: Ranks, progress: bool, on_epoch, init: dict | None, teacher: dict | None) -> dict:
     out = Path(cfg["out"])
     tc = cfg["train"]
     score = LOSSES[tc["loss"]]
@@ -214,7 +215,7 @@ def _train(cfg: dict, ranks: Ranks, progress: bool, on_epoch, init: dict | None)
     train_idx = usable_frames(ds, train_idx, "training", min_speed, tc.get("exclude_episodes"))
     val_idx = usable_frames(ds, val_idx, "validation", min_speed)
     stats = channel_stats(ds.arrays, ds.config, train_idx, segment_starts(ds.labels["segment"]))
-    sources, train_codes = training_sources(cfg, ds, train_idx, progress)
+    sources, train_codes = training_sources(cfg, ds, train_idx, progress, teacher)
     torch.manual_seed(int(tc["seed"]))
     model = create_model(name, **model_cfg)
     if init:

@@ -5,6 +5,8 @@ DAgger and the benchmarks build their data with the same functions as `train`.""
 
 from __future__ import annotations
 
+from functools import partial
+
 import numpy as np
 import torch
 
@@ -163,22 +165,55 @@ def recovery_labels(ds: CompiledDataset, steering: np.ndarray, shift_m: float, y
     return steering + conv.from_road_wheel_left(correction, float(tc["steering_ratio"]))
 
 
-def steering_ahead(ds: CompiledDataset, seconds: float) -> np.ndarray:
-    """Each frame's target is the steering `seconds` later in its segment (the segment's last value at its end)."""
+def steering_ahead(ds: CompiledDataset, seconds: float, steering: np.ndarray | None = None) -> np.ndarray:
+    """Each frame's target is the steering (`steering`, default the recorded one) `seconds` later in its
+    segment (the segment's last value at its end)."""
+    steering = ds.steering if steering is None else steering
     if not seconds:
-        return ds.steering
+        return steering
     k = int(round(seconds * ds.meta["frame_rate"]))
     seg = ds.labels["segment"]
     last = np.r_[np.flatnonzero(np.diff(seg)), len(seg) - 1]  # each segment's last frame
-    return ds.steering[np.minimum(np.arange(len(seg)) + k, last[seg])]
+    return steering[np.minimum(np.arange(len(seg)) + k, last[seg])]
 
 
-def training_sources(cfg: dict, ds: CompiledDataset, train_idx: np.ndarray, progress: bool):
+def teacher_steering(cfg: dict, teacher: dict, progress: bool) -> np.ndarray:
+    """Distillation (`train.teacher`): the steering a trained checkpoint (an ensemble, say) predicts for every
+    frame of the config's recording, streamed segment by segment as the Pilot drives; it replaces the recorded
+    steering as the training target of the main recording (validation still scores against the recording)."""
+    from tqdm import tqdm
+
+    from steerlab.evaluate.offline import conventions_match, describe
+    from steerlab.pilot import Pilot
+
+    rec = open_recording(cfg["data"], cfg.get("range"), cfg.get("labels"), cfg.get("reader"))
+    pilot = Pilot(teacher)
+    where = f"{cfg['train']['teacher']}: train.teacher"
+    if not conventions_match(pilot.convention, rec.convention):
+        raise SteerlabError(f"{where} predicts {describe(pilot.convention)} steering and {rec.source} records "
+                            f"{describe(rec.convention)} steering: a teacher of the recording's convention is needed")
+    if pilot.geometry != rec.geometry:
+        raise SteerlabError(f"{where} was trained on the {pilot.geometry!r} camera geometry and {rec.source} has "
+                            f"the {rec.geometry!r} geometry")
+    out = []
+    with tqdm(total=len(rec), desc="teacher", unit="frame", disable=None if progress else True) as bar:
+        for a, b in rec.segments():
+            pilot.reset()
+            speeds = None if rec.speed is None else rec.speed[a:b]
+            for c in pilot.stream(range(a, b), speeds, partial(rec.load_frame, camera=cfg.get("camera", "center"))):
+                out.append(c.steering)
+                bar.update()
+    return np.asarray(out, np.float32)
+
+
+def training_sources(cfg: dict, ds: CompiledDataset, train_idx: np.ndarray, progress: bool,
+                     teacher: dict | None = None):
     """The training streams and the codes of their training frames (see `Batches`): the main recording's
     training split and every usable frame of the extra recordings, each with its side cameras (`side_cameras`;
     an extra recording without them adds its centre frames only) and virtual views (`views`: [shift_m, yaw_deg] pairs) labelled with the
-    recovery steering."""
+    recovery steering. With a `teacher` checkpoint the main recording's targets are its predictions."""
     tc = cfg["train"]
+    taught = None if teacher is None else teacher_steering(cfg, teacher, progress)
     recordings = [(None, ds, train_idx, True)]
     for path in cfg.get("extra_data") or []:
         extra = prepare_dataset(cfg, progress, data=path)
@@ -187,7 +222,7 @@ def training_sources(cfg: dict, ds: CompiledDataset, train_idx: np.ndarray, prog
         recordings.append((path, extra, idx, {"left", "right"} <= set(open_recording(path).cameras)))
     sources, codes, offset = [], [], 0
     for path, main, idx, sides in recordings:
-        ahead = steering_ahead(main, float(tc["target_shift_s"]))
+        ahead = steering_ahead(main, float(tc["target_shift_s"]), taught if path is None else None)
         streams = [(main, ahead)]
         if tc["side_cameras"] and sides:
             for cam, sign in (("left", 1.0), ("right", -1.0)):
