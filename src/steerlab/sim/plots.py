@@ -37,9 +37,18 @@ def plot_trajectory(path: str | Path, road, trajs: dict[str, np.ndarray], title:
 
 
 def plot_rounds(path: str | Path, rows: list[dict]) -> None:
-    """DAgger: closed-loop autonomy per road type, or in replay (and the validation RMSE) against the round."""
+    """DAgger: closed-loop autonomy per road type, or in replay (and the validation RMSE) against the round;
+    the validation RMSE alone when the rounds were not driven (`suite: null`)."""
     with figure(path, figsize=(7, 4)) as (fig, ax):
         rounds = [int(r["round"]) for r in rows]
+        rmse = [float(r["val_rmse"]) for r in rows]
+        if not any(r.get(k, "") != "" for r in rows for k in ("autonomy_all", "replay_autonomy")):
+            ax.plot(rounds, rmse, "kx:")
+            ax.set_xlabel("DAgger round")
+            ax.set_ylabel("validation RMSE [rad]")
+            ax.set_xticks(rounds)
+            ax.grid(alpha=0.3)
+            return
         for key, style, label in [("autonomy_country", "o-", "country"), ("autonomy_highway", "s-", "highway"),
                                   ("autonomy_twisty", "^-", "twisty"), ("autonomy_all", "k.--", "all"),
                                   ("replay_autonomy", "kD-", "replay")]:
@@ -52,7 +61,7 @@ def plot_rounds(path: str | Path, rows: list[dict]) -> None:
         ax.set_xticks(rounds)
         ax.grid(alpha=0.3)
         ax2 = ax.twinx()
-        ax2.plot(rounds, [float(r["val_rmse"]) for r in rows], color="0.6", ls=":", marker="x", label="val RMSE")
+        ax2.plot(rounds, rmse, color="0.6", ls=":", marker="x", label="val RMSE")
         ax2.set_ylabel("validation RMSE [rad]", color="0.4")
         lines = ax.get_legend_handles_labels()
         extra = ax2.get_legend_handles_labels()
