@@ -114,6 +114,12 @@ def _code_in_checkpoint(tmp_path, stack):
     return ["evaluate", str(path), "--data", str(tmp_path / "sim"), "--out", str(tmp_path / "eval")]
 
 
+def _truncated(path):
+    """A checkpoint cut off after its first kilobyte (a copy that did not finish)."""
+    path.write_bytes(path.read_bytes()[:1000])
+    return path
+
+
 def _locked(tmp_path, stack):
     """`out` is held by another run (here: the lock taken by this process, on another open file)."""
     from steerlab.locks import folder_lock
@@ -305,6 +311,9 @@ BAD_INPUTS = {
     "ensemble to a file not .pt": (lambda t, s: ["ensemble", str(made(t, name="a.pt")), str(made(t, name="b.pt")),
                                                  "--out", str(t / "e.onnx")],
                                    "e.onnx: the ensemble is a checkpoint: its file must end in .pt"),
+    "ensemble with a truncated member": (lambda t, s: ["ensemble", str(made(t, name="a.pt")),
+                                                       str(_truncated(made(t, name="b.pt"))), "--out", str(t / "e.pt")],
+                                         "b.pt: not a readable checkpoint"),
     "ensemble of one": (lambda t, s: ["ensemble", str(made(t)), "--out", str(t / "e.pt")],
                         "an ensemble needs at least two checkpoints"),
     # e) a second run into the same out folder
