@@ -284,7 +284,11 @@ BAD_INPUTS = {
         ("model.dropout=2", "a number in [0, 1)", "2"),
         ("train.loss=l2", "mse or mae", "'l2'"),
         ("train.keep=first", "best or last", "'first'"),
+        ("train.smoothness=-0.5", "a finite number of at least 0", "-0.5"),
     ]},
+    # smoothness in the loss needs windows of consecutive frames
+    "train smoothness of a single-frame model": (_train("train.smoothness=1", "model.name=pilotnet"),
+                                                 "train.smoothness needs a recurrent model"),
     # d) a loss that is not finite stops training and never becomes the best checkpoint
     "train diverges": (_train("train.lr=1e30", "train.epochs=2"), "training diverged in epoch 1: the training loss is",
                        ("run/", "cache/")),

@@ -71,6 +71,28 @@ def test_mae_loss_hand_computed_and_picks_best_epoch_by_mae(tiny_recording, tmp_
         loop.train(cfg, progress=False)
 
 
+def test_smoothness_term_hand_computed_and_recurrent_only(tiny_recording, tmp_path):
+    """One window of three frames: predictions 0, 1, 1 against labels 0, 0, 2. Steering errors 0, 1, -1;
+    changes predicted 1, 0 against recorded 0, 2, so change errors 1, -2."""
+    out, y = {"steering": torch.tensor([[0.0, 1.0, 1.0]])}, {"steering": torch.tensor([[0.0, 0.0, 2.0]])}
+    net = torch.nn.Linear(1, 1)
+    assert float(loop.objective(net, out, y, "mse", 0.5)) == pytest.approx(2 / 3 + 0.5 * 5 / 2)
+    assert float(loop.objective(net, out, y, "mae", 0.5)) == pytest.approx(2 / 3 + 0.5 * 3 / 2)
+    assert float(loop.objective(net, out, y, "mse", 0.0)) == pytest.approx(2 / 3)
+    runs = {}
+    for weight in (0.0, 100.0):  # the term reaches training: the same seed, a much higher training loss
+        cfg = _cfg(tiny_recording, tmp_path / str(weight), epochs=1, smoothness=weight)
+        cfg["model"] = {"name": "lstm", "seq_len": 5}
+        loop.train(cfg, progress=False)
+        with open(tmp_path / str(weight) / "run" / "log.csv") as f:
+            runs[weight] = float(next(csv.DictReader(f))["train_loss"])
+    assert runs[100.0] > 1.5 * runs[0.0]
+    with pytest.raises(SteerlabError, match="train.smoothness needs a recurrent model"):
+        loop.train(_cfg(tiny_recording, tmp_path, smoothness=1.0), progress=False)
+    with pytest.raises(SteerlabError, match="train.smoothness must be a finite number of at least 0, got -1"):
+        loop.train(_cfg(tiny_recording, tmp_path, smoothness=-1), progress=False)
+
+
 def test_side_cameras_and_episode_filter(tiny_recording, tmp_path):
     cfg = _cfg(tiny_recording, tmp_path, epochs=1, side_cameras=True, exclude_episodes=["drift-out"])
     loop.train(cfg, progress=False)
@@ -109,7 +131,9 @@ def test_distillation_trains_on_the_teachers_predictions(tiny_recording, tiny_ch
     left = sources.recovery_labels(streams[1][0], taught, 0.508, 0.0, cfg["train"])
     assert streams[1][1] == pytest.approx(left, abs=1e-5)
     best = loop.train(cfg, progress=False)
-    assert np.isfinite(best["rmse"])
+    with open(tmp_path / "run" / "val_predictions.csv") as f:
+        pred = np.array([float(r["steering_angle"]) for r in csv.DictReader(f)])
+    assert best["rmse"] == pytest.approx(np.sqrt(np.mean((pred - ds.steering[240:300]) ** 2)), rel=1e-4)
 
 
 def test_side_camera_labels_hand_computed(tiny_recording, tmp_path):

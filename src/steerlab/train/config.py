@@ -28,6 +28,8 @@ DEFAULTS = {
         "epochs": 30, "batch_size": 100, "lr": 1e-4, "patience": 5, "flip": False, "seed": 0,
         "loss": "mse",        # mse or mae of the steering (models with a loss of their own keep it); the best
                               # epoch is the one with the lowest validation RMSE (mse) or MAE (mae)
+        "smoothness": 0.0,    # recurrent models: plus this weight times the same loss on the steering's change
+                              # between consecutive frames (smoothness in the cost function, paper 000's outlook)
         "exclude_episodes": [],  # e.g. [drift-out] to train on the recovery half of drift episodes only
         # side-camera recovery synthesis (paper 002 Eq. 3): left/right frames with a recovery angle added
         "side_cameras": False, "side_offset_m": 0.508, "recovery_s": 1.0, "steering_ratio": STEERING_RATIO,
@@ -90,6 +92,7 @@ SCHEMA = {
     "train.flip": (bool, None, "true or false"),
     "train.tensorboard": (bool, None, "true or false"),
     "train.loss": (str, lambda v: v in LOSSES, " or ".join(LOSSES)),
+    "train.smoothness": (float, _finite(0), "a finite number of at least 0"),
     "train.exclude_episodes": (list, lambda v: all(isinstance(e, str) for e in v), "a list of episode names"),
     "train.side_cameras": (bool, None, "true or false"),
     "train.side_offset_m": (float, _finite(), "a finite number"),

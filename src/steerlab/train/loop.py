@@ -27,24 +27,33 @@ from steerlab.errors import SteerlabError
 from steerlab.evaluate.metrics import all_metrics
 from steerlab.evaluate.scoring import write_predictions
 from steerlab.locks import folder_lock
-from steerlab.models import create_model
+from steerlab.models import create_model, model_class
 from steerlab.train.config import LOSSES, check_config
 from steerlab.train.distributed import Ranks, setup, wrap
 from steerlab.train.sources import (Batches, balanced, model_options, model_preprocess, prepare_dataset,
-                                    recovery_weighted, sequence_windows, training_sources, usable_frames)
+                                    recovery_weighted, sequence_windows, steering_ahead, training_sources,
+                                    usable_frames)
 
 
-def objective(model, out: dict, targets: dict, loss: str = "mse") -> torch.Tensor:
-    """The model's own loss when it has one, otherwise the MSE or the MAE of its steering."""
-    if hasattr(model, "loss"):
-        return model.loss(out, targets)
-    error = out["steering"] - targets["steering"]
+def _mean_error(error: torch.Tensor, loss: str) -> torch.Tensor:
     return torch.mean(error ** 2) if loss == "mse" else torch.mean(error.abs())
+
+
+def objective(model, out: dict, targets: dict, loss: str = "mse", smoothness: float = 0.0) -> torch.Tensor:
+    """The model's own loss when it has one, otherwise the MSE or the MAE of its steering; with `smoothness`,
+    plus that weight times the same error of the steering's change from frame to frame within each window
+    (recurrent outputs (B, T): the predicted change against the recorded one)."""
+    value = (model.loss(out, targets) if hasattr(model, "loss")
+             else _mean_error(out["steering"] - targets["steering"], loss))
+    if smoothness:
+        change = torch.diff(out["steering"], dim=-1) - torch.diff(targets["steering"], dim=-1)
+        value = value + smoothness * _mean_error(change, loss)
+    return value
 
 
 def train_one_epoch(model, opt, batches: Batches, samples: np.ndarray, batch_size: int, flip: bool,
                     rng: np.random.Generator, transform=None, motion_dropout: float = 0.0, progress: bool = True,
-                    desc: str = "", ranks: Ranks = Ranks(), loss_name: str = "mse") -> float:
+                    desc: str = "", ranks: Ranks = Ranks(), loss_name: str = "mse", smoothness: float = 0.0) -> float:
     """One pass over `samples`: frame codes (M,), or windows (M, T) of frame codes for recurrent models.
     Flips and motion dropout are drawn per sample (per window: a window is mirrored or still as a whole).
     With several ranks every rank draws the same global batches and trains on its contiguous share of each."""
@@ -69,7 +78,7 @@ def train_one_epoch(model, opt, batches: Batches, samples: np.ndarray, batch_siz
                                for d in (inputs, targets))
         inputs, targets = ({k: v.to(ranks.device) for k, v in d.items()} for d in (inputs, targets))
         out = model(**inputs)
-        loss = objective(net, out[0] if net.recurrent else out, targets, loss_name)  # (out, state)
+        loss = objective(net, out[0] if net.recurrent else out, targets, loss_name, smoothness)  # (out, state)
         opt.zero_grad(set_to_none=True)
         (loss * share if ranks.world > 1 else loss).backward()
         opt.step()
@@ -170,6 +179,10 @@ def train(cfg: dict, progress: bool = True, on_epoch=None) -> dict:
     if int(cfg["train"]["batch_size"]) % ranks.world:
         raise SteerlabError(f"train.batch_size {cfg['train']['batch_size']} is the global batch; it must divide "
                             f"evenly over {ranks.world} ranks")
+    name = cfg["model"]["name"]
+    if float(cfg["train"]["smoothness"]) and not model_class(name).recurrent:
+        raise SteerlabError(f"train.smoothness needs a recurrent model (it trains on windows of consecutive "
+                            f"frames); {name!r} sees single frames in shuffled batches")
     # checkpoints named by the config are read before any work: a bad one fails at once
     init, teacher = (load_checkpoint(cfg["train"][k]) if cfg["train"].get(k) else None for k in ("init", "teacher"))
     if not ranks.main:  # rank 0 holds the lock for all ranks
@@ -241,7 +254,8 @@ def _train(cfg: dict, ranks: Ranks, progress: bool, on_epoch, init: dict | None,
     if all(p.dim() != 5 for p in model.parameters()):  # channels-last exists for 2-D convolutions only
         model = model.to(memory_format=torch.channels_last)
     convention = SteeringConvention(**ds.meta["convention"])
-    truth = {"steering": sources[0][1][val_idx], **{k: v[val_idx] for k, v in batches.targets.items()}}
+    recorded = steering_ahead(ds, float(tc["target_shift_s"]))  # the recording's, also under a teacher
+    truth = {"steering": recorded[val_idx], **{k: v[val_idx] for k, v in batches.targets.items()}}
 
     def checkpoint(path, metrics, **extra):
         if ranks.main:
@@ -282,7 +296,7 @@ def _train(cfg: dict, ranks: Ranks, progress: bool, on_epoch, init: dict | None,
         epoch_samples = balanced(samples, batches.steering(samples), rng) if tc["balance"] else samples
         loss = train_one_epoch(step_model, opt, batches, epoch_samples, int(tc["batch_size"]), bool(tc["flip"]),
                                rng, transform, float(tc["motion_dropout"]), progress, desc=f"epoch {epoch}",
-                               ranks=ranks, loss_name=tc["loss"])
+                               ranks=ranks, loss_name=tc["loss"], smoothness=float(tc["smoothness"]))
         pred = predict(model, batches, val_idx)
         m = all_metrics(pred, truth, convention.degrees_per_unit)
         for what, value in (("training loss", loss), (f"validation {score}", m[score])):
