@@ -86,6 +86,14 @@ def _train(*overrides):
     return lambda tmp_path, stack: ["train", str(config(tmp_path, sim_log(tmp_path / "sim"))), *overrides]
 
 
+def _dagger_of_another_config(tmp_path, stack):
+    """A DAgger folder that holds a run of other settings: reusing its rollouts would be silent garbage."""
+    cfg = config(tmp_path, sim_log(tmp_path / "sim"))
+    (tmp_path / "run").mkdir()
+    (tmp_path / "run" / "dagger.json").write_text(json.dumps({"dagger": {"minutes": 9}}))
+    return ["sim", "dagger", str(cfg)]
+
+
 def _flipped(tmp_path, stack):
     best = trained(tmp_path)
     data = bytearray(best.read_bytes())
@@ -286,6 +294,8 @@ BAD_INPUTS = {
         ("train.keep=first", "best or last", "'first'"),
         ("train.smoothness=-0.5", "a finite number of at least 0", "-0.5"),
     ]},
+    "sim dagger into another config's folder": (_dagger_of_another_config,
+                                                "run holds a DAgger run with another config; choose a new out"),
     # smoothness in the loss needs windows of consecutive frames
     "train smoothness of a single-frame model": (_train("train.smoothness=1", "model.name=pilotnet"),
                                                  "train.smoothness needs a recurrent model"),

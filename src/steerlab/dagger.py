@@ -70,6 +70,7 @@ def run_dagger(cfg: dict, progress: bool = True) -> Path:
 
     opts = dagger_options(cfg)
     out = Path(cfg["out"])
+    _claim(out, cfg)
     base = {k: v for k, v in copy.deepcopy(cfg).items() if k != "dagger"}
     types = road_types(opts["roads"])
     replay = SplitReplay(cfg, opts["speed"], int(opts["workers"])) if opts["world"] == "replay" else None
@@ -126,6 +127,18 @@ def run_dagger(cfg: dict, progress: bool = True) -> Path:
     for name in ("best.pt", "log.csv", "val_predictions.csv", "metrics.json"):
         shutil.copyfile(out / f"round{len(rows) - 1}" / name, out / name)
     return out / "best.pt"
+
+
+def _claim(out: Path, cfg: dict) -> None:
+    """Record the run's config in `out/dagger.json`; a folder that holds a run of another config (other than
+    in its number of workers) is refused, so that no rollout or round of other settings is silently reused."""
+    mine = json.loads(json.dumps(cfg))
+    mine["dagger"] = {k: v for k, v in (mine.get("dagger") or {}).items() if k != "workers"}
+    path = out / "dagger.json"
+    if path.exists() and json.loads(path.read_text()) != mine:
+        raise SteerlabError(f"{out} holds a DAgger run with another config; choose a new out directory or delete it")
+    out.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(mine, indent=1))
 
 
 FIELDS = ["round", "beta", "recordings", "rollout_autonomy", "val_rmse", "autonomy_country", "autonomy_highway",
