@@ -377,6 +377,7 @@ BAD_INPUTS = {
     "serve smoothing -1": (lambda t, s: ["serve", str(made(t)), "--smoothing", "-1"],
                            "--smoothing must be a number in (0, 1], got -1"),
     "replay workers 0": (_with("--workers", "0", command="replay"), "--workers must be an integer of at least 1"),
+    "replay smoothing 0": (_with("--smoothing", "0", command="replay"), "--smoothing must be a number in (0, 1], got 0"),
     "replay limit -1": (_with("--limit", "-1", command="replay"), "--limit must be positive and finite, got -1"),
     "replay max heading inf": (_with("--max-heading", "inf", command="replay"),
                                "--max-heading must be positive and finite, got inf"),

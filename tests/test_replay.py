@@ -1,6 +1,7 @@
 """Closed-loop replay on recordings: the rebuilt path, the replay world, the metrics, the command and its errors."""
 
 import csv
+import json
 import math
 
 import cv2
@@ -155,6 +156,13 @@ def test_replay_command_writes_its_report(tiny_checkpoint, twisty, tmp_path, cap
                  "--out", str(tmp_path / "given"), "--workers", "1"]) == 0
     given = next(csv.DictReader(open(tmp_path / "given" / "replay.csv")))
     assert given["speed_source"] == "given (--speed)" and float(given["speed_mps"]) == pytest.approx(9.0)
+    # --smoothing smooths the commands as when driving: the first tick is the same command, the second the mix
+    assert main(["replay", str(tiny_checkpoint), "--data", str(twisty.source), "--range", "0:200", "--smoothing",
+                 "0.2", "--out", str(tmp_path / "smooth"), "--workers", "1"]) == 0
+    smooth = np.loadtxt(next((tmp_path / "smooth").glob("*/trajectory.csv")), delimiter=",", skiprows=1, ndmin=2)[:, 5]
+    assert smooth[0] == pytest.approx(traj[0, 5], abs=1e-4)
+    assert smooth[1] == pytest.approx(0.2 * traj[1, 5] + 0.8 * traj[0, 5], abs=1e-4)
+    assert json.loads((tmp_path / "smooth" / "replay.json").read_text())["smoothing"] == 0.2
 
 
 def test_replay_without_speed_needs_one(tiny_checkpoint, twisty, tmp_path, capsys):

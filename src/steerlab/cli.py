@@ -217,7 +217,7 @@ def cmd_replay(a) -> None:
               if v is not None}
     start = time.perf_counter()
     run_replay(a.checkpoints, a.data, a.out, a.range, a.labels, _reader_options(a.reader), a.speed, camera, a.limit,
-               a.max_heading, a.video, a.workers)
+               a.max_heading, a.video, a.workers, smoothing=a.smoothing)
     print((Path(a.out) / "replay.md").read_text())
     print(f"wrote {a.out}/replay.md, replay.csv, segments.csv, replay.png, */trajectory.csv"
           + (f", {a.video}" if a.video else "") + f" in {time.perf_counter() - start:.0f} s")
@@ -422,6 +422,8 @@ def build_parser() -> argparse.ArgumentParser:
     q.add_argument("--pitch", type=float, help="camera pitch, degrees down (default: the geometry's)")
     q.add_argument("--fov", type=float, help="horizontal field of view, degrees (default: the geometry's)")
     q.add_argument("--workers", type=int, default=2, help="checkpoints replayed in parallel (default 2)")
+    q.add_argument("--smoothing", type=float, help="exponential smoothing factor a of the steering, as when driving "
+                                                   "(paper 002: 0.2)")
     q.set_defaults(func=cmd_replay)
 
     q = sub.add_parser("demo", help="the whole pipeline on synthetic data: record, train (with one DAgger round), "

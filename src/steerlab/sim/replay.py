@@ -332,14 +332,14 @@ def _result(t: np.ndarray, fps: float, segment: str, frames: int) -> dict:
 
 
 def _job(checkpoint: str, label: str, source: dict, cam: Camera, car: Car, speed: float | None, limit_m: float,
-         max_heading_deg: float, video: str | None, out: str) -> list[dict]:
+         max_heading_deg: float, video: str | None, out: str, smoothing: float | None = None) -> list[dict]:
     """One checkpoint on one recording (in a worker process): result rows, and the trajectory in `out`."""
     from steerlab.data.readers import open_recording
     from steerlab.pilot import Pilot
     from steerlab.sim.bench import tick_reporter
 
     rec = open_recording(source["data"], source["range"], source["labels"], source["reader"])
-    rows, traj = replay_recording(Pilot(checkpoint), rec, cam, car, speed, limit_m, max_heading_deg, video,
+    rows, traj = replay_recording(Pilot(checkpoint, smoothing=smoothing), rec, cam, car, speed, limit_m, max_heading_deg, video,
                                   source["frames"], on_tick=tick_reporter())
     Path(out).mkdir(parents=True, exist_ok=True)
     with open(Path(out) / "trajectory.csv", "w", newline="") as f:
@@ -352,12 +352,14 @@ def _job(checkpoint: str, label: str, source: dict, cam: Camera, car: Car, speed
 def run_replay(checkpoints, data: str | Path, out: str | Path, frame_range: str | None = None,
                labels: str | Path | None = None, reader: dict | None = None, speed: float | None = None,
                camera: dict | None = None, limit_m: float | None = None, max_heading_deg: float = MAX_HEADING_DEG,
-               video: str | Path | None = None, workers: int = 2, frames=None, progress: bool = True) -> list[dict]:
+               video: str | Path | None = None, workers: int = 2, frames=None, progress: bool = True,
+               smoothing: float | None = None) -> list[dict]:
     """Replay every checkpoint on the recording `data` (only its `frames`, if given, e.g. a validation split;
     checkpoints in parallel worker processes); write
     `replay.csv` (one row per checkpoint and recording), `segments.csv` (per segment), `replay.md`, `replay.png`
     (the offset along the route, interventions marked) and `LABEL/trajectory.csv`. `camera`: overrides of the
-    recording's camera geometry (mount_height, pitch_deg, hfov_deg). Returns the rows of replay.csv."""
+    recording's camera geometry (mount_height, pitch_deg, hfov_deg); `smoothing`: the Pilot's exponential
+    smoothing of the steering, as when driving. Returns the rows of replay.csv."""
     from steerlab.data.geometry import CAMERAS, CARS, with_overrides
     from steerlab.data.readers import open_recording
     from steerlab.pilot import Pilot
@@ -393,7 +395,7 @@ def run_replay(checkpoints, data: str | Path, out: str | Path, frame_range: str 
     source_spec = {"data": str(data), "range": frame_range, "labels": None if labels is None else str(labels),
                    "reader": reader, "frames": None if frames is None else [int(i) for i in frames]}
     limit = car.lane_limit_m if limit_m is None else limit_m
-    jobs = [(str(c), n, source_spec, cam, car, speed, limit, max_heading_deg, v, str(out / n))
+    jobs = [(str(c), n, source_spec, cam, car, speed, limit, max_heading_deg, v, str(out / n), smoothing)
             for c, n, v in zip(checkpoints, names, videos)]
     minutes = sum(b - a for a, b in segments) / rec.frame_rate() / 60
     results = run_parallel(_job, jobs, workers, minutes, progress, "replay")
@@ -407,7 +409,8 @@ def run_replay(checkpoints, data: str | Path, out: str | Path, frame_range: str 
     whole = [r for r in rows if r["segment"] == "all"]
     (out / "replay.md").write_text(markdown(whole, limit, max_heading_deg))
     (out / "replay.json").write_text(json.dumps({"data": str(data), "range": frame_range, "camera": cam.__dict__,
-                                                 "car": car.__dict__, "limit_m": limit, "rows": rows}, indent=1))
+                                                 "car": car.__dict__, "limit_m": limit, "smoothing": smoothing,
+                                                 "rows": rows}, indent=1))
     plot_offsets(out / "replay.png", {n: np.loadtxt(out / n / "trajectory.csv", delimiter=",", skiprows=1, ndmin=2)
                                       for n in names}, limit, f"replay on {rec.name}")
     return whole
