@@ -5,6 +5,7 @@ from steerlab.data.dataset import compile_recording
 from steerlab.data.modalities import frame_difference, optical_flow
 from steerlab.data.preprocess import PreprocessConfig, crop_resize, preprocess
 from steerlab.data.readers import open_recording
+from steerlab.data.recording import SteeringConvention
 from steerlab.errors import SteerlabError
 from steerlab.data.inputs import channel_stats, flip_horizontal, no_motion, stack_modalities
 
@@ -104,6 +105,10 @@ def test_compile_segments_modalities_and_reuse(ch2_folder, tmp_path):
     again = compile_recording(rec, cfg, tmp_path / "cache", progress=False)
     assert again.path == ds.path and (ds.path / "image.npy").stat().st_mtime_ns == stamp
     assert len(lines) == 7
+    # the same frames and labels read in another steering convention (a tub with and without full_lock_deg)
+    rec.convention = SteeringConvention("normalized", "right", 0.5)
+    other = compile_recording(rec, cfg, tmp_path / "cache", progress=False)
+    assert other.path != ds.path and other.meta["convention"] == rec.convention.as_dict() != ds.meta["convention"]
 
 
 def test_channel_stats_use_given_frames_only(ch2_folder, tmp_path):

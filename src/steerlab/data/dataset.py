@@ -35,8 +35,10 @@ CHUNK = 64
 
 
 def source_key(rec: Recording, camera: str) -> str:
-    """Hash of what the cache depends on: image files (path, size, mtime) and every label."""
+    """Hash of what the cache depends on: image files (path, size, mtime), every label, and the steering
+    convention the reader gave them (a tub read with and without `full_lock_deg` are two entries)."""
     h = hashlib.sha1(b"layout 2\n")  # the entry's layout: a new one never reads an older entry
+    h.update(json.dumps(rec.convention.as_dict(), sort_keys=True).encode())
     for p in rec.frames[camera]:
         st = os.stat(p)
         h.update(f"{p}|{st.st_size}|{st.st_mtime_ns}\n".encode())
