@@ -173,10 +173,12 @@ def test_dagger_aggregates_rollouts(tiny_recording, tmp_path):
     assert [r["round"] for r in rows] == ["0", "1"] and rows[1]["recordings"] == "3"
     assert float(rows[1]["beta"]) == 0.5 and rows[1]["autonomy_twisty"] != ""
     assert (tmp_path / "dagger" / "dagger.png").exists()
-    # a second run into the folder resumes the same config (other workers allowed) and refuses another one
-    assert run_dagger({**cfg, "dagger": {**cfg["dagger"], "workers": 2}}, progress=False) == final
+    # a second run into the folder may resume the same config (other workers allowed), not another one
+    from steerlab.dagger import _claim
+
+    _claim(tmp_path / "dagger", {**cfg, "dagger": {**cfg["dagger"], "workers": 2}})
     with pytest.raises(SteerlabError, match="holds a DAgger run with another config; choose a new out"):
-        run_dagger({**cfg, "dagger": {**cfg["dagger"], "minutes": 0.2}}, progress=False)
+        _claim(tmp_path / "dagger", {**cfg, "dagger": {**cfg["dagger"], "minutes": 0.2}})
     # an experiment's closed-loop column reuses the last round's drives of the same suite, and drives anew otherwise
     from steerlab.experiment import suite_checkpoint
     from steerlab.sim.bench import closed_loop_metrics

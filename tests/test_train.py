@@ -82,7 +82,7 @@ def test_smoothness_term_hand_computed_and_recurrent_only(tiny_recording, tmp_pa
     runs = {}
     for weight in (0.0, 100.0):  # the term reaches training: the same seed, a much higher training loss
         cfg = _cfg(tiny_recording, tmp_path / str(weight), epochs=1, smoothness=weight)
-        cfg["model"] = {"name": "lstm", "seq_len": 5}
+        cfg["model"], cfg["split"] = {"name": "lstm", "seq_len": 5}, {"train": "0:100", "val": "100:120"}
         loop.train(cfg, progress=False)
         with open(tmp_path / str(weight) / "run" / "log.csv") as f:
             runs[weight] = float(next(csv.DictReader(f))["train_loss"])
