@@ -89,7 +89,7 @@ def _train(*overrides):
 def _dagger_of_another_config(tmp_path, stack):
     """A DAgger folder that holds a run of other settings: reusing its rollouts would be silent garbage."""
     cfg = config(tmp_path, sim_log(tmp_path / "sim"))
-    (tmp_path / "run").mkdir()
+    (tmp_path / "run" / "round0").mkdir(parents=True)
     (tmp_path / "run" / "dagger.json").write_text(json.dumps({"dagger": {"minutes": 9}}))
     return ["sim", "dagger", str(cfg)]
 

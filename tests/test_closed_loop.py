@@ -176,9 +176,12 @@ def test_dagger_aggregates_rollouts(tiny_recording, tmp_path):
     # a second run into the folder may resume the same config (other workers allowed), not another one
     from steerlab.dagger import _claim
 
-    _claim(tmp_path / "dagger", {**cfg, "dagger": {**cfg["dagger"], "workers": 2}})
+    for more in ({"workers": 2}, {"iterations": 2}):
+        _claim(tmp_path / "dagger", {**cfg, "dagger": {**cfg["dagger"], **more}})
     with pytest.raises(SteerlabError, match="holds a DAgger run with another config; choose a new out"):
         _claim(tmp_path / "dagger", {**cfg, "dagger": {**cfg["dagger"], "minutes": 0.2}})
+    _claim(tmp_path / "fresh", cfg)  # a start that failed before its first round does not hold the folder
+    _claim(tmp_path / "fresh", {**cfg, "dagger": {**cfg["dagger"], "minutes": 0.2}})
     # an experiment's closed-loop column reuses the last round's drives of the same suite, and drives anew otherwise
     from steerlab.experiment import suite_checkpoint
     from steerlab.sim.bench import closed_loop_metrics

@@ -81,14 +81,18 @@ def test_smoothness_term_hand_computed_and_recurrent_only(tiny_recording, tmp_pa
     assert float(loop.objective(net, out, y, "mse", 0.0)) == pytest.approx(2 / 3)
     runs = {}
     for weight in (0.0, 100.0):  # the term reaches training: the same seed, a much higher training loss
-        cfg = _cfg(tiny_recording, tmp_path / str(weight), epochs=1, smoothness=weight)
+        cfg = _cfg(tiny_recording, tmp_path / str(weight), epochs=1)
         cfg["model"], cfg["split"] = {"name": "lstm", "seq_len": 5}, {"train": "0:100", "val": "100:120"}
+        cfg["train"]["smoothness"] = weight
         loop.train(cfg, progress=False)
         with open(tmp_path / str(weight) / "run" / "log.csv") as f:
             runs[weight] = float(next(csv.DictReader(f))["train_loss"])
     assert runs[100.0] > 1.5 * runs[0.0]
     with pytest.raises(SteerlabError, match="train.smoothness needs a recurrent model"):
         loop.train(_cfg(tiny_recording, tmp_path, smoothness=1.0), progress=False)
+    with pytest.raises(SteerlabError, match="train.smoothness needs windows of at least 2 frames; model.seq_len is 1"):
+        load_config(None, base={"data": str(tiny_recording), "model": {"name": "lstm", "seq_len": 1},
+                                "train": {"smoothness": 1.0}})
     with pytest.raises(SteerlabError, match="train.smoothness must be a finite number of at least 0, got -1"):
         loop.train(_cfg(tiny_recording, tmp_path, smoothness=-1), progress=False)
 

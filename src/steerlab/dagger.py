@@ -130,12 +130,13 @@ def run_dagger(cfg: dict, progress: bool = True) -> Path:
 
 
 def _claim(out: Path, cfg: dict) -> None:
-    """Record the run's config in `out/dagger.json`; a folder that holds a run of another config (other than
-    in its number of workers) is refused, so that no rollout or round of other settings is silently reused."""
-    mine = json.loads(json.dumps(cfg))
-    mine["dagger"] = {k: v for k, v in (mine.get("dagger") or {}).items() if k != "workers"}
+    """Record the run's settings in `out/dagger.json`. A folder whose rounds were made with other settings is
+    refused, so that no rollout or round of other settings is silently reused; the number of workers may
+    change, and so may the number of iterations (more rounds continue a finished run)."""
+    opts = {k: v for k, v in dagger_options(cfg).items() if k not in ("workers", "iterations")}
+    mine = json.loads(json.dumps({**cfg, "dagger": opts}))
     path = out / "dagger.json"
-    if path.exists() and json.loads(path.read_text()) != mine:
+    if path.exists() and any(out.glob("round*")) and json.loads(path.read_text()) != mine:
         raise SteerlabError(f"{out} holds a DAgger run with another config; choose a new out directory or delete it")
     out.mkdir(parents=True, exist_ok=True)
     path.write_text(json.dumps(mine, indent=1))

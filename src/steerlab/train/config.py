@@ -128,7 +128,8 @@ def _is(value, kind) -> bool:
 
 
 def check_config(cfg: dict) -> None:
-    """Check every option of the schema for type and range: a one-line error naming the first bad one."""
+    """Check every option of the schema for type and range, and that the model can take what the options ask
+    of it: a one-line error naming the first bad one."""
     for key, (kind, check, expected) in SCHEMA.items():
         section, name = key.split(".")
         node = cfg.get(section)
@@ -139,6 +140,15 @@ def check_config(cfg: dict) -> None:
             continue
         if not _is(value, kind) or (check is not None and not check(float(value) if kind is float else value)):
             raise SteerlabError(f"{key} must be {expected}, got {value!r}")
+    smoothness = (cfg.get("train") or {}).get("smoothness")
+    if smoothness and float(smoothness) > 0:  # the change between consecutive frames of a training window
+        model = cfg.get("model") or {}
+        cls = _model_class(model.get("name"))
+        if cls is not None and not cls.recurrent:
+            raise SteerlabError(f"train.smoothness needs a recurrent model (it trains on windows of consecutive "
+                                f"frames); {model['name']!r} sees single frames in shuffled batches")
+        if cls is not None and isinstance(model.get("seq_len"), int) and model["seq_len"] < 2:
+            raise SteerlabError(f"train.smoothness needs windows of at least 2 frames; model.seq_len is {model['seq_len']}")
 
 
 def _merge(base: dict, new: dict) -> dict:

@@ -27,7 +27,7 @@ from steerlab.errors import SteerlabError
 from steerlab.evaluate.metrics import all_metrics
 from steerlab.evaluate.scoring import write_predictions
 from steerlab.locks import folder_lock
-from steerlab.models import create_model, model_class
+from steerlab.models import create_model
 from steerlab.train.config import LOSSES, check_config
 from steerlab.train.distributed import Ranks, setup, wrap
 from steerlab.train.sources import (Batches, balanced, model_options, model_preprocess, prepare_dataset,
@@ -179,10 +179,6 @@ def train(cfg: dict, progress: bool = True, on_epoch=None) -> dict:
     if int(cfg["train"]["batch_size"]) % ranks.world:
         raise SteerlabError(f"train.batch_size {cfg['train']['batch_size']} is the global batch; it must divide "
                             f"evenly over {ranks.world} ranks")
-    name = cfg["model"]["name"]
-    if float(cfg["train"]["smoothness"]) and not model_class(name).recurrent:
-        raise SteerlabError(f"train.smoothness needs a recurrent model (it trains on windows of consecutive "
-                            f"frames); {name!r} sees single frames in shuffled batches")
     # checkpoints named by the config are read before any work: a bad one fails at once
     init, teacher = (load_checkpoint(cfg["train"][k]) if cfg["train"].get(k) else None for k in ("init", "teacher"))
     if not ranks.main:  # rank 0 holds the lock for all ranks
