@@ -45,7 +45,7 @@ def plot_rounds(path: str | Path, rows: list[dict]) -> None:
         if not any(r.get(k, "") != "" for r in rows for k in ("autonomy_all", "replay_autonomy")):
             ax.plot(rounds, rmse, "kx:")
             ax.set_xlabel("DAgger round")
-            ax.set_ylabel("validation RMSE [rad]")
+            ax.set_ylabel("validation RMSE [the recording's steering unit]")
             ax.set_xticks(rounds)
             ax.grid(alpha=0.3)
             return
@@ -62,7 +62,7 @@ def plot_rounds(path: str | Path, rows: list[dict]) -> None:
         ax.grid(alpha=0.3)
         ax2 = ax.twinx()
         ax2.plot(rounds, rmse, color="0.6", ls=":", marker="x", label="val RMSE")
-        ax2.set_ylabel("validation RMSE [rad]", color="0.4")
+        ax2.set_ylabel("validation RMSE [the recording's steering unit]", color="0.4")
         lines = ax.get_legend_handles_labels()
         extra = ax2.get_legend_handles_labels()
         ax.legend(lines[0] + extra[0], lines[1] + extra[1], fontsize=8, loc="lower right")
