@@ -13,7 +13,7 @@ import argparse
 from _common import machine
 
 from steerlab.data.geometry import CAMERAS, CARS
-from steerlab.data.readers import open_recording
+from steerlab.data.readers import open_recording, reader_options
 from steerlab.pilot import Controls
 from steerlab.sim.replay import replay_recording
 
@@ -43,12 +43,7 @@ def main() -> None:
     ap.add_argument("--reader", action="append", default=[], help="reader option KEY=VALUE (repeatable)")
     ap.add_argument("--speed", type=float, help="m/s (default: the recorded speed)")
     args = ap.parse_args()
-    options = {}
-    for item in args.reader:
-        key, value = item.split("=", 1)
-        options[key] = {"true": True, "false": False}.get(value, float(value) if value.replace(".", "").isdigit()
-                                                          else value)
-    rec = open_recording(args.data, args.range, args.labels, options)
+    rec = open_recording(args.data, args.range, args.labels, reader_options(args.reader))
     fps = rec.frame_rate()
     print(f"machine: {machine()}\n\n{rec.name} {args.range or ''} at {args.speed or 'the recorded'} m/s:\n")
     print("| reference | km | interventions | interventions/km | mean abs offset [m] |\n|---|---|---|---|---|")

@@ -26,28 +26,15 @@ def _print_table(metrics: dict, keys=None) -> None:
 def cmd_compile(a) -> None:
     from steerlab.data.dataset import compile_recording
     from steerlab.data.preprocess import PreprocessConfig
-    from steerlab.data.readers import open_recording
+    from steerlab.data.readers import open_recording, reader_options
 
-    rec = open_recording(a.data, a.range, a.labels, _reader_options(a.reader))
+    rec = open_recording(a.data, a.range, a.labels, reader_options(a.reader))
     cfg = {"color": a.color, "modalities": a.modalities.split(","), "flow": a.flow}
     cfg["preset"] = a.preset or rec.geometry
     ds = compile_recording(rec, PreprocessConfig.from_dict(cfg), a.cache, a.camera)
     print(f"{len(ds)} frames, {len(rec.segments())} segment(s) -> {ds.path}")
     for m, arr in ds.arrays.items():
         print(f"  {m}: {arr.shape} {arr.dtype}")
-
-
-def _reader_options(items: list[str]) -> dict:
-    """`--reader key=value` options; values are read as YAML scalars (numbers, true/false, text)."""
-    import yaml
-
-    out = {}
-    for item in items:
-        if "=" not in item:
-            raise SteerlabError(f"--reader {item!r} must look like key=value, e.g. full_lock_deg=25")
-        key, value = item.split("=", 1)
-        out[key.strip()] = yaml.safe_load(value)
-    return out
 
 
 def cmd_train(a) -> None:
@@ -86,9 +73,10 @@ def cmd_experiment(a) -> None:
 
 
 def cmd_evaluate(a) -> None:
+    from steerlab.data.readers import reader_options
     from steerlab.evaluate.offline import evaluate
 
-    m = evaluate(a.checkpoint, a.data, a.range, a.out, a.labels, a.camera, a.video, _reader_options(a.reader),
+    m = evaluate(a.checkpoint, a.data, a.range, a.out, a.labels, a.camera, a.video, reader_options(a.reader),
                  allow_convention_mismatch=a.allow_convention_mismatch)
     _print_table(m, ["frames", "mse", "rmse", "mae", "mae_deg", "gamma_deg", "target_gamma_deg", "tre", "qce",
                      "speed_weighted_mae", *SPEED_METRICS])
@@ -135,6 +123,7 @@ def cmd_ensemble(a) -> None:
 
 
 def cmd_latency(a) -> None:
+    from steerlab.data.readers import reader_options
     from steerlab.evaluate.latency import latency_table, run_latency
 
     models = [m.strip() for m in (a.models or ("" if a.checkpoints else "all")).split(",") if m.strip()]
@@ -143,7 +132,7 @@ def cmd_latency(a) -> None:
 
         models = list_models()
     rows = run_latency(a.checkpoints, models, a.geometry, a.threads, a.runtime, a.frames, a.data, a.range, a.labels,
-                       _reader_options(a.reader), a.decode, a.out)
+                       reader_options(a.reader), a.decode, a.out)
     print(latency_table(rows))
     if a.out:
         print(f"wrote {a.out}/latency.csv, {a.out}/latency.md")
@@ -211,12 +200,13 @@ def cmd_sim_dagger(a) -> None:
 
 
 def cmd_replay(a) -> None:
+    from steerlab.data.readers import reader_options
     from steerlab.sim.replay import run_replay
 
     camera = {k: v for k, v in (("mount_height", a.mount_height), ("pitch_deg", a.pitch), ("hfov_deg", a.fov))
               if v is not None}
     start = time.perf_counter()
-    run_replay(a.checkpoints, a.data, a.out, a.range, a.labels, _reader_options(a.reader), a.speed, camera, a.limit,
+    run_replay(a.checkpoints, a.data, a.out, a.range, a.labels, reader_options(a.reader), a.speed, camera, a.limit,
                a.max_heading, a.video, a.workers, smoothing=a.smoothing)
     print((Path(a.out) / "replay.md").read_text())
     print(f"wrote {a.out}/replay.md, replay.csv, segments.csv, replay.png, */trajectory.csv"

@@ -16,9 +16,23 @@ from steerlab.data.native import read_native
 from steerlab.data.recording import Recording
 from steerlab.data.rows import parse_range
 from steerlab.data.simlog import SIM_OPTIONS, read_sim_log
-from steerlab.errors import DataError
+from steerlab.errors import DataError, SteerlabError
 
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mkv", ".mov")
+
+
+def reader_options(items: list[str]) -> dict:
+    """Reader options given as `key=value` texts (`--reader` on the command line); values are read as YAML
+    scalars (numbers, true/false, text)."""
+    import yaml
+
+    out = {}
+    for item in items:
+        if "=" not in item:
+            raise SteerlabError(f"--reader {item!r} must look like key=value, e.g. full_lock_deg=25")
+        key, value = item.split("=", 1)
+        out[key.strip()] = yaml.safe_load(value)
+    return out
 
 
 def open_recording(path: str | Path, frame_range: str | tuple | None = None, labels: str | Path | None = None,

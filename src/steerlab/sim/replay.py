@@ -339,8 +339,8 @@ def _job(checkpoint: str, label: str, source: dict, cam: Camera, car: Car, speed
     from steerlab.sim.bench import tick_reporter
 
     rec = open_recording(source["data"], source["range"], source["labels"], source["reader"])
-    rows, traj = replay_recording(Pilot(checkpoint, smoothing=smoothing), rec, cam, car, speed, limit_m, max_heading_deg, video,
-                                  source["frames"], on_tick=tick_reporter())
+    rows, traj = replay_recording(Pilot(checkpoint, smoothing=smoothing), rec, cam, car, speed, limit_m,
+                                  max_heading_deg, video, source["frames"], on_tick=tick_reporter())
     Path(out).mkdir(parents=True, exist_ok=True)
     with open(Path(out) / "trajectory.csv", "w", newline="") as f:
         w = csv.writer(f)

@@ -148,7 +148,8 @@ def check_config(cfg: dict) -> None:
             raise SteerlabError(f"train.smoothness needs a recurrent model (it trains on windows of consecutive "
                                 f"frames); {model['name']!r} sees single frames in shuffled batches")
         if cls is not None and isinstance(model.get("seq_len"), int) and model["seq_len"] < 2:
-            raise SteerlabError(f"train.smoothness needs windows of at least 2 frames; model.seq_len is {model['seq_len']}")
+            raise SteerlabError(f"train.smoothness needs windows of at least 2 frames; model.seq_len is "
+                                f"{model['seq_len']}")
 
 
 def _merge(base: dict, new: dict) -> dict:
