@@ -163,6 +163,7 @@ def test_replay_command_writes_its_report(tiny_checkpoint, twisty, tmp_path, cap
     assert smooth[0] == pytest.approx(traj[0, 5], abs=1e-4)
     assert smooth[1] == pytest.approx(0.2 * traj[1, 5] + 0.8 * traj[0, 5], abs=1e-4)
     assert json.loads((tmp_path / "smooth" / "replay.json").read_text())["smoothing"] == 0.2
+    assert "The steering is smoothed exponentially, a = 0.2." in (tmp_path / "smooth" / "replay.md").read_text()
 
 
 def test_replay_without_speed_needs_one(tiny_checkpoint, twisty, tmp_path, capsys):

@@ -407,7 +407,7 @@ def run_replay(checkpoints, data: str | Path, out: str | Path, frame_range: str 
             w.writeheader()
             w.writerows([{k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in r.items()} for r in rows if keep(r)])
     whole = [r for r in rows if r["segment"] == "all"]
-    (out / "replay.md").write_text(markdown(whole, limit, max_heading_deg))
+    (out / "replay.md").write_text(markdown(whole, limit, max_heading_deg, smoothing))
     (out / "replay.json").write_text(json.dumps({"data": str(data), "range": frame_range, "camera": cam.__dict__,
                                                  "car": car.__dict__, "limit_m": limit, "smoothing": smoothing,
                                                  "rows": rows}, indent=1))
@@ -416,10 +416,11 @@ def run_replay(checkpoints, data: str | Path, out: str | Path, frame_range: str 
     return whole
 
 
-def markdown(rows: list[dict], limit_m: float, max_heading_deg: float) -> str:
+def markdown(rows: list[dict], limit_m: float, max_heading_deg: float, smoothing: float | None = None) -> str:
+    smoothed = "" if smoothing is None else f" The steering is smoothed exponentially, a = {smoothing:g}."
     lines = [f"Closed-loop replay: an intervention when the car is more than {limit_m:g} m off the human's path or "
              f"turned more than {max_heading_deg:g} deg from it; autonomy = (1 - interventions x 6 s / elapsed s) "
-             "x 100, negative when a short drive needs many.", "",
+             f"x 100, negative when a short drive needs many.{smoothed}", "",
              "| checkpoint | recording | km | speed [m/s] | interventions | interventions/km | autonomy [%] | "
              "mean abs offset [m] | max abs offset [m] | mean abs heading [deg] | command gamma [deg] |",
              "|---" * 11 + "|"]
