@@ -379,6 +379,10 @@ BAD_INPUTS = {
     "replay workers 0": (_with("--workers", "0", command="replay"), "--workers must be an integer of at least 1"),
     "replay smoothing 0": (_with("--smoothing", "0", command="replay"), "--smoothing must be a number in (0, 1], got 0"),
     "replay limit -1": (_with("--limit", "-1", command="replay"), "--limit must be positive and finite, got -1"),
+    "replay tub model without full lock": (
+        lambda t, s: ["replay", str(made(t, "normalized", "right", "donkey")), "--data", str(tub(t / "tub")),
+                      "--out", str(t / "out")],
+        "model.pt: its steering cannot become a wheel angle: normalized steering needs the car's full-lock angle"),
     "replay max heading inf": (_with("--max-heading", "inf", command="replay"),
                                "--max-heading must be positive and finite, got inf"),
     # j) closed-loop replay of a recording
