@@ -40,10 +40,10 @@ def ch2_folder(tmp_path):
 @pytest.fixture(scope="session")
 def tiny_recording(tmp_path_factory):
     """A short synthetic recording with all three cameras (shared by several tests)."""
-    from steerlab.sim.world import record
+    from steerlab.sim.world import RecordOptions, record
 
     out = tmp_path_factory.mktemp("rec") / "rec"
-    record(out, seed=3, minutes=0.25, progress=False)
+    record(out, RecordOptions(seed=3, minutes=0.25), progress=False)
     return out
 
 

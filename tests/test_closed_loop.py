@@ -2,22 +2,24 @@
 
 import csv
 import json
+from dataclasses import replace
 
 import cv2
 import numpy as np
 import pytest
 
 from steerlab.cli import main
+from steerlab.data.car import CH2_CAR
 from steerlab.data.geometry import CAMERAS, shift_view
-from steerlab.data.readers import open_recording
+from steerlab.data.readers import Source, open_recording
 from steerlab.data.recording import SteeringConvention
 from steerlab.errors import SteerlabError
 from steerlab.pilot import Controls
 from steerlab.sim.bench import SUITES, summarize
 from steerlab.sim.render import Renderer
 from steerlab.sim.road import LANE_CENTER, Road
-from steerlab.sim.driving import drive_metrics
-from steerlab.sim.world import World, drive, record, rollout
+from steerlab.sim.driving import Trajectory
+from steerlab.sim.world import DriveOptions, RecordOptions, World, drive, record, world_rollout
 
 
 def frame_count(path) -> int:
@@ -50,7 +52,10 @@ def test_drive_metrics_hand_computed():
     offset[::2] = -0.3
     offset[100] = 0.9
     command = np.where(np.arange(n) % 2 == 0, 0.01, -0.01)  # successive differences +-0.02 rad
-    m = drive_metrics(offset, command, np.full(n, 20.0), dt, interventions=2)
+    hits = np.zeros(n, bool)
+    hits[[10, 500]] = True
+    zeros = np.zeros(n)
+    m = Trajectory(zeros, zeros, zeros, zeros, offset, command, np.full(n, 20.0), zeros, hits).metrics(dt)
     assert m["autonomy"] == pytest.approx((1 - 2 * 6 / 60) * 100)  # 80 %
     assert m["distance_km"] == pytest.approx(1.2)
     assert m["interventions_per_km"] == pytest.approx(2 / 1.2)
@@ -69,7 +74,7 @@ def test_suite_roads_are_never_recorded(tmp_path):
     seeds = [s for seeds in SUITES["v1"]["roads"].values() for s in seeds]
     assert len(seeds) == 11 and len(SUITES["v1"]["roads"]["twisty"]) >= 3
     with pytest.raises(SteerlabError, match="reserved for the closed-loop benchmark"):
-        record(tmp_path / "r", seed=seeds[0], minutes=0.01, progress=False)
+        record(tmp_path / "r", RecordOptions(seed=seeds[0], minutes=0.01), progress=False)
 
 
 def test_suite_on_the_command_line(tiny_checkpoint, tmp_path, capsys):
@@ -135,11 +140,11 @@ def test_rollout_labels_are_the_experts(tmp_path):
     """A pilot that always steers left drifts off; every frame it visits is labelled with what the expert
     would steer in that state, which an independent replay of the same world reproduces."""
     pilot = ConstantPilot(0.15)
-    out = rollout(pilot, tmp_path / "r", seed=21, minutes=0.25, road="country", beta=0.0, progress=False)
+    out = world_rollout(pilot, tmp_path / "r", seed=21, minutes=0.25, road="country", beta=0.0)
     rec = open_recording(tmp_path / "r")
     assert len(rec) == 300 and rec.cameras == ["center", "left", "right"] and out["interventions"] > 0
     world = World(21, "country", "sim", 300 / 20)
-    ratio = world.params.steering_ratio
+    ratio = world.car.steering_ratio
     labels, resets = [], 0
     for _ in range(300):
         offset, _ = world.observe()
@@ -158,7 +163,10 @@ def test_rollout_labels_are_the_experts(tmp_path):
 def test_dagger_aggregates_rollouts(tiny_recording, tmp_path):
     from steerlab.dagger import run_dagger
     from steerlab.train.config import load_config
-    from steerlab.train.sources import Batches, prepare_dataset, training_sources
+    from steerlab.sim.bench import SuiteOptions
+    from steerlab.train.batches import FrameBatches
+    from steerlab.train.config import parse_config
+    from steerlab.train.sources import prepare_dataset, training_sources
 
     cfg = load_config(None, base={
         "data": str(tiny_recording), "cache": str(tmp_path / "cache"), "out": str(tmp_path / "dagger"),
@@ -176,12 +184,18 @@ def test_dagger_aggregates_rollouts(tiny_recording, tmp_path):
     # a second run into the folder may resume the same config (other workers allowed), not another one
     from steerlab.dagger import _claim
 
+    from steerlab.dagger import dagger_options
+
+    def claim(folder, **more):
+        changed = replace(cfg, dagger={**cfg.dagger, **more})
+        _claim(folder, changed.for_car(CH2_CAR), dagger_options(changed), CH2_CAR)
+
     for more in ({"workers": 2}, {"iterations": 2}):
-        _claim(tmp_path / "dagger", {**cfg, "dagger": {**cfg["dagger"], **more}})
+        claim(tmp_path / "dagger", **more)
     with pytest.raises(SteerlabError, match="holds a DAgger run with another config; choose a new out"):
-        _claim(tmp_path / "dagger", {**cfg, "dagger": {**cfg["dagger"], "minutes": 0.2}})
-    _claim(tmp_path / "fresh", cfg)  # a start that failed before its first round does not hold the folder
-    _claim(tmp_path / "fresh", {**cfg, "dagger": {**cfg["dagger"], "minutes": 0.2}})
+        claim(tmp_path / "dagger", minutes=0.2)
+    claim(tmp_path / "fresh")  # a start that failed before its first round does not hold the folder
+    claim(tmp_path / "fresh", minutes=0.2)
     # an experiment's closed-loop column reuses the last round's drives of the same suite, and drives anew otherwise
     from steerlab.experiment import suite_checkpoint
     from steerlab.sim.bench import closed_loop_metrics
@@ -189,20 +203,20 @@ def test_dagger_aggregates_rollouts(tiny_recording, tmp_path):
     run = tmp_path / "dagger"
     drives = sorted((run / "round1" / "suite").rglob("drive.json"))
     stamps = [d.stat().st_mtime_ns for d in drives]
-    same = {"suite": "v1", "minutes": 0.01, "workers": 1}
+    same = SuiteOptions("v1", 0.01, 1)
     assert suite_checkpoint(run, cfg, same) == run / "round1" / "best.pt"
     metrics = closed_loop_metrics(suite_checkpoint(run, cfg, same), same, False)
     assert [d.stat().st_mtime_ns for d in drives] == stamps and not (run / "suite").exists()
     assert metrics["autonomy_twisty"] == pytest.approx(float(rows[1]["autonomy_twisty"]))
-    assert suite_checkpoint(run, cfg, {**same, "minutes": 0.02}) == run / "best.pt"
-    round1 = json.loads((tmp_path / "dagger" / "round1" / "config.json").read_text())
-    assert round1["train"]["init"].endswith("round0/best.pt") and len(round1["extra_data"]) == 2
+    assert suite_checkpoint(run, cfg, replace(same, minutes=0.02)) == run / "best.pt"
+    round1 = parse_config(json.loads((tmp_path / "dagger" / "round1" / "config.json").read_text()))
+    assert round1.train.init.endswith("round0/best.pt") and len(round1.extra_data) == 2
     # round 1 trains on the main recording's training frames and every rollout frame, with their side cameras
     ds = prepare_dataset(round1, progress=False)
     sources, codes = training_sources(round1, ds, np.arange(240), progress=False)
-    rollouts = [open_recording(p) for p in round1["extra_data"]]
+    rollouts = [open_recording(p) for p in round1.extra_data]
     assert len(sources) == 9 and len(codes) == 3 * (240 + sum(len(r) for r in rollouts))
-    batches = Batches(sources, {"mean": [0.0], "std": [1.0]})
+    batches = FrameBatches(sources, {"mean": [0.0], "std": [1.0]})
     first_rollout = batches.offsets[3]
     np.testing.assert_allclose(batches.steering(np.array([first_rollout])), rollouts[0].steering[:1])
 
@@ -244,7 +258,7 @@ def test_viewpoint_views_on_ch2_layout(ch2_folder, tmp_path):
                                   "train": {"epochs": 1, "batch_size": 4, "views": [[0.5, 0.0], [-0.5, 2.0]]}})
     with pytest.raises(SteerlabError, match="recovery_distance_m"):
         loop.train(cfg, progress=False)
-    cfg["train"]["recovery_distance_m"] = 20.0
+    cfg = replace(cfg, train=replace(cfg.train, recovery_distance_m=20.0)).for_car(CH2_CAR)
     ds = sources.prepare_dataset(cfg, progress=False)
     sources, codes = sources.training_sources(cfg, ds, np.arange(4), progress=False)
     assert len(sources) == 3 and len(codes) == 12
@@ -258,10 +272,11 @@ def test_drive_and_evaluate_videos(tiny_checkpoint, tiny_recording, tmp_path):
     from steerlab.evaluate.offline import evaluate
     from steerlab.pilot import Pilot
 
-    r = drive(Pilot(tiny_checkpoint), tmp_path / "d", seed=101, minutes=0.05, video=tmp_path / "d.mp4",
+    r = drive(Pilot(tiny_checkpoint), tmp_path / "d", DriveOptions(seed=101, minutes=0.05), video=tmp_path / "d.mp4",
               progress=False)
     assert frame_count(tmp_path / "d.mp4") == 60 and r["distance_km"] > 0
-    evaluate(tiny_checkpoint, tiny_recording, "0:40", tmp_path / "e", video=tmp_path / "e.mp4", progress=False)
+    evaluate(tiny_checkpoint, Source(str(tiny_recording), "0:40"), tmp_path / "e", video=tmp_path / "e.mp4",
+             progress=False)
     assert frame_count(tmp_path / "e.mp4") == 40
     first = cv2.VideoCapture(str(tmp_path / "e.mp4")).read()[1]
     assert first.shape[1] == 640 and first.shape[0] > 320  # the camera view with the wheels below it
@@ -271,7 +286,8 @@ def test_geometry_mismatch_warns(tiny_checkpoint, ch2_folder, tmp_path, capsys):
     from steerlab.evaluate.offline import evaluate
     from steerlab.pilot import Pilot
 
-    drive(Pilot(tiny_checkpoint), None, seed=101, minutes=0.01, geometry="ch2", progress=False)
+    drive(Pilot(tiny_checkpoint), None, DriveOptions(seed=101, minutes=0.01, geometry="ch2"), progress=False)
     assert "trained on the 'sim' camera geometry" in capsys.readouterr().err
-    evaluate(tiny_checkpoint, ch2_folder, None, tmp_path / "e", labels=ch2_folder / "labels.csv", progress=False)
+    evaluate(tiny_checkpoint, Source(str(ch2_folder), labels=str(ch2_folder / "labels.csv")), tmp_path / "e",
+             progress=False)
     assert "has the 'ch2' geometry" in capsys.readouterr().err

@@ -17,7 +17,9 @@ import pytest
 
 from conftest import SHARED, made
 from steerlab.data.readers import open_recording
-from steerlab.donkey import SpeedControl, SteerlabPilot
+from steerlab.control import SpeedControl
+from steerlab.data.readers import Source
+from steerlab.donkey import SteerlabPilot
 from steerlab.errors import SteerlabError
 from steerlab.pilot import Pilot
 
@@ -145,7 +147,7 @@ def evaluated(model, data, tmp_path, n=N):
     from steerlab.evaluate.offline import evaluate
 
     out = tmp_path / f"eval-{model.name}"
-    evaluate(model, data, f"0:{n}", out, progress=False)
+    evaluate(model, Source(str(data), f"0:{n}"), out, progress=False)
     return np.loadtxt(out / "predictions.csv", delimiter=",", skiprows=1)
 
 
@@ -262,7 +264,7 @@ def test_donkey_throttle_of_speed_models(tmp_path):
                                             r"frame: add the car's odometry \(HAVE_ODOM = True\) and "
                                             r"inputs=\['cam/image_array', 'enc/speed'\]"):
         part.run(frames(1)[0])
-    pilot, pi = Pilot(speed_model), SpeedControl(0.2, 0.6)
+    pilot, pi = Pilot(speed_model), SpeedControl(0.1, 0.01, cruise=0.2, low=0.0, high=0.6)
     for i, f in enumerate(frames(6)):
         v = 1.0 + 0.1 * i
         out = pilot.step(f[..., ::-1].copy(), v)
@@ -277,7 +279,7 @@ def test_donkey_throttle_of_speed_models(tmp_path):
 
 
 def test_donkey_speed_control_holds_the_predicted_speed():
-    pi, v = SpeedControl(0.2, 1.0), 0.0
+    pi, v = SpeedControl(0.1, 0.01, cruise=0.2, low=0.0, high=1.0), 0.0  # the donkeycar part's gains
     for _ in range(600):  # an RC car whose acceleration follows the throttle, with drag
         v += 0.05 * (8.0 * pi.update(3.0, v) - 0.5 * v)
     assert v == pytest.approx(3.0, abs=0.05)

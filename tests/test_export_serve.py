@@ -21,13 +21,15 @@ from steerlab.errors import SteerlabError
 from steerlab.export import export_onnx
 from steerlab.models import create_model, list_models
 from steerlab.pilot import Pilot
-from steerlab.serve import DriveSession, SpeedController, to_simulator
-from steerlab.train.sources import model_preprocess
+from steerlab.control import SpeedControl
+from steerlab.serve import DriveSession, to_simulator
+from steerlab.data.preprocess import PreprocessOptions
+from steerlab.models.registry import ModelSpec
 
 
 def untrained(tmp_path, name: str, geometry: str = "ch2"):
     """A checkpoint of `name` with random weights and non-trivial standardisation statistics."""
-    pre = PreprocessConfig.from_dict(model_preprocess(name, {"preset": geometry}))
+    pre = ModelSpec(name, {}).preprocess(PreprocessOptions(preset=geometry)).resolve()
     c = sum(pre.channels().values())
     model_cfg = {"in_channels": c, "height": pre.height, "width": pre.width}
     torch.manual_seed(0)
@@ -122,7 +124,7 @@ def test_onnx_is_self_contained_and_checks_its_hash_on_load(tmp_path):
     import onnx
     import onnxruntime as ort
 
-    from steerlab.export import content_sha256
+    from steerlab.runtime import content_sha256
 
     onnx_path = export_onnx(untrained(tmp_path, "lstm"), tmp_path / "m.onnx")
     props = ort.InferenceSession(str(onnx_path)).get_modelmeta().custom_metadata_map
@@ -154,9 +156,9 @@ def test_onnx_is_self_contained_and_checks_its_hash_on_load(tmp_path):
 
 
 def test_speed_controller_holds_the_set_speed():
-    pi, v = SpeedController(5.0), 0.0
+    pi, v = SpeedControl(), 0.0  # the simulator server's: kp 0.2, ki 0.01, throttle in [-1, 1]
     for _ in range(400):  # a car whose acceleration follows the throttle, with drag
-        v += 0.05 * (4.0 * pi.update(v) - 0.1 * v)
+        v += 0.05 * (4.0 * pi.update(5.0, v) - 0.1 * v)
     assert v == pytest.approx(5.0, abs=0.05)
 
 
@@ -215,13 +217,13 @@ def test_serve_answers_every_frame_like_the_pilot(tiny_checkpoint, tiny_recordin
     assert "telemetry frame 21: the image is 1x1, not the simulator's 320x160; sent a safe stop" in err
     assert "Traceback" not in err, err
     del replies[20], replies[10]
-    pilot, pi = Pilot(tiny_checkpoint), SpeedController(4.0)
+    pilot, pi = Pilot(tiny_checkpoint), SpeedControl()
     for reply, jpeg, mph in zip(replies, jpegs, speeds):
         v = mph * 0.44704
         expected = to_simulator(pilot, pilot.step(cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR),
                                                   v).steering)
         assert float(reply["steering_angle"]) == pytest.approx(expected, abs=1e-5)
-        assert float(reply["throttle"]) == pytest.approx(pi.update(v), abs=1e-5)
+        assert float(reply["throttle"]) == pytest.approx(pi.update(4.0, v), abs=1e-5)
     drive = open_recording(tmp_path / "drive")  # the recorded session reads as a simulator log
     assert len(drive) == len(jpegs)
     assert drive.steering / np.radians(25) == pytest.approx([float(r["steering_angle"]) for r in replies], abs=1e-5)

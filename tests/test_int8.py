@@ -7,7 +7,8 @@ import pytest
 from steerlab.cli import main
 from steerlab.data.readers import open_recording
 from steerlab.errors import SteerlabError
-from steerlab.export import export_onnx, read_metadata
+from steerlab.export import export_onnx
+from steerlab.runtime import read_metadata
 from steerlab.pilot import Pilot
 
 

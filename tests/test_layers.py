@@ -1,5 +1,6 @@
 """The layering rule of docs/ARCHITECTURE.md: data -> models -> train / sim -> orchestration -> CLI. A module
-imports only from its own layer or the layers below, and train and sim never import each other."""
+imports only from its own layer or the layers below, train and sim never import each other, and the rooms of a
+layer (its top-level modules and folders) import each other without a loop."""
 
 import ast
 from pathlib import Path
@@ -7,11 +8,11 @@ from pathlib import Path
 PACKAGE = Path(__file__).resolve().parents[1] / "src" / "steerlab"
 
 LAYERS = [
-    ("base", ["errors", "locks", "video", "figures"]),
+    ("base", ["errors", "locks", "video", "figures", "options", "control"]),
     ("data", ["data"]),
-    ("models", ["models", "checkpoint", "export", "pilot", "donkey"]),
+    ("models", ["models", "checkpoint", "runtime", "export", "pilot", "donkey"]),
     ("train / sim", ["train", "sim", "evaluate", "serve"]),
-    ("orchestration", ["experiment", "dagger", "tune", "demo"]),
+    ("orchestration", ["split_replay", "experiment", "dagger", "tune", "demo"]),
     ("cli", ["cli", "__main__"]),
 ]
 
@@ -36,13 +37,52 @@ def imports(path: Path) -> set[str]:
     return found
 
 
-def test_no_module_imports_a_higher_layer():
-    wrong = []
+def modules() -> dict[str, set[str]]:
+    """Every module of the package (dotted, below steerlab) and what it imports."""
+    out = {}
     for path in sorted(PACKAGE.rglob("*.py")):
         module = ".".join(path.relative_to(PACKAGE).with_suffix("").parts)
-        if module == "__init__":
-            continue
-        for dep in imports(path):
+        if module != "__init__":
+            out[module.removesuffix(".__init__")] = imports(path)
+    return out
+
+
+def loops(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected groups of more than one node (every import loop), by Tarjan's algorithm."""
+    index, low, stack, on, found, counter = {}, {}, [], set(), [], [0]
+
+    def visit(v):
+        index[v] = low[v] = counter[0]
+        counter[0] += 1
+        stack.append(v)
+        on.add(v)
+        for w in graph.get(v, ()):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            group = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                group.append(w)
+                if w == v:
+                    break
+            if len(group) > 1:
+                found.append(sorted(group))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return found
+
+
+def test_no_module_imports_a_higher_layer():
+    wrong = []
+    for module, deps in modules().items():
+        for dep in deps:
             if layer_of(dep) > layer_of(module):
                 wrong.append(f"{module} ({LAYERS[layer_of(module)][0]}) imports {dep} ({LAYERS[layer_of(dep)][0]})")
             if {module.split(".")[0], dep.split(".")[0]} == {"train", "sim"}:
@@ -50,11 +90,21 @@ def test_no_module_imports_a_higher_layer():
     assert not wrong, "\n".join(wrong)
 
 
-def test_the_check_sees_a_violation(tmp_path):
-    """The rule would catch a data module that imports the trainer, even inside a function."""
+def test_no_loop_between_the_rooms_of_a_layer():
+    """Folders and top-level modules (the rooms) form no import loop: train -> evaluate -> train would be one."""
+    rooms: dict[str, set[str]] = {}
+    for module, deps in modules().items():
+        room = module.split(".")[0]
+        rooms.setdefault(room, set()).update(d.split(".")[0] for d in deps if d.split(".")[0] != room)
+    assert loops(rooms) == []
+
+
+def test_the_checks_see_a_violation(tmp_path):
+    """The rules would catch a data module that imports the trainer, even inside a function, and a loop."""
     bad = tmp_path / "bad.py"
     bad.write_text("def f():\n    from steerlab.train.loop import train\n")
     assert imports(bad) == {"train.loop"} and layer_of("train.loop") > layer_of("data.readers")
+    assert loops({"train": {"evaluate"}, "evaluate": {"train", "data"}, "data": set()}) == [["evaluate", "train"]]
 
 
 def test_recording_layouts_sit_below_the_dispatcher():
@@ -62,3 +112,9 @@ def test_recording_layouts_sit_below_the_dispatcher():
     back = [p.name for p in sorted((PACKAGE / "data").glob("*.py")) if p.name != "readers.py"
             and "data.readers" in imports(p)]
     assert not back, f"these data modules import data/readers.py: {back}"
+
+
+def test_no_source_file_is_over_400_lines():
+    long = {p.relative_to(PACKAGE).as_posix(): n for p in PACKAGE.rglob("*.py")
+            if (n := len(p.read_text().splitlines())) > 400}
+    assert not long, long

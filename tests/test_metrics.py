@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from steerlab.data.labels import speed_commands, speed_targets
-from steerlab.data.splits import make_split, paper_protocol
+from steerlab.data.splits import Split, make_split, paper_protocol
 from steerlab.errors import DataError, SteerlabError
 from steerlab.evaluate.metrics import (all_metrics, exponential_smoothing, gamma_deg, quantized_classification_error,
                                        speed_weighted_mae, steering_metrics, thresholded_relative_error)
@@ -118,12 +118,12 @@ def test_experiment_fills_new_metrics_from_a_runs_predictions(tmp_path):
 
 
 def test_splits():
-    tr, va = make_split({"train": "0:1800", "val": "1800:2400"}, 2400)
+    tr, va = make_split(Split.parse_option({"train": "0:1800", "val": "1800:2400"}, "split"), 2400)
     assert (tr[0], tr[-1], va[0], va[-1]) == (0, 1799, 1800, 2399)
     with pytest.raises(SteerlabError, match="overlap"):
-        make_split({"train": "0:1900", "val": "1800:2400"}, 2400)
+        make_split(Split.parse_option({"train": "0:1900", "val": "1800:2400"}, "split"), 2400)
     with pytest.raises(SteerlabError, match="empty or outside"):
-        make_split({"train": "0:1800", "val": "2400:2400"}, 2400)
+        make_split(Split.parse_option({"train": "0:1800", "val": "2400:2400"}, "split"), 2400)
     tr, va = paper_protocol(33808, 3, 1000)
     assert len(va) == 3000 and len(tr) == 30808 and not np.intersect1d(tr, va).size
     assert (np.diff(va) > 1).sum() == 2

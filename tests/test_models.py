@@ -10,11 +10,13 @@ from steerlab.models.multitask import weighted_mae
 from steerlab.pilot import Pilot
 from steerlab.checkpoint import load_checkpoint, save_checkpoint
 from steerlab.data.inputs import stack_modalities
-from steerlab.train.sources import model_preprocess
+from steerlab.data.preprocess import PreprocessOptions
+from steerlab.models.registry import ModelSpec
+from steerlab.options import parse
 
 
 def _model_config(name: str, **pre) -> PreprocessConfig:
-    return PreprocessConfig.from_dict(model_preprocess(name, {"preset": "sim", **pre}))
+    return ModelSpec(name, {}).preprocess(parse(PreprocessOptions, {"preset": "sim", **pre})).resolve()
 
 
 def _inputs(name: str, channels: int, cfg: PreprocessConfig, batch: int = 4, steps: int = 2) -> dict:
@@ -104,9 +106,9 @@ def test_paper_002_input_is_square():
 
 
 def test_model_inputs_fill_and_guard_the_config():
-    assert model_preprocess("pilotnet-flow", {"preset": "sim"})["modalities"] == ["image", "flow"]
+    assert _model_config("pilotnet-flow").modalities == ("image", "flow")
     with pytest.raises(SteerlabError, match="needs preprocess stack=3"):
-        model_preprocess("cnn3d", {"stack": 5})
+        _model_config("cnn3d", stack=5)
 
 
 def test_pilotnet_layers_as_in_paper():

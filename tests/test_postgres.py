@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from test_tune import rows, tune_config
+from test_tune import rows, run_tune, tune_config
 
 HEARTBEAT = "1,3"  # STEERLAB_TUNE_HEARTBEAT: beat every second, fail a trial silent for 3 s
 
@@ -230,7 +230,7 @@ def test_postgres_bad_storage_is_one_line(postgres, tmp_path, tiny_recording, ca
     assert f"cannot open storage {postgres.url('nosuchdb')}: OperationalError: " in err
     assert 'database "nosuchdb" does not exist' in err
     # a server that accepts the connection but never answers: given up after the connect timeout
-    monkeypatch.setattr("steerlab.tune.CONNECT_TIMEOUT", 2)
+    monkeypatch.setattr("steerlab.tune.storage.CONNECT_TIMEOUT", 2)
     with socket.socket() as silent:
         silent.bind(("127.0.0.1", 0))
         silent.listen(1)
@@ -245,7 +245,6 @@ def test_postgres_bad_storage_is_one_line(postgres, tmp_path, tiny_recording, ca
 
 def test_postgres_joining_a_study_that_does_not_exist(postgres, tmp_path, tiny_recording):
     from steerlab.errors import SteerlabError
-    from steerlab.tune import run_tune
 
     import optuna
 
@@ -270,13 +269,12 @@ def test_postgres_worker_whose_trial_was_failed_goes_on(postgres, tmp_path, tiny
     (Optuna then refuses its result): one warning, and it goes on with the study instead of a traceback."""
     import optuna
 
-    from steerlab.tune import run_tune
 
     url = postgres.database()
     trained = []
 
     def train(cfg, progress=False, on_epoch=None):  # stands in for training; the first trial is failed meanwhile
-        trained.append(cfg["out"])
+        trained.append(cfg.out)
         if len(trained) == 1:
             study = load(url, "s")
             running = [t for t in study.trials if t.state == optuna.trial.TrialState.RUNNING]

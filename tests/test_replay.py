@@ -10,12 +10,15 @@ import pytest
 from conftest import SHARED, made
 
 from steerlab.cli import main
-from steerlab.data.geometry import CAMERAS, CARS
+from steerlab.data.car import CARS, CH2_CAR
+from steerlab.data.geometry import CAMERAS
 from steerlab.data.readers import open_recording
+from steerlab.data.speed import estimate_speed
 from steerlab.pilot import Controls, Pilot
-from steerlab.sim.driving import drive_loop
-from steerlab.sim.replay import RESULT_FIELDS, ReplayWorld, estimate_speed, human_path, replay_recording
-from steerlab.sim.vehicle import VehicleParams
+from steerlab.sim.driving import Trajectory, drive_loop
+from steerlab.sim.replay import Replay, ReplayWorld, human_path, replay_recording
+from steerlab.sim.replay_run import RESULT_FIELDS
+from steerlab.sim.world import RecordOptions
 
 HALL = SHARED / "donkeycar" / "hall"
 needs_donkey = pytest.mark.skipif(not (HALL / "manifest.json").exists(), reason="../shared/data absent")
@@ -27,7 +30,7 @@ def twisty(tmp_path_factory):
     from steerlab.sim.world import record
 
     out = tmp_path_factory.mktemp("twisty") / "rec"
-    record(out, seed=11, minutes=0.25, road="twisty", drift=False, side_cameras=False, progress=False)
+    record(out, RecordOptions(seed=11, minutes=0.25, road="twisty", drift=False, side_cameras=False), progress=False)
     return open_recording(out)
 
 
@@ -49,7 +52,7 @@ class Scripted:
 
 def test_human_path_of_a_circle():
     """Constant steering and speed come back as a circle of radius wheelbase / tan(angle)."""
-    p = VehicleParams()
+    p = CH2_CAR
     t = np.arange(400) * 0.05
     path = human_path(np.full(400, 0.1), np.full(400, 10.0), t, p)
     radius = p.wheelbase / math.tan(0.1)
@@ -61,33 +64,32 @@ def test_human_path_of_a_circle():
 
 def test_replaying_the_human_scores_100_and_zero_steering_does_not(twisty):
     human = Scripted(twisty, lambda k: twisty.steering[k])
-    rows, traj = replay_recording(human, twisty, CAMERAS["sim"], CARS["sim"], None, 1.0)
+    rows, traj = replay_recording(human, Replay(twisty, CAMERAS["sim"], CARS["sim"]))
     whole = rows[-1]
     assert whole["segment"] == "all" and whole["interventions"] == 0 and whole["autonomy"] == 100.0
     assert whole["max_offset_m"] < 1e-9 and len(traj) == len(twisty) - 1
     np.testing.assert_allclose(whole["km"], np.sum(twisty.speed[:-1]) * 0.05 / 1000, rtol=1e-6)
     zero = Scripted(twisty, lambda k: 0.0)
-    rows, traj = replay_recording(zero, twisty, CAMERAS["sim"], CARS["sim"], None, 1.0)
+    rows, traj = replay_recording(zero, Replay(twisty, CAMERAS["sim"], CARS["sim"]))
     assert rows[-1]["interventions"] >= 1 and rows[-1]["autonomy"] < 100
     assert zero.resets == 1 + rows[-1]["interventions"]  # the pilot forgets its past at the start and at every intervention
     assert rows[-1]["interventions_per_km"] == pytest.approx(rows[-1]["interventions"] / rows[-1]["km"])
-    assert traj[:, 8].sum() == rows[-1]["interventions"]
+    assert traj.interventions == rows[-1]["interventions"]
 
 
 def test_replay_world_matches_the_renderer_and_labels_point_back(twisty):
     """0.5 m right of the human's path the car sees what the renderer shows from there, and the label steers it
     back to the left of the human's steering."""
-    params = VehicleParams()
-    wheel = twisty.convention.to_road_wheel_left(twisty.steering, params.steering_ratio)
-    path = human_path(wheel, twisty.speed, twisty.timestamps_ns / 1e9, params)
-    world = ReplayWorld(twisty, 0, path, CAMERAS["sim"], params)
+    wheel = twisty.convention.to_road_wheel_left(twisty.steering, CH2_CAR.steering_ratio)
+    path = human_path(wheel, twisty.speed, twisty.timestamps_ns / 1e9, CH2_CAR)
+    world = ReplayWorld(twisty, 0, path, CAMERAS["sim"], CH2_CAR)
     for _ in range(100):
         world.step(wheel[world.k])
     assert world.observe() == pytest.approx((0.0, 0.0), abs=1e-9)
     on_path = world.expert_steering()
     assert on_path == pytest.approx(wheel[100], abs=1e-9)  # on the path the label is the human's steering
-    st = world.car.state
-    world.car.state = type(st)(st.x + 0.5 * math.sin(st.psi), st.y - 0.5 * math.cos(st.psi), st.psi, st.v)
+    st = world.state
+    world.vehicle.state = type(st)(st.x + 0.5 * math.sin(st.psi), st.y - 0.5 * math.cos(st.psi), st.psi, st.v)
     offset, heading = world.observe()
     assert offset == pytest.approx(-0.5, abs=0.02) and heading == pytest.approx(0.0, abs=0.005)
     assert world.expert_steering() > on_path + 0.01
@@ -104,8 +106,8 @@ def test_a_rollouts_side_cameras_look_like_the_recorded_ones(tiny_recording, tmp
 
     rec = open_recording(tiny_recording)
     out = tmp_path / "rollout"
-    rollout_recording(Scripted(rec, lambda k: 0.0), rec, CAMERAS["sim"], CARS["sim"], None, out, beta=1.0, seed=0,
-                      frames=np.arange(100))
+    rollout_recording(Scripted(rec, lambda k: 0.0), Replay(rec, CAMERAS["sim"], CARS["sim"], frames=np.arange(100)),
+                      out, beta=1.0, seed=0)
     rollout = open_recording(out)
     assert rollout.cameras == ["center", "left", "right"]
     for k in (20, 60):  # the expert drives (beta 1): on the human's path
@@ -118,15 +120,14 @@ def test_a_rollouts_side_cameras_look_like_the_recorded_ones(tiny_recording, tmp
 def test_streaming_state_is_carried_across_replay_steps(tiny_checkpoint, twisty):
     """A car that drives the human's path sees the recorded frames in order: the pilot's commands, smoothing
     state included, equal a plain frame-by-frame run over the same frames."""
-    params = VehicleParams()
-    wheel = twisty.convention.to_road_wheel_left(twisty.steering, params.steering_ratio)
-    path = human_path(wheel, twisty.speed, twisty.timestamps_ns / 1e9, params)
-    world = ReplayWorld(twisty, 0, path, CAMERAS["sim"], params)
+    wheel = twisty.convention.to_road_wheel_left(twisty.steering, CH2_CAR.steering_ratio)
+    path = human_path(wheel, twisty.speed, twisty.timestamps_ns / 1e9, CH2_CAR)
+    world = ReplayWorld(twisty, 0, path, CAMERAS["sim"], CH2_CAR)
     traj = drive_loop(world, Pilot(tiny_checkpoint, smoothing=0.2), 100, 1.0, 20.0,
                       choose=lambda t: wheel[t.index], progress=False)
     plain = Pilot(tiny_checkpoint, smoothing=0.2)
     expected = [plain.step(twisty.load_frame(i), twisty.speed[i]).steering for i in range(100)]
-    np.testing.assert_allclose(traj[:, 5], expected, atol=1e-6)
+    np.testing.assert_allclose(traj.command, expected, atol=1e-6)
 
 
 def test_speed_estimated_from_the_frames(twisty):
@@ -150,8 +151,9 @@ def test_replay_command_writes_its_report(tiny_checkpoint, twisty, tmp_path, cap
     assert [r["checkpoint"] for r in rows] == ["best", "last"]
     for label in ("best", "last"):
         assert (tmp_path / f"r-{label}.mp4").exists()
-    traj = np.loadtxt(out / "best" / "trajectory.csv", delimiter=",", skiprows=1, ndmin=2)
-    assert traj.shape == (199, 11) and traj[:, 8].sum() == int(rows[0]["interventions"])
+    traj = Trajectory.read(out / "best" / "trajectory.csv")
+    assert len(traj) == 199 and traj.interventions == int(rows[0]["interventions"])
+    assert traj.frame[0] == 0 and (traj.segment == 0).all()
     assert main(["replay", str(tiny_checkpoint), "--data", str(twisty.source), "--range", "0:200", "--speed", "9",
                  "--out", str(tmp_path / "given"), "--workers", "1"]) == 0
     given = next(csv.DictReader(open(tmp_path / "given" / "replay.csv")))
@@ -159,9 +161,9 @@ def test_replay_command_writes_its_report(tiny_checkpoint, twisty, tmp_path, cap
     # --smoothing smooths the commands as when driving: the first tick is the same command, the second the mix
     assert main(["replay", str(tiny_checkpoint), "--data", str(twisty.source), "--range", "0:200", "--smoothing",
                  "0.2", "--out", str(tmp_path / "smooth"), "--workers", "1"]) == 0
-    smooth = np.loadtxt(next((tmp_path / "smooth").glob("*/trajectory.csv")), delimiter=",", skiprows=1, ndmin=2)[:, 5]
-    assert smooth[0] == pytest.approx(traj[0, 5], abs=1e-4)
-    assert smooth[1] == pytest.approx(0.2 * traj[1, 5] + 0.8 * traj[0, 5], abs=1e-4)
+    smooth = Trajectory.read(next((tmp_path / "smooth").glob("*/trajectory.csv"))).command
+    assert smooth[0] == pytest.approx(traj.command[0], abs=1e-4)
+    assert smooth[1] == pytest.approx(0.2 * traj.command[1] + 0.8 * traj.command[0], abs=1e-4)
     assert json.loads((tmp_path / "smooth" / "replay.json").read_text())["smoothing"] == 0.2
     assert "The steering is smoothed exponentially, a = 0.2." in (tmp_path / "smooth" / "replay.md").read_text()
 
@@ -238,10 +240,10 @@ def test_record_suite_roads_only_when_asked(tmp_path):
     from steerlab.sim.world import World, record
 
     with pytest.raises(SteerlabError, match="reserved"):
-        record(tmp_path / "refused", seed=9101, minutes=0.01, progress=False)
+        record(tmp_path / "refused", RecordOptions(seed=9101, minutes=0.01), progress=False)
     assert not (tmp_path / "refused").exists() or not any((tmp_path / "refused").iterdir())
-    out = record(tmp_path / "suite", seed=9101, minutes=0.1, road="country", drift=False, side_cameras=False,
-                 progress=False, suite_roads_ok=True)
+    out = record(tmp_path / "suite", RecordOptions(seed=9101, minutes=0.1, road="country", drift=False,
+                                                   side_cameras=False), progress=False, suite_roads_ok=True)
     rec = open_recording(out)
     assert len(rec) == 120
     first = World(9101, "country", "sim", 120 / 20).render()  # the suite's road for these minutes, as `drive` makes it

@@ -1,9 +1,11 @@
 import hashlib
+from dataclasses import replace
 
 import numpy as np
 import pytest
 
 from steerlab.cli import main
+from steerlab.data.car import CH2_CAR
 from steerlab.data.labels import speed_commands
 from steerlab.data.readers import open_recording
 from steerlab.errors import SteerlabError
@@ -11,7 +13,7 @@ from steerlab.sim.render import Renderer
 from steerlab.sim.road import EDGE, LANE_CENTER, LINE_WIDTH, Road
 from steerlab.sim.vehicle import Vehicle, VehicleState
 from steerlab.sim.driving import autonomy
-from steerlab.sim.world import record
+from steerlab.sim.world import RecordOptions, record
 
 
 def _digest(folder):
@@ -24,9 +26,9 @@ def _digest(folder):
 
 
 def test_same_seed_same_bytes(tmp_path):
-    a = record(tmp_path / "a", seed=7, minutes=0.05, progress=False)
-    b = record(tmp_path / "b", seed=7, minutes=0.05, progress=False)
-    c = record(tmp_path / "c", seed=8, minutes=0.05, progress=False)
+    a = record(tmp_path / "a", RecordOptions(seed=7, minutes=0.05), progress=False)
+    b = record(tmp_path / "b", RecordOptions(seed=7, minutes=0.05), progress=False)
+    c = record(tmp_path / "c", RecordOptions(seed=8, minutes=0.05), progress=False)
     assert _digest(a) == _digest(b) != _digest(c)
 
 
@@ -70,8 +72,7 @@ def test_camera_geometry_vanishing_point_and_shift():
 
 def test_vehicle_follows_hand_computed_arc():
     delta, v, wb = 0.1, 10.0, 2.85
-    car = Vehicle(VehicleState(0.0, 0.0, 0.0, v))
-    car.p.drag = 0.0
+    car = Vehicle(VehicleState(0.0, 0.0, 0.0, v), replace(CH2_CAR, drag=0.0))
     for _ in range(200):
         car.step(delta, 0.0, 0.0, 0.01)
     radius = wb / np.tan(delta)
@@ -84,7 +85,7 @@ def test_vehicle_follows_hand_computed_arc():
 
 @pytest.mark.parametrize("seed", [11, 12, 13])
 def test_expert_alone_never_needs_intervention(tmp_path, seed):
-    out = record(tmp_path / "r", seed=seed, minutes=0.75, side_cameras=False, progress=False)
+    out = record(tmp_path / "r", RecordOptions(seed=seed, minutes=0.75, side_cameras=False), progress=False)
     rec = open_recording(out)
     off = rec.extra["lateral_offset"]
     assert np.abs(off).max() < 1.0
@@ -93,13 +94,13 @@ def test_expert_alone_never_needs_intervention(tmp_path, seed):
 
 
 def test_speed_commands_have_all_classes(tmp_path):
-    rec = open_recording(record(tmp_path / "r", seed=2, minutes=1.0, side_cameras=False, progress=False))
+    rec = open_recording(record(tmp_path / "r", RecordOptions(seed=2, minutes=1.0, side_cameras=False), progress=False))
     assert set(speed_commands(rec.speed, rec.timestamps_ns).tolist()) == {0, 1, 2}
 
 
 def test_udacity_sim_layout_round_trip(tmp_path):
-    out = record(tmp_path / "u", seed=4, minutes=0.05, layout="udacity-sim", progress=False)
-    native = record(tmp_path / "n", seed=4, minutes=0.05, progress=False)
+    out = record(tmp_path / "u", RecordOptions(seed=4, minutes=0.05, layout="udacity-sim"), progress=False)
+    native = record(tmp_path / "n", RecordOptions(seed=4, minutes=0.05), progress=False)
     a, b = open_recording(out / "driving_log.csv"), open_recording(native)
     assert a.cameras == ["center", "left", "right"] and len(a) == len(b)
     road_a = a.convention.to_road_wheel_left(a.steering, 14.8)
@@ -114,7 +115,7 @@ def test_bad_inputs_give_clear_errors(tmp_path, capsys):
     assert main(["sim", "record", "--out", str(tmp_path / "y"), "--minutes", "-1"]) == 2
     assert "minutes must be positive" in capsys.readouterr().err
     assert main(["sim", "record", "--out", str(tmp_path / "z"), "--geometry", "fisheye", "--minutes", "0.01"]) == 2
-    assert "unknown camera geometry" in capsys.readouterr().err
+    assert "argument --geometry: invalid choice: 'fisheye'" in capsys.readouterr().err
     assert main(["sim", "drive", str(tmp_path / "missing.pt")]) == 2
     assert "checkpoint not found" in capsys.readouterr().err
 
@@ -135,12 +136,12 @@ def test_tiny_demo_end_to_end(tmp_path, capsys):
 
 
 def test_mixed_recording_interleaves_one_road_per_type(tmp_path):
-    out = record(tmp_path / "m", seed=3, minutes=0.06, road="country,twisty,twisty", chunk_minutes=0.01,
-                 side_cameras=False, progress=False)
+    out = record(tmp_path / "m", RecordOptions(seed=3, minutes=0.06, road="country,twisty,twisty", chunk_minutes=0.01,
+                                               side_cameras=False), progress=False)
     rec = open_recording(out)
     assert rec.segments() == [(k, k + 12) for k in range(0, 72, 12)]  # chunks of 12 frames, each a segment
     speed = [rec.speed[a:b] for a, b in rec.segments()]  # country starts at 19 m/s, twisty at 13 m/s
     assert speed[0].mean() > 16 > speed[1].mean() and speed[2].mean() < 16 and speed[3].mean() > 16
     assert abs(speed[2][0] - speed[1][-1]) < 0.1  # the second twisty chunk continues the first one's drive
     with pytest.raises(SteerlabError, match="unknown road type"):
-        record(tmp_path / "x", road="country,mountain", minutes=0.01, progress=False)
+        record(tmp_path / "x", RecordOptions(road="country,mountain", minutes=0.01), progress=False)

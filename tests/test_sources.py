@@ -10,7 +10,7 @@ import pytest
 from conftest import SHARED, write_jpeg
 from steerlab.data.readers import open_recording
 from steerlab.data.recording import SteeringConvention
-from steerlab.data.splits import make_split
+from steerlab.data.splits import Split, make_split
 from steerlab.errors import DataError, SteerlabError
 
 TUBS = SHARED / "donkeycar"
@@ -68,13 +68,14 @@ def test_tub_deletions_sessions_and_split(tmp_path):
     assert list(rec.frame_ids) == [0, 1, 3, 4, 5, 7]
     assert list(rec.timestamps_ns) == [(1000 + 50 * i) * 1_000_000 for i in (0, 1, 3, 4, 5, 7)]
     assert rec.segments() == [(0, 3), (3, 6)]  # the session change starts a segment although no gap
-    train, val = make_split({"train": {"sessions": ["a"]}, "val": {"sessions": ["b"]}}, len(rec),
+    train, val = make_split(Split.parse_option({"train": {"sessions": ["a"]}, "val": {"sessions": ["b"]}}, "split"), len(rec),
                             rec.extra["session"])
     assert list(train) == [0, 1, 2] and list(val) == [3, 4, 5]
     with pytest.raises(SteerlabError, match=r"val sessions \['c'\] are not in the recording; it has a, b"):
-        make_split({"train": {"sessions": ["a"]}, "val": {"sessions": ["c"]}}, len(rec), rec.extra["session"])
+        make_split(Split.parse_option({"train": {"sessions": ["a"]}, "val": {"sessions": ["c"]}}, "split"), len(rec),
+                   rec.extra["session"])
     with pytest.raises(SteerlabError, match="has no sessions"):
-        make_split({"train": {"sessions": ["a"]}, "val": "0:2"}, len(rec), None)
+        make_split(Split.parse_option({"train": {"sessions": ["a"]}, "val": "0:2"}, "split"), len(rec), None)
 
 
 def test_tub_bad_input(tmp_path):
@@ -191,7 +192,7 @@ def write_bag(path, ros2=False, steering_topic="/vehicle/steering_report"):
 
 @pytest.mark.parametrize("ros2", [False, True])
 def test_bag_interpolates_like_udacity(tmp_path, monkeypatch, ros2):
-    monkeypatch.setattr("steerlab.data.dataset.DEFAULT_CACHE", tmp_path / "cache")
+    monkeypatch.setenv("STEERLAB_CACHE", str(tmp_path / "cache"))
     bag = write_bag(tmp_path / ("drive" if ros2 else "drive.bag"), ros2)
     rec = open_recording(bag)
     # frame 1.00 s: before the first report -> 0; 1.05 s: 4/5 of the way from 0 (1.01 s) to 0.1 (1.06 s);
@@ -203,10 +204,13 @@ def test_bag_interpolates_like_udacity(tmp_path, monkeypatch, ros2):
     assert [bar_width(rec.load_frame(i, "left")) for i in range(3)] == [40, 40, 40]
     again = open_recording(bag, "1:3")  # from the extracted frames
     assert again.steering == pytest.approx([0.08, 0.18])
+    assert len(list((tmp_path / "cache" / "bags").iterdir())) == 1
+    configured = open_recording(bag, cache=tmp_path / "mine")  # a config's cache: the one cache root
+    assert configured.frames["center"][0].is_relative_to(tmp_path / "mine" / "bags")
 
 
 def test_bag_without_the_topics(tmp_path, monkeypatch):
-    monkeypatch.setattr("steerlab.data.dataset.DEFAULT_CACHE", tmp_path / "cache")
+    monkeypatch.setenv("STEERLAB_CACHE", str(tmp_path / "cache"))
     bag = write_bag(tmp_path / "drive.bag", steering_topic="/can/steering")
     with pytest.raises(DataError, match=r"no steering topic '/vehicle/steering_report'; the bag has the topics "
                                         r"/can/steering, /center_camera/image_color/compressed, /left_camera"):

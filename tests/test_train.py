@@ -4,21 +4,29 @@ import numpy as np
 import pytest
 import torch
 
+from dataclasses import replace
+
 from steerlab.checkpoint import load_checkpoint
+from steerlab.data.car import CH2_CAR
+from steerlab.data.readers import Source
 from steerlab.errors import SteerlabError
-from steerlab.models import list_models, model_class
 from steerlab.evaluate.offline import evaluate
+from steerlab.models import list_models, model_class
+from steerlab.sim.world import RecordOptions
 from steerlab.train import loop, sources
-from steerlab.train.config import load_config
+from steerlab.train.batches import EpochSampler, FrameBatches, balance_weights
+from steerlab.train.config import TrainOptions, load_config
 
 
-def _cfg(rec, tmp_path, **train):
-    return load_config(None, base={
-        "data": str(rec), "cache": str(tmp_path / "cache"), "out": str(tmp_path / "run"),
-        "split": {"train": "0:240", "val": "240:300"},
-        "model": {"name": "pilotnet", "dropout": 0.0},
-        "train": {"epochs": 4, "lr": 1e-3, "batch_size": 32, "patience": 10, **train},
-    })
+def _raw(rec, tmp_path, model=None, split=None, preprocess=None, extra=(), **train):
+    return {"data": str(rec), "cache": str(tmp_path / "cache"), "out": str(tmp_path / "run"),
+            "split": split or {"train": "0:240", "val": "240:300"}, "extra_data": list(extra),
+            "model": model or {"name": "pilotnet", "dropout": 0.0}, "preprocess": preprocess or {},
+            "train": {"epochs": 4, "lr": 1e-3, "batch_size": 32, "patience": 10, **train}}
+
+
+def _cfg(rec, tmp_path, **options):
+    return load_config(None, base=_raw(rec, tmp_path, **options))
 
 
 def _log(tmp_path):
@@ -32,7 +40,8 @@ def test_training_lowers_loss_and_checkpoint_reproduces(tiny_recording, tmp_path
     assert len(rows) == 4
     assert float(rows[-1]["train_loss"]) < float(rows[0]["train_loss"])
     # the streaming evaluation of the best checkpoint reproduces its validation predictions in batch
-    m = evaluate(tmp_path / "run" / "best.pt", tiny_recording, "240:300", tmp_path / "eval", progress=False)
+    m = evaluate(tmp_path / "run" / "best.pt", Source(str(tiny_recording), "240:300"), tmp_path / "eval",
+                 progress=False)
     assert m["frames"] == 60
     assert m["rmse"] == pytest.approx(best["rmse"], rel=1e-3)
     assert (tmp_path / "eval" / "steering.png").stat().st_size > 10_000
@@ -64,11 +73,9 @@ def test_mae_loss_hand_computed_and_picks_best_epoch_by_mae(tiny_recording, tmp_
     assert float(rows[-1]["train_loss"]) < float(rows[0]["train_loss"])
     assert best["mae"] == pytest.approx(min(float(r["val_mae"]) for r in rows), rel=1e-6)
     with pytest.raises(SteerlabError, match="train.loss must be mse or mae, got 'l2'"):
-        loop.train(_cfg(tiny_recording, tmp_path, loss="l2"), progress=False)
-    cfg = _cfg(tiny_recording, tmp_path / "b", loss="mae")
-    cfg["model"] = {"name": "multitask-speed"}
+        _cfg(tiny_recording, tmp_path, loss="l2")
     with pytest.raises(SteerlabError, match="trains on a loss of its own"):
-        loop.train(cfg, progress=False)
+        _cfg(tiny_recording, tmp_path / "b", loss="mae", model={"name": "multitask-speed"})
 
 
 def test_smoothness_term_hand_computed_and_recurrent_only(tiny_recording, tmp_path):
@@ -81,20 +88,19 @@ def test_smoothness_term_hand_computed_and_recurrent_only(tiny_recording, tmp_pa
     assert float(loop.objective(net, out, y, "mse", 0.0)) == pytest.approx(2 / 3)
     runs = {}
     for weight in (0.0, 100.0):  # the term reaches training: the same seed, a much higher training loss
-        cfg = _cfg(tiny_recording, tmp_path / str(weight), epochs=1)
-        cfg["model"], cfg["split"] = {"name": "lstm", "seq_len": 5}, {"train": "0:100", "val": "100:120"}
-        cfg["train"]["smoothness"] = weight
+        cfg = _cfg(tiny_recording, tmp_path / str(weight), epochs=1, smoothness=weight,
+                   model={"name": "lstm", "seq_len": 5}, split={"train": "0:100", "val": "100:120"})
         loop.train(cfg, progress=False)
         with open(tmp_path / str(weight) / "run" / "log.csv") as f:
             runs[weight] = float(next(csv.DictReader(f))["train_loss"])
     assert runs[100.0] > 1.5 * runs[0.0]
     with pytest.raises(SteerlabError, match="train.smoothness needs a recurrent model"):
-        loop.train(_cfg(tiny_recording, tmp_path, smoothness=1.0), progress=False)
+        _cfg(tiny_recording, tmp_path, smoothness=1.0)
     with pytest.raises(SteerlabError, match="train.smoothness needs windows of at least 2 frames; model.seq_len is 1"):
         load_config(None, base={"data": str(tiny_recording), "model": {"name": "lstm", "seq_len": 1},
                                 "train": {"smoothness": 1.0}})
     with pytest.raises(SteerlabError, match="train.smoothness must be a finite number of at least 0, got -1"):
-        loop.train(_cfg(tiny_recording, tmp_path, smoothness=-1), progress=False)
+        _cfg(tiny_recording, tmp_path, smoothness=-1)
 
 
 def test_side_cameras_and_episode_filter(tiny_recording, tmp_path):
@@ -108,31 +114,31 @@ def test_an_extra_recording_without_side_cameras_adds_its_centre_frames(tiny_rec
     gives three streams and such an extra recording one; a main recording without side cameras is an error."""
     from steerlab.sim.world import record
 
-    centre_only = record(tmp_path / "centre", seed=4, minutes=0.02, side_cameras=False, progress=False)
-    cfg = {**_cfg(tiny_recording, tmp_path, side_cameras=True), "extra_data": [str(centre_only)]}
+    centre_only = record(tmp_path / "centre", RecordOptions(seed=4, minutes=0.02, side_cameras=False), progress=False)
+    cfg = _cfg(tiny_recording, tmp_path, side_cameras=True, extra=[str(centre_only)]).for_car(CH2_CAR)
     ds = sources.prepare_dataset(cfg, progress=False)
     train_idx = np.arange(240)
     streams, codes = sources.training_sources(cfg, ds, train_idx, progress=False)
     n_extra = len(sources.prepare_dataset(cfg, progress=False, data=str(centre_only)))
     assert len(streams) == 4 and len(codes) == 3 * 240 + n_extra
+    alone = replace(cfg, data=str(centre_only), extra_data=())
     with pytest.raises(SteerlabError, match="has no 'left' camera"):
-        sources.training_sources({**cfg, "data": str(centre_only), "extra_data": []},
-                                 sources.prepare_dataset({**cfg, "data": str(centre_only)}, progress=False),
-                                 np.arange(n_extra), progress=False)
+        sources.training_sources(alone, sources.prepare_dataset(alone, progress=False), np.arange(n_extra),
+                                 progress=False)
 
 
 def test_distillation_trains_on_the_teachers_predictions(tiny_recording, tiny_checkpoint, tmp_path):
     """train.teacher: the main recording's targets are the teacher's streamed predictions (what `steerlab
     evaluate` writes for it), side cameras add their recovery angle to them, validation keeps the recording."""
-    cfg = _cfg(tiny_recording, tmp_path, epochs=1, side_cameras=True, teacher=str(tiny_checkpoint))
+    cfg = _cfg(tiny_recording, tmp_path, epochs=1, side_cameras=True, teacher=str(tiny_checkpoint)).for_car(CH2_CAR)
     ds = sources.prepare_dataset(cfg, progress=False)
     streams, _ = sources.training_sources(cfg, ds, np.arange(240), False, load_checkpoint(tiny_checkpoint))
-    evaluate(tiny_checkpoint, tiny_recording, None, tmp_path / "teacher", progress=False)
+    evaluate(tiny_checkpoint, Source(str(tiny_recording)), tmp_path / "teacher", progress=False)
     with open(tmp_path / "teacher" / "predictions.csv") as f:
         taught = np.array([float(r["steering_angle"]) for r in csv.DictReader(f)])
     assert streams[0][1] == pytest.approx(taught, abs=1e-5)
     assert not np.allclose(taught, ds.steering, atol=1e-3)  # the teacher is not the recording
-    left = sources.recovery_labels(streams[1][0], taught, 0.508, 0.0, cfg["train"])
+    left = sources.recovery_labels(streams[1][0], taught, 0.508, 0.0, cfg.train)
     assert streams[1][1] == pytest.approx(left, abs=1e-5)
     best = loop.train(cfg, progress=False)
     with open(tmp_path / "run" / "val_predictions.csv") as f:
@@ -142,7 +148,7 @@ def test_distillation_trains_on_the_teachers_predictions(tiny_recording, tiny_ch
 
 def test_side_camera_labels_hand_computed(tiny_recording, tmp_path):
     ds = sources.prepare_dataset(_cfg(tiny_recording, tmp_path), progress=False, camera="left")
-    tc = {"recovery_s": 1.0, "steering_ratio": 10.0}
+    tc = TrainOptions(recovery_s=1.0, steering_ratio=10.0)
     y = sources.recovery_labels(ds, ds.steering, 0.5, 0.0, tc)
     v = ds.labels["speed"][0]
     # left camera: steer right by arctan(0.5 / v) at the road wheel = 10x that at the steering wheel
@@ -155,7 +161,7 @@ def test_side_camera_labels_hand_computed(tiny_recording, tmp_path):
 def test_balanced_sampling_thins_straight_driving():
     steering = np.concatenate([np.zeros(1000), np.linspace(-1, -0.1, 25), np.linspace(0.1, 1, 25)])
     codes = np.arange(len(steering))
-    kept = sources.balanced(codes, steering, np.random.default_rng(0))
+    kept = EpochSampler(codes, 64, seed=0, weights=balance_weights(steering)).order()
     # 25 bins of 0.08: 1000 straight frames in the middle one, 1-2 turning frames in 22 others; the cap is
     # the mean count of the non-empty bins, 1050 / 23 = 46: every turning frame stays, ~46 straight ones do
     assert np.isin(codes[1000:], kept).all()
@@ -187,10 +193,8 @@ def test_min_speed_drops_slow_frames(tiny_recording, tmp_path):
 
 
 def test_balance_refuses_recurrent_models(tiny_recording, tmp_path):
-    cfg = _cfg(tiny_recording, tmp_path, balance=True)
-    cfg["model"] = {"name": "lstm"}
     with pytest.raises(SteerlabError, match="balanced sampling picks single frames"):
-        loop.train(cfg, progress=False)
+        _cfg(tiny_recording, tmp_path, balance=True, model={"name": "lstm"})
 
 
 @pytest.mark.parametrize("model", ["speed-command", "multitask-speed"])
@@ -235,8 +239,7 @@ def test_resume_after_interruption(tiny_recording, tmp_path, monkeypatch):
 
 
 def test_baselines(tiny_recording, tmp_path):
-    cfg = _cfg(tiny_recording, tmp_path)
-    cfg["model"] = {"name": "train-mean"}
+    cfg = _cfg(tiny_recording, tmp_path, model={"name": "train-mean"})
     m = loop.train(cfg, progress=False)
     ds = sources.prepare_dataset(cfg, progress=False)
     mean = ds.steering[:240].mean()
@@ -250,16 +253,15 @@ def test_config_errors(tmp_path):
         load_config(None)
     with pytest.raises(SteerlabError, match="unknown train options"):
         load_config(None, ["data=x", "train.epoch=3"])
-    cfg = load_config(None, ["data=x", "train.epochs=3", "split.train=0:10", "train.lr=1e-4"])
-    assert cfg["train"]["epochs"] == 3 and cfg["train"]["batch_size"] == 100
-    assert cfg["train"]["lr"] == "1e-4"  # YAML 1.1 reads it as text; the schema accepts text that is a number
-    with pytest.raises(SteerlabError, match=r"train.views must be a list of \[shift_m, yaw_deg\] pairs"):
+    cfg = load_config(None, ["data=x", "train.epochs=3", "split.train=0:10", "split.val=10:20", "train.lr=1e-4"])
+    assert cfg.train.epochs == 3 and cfg.train.batch_size == 100
+    assert cfg.train.lr == 1e-4 and isinstance(cfg.train.lr, float)  # YAML 1.1 reads 1e-4 as text: parsed once
+    with pytest.raises(SteerlabError, match=r"train.views\[0\] must be a list of \[shift_m, yaw_deg\] pairs"):
         load_config(None, ["data=x", "train.views=[[0.5]]"])
-    assert cfg["split"]["train"] == "0:10"
+    assert cfg.split.train == "0:10"
     (tmp_path / "c.yaml").write_text("data: x\nsplit: {train: 10:20, val: 20:30}\n")
-    from steerlab.data.splits import make_split
     with pytest.raises(SteerlabError, match="quote it"):
-        make_split(load_config(tmp_path / "c.yaml")["split"], 2400)
+        load_config(tmp_path / "c.yaml")
 
 
 @pytest.mark.parametrize("model, pre", [(n, {}) for n in list_models()] + [
@@ -270,22 +272,21 @@ def test_every_model_learns_and_streams_as_in_batch(model, pre, tiny_recording, 
     for every output: stacked frames, difference, flow, speed history and LSTM state."""
     from steerlab.checkpoint import load_checkpoint, model_from_checkpoint
 
-    cfg = _cfg(tiny_recording, tmp_path, epochs=2, batch_size=5)  # recurrent: 5 windows of 10 frames
-    cfg["split"] = {"train": "0:100", "val": "100:140"}
-    cfg["model"] = {"name": model, "dropout": 0.0}
-    cfg["preprocess"] = pre
+    cfg = _cfg(tiny_recording, tmp_path, epochs=2, batch_size=5, split={"train": "0:100", "val": "100:140"},
+               model={"name": model, **({"dropout": 0.0} if model_class(model).trainable else {})},
+               preprocess=pre)  # recurrent: 5 windows of 10 frames
     loop.train(cfg, progress=False)
     if model_class(model).trainable:
         rows = _log(tmp_path)
         assert float(rows[-1]["train_loss"]) < float(rows[0]["train_loss"])
-    evaluate(tmp_path / "run" / "best.pt", tiny_recording, "0:140", tmp_path / "eval", progress=False)
+    evaluate(tmp_path / "run" / "best.pt", Source(str(tiny_recording), "0:140"), tmp_path / "eval", progress=False)
     with open(tmp_path / "eval" / "predictions.csv") as f:
         streamed = list(csv.DictReader(f))
     ckpt = load_checkpoint(tmp_path / "run" / "best.pt")
     net = model_from_checkpoint(ckpt)[0]
-    ds = sources.prepare_dataset({**cfg, "preprocess": sources.model_preprocess(model, pre)}, progress=False)
-    batches = sources.Batches([(ds, ds.steering)], ckpt["stats"], net.speed_history)
-    batch = loop.predict(net, batches, np.arange(140), batch_size=64)
+    ds = sources.prepare_dataset(cfg, progress=False)
+    batch = loop.predict(net, FrameBatches([(ds, ds.steering)], ckpt["stats"], net.speed_history), np.arange(140),
+                         batch_size=64)
     np.testing.assert_allclose([float(r["steering_angle"]) for r in streamed], batch["steering"], atol=1e-4)
     for k in set(batch) - {"steering"}:
         np.testing.assert_allclose([float(r[k]) for r in streamed], batch[k], atol=1e-3)

@@ -7,9 +7,18 @@ import sys
 import pytest
 import yaml
 
+from steerlab.cli import flag
 from steerlab.errors import SteerlabError
+from steerlab.options import parse
 from steerlab.train.config import load_config
-from steerlab.tune import run_tune
+from steerlab.tune import TuneOptions, run_tune as run
+
+
+def run_tune(config, overrides=(), progress=False, study_name=None, pruning=3, **options):
+    """`steerlab tune CONFIG [overrides] --option ...` through the Python API, options named as flags."""
+    o = parse(TuneOptions, {**options, "study": study_name, "reduction_factor": pruning or 3,
+                            "no_pruning": pruning is None}, name=flag)
+    return run(load_config(config, list(overrides)), o, progress)
 
 
 def tune_config(path, recording, out, tune=None, epochs=3, split=("0:120", "120:160")):
@@ -43,9 +52,9 @@ def test_small_study_prunes_and_writes_a_runnable_best_config(tmp_path, tiny_rec
     best = load_config(out / "best.yaml")  # a training config steerlab train runs as it is
     complete = [t for t in trials if t["state"] == "complete"]
     winner = min(complete, key=lambda t: float(t["value_0"]))
-    assert best["train"]["lr"] == pytest.approx(float(winner["train.lr"]))
-    assert best["model"]["dropout"] == pytest.approx(float(winner["model.dropout"]))
-    assert "tune" not in best or best["tune"] is None
+    assert best.train.lr == pytest.approx(float(winner["train.lr"]))
+    assert best.model.options["dropout"] == pytest.approx(float(winner["model.dropout"]))
+    assert best.tune is None
     if len(complete) >= 2:
         table = (out / "importance.md").read_text().splitlines()
         shares = [float(line.split("|")[2]) for line in table if line.startswith("| ") and "%" not in line
@@ -98,7 +107,7 @@ def test_two_workers_share_one_journal(tmp_path, tiny_recording):
     assert len(done) == 4
     assert len({(t.params["train.lr"], t.params["model.dropout"]) for t in done}) == 4
     assert len(rows(tmp_path / "shared")) == 4
-    assert load_config(tmp_path / "shared" / "best.yaml")["model"]["name"] == "pilotnet"
+    assert load_config(tmp_path / "shared" / "best.yaml").model.name == "pilotnet"
 
 
 @pytest.mark.parametrize("tune, message", [
@@ -127,7 +136,7 @@ def test_bad_storage_and_changed_space(tmp_path, tiny_recording):
     assert not (tmp_path / "z").exists()
     with pytest.raises(SteerlabError, match="different search space, objective or pruning"):
         run_tune(cfg, trials=1, storage=journal, study_name="s", pruning=4, progress=False)  # workers must agree
-    with pytest.raises(SteerlabError, match="--reduction-factor must be at least 2, got 1"):
+    with pytest.raises(SteerlabError, match="--reduction-factor must be an integer of at least 2, got 1"):
         run_tune(tune_config(tmp_path, tiny_recording, tmp_path / "w"), trials=1, pruning=1, progress=False)
     assert not (tmp_path / "w").exists()
 
@@ -142,7 +151,7 @@ def test_killed_worker_trial_is_failed_and_retried(tmp_path, tiny_recording, mon
 
     cfg = tune_config(tmp_path, tiny_recording, tmp_path / "k", epochs=2)
     url = f"sqlite:///{tmp_path / 'study.db'}"
-    code = ("import steerlab.tune as t; t.HEARTBEAT = (1, 2); from steerlab.cli import main; "
+    code = ("import steerlab.tune.storage as t; t.HEARTBEAT = (1, 2); from steerlab.cli import main; "
             f"main(['tune', {str(cfg)!r}, '--trials', '2', '--storage', {url!r}, '--study', 's', '--no-pruning'])")
     worker = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     storage = optuna.storages.RDBStorage(url)
@@ -161,7 +170,7 @@ def test_killed_worker_trial_is_failed_and_retried(tmp_path, tiny_recording, mon
     killed = optuna.load_study(study_name="s", storage=storage).trials[0]
     assert killed.state == optuna.trial.TrialState.RUNNING
     time.sleep(3)  # longer than the grace period
-    monkeypatch.setattr("steerlab.tune.HEARTBEAT", (1, 2))
+    monkeypatch.setattr("steerlab.tune.storage.HEARTBEAT", (1, 2))
     run_tune(cfg, trials=2, storage=url, study_name="s", pruning=None, progress=False)
     trials = optuna.load_study(study_name="s", storage=storage).trials
     assert trials[0].state == optuna.trial.TrialState.FAIL
@@ -177,7 +186,8 @@ def test_autonomy_objective_drives_the_suite_of_the_config(tmp_path, tiny_record
     for bad in ({"suite": "v9"}, {"minutes": -1}, {"minutes": 0}):
         broken = tmp_path / "broken.yaml"
         broken.write_text(yaml.safe_dump({**text, "out": str(tmp_path / "broken"), "closed_loop": bad}))
-        with pytest.raises(SteerlabError, match=r"broken.yaml: closed_loop: (unknown suite 'v9'; known: v1|minutes must be positive and finite, got (-1|0))"):
+        with pytest.raises(SteerlabError, match=r"closed_loop.(suite must be v1, got 'v9'|minutes must be positive "
+                                                r"and finite, got (-1|0))"):
             run_tune(broken, trials=1, objective="autonomy", progress=False)
         assert not (tmp_path / "broken").exists()  # nothing trained, nothing written
     run_tune(cfg, trials=2, objective="autonomy", seed=0, progress=False)
@@ -196,7 +206,7 @@ def test_autonomy_objective_drives_the_suite_of_the_config(tmp_path, tiny_record
 
 @pytest.mark.parametrize("command", ["tune", "train", "experiment", "sim dagger"])
 def test_options_and_overrides_in_any_order(command):
-    from steerlab.cli import parse
+    from steerlab.cli import parse_args as parse
 
     option = {"tune": ["--trials", "3"], "train": ["--nproc", "1"], "experiment": ["--seeds", "2"],
               "sim dagger": []}[command]
@@ -237,7 +247,7 @@ def test_torn_last_journal_line_is_skipped_with_a_warning(tmp_path, tiny_recordi
 
 
 def test_journal_repair_keeps_every_whole_line(tmp_path, capsys):
-    from steerlab.tune import _repair_journal
+    from steerlab.tune.storage import _repair_journal
 
     journal = tmp_path / "s.journal"
     lines = b'{"op_code":0,"worker_id":"a"}\n{"op_code":1,"worker_id":"a"}\n'

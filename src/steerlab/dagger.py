@@ -4,7 +4,7 @@ Round 0 trains the model on the config's data. Every later round rolls the curre
 probability beta per tick the expert steers instead: beta = `beta` x `beta_decay`^(round - 1)), lets the
 expert label every visited frame, adds those recordings to the training data (`extra_data`) and trains again,
 starting from the previous round's weights. `world: synthetic` rolls out on fresh procedural roads (the
-expert: pure pursuit of the lane centre, `world.rollout`) and drives the closed-loop suite after every round
+expert: pure pursuit of the lane centre, `world.world_rollout`) and drives the closed-loop suite after every round
 (unless `suite` is null); `world: replay` rolls out in closed-loop replay over the training frames of the
 config's recording (the expert: the human's steering plus pure pursuit's way back to the path,
 `replay.rollout_recording`) and replays the validation frames after every round. `dagger.csv` and
@@ -15,69 +15,77 @@ continues where it stopped. The final round's `best.pt`,
 
 from __future__ import annotations
 
-import copy
 import csv
 import json
 import shutil
+from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Literal
 
+from steerlab.data.car import car_of
+from steerlab.options import AT_LEAST_0, AT_LEAST_1, Options, POSITIVE, UNIT, as_dict, option, parse
 from steerlab.errors import SteerlabError
-from steerlab.sim.bench import run_parallel, run_suite
-from steerlab.sim.replay import SplitReplay
-from steerlab.sim.world import road_types
-
-DEFAULTS = {
-    "iterations": 3,     # rounds of rollout + retraining after the first training
-    "minutes": 4.0,      # minutes of rollouts per round, shared by the road types
-    "roads": "mixed",    # road types of the rollouts
-    "seeds_from": 5000,  # round r drives road seeds seeds_from + 100 r + k
-    "beta": 0.5,         # probability that the expert steers a tick, in round 1
-    "beta_decay": 0.5,   # ... multiplied by this every round
-    "epochs": 4,         # epochs of every retraining (round 0 uses train.epochs)
-    "warm_start": True,  # retrain from the previous round's weights (else from scratch)
-    "suite": "v1",       # closed-loop suite after every round (null: none, e.g. when the caller drives it after)
-    "suite_minutes": None,  # minutes per suite road (default: the suite's)
-    "workers": 2,        # parallel rollouts and suite drives
-    "world": "synthetic",  # where the rollouts drive: synthetic (fresh roads) or replay (the config's recording)
-    "speed": None,       # replay: m/s for a recording without speed (default: estimated from its frames)
-}
+from steerlab.sim.bench import SUITES, SuiteOptions, run_suite
+from steerlab.sim.parallel import run_parallel, tick_reporter
+from steerlab.sim.world import ROADS, road_types
+from steerlab.split_replay import SplitReplay
+from steerlab.train.config import TrainConfig, parse_config
+from steerlab.train.sources import main_recording
 
 
-def dagger_options(cfg: dict) -> dict:
-    opts = {**DEFAULTS, **(cfg.get("dagger") or {})}
-    unknown = set(opts) - set(DEFAULTS)
-    if unknown:
-        raise SteerlabError(f"unknown dagger options {sorted(unknown)}; known: {sorted(DEFAULTS)}")
-    if int(opts["iterations"]) < 0 or not float(opts["minutes"]) > 0 or not 0 <= float(opts["beta"]) <= 1:
-        raise SteerlabError("dagger needs iterations >= 0, minutes > 0 and 0 <= beta <= 1")
-    road_types(opts["roads"])
-    if opts["world"] not in ("synthetic", "replay"):
-        raise SteerlabError(f"dagger world must be synthetic or replay, got {opts['world']!r}")
-    return opts
+def _roads(road: str) -> bool:
+    road_types(road)
+    return True
+
+
+@dataclass(frozen=True)
+class DaggerOptions(Options):
+    """A config's `dagger:` section."""
+
+    iterations: int = option(3, AT_LEAST_0, help="rounds of rollout + retraining after the first training")
+    minutes: float = option(4.0, POSITIVE, help="minutes of rollouts per round, shared by the road types")
+    roads: str = option("mixed", _roads, ROADS, help="road types of the rollouts")
+    seeds_from: int = option(5000, help="round r drives road seeds seeds_from + 100 r + k")
+    beta: float = option(0.5, UNIT, help="probability that the expert steers a tick, in round 1")
+    beta_decay: float = option(0.5, UNIT, help="beta is multiplied by this every round")
+    epochs: int = option(4, AT_LEAST_1, help="epochs of every retraining (round 0 uses train.epochs)")
+    warm_start: bool = option(True, help="retrain from the previous round's weights (else from scratch)")
+    suite: str | None = option("v1", lambda v: v in SUITES, " or ".join(SUITES),
+                               help="closed-loop suite after every round (null: none)")
+    suite_minutes: float | None = option(None, POSITIVE, "positive and finite", help="minutes per suite road")
+    workers: int = option(2, AT_LEAST_1, help="parallel rollouts and suite drives")
+    world: Literal["synthetic", "replay"] = option("synthetic", help="where the rollouts drive: fresh roads, or "
+                                                   "the config's recording in replay")
+    speed: float | None = option(None, POSITIVE, help="replay: m/s for a recording without speed")
+
+
+def dagger_options(cfg: TrainConfig) -> DaggerOptions:
+    return parse(DaggerOptions, cfg.dagger or {}, "dagger")
 
 
 def _rollout_job(checkpoint: str, out: str, seed: int, minutes: float, road: str, beta: float) -> dict:
     from steerlab.pilot import Pilot
-    from steerlab.sim.bench import tick_reporter
-    from steerlab.sim.world import rollout
+    from steerlab.sim.world import world_rollout
 
-    return rollout(Pilot(checkpoint), out, seed, minutes, road, beta, progress=False, on_tick=tick_reporter())
+    return world_rollout(Pilot(checkpoint), out, seed, minutes, road, beta, on_tick=tick_reporter())
 
 
-def run_dagger(cfg: dict, progress: bool = True) -> Path:
+def run_dagger(cfg: TrainConfig, progress: bool = True) -> Path:
     """Run DAgger as configured (a training config with a `dagger` section); returns the final checkpoint."""
     from steerlab.train.loop import train
 
-    opts = dagger_options(cfg)
-    out = Path(cfg["out"])
-    _claim(out, cfg)
-    base = {k: v for k, v in copy.deepcopy(cfg).items() if k != "dagger"}
-    types = road_types(opts["roads"])
-    replay = SplitReplay(cfg, opts["speed"], int(opts["workers"])) if opts["world"] == "replay" else None
-    rows, extra = _read_log(out), list(cfg.get("extra_data") or [])
-    for r in range(int(opts["iterations"]) + 1):
+    o = dagger_options(cfg)
+    out = Path(cfg.out)
+    car = car_of(main_recording(cfg).geometry)
+    cfg = cfg.for_car(car)
+    _claim(out, cfg, o, car)
+    base = replace(cfg, dagger=None)
+    types = road_types(o.roads)
+    replay = SplitReplay(cfg, o.speed) if o.world == "replay" else None
+    rows, extra = _read_log(out), list(cfg.extra_data)
+    for r in range(o.iterations + 1):
         run = out / f"round{r}"
-        beta = 1.0 if r == 0 else float(opts["beta"]) * float(opts["beta_decay"]) ** (r - 1)
+        beta = 1.0 if r == 0 else o.beta * o.beta_decay ** (r - 1)
         rollout_metrics = []
         if r > 0 and replay:
             folder = run / "rollouts" / "replay"
@@ -87,25 +95,25 @@ def run_dagger(cfg: dict, progress: bool = True) -> Path:
                 if progress:
                     print(f"== DAgger round {r}: replaying round {r - 1}'s model over the training frames, beta {beta:.3f}")
                 rollout_metrics = replay.rollouts(out / f"round{r - 1}" / "best.pt", folder, beta,
-                                                  int(opts["seeds_from"]) + 100 * r, progress)
+                                                  o.seeds_from + 100 * r, progress)
         elif r > 0:
             jobs = []
             for k, road in enumerate(types):
-                folder = run / "rollouts" / f"{road}-{int(opts['seeds_from']) + 100 * r + k}"
+                folder = run / "rollouts" / f"{road}-{o.seeds_from + 100 * r + k}"
                 extra.append(str(folder))
                 if not (folder / "recording.json").exists():
                     shutil.rmtree(folder, ignore_errors=True)  # an interrupted rollout starts again
-                    jobs.append((str(out / f"round{r - 1}" / "best.pt"), str(folder),
-                                 int(opts["seeds_from"]) + 100 * r + k, float(opts["minutes"]) / len(types), road, beta))
+                    jobs.append((str(out / f"round{r - 1}" / "best.pt"), str(folder), o.seeds_from + 100 * r + k,
+                                 o.minutes / len(types), road, beta))
             if progress and jobs:
                 print(f"== DAgger round {r}: rolling out round {r - 1}'s model on {len(jobs)} road(s), beta {beta:.3f}")
-            rollout_metrics = run_parallel(_rollout_job, jobs, int(opts["workers"]), float(opts["minutes"]) / len(types),
+            rollout_metrics = run_parallel(_rollout_job, jobs, o.workers, int(round(o.minutes / len(types) * 60 * 20)),
                                            progress, "rollouts")
-        round_cfg = {**copy.deepcopy(base), "out": str(run), "extra_data": list(extra)}
+        round_cfg = replace(base, out=str(run), extra_data=tuple(extra))
         if r > 0:
-            round_cfg["train"] = {**round_cfg["train"], "epochs": int(opts["epochs"])}
-            if opts["warm_start"]:
-                round_cfg["train"]["init"] = str(out / f"round{r - 1}" / "best.pt")
+            round_cfg = replace(round_cfg, train=replace(round_cfg.train, epochs=o.epochs,
+                                                         init=str(out / f"round{r - 1}" / "best.pt")
+                                                         if o.warm_start else round_cfg.train.init))
         if not (run / "metrics.json").exists():
             if progress:
                 print(f"== DAgger round {r}: training on {1 + len(extra)} recording(s)")
@@ -114,9 +122,9 @@ def run_dagger(cfg: dict, progress: bool = True) -> Path:
         metrics = json.loads((run / "metrics.json").read_text())
         if replay:
             closed = replay.evaluate(run / "best.pt", run / "replay", progress)
-        elif opts["suite"]:
-            summary = run_suite([run / "best.pt"], run / "suite", opts["suite"], opts["suite_minutes"],
-                                int(opts["workers"]), progress=progress)
+        elif o.suite:
+            summary = run_suite([run / "best.pt"], run / "suite", SuiteOptions(o.suite, o.suite_minutes, o.workers),
+                                progress=progress)
             closed = {f"autonomy_{s['road_type']}": s["autonomy"] for s in summary}
             closed["interventions_per_km"] = next(s for s in summary if s["road_type"] == "all")["interventions_per_km"]
         else:
@@ -129,17 +137,31 @@ def run_dagger(cfg: dict, progress: bool = True) -> Path:
     return out / "best.pt"
 
 
-def _claim(out: Path, cfg: dict) -> None:
+def _settings(cfg: TrainConfig, o: DaggerOptions) -> dict:
+    """What a DAgger run's rounds depend on: the training config and the options but the workers and the
+    number of iterations."""
+    return {**replace(cfg, dagger=None).identity(),
+            "dagger": {k: v for k, v in as_dict(o).items() if k not in ("workers", "iterations")}}
+
+
+def _claim(out: Path, cfg: TrainConfig, o: DaggerOptions, car) -> None:
     """Record the run's settings in `out/dagger.json`. A folder whose rounds were made with other settings is
     refused, so that no rollout or round of other settings is silently reused; the number of workers may
-    change, and so may the number of iterations (more rounds continue a finished run)."""
-    opts = {k: v for k, v in dagger_options(cfg).items() if k not in ("workers", "iterations")}
-    mine = json.loads(json.dumps({**cfg, "dagger": opts}))
+    change, and so may the number of iterations (more rounds continue a finished run). A folder of an earlier
+    version holds the same run when its settings parse to the same ones."""
     path = out / "dagger.json"
-    if path.exists() and any(out.glob("round*")) and json.loads(path.read_text()) != mine:
-        raise SteerlabError(f"{out} holds a DAgger run with another config; choose a new out directory or delete it")
+    if path.exists() and any(out.glob("round*")):
+        try:
+            stored = json.loads(path.read_text())
+            earlier = _settings(parse_config({**stored, "dagger": None}).for_car(car),
+                                parse(DaggerOptions, stored["dagger"], "dagger"))
+        except (OSError, ValueError, KeyError, TypeError, SteerlabError):
+            earlier = None
+        if earlier != _settings(cfg, o):
+            raise SteerlabError(f"{out} holds a DAgger run with another config; choose a new out directory or "
+                                "delete it")
     out.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(mine, indent=1))
+    path.write_text(json.dumps({**as_dict(cfg), "dagger": as_dict(o)}, indent=1))
 
 
 FIELDS = ["round", "beta", "recordings", "rollout_autonomy", "val_rmse", "autonomy_country", "autonomy_highway",

@@ -6,13 +6,16 @@ from __future__ import annotations
 
 import csv
 import json
+from dataclasses import dataclass
 from pathlib import Path
 
 from steerlab.dagger import run_dagger
 from steerlab.evaluate.offline import evaluate
-from steerlab.sim.bench import run_suite
-from steerlab.sim.replay import run_replay
-from steerlab.sim.world import record
+from steerlab.sim.bench import SuiteOptions, run_suite
+from steerlab.data.readers import Source
+from steerlab.sim.replay_run import ReplayOptions, run_replay
+from steerlab.sim.world import RecordOptions, record
+from steerlab.options import AT_LEAST_1, Options, POSITIVE, option
 from steerlab.train.config import load_config
 
 TRAIN_SEED = 1
@@ -22,18 +25,33 @@ ROADS = "country,twisty,highway,twisty"  # the recipe of configs/experiment_reci
 DAGGER = {"iterations": 1, "roads": "twisty", "beta": 0.5, "epochs": 2, "suite": None}
 
 
-def run_demo(out: str | Path, minutes: float, epochs: int, suite_minutes: float | None, dagger_minutes: float,
-             workers: int = 2, progress: bool = True) -> Path:
-    """Defaults live in the `steerlab demo` command (cli.py); configs/recipe_pilotnet.yaml is the same recipe
-    on the recording of road seed 3, with batches of 64 where the demo takes 16 (four times the updates: the
-    single-frame models drive twisty roads better with them, docs/RESULTS.md "Batches of 16").
-    `suite_minutes`: minutes on each suite road (None: the suite's own, 3)."""
+@dataclass(frozen=True)
+class DemoOptions(Options):
+    """`steerlab demo`'s options; configs/recipe_pilotnet.yaml is the same recipe on the recording of road seed
+    3, with batches of 64 where the demo takes 16 (four times the updates: the single-frame models drive twisty
+    roads better with them, docs/RESULTS.md "Batches of 16")."""
+
+    out: str = option("runs/demo", help="output folder")
+    minutes: float = option(8.0, POSITIVE, "positive and finite",
+                            help="minutes of expert driving on mixed roads to train on")
+    epochs: int = option(5, AT_LEAST_1, help="epochs of the first training")
+    suite_minutes: float | None = option(None, POSITIVE, "positive and finite",
+                                         help="minutes on each road of the closed-loop suite (default: the suite's 3)")
+    dagger_minutes: float = option(2.0, POSITIVE, "positive and finite",
+                                   help="minutes the trained model drives a fresh twisty road in its DAgger round")
+    workers: int = option(2, AT_LEAST_1, help="roads driven in parallel")
+
+
+def run_demo(o: DemoOptions = DemoOptions(), progress: bool = True) -> Path:
+    """The whole pipeline; returns the report's path."""
+    out, minutes, epochs, suite_minutes, dagger_minutes, workers = (o.out, o.minutes, o.epochs, o.suite_minutes,
+                                                                    o.dagger_minutes, o.workers)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     rec_dir = out / "recording"
     if not (rec_dir / "recording.json").exists():
         print(f"[1/5] recording {minutes} min of expert driving on mixed roads (road seed {TRAIN_SEED})")
-        record(rec_dir, seed=TRAIN_SEED, minutes=minutes, road=ROADS, progress=progress)
+        record(rec_dir, RecordOptions(seed=TRAIN_SEED, minutes=minutes, road=ROADS), progress=progress)
     n = int(round(minutes * 60 * 20))
     split = int(n * 0.8)
     cfg = load_config(None, base={
@@ -48,11 +66,13 @@ def run_demo(out: str | Path, minutes: float, epochs: int, suite_minutes: float 
     print(f"[2/5] training PilotNet on frames 0:{split} (drift-out frames excluded), then one DAgger round")
     ckpt = run_dagger(cfg, progress=progress)
     print(f"[3/5] open-loop evaluation on the held-out frames {split}:{n}")
-    offline = evaluate(ckpt, rec_dir, f"{split}:{n}", out / "open-loop", progress=progress)
+    offline = evaluate(ckpt, Source(str(rec_dir), f"{split}:{n}"), out / "open-loop", progress=progress)
     print("[4/5] closed-loop replay of the held-out frames (the recording's frames warped to the car's view)")
-    replay = run_replay([ckpt], rec_dir, out / "replay", f"{split}:{n}", workers=1, progress=progress)
+    replay = run_replay([ckpt], Source(str(rec_dir), f"{split}:{n}"), out / "replay", ReplayOptions(workers=1),
+                        progress=progress)
     print(f"[5/5] closed-loop suite: {suite_minutes or 3:g} min on each of its unseen roads")
-    summary = run_suite([ckpt], out / "closed-loop", minutes=suite_minutes, workers=workers, progress=progress)
+    summary = run_suite([ckpt], out / "closed-loop", SuiteOptions(minutes=suite_minutes, workers=workers),
+                        progress=progress)
     with open(out / "pilotnet" / "dagger.csv") as f:
         rounds = list(csv.DictReader(f))
     report = out / "report.md"

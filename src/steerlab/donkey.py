@@ -41,7 +41,9 @@ from typing import Callable
 
 import numpy as np
 
-from steerlab.data.geometry import CAMERAS, STEERING_RATIO
+from steerlab.control import SpeedControl
+from steerlab.data.car import car_of
+from steerlab.data.geometry import CAMERAS
 from steerlab.data.recording import SteeringConvention
 from steerlab.errors import SteerlabError, warn
 from steerlab.pilot import Pilot
@@ -55,7 +57,7 @@ def _check(name: str, value, low: float, high: float, low_open: bool = False) ->
     return float(value)
 
 
-def servo_angle(value: float, convention: SteeringConvention, full_lock: float | None) -> float:
+def servo_angle(value: float, convention: SteeringConvention, full_lock: float | None, steering_ratio: float) -> float:
     """A model's steering (its checkpoint's convention) as donkeycar's servo command: in [-1, 1], positive right,
     `full_lock` (radians) the car's road-wheel angle at +-1. Normalized steering passes through (rescaled when
     both full-lock angles are known); angles need `full_lock`."""
@@ -64,26 +66,8 @@ def servo_angle(value: float, convention: SteeringConvention, full_lock: float |
     elif full_lock is None:
         raise SteerlabError("an angle needs the car's full-lock angle to become a servo command")
     else:
-        servo = -convention.to_road_wheel_left(value, STEERING_RATIO) / full_lock
+        servo = -convention.to_road_wheel_left(value, steering_ratio) / full_lock
     return float(np.clip(servo, -1.0, 1.0))
-
-
-class SpeedControl:
-    """donkeycar's throttle toward a target speed (m/s): `cruise + kp e + ki sum(e)`, e = target - measured, the
-    sum bounded to +-`limit` (no wind-up) and the throttle to [0, `max_throttle`] (no reverse: donkeycar's ESC
-    treats a negative throttle as brake or reverse)."""
-
-    def __init__(self, cruise: float, max_throttle: float, kp: float = 0.1, ki: float = 0.01, limit: float = 20.0):
-        self.cruise, self.max_throttle, self.kp, self.ki, self.limit = cruise, max_throttle, kp, ki, limit
-        self.reset()
-
-    def reset(self) -> None:
-        self.integral = 0.0
-
-    def update(self, target: float, measured: float) -> float:
-        error = target - measured
-        self.integral = min(max(self.integral + error, -self.limit), self.limit)
-        return float(np.clip(self.cruise + self.kp * error + self.ki * self.integral, 0.0, self.max_throttle))
 
 
 class SteerlabPilot:
@@ -121,12 +105,13 @@ class SteerlabPilot:
         if self.pilot.targets and self.throttle > self.max_throttle:
             raise SteerlabError(f"SteerlabPilot: the cruising throttle {self.throttle:g} exceeds max_throttle "
                                 f"{self.max_throttle:g}")
-        self.speed_control = SpeedControl(self.throttle, self.max_throttle, _check("kp", kp, 0.0, 10.0),
-                                          _check("ki", ki, 0.0, 10.0))
+        self.speed_control = SpeedControl(_check("kp", kp, 0.0, 10.0), _check("ki", ki, 0.0, 10.0), self.throttle,
+                                          0.0, self.max_throttle)
         self.command_step = _check("command_step", command_step, 0.0, 1.0)
         self.reset_after_s = None if reset_after_s is None else _check("reset_after_s", reset_after_s, 0.0, 1e9,
                                                                        low_open=True)
         self.clock = clock
+        self.steering_ratio = car_of(self.pilot.geometry).steering_ratio  # the car its angles were recorded on
         cam = CAMERAS.get(self.pilot.geometry)
         self.shape = None if cam is None else (cam.height, cam.width, 3)  # the frames the model was trained on
         self.frames = 0
@@ -175,7 +160,7 @@ class SteerlabPilot:
             self.reset()
         self.frames += 1
         out = self.pilot.step(np.ascontiguousarray(img[..., ::-1]), None if speed is None else float(speed))
-        angle = servo_angle(out.steering, self.pilot.convention, self.full_lock)
+        angle = servo_angle(out.steering, self.pilot.convention, self.full_lock, self.steering_ratio)
         if out.speed is not None:
             throttle = self.speed_control.update(out.speed, float(speed))
         elif out.command is not None:

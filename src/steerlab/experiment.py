@@ -8,50 +8,114 @@ validation frames hold drift-and-recover episodes it plots them in the form of p
 
 from __future__ import annotations
 
-import copy
 import csv
 import filecmp
 import json
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import yaml
 
-from steerlab.data.preprocess import PreprocessConfig
-from steerlab.data.readers import open_recording
+from steerlab.dagger import dagger_options, run_dagger
+from steerlab.data.labels import COMMANDS, speed_targets
 from steerlab.data.recording import SteeringConvention
 from steerlab.data.splits import make_split
 from steerlab.errors import SteerlabError
-from steerlab.data.labels import COMMANDS, speed_targets
+from steerlab.evaluate.latency import measure
 from steerlab.evaluate.metrics import (SMOOTHING_ALPHA, accuracy, all_metrics, exponential_smoothing, speed_mae,
                                        steering_metrics)
-from steerlab.evaluate.latency import measure
 from steerlab.evaluate.plots import plot_open_vs_closed, plot_recovery, plot_steering, rank_correlation
 from steerlab.evaluate.scoring import read_steering_csv
-from steerlab.models import model_class
+from steerlab.options import Options, POSITIVE, as_dict, option, parse
 from steerlab.pilot import Pilot
-from steerlab.sim.bench import closed_loop_metrics, suite_minutes
-from steerlab.dagger import dagger_options, run_dagger
-from steerlab.sim.replay import SplitReplay
-from steerlab.train.config import load_config
+from steerlab.sim.bench import SuiteOptions, closed_loop_metrics
+from steerlab.split_replay import SplitReplay
+from steerlab.train.config import TrainConfig, parse_config, read_yaml
 from steerlab.train.loop import train
-from steerlab.train.sources import model_preprocess, prepare_dataset
+from steerlab.train.sources import main_recording, prepare_dataset
 
 LATENCY_FRAMES = 200
 
 
-def run_config(raw: dict, entry: dict, seed: int, overrides=()) -> dict:
-    """The training config of one run: the experiment's shared sections, then the entry's, then the overrides;
-    written to <out>/<label>/seed<seed>."""
-    base = copy.deepcopy(raw)
-    base["model"] = entry["model"]
-    base["preprocess"] = {**raw.get("preprocess", {}), **entry.get("preprocess", {})}
-    base["train"] = {**raw.get("train", {}), **entry.get("train", {}), "seed": seed}
-    if "dagger" in entry or "dagger" in raw:
-        base["dagger"] = {**(raw.get("dagger") or {}), **(entry.get("dagger") or {})}
-    label = entry.get("label", entry["model"]["name"])
-    base["out"] = str(Path(raw.get("out", "runs/experiment")) / label / f"seed{seed}")
-    return load_config(None, list(overrides), base=base)
+@dataclass(frozen=True)
+class ReplayOn(Options):
+    """An experiment's `replay:` section: replay every run on its validation frames ({} for the recorded or
+    estimated speed, or {speed: M/S})."""
+
+    speed: float | None = option(None, POSITIVE)
+
+
+@dataclass(frozen=True)
+class Entry:
+    """One row of an experiment: a training-config fragment over the shared sections."""
+
+    model: dict
+    label: str | None = None
+    preprocess: dict = option({})
+    train: dict = option({})
+    dagger: dict | None = None
+
+    @property
+    def name(self) -> str:
+        return self.label or self.model.get("name", "?")
+
+
+@dataclass(frozen=True)
+class ExperimentConfig:
+    """An experiment: the shared training-config sections, the `models` entries, and optionally the
+    closed-loop suite (`closed_loop`) and replay (`replay`) every run is driven on."""
+
+    shared: dict
+    entries: tuple[Entry, ...]
+    closed_loop: SuiteOptions | None = None
+    replay: ReplayOn | None = None
+    overrides: tuple[str, ...] = ()
+
+    @property
+    def out(self) -> Path:
+        return Path(self.shared.get("out", "runs/experiment"))
+
+    def run_config(self, entry: Entry, seed: int) -> TrainConfig:
+        """The training config of one run: the shared sections, then the entry's, then the overrides; written to
+        <out>/<label>/seed<seed>."""
+        base = {**self.shared, "model": entry.model,
+                "preprocess": {**self.shared.get("preprocess", {}), **entry.preprocess},
+                "train": {**self.shared.get("train", {}), **entry.train, "seed": seed},
+                "out": str(self.out / entry.name / f"seed{seed}")}
+        if entry.dagger is not None or self.shared.get("dagger") is not None:
+            base["dagger"] = {**(self.shared.get("dagger") or {}), **(entry.dagger or {})}
+        return parse_config(base, overrides=self.overrides)
+
+
+def load_experiment(path: str | Path, overrides=()) -> ExperimentConfig:
+    """An experiment config, every entry checked (its run config parsed, its DAgger options too) before any
+    work."""
+    raw = read_yaml(path, "sections with a 'models' list")
+    if not isinstance(raw.get("models"), list) or not raw["models"]:
+        raise SteerlabError(f"{path}: an experiment config needs a non-empty 'models' list")
+    shared = {k: v for k, v in raw.items() if k not in ("models", "closed_loop", "replay")}
+    try:
+        closed = None if raw.get("closed_loop") is None else parse(SuiteOptions, raw["closed_loop"], "closed_loop")
+        replay = None if raw.get("replay") is None else parse(ReplayOn, raw["replay"], "replay")
+    except SteerlabError as e:
+        raise SteerlabError(f"{path}: {e}") from None
+    entries = []
+    for i, item in enumerate(raw["models"]):
+        if not isinstance(item, dict) or not isinstance(item.get("model"), dict) or "name" not in item["model"]:
+            raise SteerlabError(f"{path}: models entry {i + 1} needs a model section with a name, got {item!r}")
+        try:
+            entries.append(parse(Entry, item, "models entry"))
+        except SteerlabError as e:
+            raise SteerlabError(f"{path}: models entry {i + 1}: {e}") from None
+    exp = ExperimentConfig(shared, tuple(entries), closed, replay, tuple(overrides))
+    for i, entry in enumerate(exp.entries):  # a bad entry is an error before the first model trains
+        try:
+            cfg = exp.run_config(entry, 0)
+            if cfg.dagger is not None:
+                dagger_options(cfg)
+        except SteerlabError as e:
+            raise SteerlabError(f"{path}: models entry {i + 1}: {e}") from None
+    return exp
 
 
 def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: bool = True) -> Path:
@@ -62,45 +126,20 @@ def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: boo
     or {} for the recorded or estimated speed) replays every trained model on the validation frames of the
     recording itself (`steerlab replay`). Finished runs and drives are reused, so an
     interrupted experiment continues where it stopped."""
-    if not Path(path).is_file():
-        raise SteerlabError(f"{path}: config file not found")
-    try:
-        raw = yaml.safe_load(Path(path).read_text())
-    except yaml.YAMLError as e:
-        raise SteerlabError(f"{path}: not valid YAML: {e}") from None
-    if not isinstance(raw, dict) or not isinstance(raw.get("models"), list) or not raw["models"]:
-        raise SteerlabError(f"{path}: an experiment config needs a non-empty 'models' list")
-    entries = raw.pop("models")
-    closed = raw.pop("closed_loop", None)
-    replay = raw.pop("replay", None)
-    if replay is not None and (not isinstance(replay, dict) or set(replay) - {"speed"}):
-        raise SteerlabError(f"{path}: replay: takes only a speed (m/s), e.g. replay: {{speed: 15}}; got {replay!r}")
-    if closed:
-        suite_minutes(closed.get("suite", "v1"), closed.get("minutes"), f"{path}: closed_loop: ")
-    for i, entry in enumerate(entries):  # a bad entry is an error before the first model trains
-        if not isinstance(entry, dict) or not isinstance(entry.get("model"), dict) or "name" not in entry["model"]:
-            raise SteerlabError(f"{path}: models entry {i + 1} needs a model section with a name, got {entry!r}")
-        try:
-            model_class(entry["model"]["name"])
-            cfg = run_config(raw, entry, 0, overrides)
-            if cfg.get("dagger"):
-                dagger_options(cfg)
-        except SteerlabError as e:
-            raise SteerlabError(f"{path}: models entry {i + 1}: {e}") from None
-    out = Path(raw.get("out", "runs/experiment"))
+    exp = load_experiment(path, overrides)
+    out = exp.out
     rows, preds = [], {}
-    labels = frames = deg = split_replay = None
-    for entry in entries:
-        label = entry.get("label", entry["model"]["name"])
+    labels = frames = deg = split_replay = cfg = None
+    for entry in exp.entries:
         runs = []
         for seed in range(seeds):
-            cfg = run_config(raw, entry, seed, overrides)
-            run_dir = Path(cfg["out"])
+            cfg = exp.run_config(entry, seed)
+            run_dir = Path(cfg.out)
             done = run_dir / "metrics.json"
             if not done.exists():
                 if progress:
-                    print(f"== {label}, seed {seed}")
-                if cfg.get("dagger"):
+                    print(f"== {entry.name}, seed {seed}")
+                if cfg.dagger is not None:
                     run_dagger(cfg, progress=progress)  # writes metrics.json
                 else:
                     done.write_text(json.dumps(train(cfg, progress=progress), indent=1))
@@ -109,17 +148,18 @@ def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: boo
                 labels, deg = ds.labels, SteeringConvention(**ds.meta["convention"]).degrees_per_unit
             # the run's own metrics win; those from its predictions fill in metrics added since it was trained
             run = {**_smoothed(run_dir, labels, deg), **json.loads(done.read_text()), "train_s": _train_seconds(run_dir)}
-            if closed:
-                run.update(closed_loop_metrics(suite_checkpoint(run_dir, cfg, closed), closed, progress))
-            if replay is not None:
-                split_replay = split_replay or SplitReplay(cfg, replay.get("speed"))
+            if exp.closed_loop:
+                run.update(closed_loop_metrics(suite_checkpoint(run_dir, cfg, exp.closed_loop), exp.closed_loop,
+                                               progress))
+            if exp.replay is not None:
+                split_replay = split_replay or SplitReplay(cfg, exp.replay.speed)
                 run.update(split_replay.evaluate(run_dir / "best.pt", run_dir / "replay", progress))
             runs.append(run)
         if frames is None:
             frames = _latency_frames(cfg)
-        pre = PreprocessConfig.from_dict(model_preprocess(entry["model"]["name"], cfg["preprocess"]))
-        rows.append(_row(label, entry["model"]["name"], pre, runs, _latency(out / label / "seed0", frames)))
-        preds[label] = read_steering_csv(out / label / "seed0" / "val_predictions.csv")
+        rows.append(_row(entry.name, cfg.model.name, cfg.preprocessing(), runs,
+                         _latency(out / entry.name / "seed0", frames)))
+        preds[entry.name] = read_steering_csv(out / entry.name / "seed0" / "val_predictions.csv")
     _write(out, rows, preds, cfg, seeds, _speed_references(labels, next(iter(preds.values()))[0]))
     return out / "table.md"
 
@@ -189,23 +229,23 @@ CLOSED_LOOP = ("autonomy", "autonomy_country", "autonomy_highway", "autonomy_twi
                "command_gamma_deg")
 
 
-def suite_checkpoint(run: Path, cfg: dict, closed: dict) -> Path:
+def suite_checkpoint(run: Path, cfg: TrainConfig, closed: SuiteOptions) -> Path:
     """The checkpoint that drives the suite for a run: its best.pt, or for a DAgger run whose last round drove
     the same suite for as many minutes, that round's identical copy, so that the round's drives are reused."""
     best = run / "best.pt"
-    if not cfg.get("dagger"):
+    if cfg.dagger is None:
         return best
-    opts, suite = dagger_options(cfg), closed.get("suite", "v1")
-    if opts["suite"] != suite or suite_minutes(suite, opts["suite_minutes"]) != suite_minutes(suite, closed.get("minutes")):
+    o = dagger_options(cfg)
+    if o.suite != closed.suite or SuiteOptions(o.suite, o.suite_minutes).road_minutes != closed.road_minutes:
         return best
     last = max(run.glob("round*/best.pt"), key=lambda p: int(p.parent.name.removeprefix("round")))
     return last if filecmp.cmp(last, best, shallow=False) else best
 
 
-def _latency_frames(cfg: dict) -> list[tuple]:
+def _latency_frames(cfg: TrainConfig) -> list[tuple]:
     """Raw frames (and speeds) of the start of the validation split, for the latency column."""
-    rec = open_recording(cfg["data"], cfg.get("range"), cfg.get("labels"), cfg.get("reader"))
-    idx = make_split(cfg["split"], len(rec), rec.extra.get("session"))[1][:LATENCY_FRAMES]
+    rec = main_recording(cfg)
+    idx = make_split(cfg.split, len(rec), rec.extra.get("session"))[1][:LATENCY_FRAMES]
     return [(rec.load_frame(i), None if rec.speed is None else rec.speed[i]) for i in idx]
 
 
@@ -221,7 +261,7 @@ def _fmt(value: float, digits: int, std: float | None = None) -> str:
     return f"{value:.{digits}f}" + (f" +- {std:.{digits}f}" if std is not None else "")
 
 
-def _write(out: Path, rows: list[dict], preds: dict, cfg: dict, seeds: int, references: str) -> None:
+def _write(out: Path, rows: list[dict], preds: dict, cfg: TrainConfig, seeds: int, references: str) -> None:
     fields = list(rows[0])
     with open(out / "table.csv", "w", newline="") as f:
         w = csv.DictWriter(f, fields)
@@ -229,7 +269,7 @@ def _write(out: Path, rows: list[dict], preds: dict, cfg: dict, seeds: int, refe
         w.writerows(rows)
     closed = not np.isnan(rows[0]["autonomy_mean"])
     worst = closed and seeds > 1
-    lines = [f"{seeds} seed(s) per model (mean +- std over seeds); validation split {cfg['split']}; plot: "
+    lines = [f"{seeds} seed(s) per model (mean +- std over seeds); validation split {as_dict(cfg.split)}; plot: "
              "predictions.png (seed 0).", "", "Paper 000 Table I form:", "",
              "| model | input | input shape | MSE | gamma [deg] | target gamma [deg] | RMSE | RMSE smoothed "
              f"a={SMOOTHING_ALPHA} | gamma smoothed [deg] | best epoch | train time [s] | latency p50 / p99 [ms] |"

@@ -23,15 +23,29 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from steerlab.data.inputs import Standardizer
 from steerlab.data.modalities import frame_difference, optical_flow
 from steerlab.data.preprocess import preprocess
 from steerlab.errors import SteerlabError
+from steerlab.options import FRACTION, Options, option
+from steerlab.runtime import load_model
 
 
 # `stream`: worker threads (three: a worker computing a frame's motion may wait for the previous frame's
 # decode, and a third keeps decoding; measured best on two cores) and frames prepared ahead of the model
 WORKERS, AHEAD = 3, 8
+
+
+def smoothing_option():
+    """The option of every command that makes a Pilot: its exponential smoothing of the steering."""
+    return option(None, FRACTION, help="exponential smoothing factor a of the steering, s = a y + (1 - a) s' "
+                  "(paper 002 Eq. 2; 0.2 there)")
+
+
+@dataclass(frozen=True)
+class DriveWith(Options):
+    """How `steerlab sim drive` makes its Pilot."""
+
+    smoothing: float | None = smoothing_option()
 
 
 @dataclass(frozen=True)
@@ -44,57 +58,12 @@ class Controls:
     command: int | None = None
 
 
-class TorchModel:
-    """A checkpoint's model: standardised NHWC frame (and speeds) in, numpy outputs out; keeps the recurrent
-    state between calls. `export.OnnxModel` is the same on ONNX Runtime."""
-
-    def __init__(self, ckpt: dict):
-        import torch
-
-        from steerlab.checkpoint import model_from_checkpoint
-
-        self.torch = torch
-        self.model, self.config, self.convention = model_from_checkpoint(ckpt)
-        self.name = ckpt["model"]
-        self.geometry = ckpt.get("geometry")  # the camera geometry it was trained on (ch2, sim, donkey)
-        self.standardize = Standardizer(ckpt["stats"])
-        self.recurrent = self.model.recurrent
-        self.speed_history = self.model.speed_history
-        self.targets = tuple(self.model.targets)  # what it predicts besides steering: ("speed",), ("command",)
-        self.reset()
-
-    def reset(self) -> None:
-        self.state = None
-
-    def __call__(self, x_nhwc: np.ndarray, speeds: list[float] | None = None) -> dict[str, np.ndarray]:
-        torch = self.torch
-        with torch.inference_mode():
-            inputs = {"x": self.standardize(x_nhwc)}
-            if self.speed_history:
-                inputs["speeds"] = torch.tensor([speeds], dtype=torch.float32)
-            if self.recurrent:
-                out, self.state = self.model(**{k: v[None] for k, v in inputs.items()}, state=self.state)
-                out = {k: v[0] for k, v in out.items()}
-            else:
-                out = self.model(**inputs)
-            return {k: v[0].numpy() for k, v in out.items()}
-
-
 class Pilot:
     def __init__(self, checkpoint: str | Path | dict, smoothing: float | None = None, threads: int | None = None):
         """`checkpoint`: a .pt checkpoint (path or loaded dict) or an exported .onnx file (self-contained: its
         preprocessing, statistics and convention are in its metadata). `threads`: ONNX Runtime's intra-op
-        threads for an .onnx file (default: see `export.OnnxModel`)."""
-        if not isinstance(checkpoint, dict) and Path(checkpoint).suffix == ".onnx":
-            from steerlab.export import OnnxModel
-
-            self.net = OnnxModel(checkpoint, threads)
-        else:
-            if not isinstance(checkpoint, dict):
-                from steerlab.checkpoint import load_checkpoint
-
-                checkpoint = load_checkpoint(checkpoint)
-            self.net = TorchModel(checkpoint)
+        threads for an .onnx file (default: see `runtime.OnnxModel`)."""
+        self.net = load_model(checkpoint, threads)
         self.name, self.config, self.convention = self.net.name, self.net.config, self.net.convention
         self.geometry, self.speed_history, self.targets = self.net.geometry, self.net.speed_history, self.net.targets
         self.smoothing = smoothing

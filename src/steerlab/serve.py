@@ -21,37 +21,28 @@ import csv
 import math
 import time
 import warnings
+from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
 import numpy as np
 
-from steerlab.data.geometry import CAMERAS, STEERING_RATIO
+from steerlab.control import SpeedControl
+from steerlab.data.car import CARS
+from steerlab.data.geometry import CAMERAS
 from steerlab.data.preprocess import crop_resize
 from steerlab.data.simlog import MPH_TO_MS, image_name, log_row, to_sim_steering
 from steerlab.errors import SteerlabError, warn
-from steerlab.pilot import Pilot
+from steerlab.options import Options, Range, option
+from steerlab.pilot import Pilot, smoothing_option
 
 SIM_FRAME = (CAMERAS["sim"].width, CAMERAS["sim"].height)  # the simulator's centre camera: 320x160
 
 
-class SpeedController:
-    """PI control of the throttle to a set speed (m/s); the integral is bounded so it cannot wind up."""
-
-    def __init__(self, set_speed: float, kp: float = 0.2, ki: float = 0.01, limit: float = 20.0):
-        self.set_speed, self.kp, self.ki, self.limit = set_speed, kp, ki, limit
-        self.integral = 0.0
-
-    def update(self, speed: float) -> float:
-        error = self.set_speed - speed
-        self.integral = min(max(self.integral + error, -self.limit), self.limit)
-        return float(np.clip(self.kp * error + self.ki * self.integral, -1.0, 1.0))
-
-
 def to_simulator(pilot: Pilot, steering: float) -> float:
     """The pilot's steering (its checkpoint's convention) as the simulator's normalised value."""
-    road_wheel_left = pilot.convention.to_road_wheel_left(steering, STEERING_RATIO)
-    return float(np.clip(to_sim_steering(road_wheel_left, STEERING_RATIO), -1.0, 1.0))
+    road_wheel_left = pilot.convention.to_road_wheel_left(steering, CARS[pilot.geometry or "sim"].steering_ratio)
+    return float(np.clip(to_sim_steering(road_wheel_left), -1.0, 1.0))
 
 
 def check_drivable(pilot: Pilot, source: str | Path) -> None:
@@ -76,7 +67,7 @@ class DriveSession:
     def __init__(self, pilot: Pilot, set_speed: float, record: str | Path | None = None,
                  source: str | Path | None = None):
         check_drivable(pilot, source or f"model {pilot.name!r}")
-        self.pilot, self.controller = pilot, SpeedController(set_speed)
+        self.pilot, self.set_speed, self.controller = pilot, set_speed, SpeedControl()
         self.record = Path(record) if record else None
         self.frames = self.bad = self._last_ms = 0
         if self.record:
@@ -106,7 +97,7 @@ class DriveSession:
         except SteerlabError as e:
             return self._safe_stop(speed, str(e))
         self.frames += 1
-        steering, throttle = to_simulator(self.pilot, controls.steering), self.controller.update(speed)
+        steering, throttle = to_simulator(self.pilot, controls.steering), self.controller.update(self.set_speed, speed)
         if self.record:
             self._log(jpeg, steering, throttle, speed)
         return {"steering_angle": f"{steering:.6f}", "throttle": f"{throttle:.6f}"}
@@ -174,17 +165,27 @@ def make_app(session: DriveSession):
     return socketio.WSGIApp(sio)
 
 
-def serve(checkpoint: str | Path, port: int = 4567, set_speed: float = 4.0, record: str | Path | None = None,
-          smoothing: float | None = None, host: str = "0.0.0.0") -> None:
+@dataclass(frozen=True)
+class ServeOptions(Options):
+    """`steerlab serve`'s options."""
+
+    port: int = option(4567, Range(1, 65535), help="port (4567: the simulator's)")
+    set_speed: float = option(4.0, Range(0), "a finite number of at least 0 (m/s)",
+                              help="speed the PI controller holds, m/s")
+    smoothing: float | None = smoothing_option()
+    record: str | None = option(None, help="folder to record the drive to (driving_log.csv + IMG/)")
+
+
+def serve(checkpoint: str | Path, o: ServeOptions = ServeOptions(), host: str = "0.0.0.0") -> None:
     _, eventlet = _socketio()
-    pilot = Pilot(checkpoint, smoothing=smoothing)
-    app = make_app(DriveSession(pilot, set_speed, record, checkpoint))
+    pilot = Pilot(checkpoint, smoothing=o.smoothing)
+    app = make_app(DriveSession(pilot, o.set_speed, o.record, checkpoint))
     try:
-        listener = eventlet.listen((host, port), reuse_port=False)
+        listener = eventlet.listen((host, o.port), reuse_port=False)
     except OSError as e:
-        raise SteerlabError(f"cannot listen on port {port}: {e.strerror}") from None
-    print(f"steerlab serve: {pilot.name} on port {port}, set speed {set_speed:.1f} m/s"
-          + (f", recording to {record}" if record else "") + " - start the simulator in autonomous mode",
+        raise SteerlabError(f"cannot listen on port {o.port}: {e.strerror}") from None
+    print(f"steerlab serve: {pilot.name} on port {o.port}, set speed {o.set_speed:.1f} m/s"
+          + (f", recording to {o.record}" if o.record else "") + " - start the simulator in autonomous mode",
           flush=True)
     t0 = time.time()
     eventlet.wsgi.server(listener, app, log_output=False)

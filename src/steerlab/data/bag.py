@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
+from steerlab.data.cache import cache_root
 from steerlab.data.ch2 import CH2_CONVENTION
 from steerlab.data.rows import apply_range, check_unique, nearest
 from steerlab.data.recording import Recording
@@ -68,13 +69,13 @@ def typestore():
     return store
 
 
-def read_bag(path: str | Path, frame_range=None, topics: dict | None = None) -> Recording:
+def read_bag(path: str | Path, frame_range=None, topics: dict | None = None, cache: str | Path | None = None) -> Recording:
     path = Path(path)
     if not isinstance(topics or {}, dict) or set(topics or {}) - set(TOPICS):
         raise DataError(path, f"reader option topics must map some of {', '.join(TOPICS)} to topic names, "
                               f"got {topics!r}")
     topics = {**TOPICS, **(topics or {})}
-    folder, index = _extract(path, topics)
+    folder, index = _extract(path, topics, cache_root(cache))
     cams = {cam: np.array(index["cameras"][cam], dtype=object) for cam in ("center", "left", "right")
             if index["cameras"].get(cam)}
     center = cams["center"]
@@ -98,14 +99,12 @@ def read_bag(path: str | Path, frame_range=None, topics: dict | None = None) -> 
     )
 
 
-def _extract(path: Path, topics: dict) -> tuple[Path, dict]:
+def _extract(path: Path, topics: dict, cache: Path) -> tuple[Path, dict]:
     """Write the frames of the camera topics to the cache once; return the folder and its index (stamps and
     files per camera, steering reports)."""
-    from steerlab.data.dataset import DEFAULT_CACHE
-
     st = os.stat(path / "metadata.yaml" if path.is_dir() else path)
     key = hashlib.sha1(json.dumps([str(path.resolve()), st.st_size, st.st_mtime_ns, topics]).encode()).hexdigest()
-    folder = Path(DEFAULT_CACHE) / "bags" / f"{path.stem}-{key[:16]}"
+    folder = cache / "bags" / f"{path.stem}-{key[:16]}"
     if (folder / "index.json").exists():
         return folder, json.loads((folder / "index.json").read_text())
     try:

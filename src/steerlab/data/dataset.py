@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
+from steerlab.data.cache import cache_root
 from steerlab.data.geometry import camera as geometry_of
 from steerlab.data.geometry import shift_view
 from steerlab.data.modalities import frame_difference, optical_flow
@@ -30,7 +31,6 @@ from steerlab.data.preprocess import PreprocessConfig, preprocess
 from steerlab.data.recording import Recording
 from steerlab.locks import pid_alive, waiting_lock
 
-DEFAULT_CACHE = Path(os.environ.get("STEERLAB_CACHE", ".steerlab-cache"))
 CHUNK = 64
 
 
@@ -79,6 +79,14 @@ class CompiledDataset:
     def steering(self) -> np.ndarray:
         return self.labels["steering"]
 
+    def __getstate__(self) -> dict:
+        """Pickled without its arrays (a worker process maps them again), so it never copies the cache."""
+        return {**self.__dict__, "arrays": list(self.arrays)}
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self.arrays = {m: np.load(self.path / f"{m}.npy", mmap_mode="r") for m in state["arrays"]}
+
     @classmethod
     def load(cls, path: str | Path) -> "CompiledDataset":
         path = Path(path)
@@ -90,7 +98,7 @@ class CompiledDataset:
         return cls(path, cfg, arrays, labels, meta)
 
 
-def compile_recording(rec: Recording, cfg: PreprocessConfig, cache_dir: str | Path = DEFAULT_CACHE,
+def compile_recording(rec: Recording, cfg: PreprocessConfig, cache_dir: str | Path | None = None,
                       camera: str = "center", workers: int | None = None, progress: bool = True,
                       view: tuple[float, float] | None = None) -> CompiledDataset:
     """Compile (or reuse) the cached arrays for `rec` under `cfg`.
@@ -102,7 +110,7 @@ def compile_recording(rec: Recording, cfg: PreprocessConfig, cache_dir: str | Pa
     user_cfg, cfg = cfg, replace(cfg, stack=1)
     name = camera if view is None else f"{camera}@{view[0]:+g}m{view[1]:+g}deg"
     key = f"{rec.name}-{name}-{source_key(rec, camera)}-{cfg.key()}"
-    final = Path(cache_dir) / key
+    final = cache_root(cache_dir) / key
     if not (final / "meta.json").exists():
         final.parent.mkdir(parents=True, exist_ok=True)
         remove_leftovers(final.parent)

@@ -61,26 +61,6 @@ CAMERAS = {
 }
 
 
-STEERING_RATIO = 14.8  # hand-wheel / road-wheel angle of the CH2 car (a Lincoln MKZ) and the synthetic world's
-
-
-@dataclass(frozen=True)
-class Car:
-    """The car a camera geometry belongs to: wheelbase (m), steering ratio (hand wheel / road wheel, for
-    steering-wheel conventions), the lateral offset (m) from the driven path that counts as leaving the lane
-    (NVIDIA's 1 m for a car in a 3.7 m lane; for a donkeycar about the same share of its lane) and the speeds
-    (m/s) it plausibly drives at, which an estimate of its speed must fall in."""
-
-    wheelbase: float
-    steering_ratio: float
-    lane_limit_m: float
-    speeds: tuple[float, float]
-
-
-CARS = {"sim": Car(2.85, STEERING_RATIO, 1.0, (1.0, 45.0)), "ch2": Car(2.85, STEERING_RATIO, 1.0, (1.0, 45.0)),
-        "donkey": Car(0.26, 1.0, 0.3, (0.3, 8.0))}
-
-
 def with_overrides(cam: Camera, mount_height: float | None = None, pitch_deg: float | None = None,
                    hfov_deg: float | None = None) -> Camera:
     """A camera geometry with its mount height (m), pitch (deg, down positive) or horizontal field of view

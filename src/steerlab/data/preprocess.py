@@ -8,12 +8,14 @@ from __future__ import annotations
 
 import hashlib
 import json
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, fields, replace
+from typing import Literal
 
 import cv2
 import numpy as np
 
 from steerlab.errors import SteerlabError
+from steerlab.options import AT_LEAST_1, Options, as_dict, option
 
 COLORS = {"gray": 1, "yuv": 3, "hsv": 3, "rgb": 3}
 MODALITIES = ("image", "diff", "flow")
@@ -83,6 +85,40 @@ class PreprocessConfig:
         """Channels per modality, in input order."""
         per = {"image": self.image_channels * self.stack, "diff": self.image_channels, "flow": 2}
         return {m: per[m] for m in self.modalities}
+
+
+@dataclass(frozen=True)
+class PreprocessOptions(Options):
+    """The preprocess: section of a training config: `PreprocessConfig`'s fields, None where the default is
+    taken, and `preset`, the crop preset (default: the recording's camera geometry; an explicit crop wins)."""
+
+    preset: Literal[tuple(CROP_PRESETS)] | None = None
+    crop: tuple[int, int, int, int] | None = option(None, lambda c: min(c) >= 0,
+                                                    "four non-negative integers (top, bottom, left, right)")
+    width: int | None = option(None, AT_LEAST_1)
+    height: int | None = option(None, AT_LEAST_1)
+    color: Literal[tuple(COLORS)] | None = None
+    modalities: tuple[Literal[MODALITIES], ...] | None = option(
+        None, lambda m: len(m) > 0 and m[0] == "image" and len(set(m)) == len(m),
+        "a list of modalities starting with image, each once (image, diff, flow)")
+    flow: Literal[FLOW_METHODS] | None = None
+    stack: int | None = option(None, AT_LEAST_1)
+
+    def resolve(self, geometry: str | None = None) -> PreprocessConfig:
+        """The preprocessing of a recording of this camera `geometry` (its crop preset unless one is set)."""
+        given = {k: v for k, v in as_dict(self).items() if v is not None and k != "preset"}
+        preset = self.preset or (geometry if geometry in CROP_PRESETS else None)
+        if "crop" not in given and preset is not None:
+            given["crop"] = CROP_PRESETS[preset]
+        return PreprocessConfig(**given)
+
+    def merged(self, fixed: dict, owner: str) -> PreprocessOptions:
+        """These options with `fixed` ones (what a model needs) filled in; a conflicting setting is an error."""
+        for key, value in fixed.items():
+            mine = getattr(self, key)
+            if mine is not None and as_dict(mine) != as_dict(value):
+                raise SteerlabError(f"{owner} needs preprocess {key}={value}, the config sets {as_dict(mine)}")
+        return replace(self, **{k: tuple(v) if isinstance(v, list) else v for k, v in fixed.items()})
 
 
 def crop_resize(bgr: np.ndarray, cfg: PreprocessConfig) -> np.ndarray:

@@ -8,6 +8,7 @@ share (frame ranges, CSV rows, checks that name the file and row) is in `rows.py
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 from steerlab.data import bag, tub, videolog
@@ -35,11 +36,27 @@ def reader_options(items: list[str]) -> dict:
     return out
 
 
+@dataclass(frozen=True)
+class Source:
+    """A recording as a command or a config names it: its path, frame range, CH2 label file, reader options,
+    and (for a split) which of its frames to use."""
+
+    data: str
+    range: str | None = None
+    labels: str | None = None
+    reader: dict | None = None
+    frames: tuple[int, ...] | None = None
+
+    def open(self, cache: str | Path | None = None) -> Recording:
+        return open_recording(self.data, self.range, self.labels, self.reader, cache)
+
+
 def open_recording(path: str | Path, frame_range: str | tuple | None = None, labels: str | Path | None = None,
-                   options: dict | None = None) -> Recording:
+                   options: dict | None = None, cache: str | Path | None = None) -> Recording:
     """Open any supported recording. `frame_range` ("a:b") keeps frames [a, b) before images are checked.
     `options` are reader options (config section `reader:`), e.g. `full_lock_deg` and `skip_missing` for
-    donkeycar tubs, `topics` for ROS bags, `log` for videos."""
+    donkeycar tubs, `topics` for ROS bags, `log` for videos. `cache`: the cache root (`data.cache`), where a ROS
+    bag's frames are extracted to."""
     path = Path(path)
     if not path.exists():
         raise DataError(path, "recording not found")
@@ -54,6 +71,8 @@ def open_recording(path: str | Path, frame_range: str | tuple | None = None, lab
         if reader is not read_ch2:
             raise DataError(path, "a label file (--labels) belongs to CH2 folders only")
         options["labels"] = labels
+    if reader is bag.read_bag:
+        options["cache"] = cache
     return reader(path, rng, **options)
 
 

@@ -56,6 +56,25 @@ class SteeringConvention:
         sign = 1.0 if self.positive == "left" else -1.0
         return sign * value / self._road_wheel_scale(steering_ratio)
 
+    def convert(self, values, target: SteeringConvention, steering_ratio: float, target_ratio: float | None = None):
+        """Values of this convention in the `target` convention, through the road-wheel angle (`steering_ratio`
+        of this side's car, `target_ratio` of the target's, the same car by default); raises SteerlabError when
+        one of them is normalized steering without a full-lock angle."""
+        road_wheel = self.to_road_wheel_left(values, steering_ratio)
+        return target.from_road_wheel_left(road_wheel, steering_ratio if target_ratio is None else target_ratio)
+
+    def matches(self, other: SteeringConvention) -> bool:
+        """Whether values of both conventions are in the same units and sign (a full-lock angle that only one
+        side knows does not count as a difference)."""
+        locks = (self.full_lock, other.full_lock)
+        return ((self.kind, self.positive) == (other.kind, other.positive)
+                and (None in locks or math.isclose(*locks, rel_tol=1e-6)))
+
+    def describe(self) -> str:
+        """As messages name it: kind/positive side (and the full-lock angle)."""
+        lock = "" if self.full_lock is None else f" (full lock {math.degrees(self.full_lock):g} deg)"
+        return f"{self.kind}/{self.positive}{lock}"
+
     @property
     def degrees_per_unit(self) -> float:
         """Degrees (of the wheel this convention measures) per unit of its values; NaN when unknown."""

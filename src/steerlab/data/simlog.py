@@ -20,9 +20,9 @@ SIM_FULL_LOCK_RAD = math.radians(25.0)  # the simulator's steering value +-1 is 
 SIM_CONVENTION = SteeringConvention("road_wheel", "right")
 
 
-def to_sim_steering(road_wheel_left: float, ratio: float) -> float:
+def to_sim_steering(road_wheel_left: float) -> float:
     """A road-wheel angle (rad, positive left) as the simulator's steering value in [-1, 1]."""
-    return SIM_CONVENTION.from_road_wheel_left(road_wheel_left, ratio) / SIM_FULL_LOCK_RAD
+    return -road_wheel_left / SIM_FULL_LOCK_RAD
 
 
 def image_name(camera: str, timestamp_ns: int) -> str:

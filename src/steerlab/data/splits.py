@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from dataclasses import dataclass
+
 import numpy as np
 
 from steerlab.data.rows import parse_range
 from steerlab.errors import SteerlabError
+from steerlab.options import AT_LEAST_1, value_of
 
 
 def block(text: str, n: int, name: str) -> np.ndarray:
@@ -48,17 +52,51 @@ def by_sessions(part: dict, sessions: np.ndarray | None, name: str) -> np.ndarra
     return np.flatnonzero(np.isin(sessions, [str(w) for w in wanted]))
 
 
-def make_split(spec: dict, n: int, sessions: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """From a config: {"train": "a:b", "val": "c:d"}, {"train": {"sessions": [...]}, "val": {"sessions": [...]}}
-    or {"protocol": "paper", "k": 3, "length": 1000}."""
-    spec = dict(spec or {})
-    if spec.get("protocol") == "paper":
-        return paper_protocol(n, int(spec.get("k", 3)), int(spec.get("length", 1000)))
-    if "train" not in spec or "val" not in spec:
-        raise SteerlabError("split needs 'train' and 'val' ranges (e.g. 0:1800 and 1800:2400), sessions "
-                            "({sessions: [...]}) or protocol: paper")
-    train, val = (by_sessions(spec[k], sessions, k) if isinstance(spec[k], dict) else block(spec[k], n, k)
-                  for k in ("train", "val"))
+@dataclass(frozen=True)
+class Split:
+    """The split: section of a config: `{train: "a:b", val: "c:d"}`, `{train: {sessions: [...]}, val:
+    {sessions: [...]}}` or `{protocol: paper, k: 3, length: 1000}` (the default)."""
+
+    protocol: str | None = "paper"
+    k: int = 3
+    length: int = 1000
+    train: str | dict | None = None
+    val: str | dict | None = None
+
+    @classmethod
+    def parse_option(cls, value, where: str) -> Split:
+        if not isinstance(value, Mapping):
+            raise SteerlabError(f"{where} must be a mapping, e.g. {{train: '0:1800', val: '1800:2400'}}; got {value!r}")
+        unknown = sorted(set(value) - {"protocol", "k", "length", "train", "val"})
+        if unknown:
+            raise SteerlabError(f"unknown {where} options {unknown}; known: ['k', 'length', 'protocol', 'train', 'val']")
+        if value.get("protocol") is not None:
+            if value["protocol"] != "paper" or "train" in value or "val" in value:
+                raise SteerlabError(f"{where}: protocol must be paper (without train and val ranges), got "
+                                    f"{value['protocol']!r}")
+            return cls("paper", value_of(int, value.get("k", 3), f"{where}.k", AT_LEAST_1),
+                       value_of(int, value.get("length", 1000), f"{where}.length", AT_LEAST_1))
+        if "train" not in value or "val" not in value:
+            raise SteerlabError(f"{where} needs 'train' and 'val' ranges (e.g. 0:1800 and 1800:2400), sessions "
+                                "({sessions: [...]}) or protocol: paper")
+        for part in ("train", "val"):
+            if not isinstance(value[part], (str, Mapping)):
+                raise SteerlabError(f"{where}.{part} must be a frame range like \"0:1800\" (quote it in YAML files) "
+                                    f"or {{sessions: [...]}}, got {value[part]!r}")
+        return cls(None, 3, 1000, value["train"], value["val"])
+
+    def as_dict(self) -> dict:
+        if self.protocol:
+            return {"protocol": self.protocol, "k": self.k, "length": self.length}
+        return {"train": self.train, "val": self.val}
+
+
+def make_split(spec: Split, n: int, sessions: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The training and validation frames of a recording of `n` frames (and its `sessions`)."""
+    if spec.protocol == "paper":
+        return paper_protocol(n, spec.k, spec.length)
+    train, val = (by_sessions(part, sessions, k) if isinstance(part, Mapping) else block(part, n, k)
+                  for k, part in (("train", spec.train), ("val", spec.val)))
     if np.intersect1d(train, val).size:
-        raise SteerlabError(f"train split {spec['train']} and val split {spec['val']} overlap")
+        raise SteerlabError(f"train split {spec.train} and val split {spec.val} overlap")
     return train, val

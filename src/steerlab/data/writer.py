@@ -11,6 +11,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from steerlab.data.car import car_of
 from steerlab.data.native import EPISODES, NATIVE_COLUMNS
 from steerlab.data.recording import SteeringConvention
 from steerlab.data.simlog import image_name, log_row, to_sim_steering
@@ -24,13 +25,15 @@ JPEG = [cv2.IMWRITE_JPEG_QUALITY, 92]
 class RecordingWriter:
     """Writes frames and per-frame rows as a steerlab recording (`recording.json`, `log.csv`, one folder of
     JPEGs per camera) or in the Udacity simulator's `driving_log.csv` layout. Steering is written in
-    `convention` (the synthetic world's own by default)."""
+    `convention` (the synthetic world's own by default); `geometry` is the camera geometry of the frames, which
+    also names the car (`data.car`)."""
 
     def __init__(self, out: str | Path, cameras: list[str], layout: str = "steerlab",
-                 convention: SteeringConvention = CONVENTION):
+                 convention: SteeringConvention = CONVENTION, geometry: str = "sim"):
         if layout not in ("steerlab", "udacity-sim"):
             raise SteerlabError(f"unknown layout {layout!r}; choose steerlab or udacity-sim")
         self.out, self.cameras, self.layout, self.convention = Path(out), cameras, layout, convention
+        self.geometry = geometry
         if self.out.exists() and any(self.out.iterdir()):
             raise SteerlabError(f"{self.out} exists and is not empty; choose a new output folder")
         for cam in cameras:
@@ -50,13 +53,14 @@ class RecordingWriter:
             cv2.imwrite(str(self.out / names[cam]), frames[cam], JPEG)
         self.rows.append({"frame": i, **{c: names.get(c, "") for c in ("center", "left", "right")}, **row})
 
-    def close(self, meta: dict, ratio: float) -> Path:
+    def close(self, meta: dict) -> Path:
+        ratio = car_of(self.geometry).steering_ratio
         if self.layout == "udacity-sim":
             with open(self.out / "driving_log.csv", "w", newline="") as f:
                 w = csv.writer(f)
                 for r in self.rows:
                     road_wheel = self.convention.to_road_wheel_left(r["steering"], ratio)
-                    w.writerow(log_row(r["center"], r["left"], r["right"], to_sim_steering(road_wheel, ratio),
+                    w.writerow(log_row(r["center"], r["left"], r["right"], to_sim_steering(road_wheel),
                                        r["throttle"], r["brake"], r["speed"]))
             return self.out
         with open(self.out / "log.csv", "w", newline="") as f:
@@ -65,6 +69,6 @@ class RecordingWriter:
             for r in self.rows:
                 w.writerow({k: (f"{v:.6f}" if isinstance(v, float) else v) for k, v in r.items()})
         (self.out / "recording.json").write_text(json.dumps(
-            {"format": "steerlab-recording-1", **meta, "steering": self.convention.as_dict(), "steering_ratio": ratio,
+            {"format": "steerlab-recording-1", **meta, "geometry": self.geometry, "steering": self.convention.as_dict(),
              "episodes": list(EPISODES)}, indent=1))
         return self.out

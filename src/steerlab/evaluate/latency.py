@@ -17,15 +17,18 @@ import sys
 import tempfile
 import time
 from contextlib import contextmanager
+from dataclasses import dataclass, replace
 from itertools import cycle, islice
 from pathlib import Path
+from typing import Literal
 
 import cv2
 import numpy as np
 from tqdm import tqdm
 
 from steerlab.data.geometry import camera
-from steerlab.data.readers import open_recording
+from steerlab.data.readers import Source
+from steerlab.options import AT_LEAST_1, Options, option
 from steerlab.errors import SteerlabError
 from steerlab.export import export_onnx
 from steerlab.pilot import Pilot
@@ -127,28 +130,54 @@ def untrained_checkpoint(folder: Path, name: str, geometry: str, **preprocess) -
     """A checkpoint of model `name` with untrained weights and unit statistics for the camera `geometry`
     (`preprocess`: options beside the model's own, e.g. flow="dis")."""
     from steerlab.checkpoint import save_checkpoint
-    from steerlab.data.preprocess import PreprocessConfig
+    from steerlab.data.preprocess import PreprocessOptions
     from steerlab.data.recording import SteeringConvention
-    from steerlab.models import create_model
-    from steerlab.train.sources import model_preprocess
+    from steerlab.models.registry import ModelSpec
+    from steerlab.options import parse
 
-    pre = PreprocessConfig.from_dict(model_preprocess(name, {"preset": geometry, **preprocess}))
+    spec = ModelSpec(name, {})
+    pre = spec.preprocess(parse(PreprocessOptions, {"preset": geometry, **preprocess}, "preprocess")).resolve()
     c = sum(pre.channels().values())
-    model_cfg = {"in_channels": c, "height": pre.height, "width": pre.width}
+    model_cfg = spec.arguments(pre)
     path = folder / ("-".join([name, geometry, *map(str, preprocess.values())]) + ".pt")
-    save_checkpoint(path, create_model(name, **model_cfg), model_cfg, pre, {"mean": [0.0] * c, "std": [1.0] * c},
+    save_checkpoint(path, spec.build(pre), model_cfg, pre, {"mean": [0.0] * c, "std": [1.0] * c},
                     SteeringConvention(), {}, geometry=geometry)
     return path
 
 
-def run_latency(checkpoints=(), models=(), geometry: str | None = None, threads: int = 1, runtime: str = "both",
-                count: int = 500, data=None, frame_range=None, labels=None, reader=None, decode: bool = False,
+@dataclass(frozen=True)
+class LatencyOptions(Options):
+    """`steerlab latency`'s options."""
+
+    models: str | None = option(None, help="'all' or a comma list of registered models to time untrained (the "
+                                "weights do not change the cost); default: all when no checkpoint is given")
+    geometry: Literal["donkey", "ch2", "sim"] | None = option(None, help="camera geometry of the untrained models "
+                                                              "and the synthetic frames (default: the recording's "
+                                                              "with --data, else donkey, 160x120)")
+    threads: int = option(1, AT_LEAST_1, help="threads of torch, OpenCV and ONNX Runtime (1: one core)")
+    runtime: Literal["torch", "onnx", "both"] = option("both", help="PyTorch, ONNX Runtime (a .pt is exported "
+                                                       "first) or both")
+    frames: int = option(500, AT_LEAST_1, help="frames timed, after 10 warm-up frames")
+    decode: bool = option(False, help="time JPEG decoding too (frames encoded once, quality 95)")
+
+    def model_names(self, checkpoints) -> list[str]:
+        names = [m.strip() for m in (self.models or ("" if checkpoints else "all")).split(",") if m.strip()]
+        if names == ["all"]:
+            from steerlab.models import list_models
+
+            return list_models()
+        return names
+
+
+def run_latency(checkpoints=(), o: LatencyOptions = LatencyOptions(), source: Source | None = None,
                 out: str | Path | None = None, progress: bool = True) -> list[dict]:
-    """Time checkpoints (.pt, .onnx) and untrained `models` (built for `geometry`: default the recording's, else
-    donkey) on the runtimes asked for (`runtime`: torch, onnx or both; a .pt is exported for ONNX Runtime, an
-    .onnx runs there only). Writes latency.csv and latency.md into `out` when given; returns the rows. Without
-    `models` nothing here needs torch: exported models time on a car's computer with ONNX Runtime alone."""
-    runtimes = RUNTIMES if runtime == "both" else (runtime,)
+    """Time checkpoints (.pt, .onnx) and untrained models (`o.models`, built for `o.geometry`: default the
+    recording's, else donkey) on the runtimes asked for (torch, onnx or both; a .pt is exported for ONNX Runtime,
+    an .onnx runs there only), on the frames of `source` (its first DISTINCT_FRAMES by default) or synthetic
+    ones. Writes latency.csv and latency.md into `out` when given; returns the rows. Without models nothing here
+    needs torch: exported models time on a car's computer with ONNX Runtime alone."""
+    runtimes = RUNTIMES if o.runtime == "both" else (o.runtime,)
+    models, threads, count, decode = o.model_names(checkpoints), o.threads, o.frames, o.decode
     if models:
         from steerlab.models import model_class
 
@@ -159,8 +188,8 @@ def run_latency(checkpoints=(), models=(), geometry: str | None = None, threads:
             raise SteerlabError(f"{path}: checkpoint not found")
         if path.suffix == ".onnx" and "onnx" not in runtimes:
             raise SteerlabError(f"{path} runs on ONNX Runtime only: time it with --runtime onnx or both")
-    rec = None if data is None else open_recording(data, frame_range or f"0:{DISTINCT_FRAMES}", labels, reader)
-    geometry = geometry or (rec.geometry if rec else "donkey")
+    rec = None if source is None else replace(source, range=source.range or f"0:{DISTINCT_FRAMES}").open()
+    geometry = o.geometry or (rec.geometry if rec else "donkey")
     size = rec and rec.load_frame(0).shape[:2]
     frames = {}  # geometry -> frames
     rows = []
@@ -175,7 +204,7 @@ def run_latency(checkpoints=(), models=(), geometry: str | None = None, threads:
                 cam = camera(geo)
                 if rec is not None and size != (cam.height, cam.width):
                     raise SteerlabError(f"{item}: the model takes frames of the {geo!r} camera geometry "
-                                        f"({cam.width}x{cam.height}); the frames of {data} are {size[1]}x{size[0]}")
+                                        f"({cam.width}x{cam.height}); the frames of {source.data} are {size[1]}x{size[0]}")
                 if geo not in frames:
                     frames[geo] = synthetic_frames(geo, decode) if rec is None else recording_frames(rec, decode)
                 r = measure(pilot, frames[geo], count, threads)

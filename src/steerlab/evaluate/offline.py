@@ -11,10 +11,9 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from steerlab.data.geometry import STEERING_RATIO
+from steerlab.data.car import car_of
 from steerlab.data.labels import speed_targets
-from steerlab.data.readers import open_recording
-from steerlab.data.recording import SteeringConvention
+from steerlab.data.readers import Source
 from steerlab.evaluate.metrics import SMOOTHING_ALPHA, all_metrics, exponential_smoothing, steering_metrics
 from steerlab.errors import SteerlabError, warn
 from steerlab.evaluate.plots import plot_steering
@@ -24,61 +23,42 @@ from steerlab.video import DriveVideo
 
 
 
-def describe(conv: SteeringConvention) -> str:
-    """A steering convention as the messages name it: kind/positive side (and the full-lock angle)."""
-    lock = "" if conv.full_lock is None else f" (full lock {math.degrees(conv.full_lock):g} deg)"
-    return f"{conv.kind}/{conv.positive}{lock}"
-
-
-def conventions_match(model: SteeringConvention, data: SteeringConvention) -> bool:
-    """Whether a model's steering values and a recording's are in the same units and sign (a full-lock angle
-    that only one side knows does not count as a difference)."""
-    locks = (model.full_lock, data.full_lock)
-    return ((model.kind, model.positive) == (data.kind, data.positive)
-            and (None in locks or math.isclose(*locks, rel_tol=1e-6)))
-
-
-def convert_steering(values, source: SteeringConvention, target: SteeringConvention):
-    """Steering values from one convention into another, through the road-wheel angle (geometry.STEERING_RATIO);
-    raises SteerlabError when one of them is normalized steering without a full-lock angle."""
-    return target.from_road_wheel_left(source.to_road_wheel_left(values, STEERING_RATIO), STEERING_RATIO)
-
-
-def evaluate(checkpoint: str | Path, data: str | Path, frame_range: str | None, out: str | Path,
-             labels: str | Path | None = None, camera: str = "center", video: str | Path | None = None,
-             reader: dict | None = None, progress: bool = True, allow_convention_mismatch: bool = False) -> dict:
-    """Run the Pilot over every frame (resetting at segment starts, feeding the recorded speed); write
-    metrics (with speed MAE and command accuracy for speed models), predictions and a plot, and optionally a
-    video of the frames with the predicted and the recorded steering.
+def evaluate(checkpoint: str | Path, source: Source, out: str | Path, camera: str = "center",
+             video: str | Path | None = None, progress: bool = True, allow_convention_mismatch: bool = False) -> dict:
+    """Run the Pilot over every frame of the recording of `source` (resetting at segment starts, feeding the
+    recorded speed); write metrics (with speed MAE and command accuracy for speed models), predictions and a
+    plot, and optionally a video of the frames with the predicted and the recorded steering.
 
     A checkpoint whose steering convention is not the recording's is refused, since its metrics would mix
     units; with `allow_convention_mismatch` it is evaluated with a warning, its predictions converted to the
     recording's convention (or compared unconverted where normalized steering has no full-lock angle)."""
     out = Path(out)
-    rec = open_recording(data, frame_range, labels, reader)
+    rec = source.open()
     if camera not in rec.frames:
         raise SteerlabError(f"{rec.source} has no {camera!r} camera (it has {', '.join(rec.cameras)})")
     pilot = Pilot(checkpoint)
     if pilot.speed_history and rec.speed is None:
         raise SteerlabError(f"model {pilot.name!r} needs the measured speed with every frame; {rec.source} has none")
     convert = None
-    if not conventions_match(pilot.convention, rec.convention):
-        what = (f"{checkpoint} predicts {describe(pilot.convention)} steering and {rec.source} records "
-                f"{describe(rec.convention)} steering")
+    ratios = (car_of(pilot.geometry).steering_ratio, car_of(rec.geometry).steering_ratio)  # the model's, the data's
+    if not pilot.convention.matches(rec.convention):
+        what = (f"{checkpoint} predicts {pilot.convention.describe()} steering and {rec.source} records "
+                f"{rec.convention.describe()} steering")
         if not allow_convention_mismatch:
             raise SteerlabError(f"{what}: the metrics would mix units; evaluate it on recordings of its own "
                                 "convention, or pass --allow-convention-mismatch to convert its predictions")
         try:
-            convert_steering(0.0, pilot.convention, rec.convention)
-            convert = (pilot.convention, rec.convention)
-            warn(f"{what}: its predictions are converted to the recording's convention (steering ratio {STEERING_RATIO:g})")
+            pilot.convention.convert(0.0, rec.convention, *ratios)
+            convert = lambda y: pilot.convention.convert(y, rec.convention, *ratios)  # noqa: E731
+            warn(f"{what}: its predictions are converted to the recording's convention (steering ratios "
+                 f"{ratios[0]:g} and {ratios[1]:g})")
         except SteerlabError:
             warn(f"{what}: normalized steering without a full-lock angle cannot be converted, so the metrics "
                  "compare unconverted values")
     if video:  # both sides are shown as a steering-wheel angle, which needs a physical scale
         try:
-            for conv in (pilot.convention, rec.convention):
-                conv.to_road_wheel_left(0.0, STEERING_RATIO)
+            for conv, ratio in zip((pilot.convention, rec.convention), ratios):
+                conv.to_road_wheel_left(0.0, ratio)
         except SteerlabError as e:
             raise SteerlabError(f"cannot write {video} (it shows steering-wheel angles): {e}") from None
     if pilot.geometry != rec.geometry:
@@ -88,8 +68,8 @@ def evaluate(checkpoint: str | Path, data: str | Path, frame_range: str | None, 
     seg = rec.segment_ids()
     offsets = rec.extra.get("lateral_offset")
 
-    def wheel(conv, y):  # steering-wheel angle, positive left, for the video
-        return conv.to_road_wheel_left(y, STEERING_RATIO) * STEERING_RATIO
+    def wheel(conv, ratio, y):  # the steering-wheel angle of the recording's car, positive left, for the video
+        return conv.to_road_wheel_left(y, ratio) * ratios[1]
 
     if rec.video is None:  # image files: read and decoded on the Pilot's worker threads
         frames, load = iter(range(len(rec))), partial(rec.load_frame, camera=camera)
@@ -105,12 +85,12 @@ def evaluate(checkpoint: str | Path, data: str | Path, frame_range: str | None, 
     if video:  # drawn once the predictions are made, reading the frames again
         with DriveVideo(video, rec.frame_rate(), reference="recorded") as movie:
             for i, c in enumerate(controls):
-                movie.add(rec.load_frame(i, camera), wheel(pilot.convention, c.steering),
-                          wheel(rec.convention, rec.steering[i]), None if offsets is None else float(offsets[i]),
+                movie.add(rec.load_frame(i, camera), wheel(pilot.convention, ratios[0], c.steering),
+                          wheel(rec.convention, ratios[1], rec.steering[i]), None if offsets is None else float(offsets[i]),
                           f"{rec.name}  frame {i}")
     pred = {"steering": np.array([c.steering for c in controls])}
     if convert:
-        pred["steering"] = convert_steering(pred["steering"], *convert)
+        pred["steering"] = convert(pred["steering"])
     for k in ("speed", "command"):
         if getattr(controls[0], k) is not None:
             pred[k] = np.array([getattr(c, k) for c in controls])
@@ -125,7 +105,7 @@ def evaluate(checkpoint: str | Path, data: str | Path, frame_range: str | None, 
                       {k: v for k, v in pred.items() if k != "steering"})
     t = (rec.timestamps_ns - rec.timestamps_ns[0]) / 1e9
     plot_steering(out / "steering.png", t, rec.steering, {pilot.name: pred["steering"]},
-                  title=f"{rec.name} {frame_range or ''}: RMSE {metrics['rmse']:.4f} rad, "
+                  title=f"{rec.name} {source.range or ''}: RMSE {metrics['rmse']:.4f} rad, "
                         f"gamma {metrics['gamma_deg']:.3f} vs target {metrics['target_gamma_deg']:.3f} deg")
     (out / "metrics.json").write_text(json.dumps(metrics, indent=1))
     return metrics

@@ -11,7 +11,7 @@ from steerlab.models.registry import SteeringModel, register
 class _Constant(SteeringModel):
     trainable = False
 
-    def __init__(self, in_channels: int = 1, height: int = 66, width: int = 200, **_):
+    def __init__(self, in_channels: int = 1):
         super().__init__()
         self.register_buffer("value", torch.zeros(()))
 

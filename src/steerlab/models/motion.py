@@ -40,7 +40,7 @@ class CNN3D(SteeringModel):
 
     inputs = {"stack": 3, "modalities": ["image"], "color": "gray"}
 
-    def __init__(self, in_channels: int = 3, height: int = 66, width: int = 200, dropout: float = 0.5):
+    def __init__(self, in_channels: int = 3, dropout: float = 0.5):
         super().__init__()
         layers, c = [], 1
         for out, k, s in [(24, 5, 2), (36, 5, 2), (48, 5, 2), (64, 3, 1), (64, 3, 1)]:
@@ -48,9 +48,7 @@ class CNN3D(SteeringModel):
             c = out
         self.features = nn.Sequential(*layers)
         self.frames = in_channels
-        with torch.no_grad():
-            n = self.features(torch.zeros(1, 1, in_channels, height, width)).numel()
-        self.head = pilotnet_head(n, dropout)
+        self.head = pilotnet_head(dropout)
 
     def forward(self, x: torch.Tensor) -> dict[str, torch.Tensor]:
         return {"steering": self.head(self.features(x.unsqueeze(1)).flatten(1)).squeeze(1)}  # channels = time
@@ -60,11 +58,11 @@ class CNN3D(SteeringModel):
 class TwoStreamFlow(SteeringModel):
     inputs = {"modalities": ["image", "flow"]}
 
-    def __init__(self, in_channels: int = 3, height: int = 66, width: int = 200, dropout: float = 0.5):
+    def __init__(self, in_channels: int = 3, dropout: float = 0.5):
         super().__init__()
         self.image_channels = in_channels - 2  # the flow's (dx, dy) come last
-        self.image = PilotNet(self.image_channels, height, width, dropout)
-        self.flow = PilotNet(2, height, width, dropout)
+        self.image = PilotNet(self.image_channels, dropout)
+        self.flow = PilotNet(2, dropout)
 
     def forward(self, x: torch.Tensor) -> dict[str, torch.Tensor]:
         y_img = self.image(x[:, : self.image_channels])["steering"]

@@ -24,7 +24,6 @@ import torch
 import torch.nn as nn
 import torch.nn.functional as F
 
-from steerlab.models.recurrent import n_features
 from steerlab.models.registry import SteeringModel, register
 
 SQUARE = {"width": 96, "height": 96}  # paper 002: the input squeezed to an aspect ratio of 1:1
@@ -48,21 +47,22 @@ def base_convs(in_channels: int) -> nn.Sequential:
         nn.Conv2d(64, 64, 3, padding=1), nn.ReLU(inplace=True), nn.MaxPool2d(3, 2))
 
 
-def dense(sizes: list[int], dropout: float) -> nn.Sequential:
-    """Fully connected layers with ReLU and dropout between them."""
+def dense(sizes: list[int | None], dropout: float) -> nn.Sequential:
+    """Fully connected layers with ReLU and dropout between them; a first size of None takes however many
+    features come in (sized by the first input)."""
     layers = []
     for a, b in zip(sizes[:-1], sizes[1:]):
-        layers += [nn.Linear(a, b), nn.ReLU(inplace=True), nn.Dropout(dropout)]
+        layers += [nn.Linear(a, b) if a else nn.LazyLinear(b), nn.ReLU(inplace=True), nn.Dropout(dropout)]
     return nn.Sequential(*layers)
 
 
 class _VisualEncoder(nn.Module):
     """The base CNN's convolutions and its first fully connected layers: (B, C, H, W) -> (B, sizes[-1])."""
 
-    def __init__(self, in_channels: int, height: int, width: int, dropout: float, sizes: list[int]):
+    def __init__(self, in_channels: int, dropout: float, sizes: list[int]):
         super().__init__()
         self.convs = base_convs(in_channels)
-        self.fc = dense([n_features(self.convs, in_channels, height, width)] + sizes, dropout)
+        self.fc = dense([None] + sizes, dropout)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         return self.fc(self.convs(x).flatten(1))
@@ -72,11 +72,10 @@ class _VisualEncoder(nn.Module):
 class YangBase(SteeringModel):
     inputs = SQUARE
 
-    def __init__(self, in_channels: int = 3, height: int = 96, width: int = 96, dropout: float = 0.5,
-                 weight_gain: float = 1.0):
+    def __init__(self, in_channels: int = 3, dropout: float = 0.5, weight_gain: float = 1.0):
         super().__init__()
         self.weight_gain = weight_gain
-        self.encoder = _VisualEncoder(in_channels, height, width, dropout, [256, 64, 16])
+        self.encoder = _VisualEncoder(in_channels, dropout, [256, 64, 16])
         self.out = nn.Linear(16, 1)
 
     def forward(self, x: torch.Tensor) -> dict[str, torch.Tensor]:
@@ -92,11 +91,11 @@ class SpeedCommand(SteeringModel):
     inputs = SQUARE
     targets = ("command",)
 
-    def __init__(self, in_channels: int = 3, height: int = 96, width: int = 96, dropout: float = 0.5,
-                 hidden: int = 64, seq_len: int = 10, weight_gain: float = 1.0, command_weight: float = 0.1):
+    def __init__(self, in_channels: int = 3, dropout: float = 0.5, hidden: int = 64, seq_len: int = 10,
+                 weight_gain: float = 1.0, command_weight: float = 0.1):
         super().__init__()
         self.seq_len, self.weight_gain, self.command_weight = seq_len, weight_gain, command_weight
-        self.encoder = _VisualEncoder(in_channels, height, width, dropout, [256])
+        self.encoder = _VisualEncoder(in_channels, dropout, [256])
         self.lstm = nn.LSTM(256, hidden, batch_first=True)
         self.steer = nn.Linear(hidden, 1)
         self.command = nn.Linear(hidden, 3)
@@ -117,11 +116,11 @@ class MultitaskSpeed(SteeringModel):
     targets = ("speed",)
     speed_history = 10  # the most recent speeds the model is given (paper 002 III-C: 10)
 
-    def __init__(self, in_channels: int = 3, height: int = 96, width: int = 96, dropout: float = 0.5,
-                 speed_history: int = 10, weight_gain: float = 1.0, speed_weight: float = 0.1):
+    def __init__(self, in_channels: int = 3, dropout: float = 0.5, speed_history: int = 10, weight_gain: float = 1.0,
+                 speed_weight: float = 0.1):
         super().__init__()
         self.speed_history, self.weight_gain, self.speed_weight = speed_history, weight_gain, speed_weight
-        self.visual = _VisualEncoder(in_channels, height, width, dropout, [256, 64])
+        self.visual = _VisualEncoder(in_channels, dropout, [256, 64])
         self.steer = nn.Sequential(nn.Linear(64, 16), nn.ReLU(inplace=True), nn.Linear(16, 1))
         self.speed_encoder = dense([speed_history + 1, 32, 32], 0.0)
         self.speed_head = nn.Sequential(nn.Linear(64 + 32, 32), nn.ReLU(inplace=True), nn.Linear(32, 1))
@@ -142,15 +141,14 @@ class MultitaskSpeed(SteeringModel):
 class CG23(SteeringModel):
     inputs: dict = {}
 
-    def __init__(self, in_channels: int = 1, height: int = 66, width: int = 200, dropout: float = 0.5):
+    def __init__(self, in_channels: int = 1, dropout: float = 0.5):
         super().__init__()
         layers, c = [], in_channels
         for out in (16, 32, 64):
             layers += [nn.Conv2d(c, out, 3, padding=1), nn.ReLU(inplace=True), nn.MaxPool2d(2)]
             c = out
         self.features = nn.Sequential(*layers)
-        self.head = nn.Sequential(*dense([n_features(self.features, in_channels, height, width), 256], dropout),
-                                  nn.Linear(256, 1))
+        self.head = nn.Sequential(*dense([None, 256], dropout), nn.Linear(256, 1))
 
     def forward(self, x: torch.Tensor) -> dict[str, torch.Tensor]:
         return {"steering": self.head(self.features(x).flatten(1)).squeeze(1)}

@@ -21,12 +21,12 @@ def pilotnet_convs(in_channels: int) -> nn.Sequential:
     return nn.Sequential(*layers)
 
 
-def pilotnet_head(n_features: int, dropout: float) -> nn.Sequential:
-    """Fully connected 1164, 100, 50, 10, 1 with ReLU and dropout after each hidden layer."""
-    sizes = [n_features, 1164, 100, 50, 10]
+def pilotnet_head(dropout: float) -> nn.Sequential:
+    """Fully connected 1164, 100, 50, 10, 1 with ReLU and dropout after each hidden layer; the first layer takes
+    however many features the convolutions give (sized by the first input, `registry.create_model`)."""
     layers = []
-    for a, b in zip(sizes[:-1], sizes[1:]):
-        layers += [nn.Linear(a, b), nn.ReLU(inplace=True), nn.Dropout(dropout)]
+    for b in (1164, 100, 50, 10):
+        layers += [nn.LazyLinear(b), nn.ReLU(inplace=True), nn.Dropout(dropout)]
     return nn.Sequential(*layers, nn.Linear(10, 1))
 
 
@@ -34,12 +34,10 @@ def pilotnet_head(n_features: int, dropout: float) -> nn.Sequential:
 class PilotNet(SteeringModel):
     inputs: dict = {}  # any colour space and modalities
 
-    def __init__(self, in_channels: int = 1, height: int = 66, width: int = 200, dropout: float = 0.5):
+    def __init__(self, in_channels: int = 1, dropout: float = 0.5):
         super().__init__()
         self.features = pilotnet_convs(in_channels)
-        with torch.no_grad():
-            n = self.features(torch.zeros(1, in_channels, height, width)).numel()
-        self.head = pilotnet_head(n, dropout)
+        self.head = pilotnet_head(dropout)
 
     def forward(self, x: torch.Tensor) -> dict[str, torch.Tensor]:
         return {"steering": self.head(self.features(x).flatten(1)).squeeze(1)}

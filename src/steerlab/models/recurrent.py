@@ -22,23 +22,16 @@ from steerlab.models.pilotnet import pilotnet_convs
 from steerlab.models.registry import SteeringModel, register
 
 
-def n_features(module: nn.Module, channels: int, height: int, width: int) -> int:
-    with torch.no_grad():
-        return module(torch.zeros(1, channels, height, width)).numel()
-
-
 @register("lstm")
 class ConvLSTM(SteeringModel):
     recurrent = True
     inputs = {"modalities": ["image"], "color": "gray"}
 
-    def __init__(self, in_channels: int = 1, height: int = 66, width: int = 200, dropout: float = 0.5,
-                 hidden: int = 100, seq_len: int = 10):
+    def __init__(self, in_channels: int = 1, dropout: float = 0.5, hidden: int = 100, seq_len: int = 10):
         super().__init__()
         self.seq_len = seq_len
         self.features = pilotnet_convs(in_channels)
-        n = n_features(self.features, in_channels, height, width)
-        self.fc = nn.Sequential(nn.Linear(n, 512), nn.ReLU(inplace=True), nn.Dropout(dropout))
+        self.fc = nn.Sequential(nn.LazyLinear(512), nn.ReLU(inplace=True), nn.Dropout(dropout))
         self.lstm = nn.LSTM(512, hidden, batch_first=True)
         self.out = nn.Linear(hidden, 1)
 
@@ -68,13 +61,10 @@ class FlowLSTM(ConvLSTM):
 
     inputs = {"modalities": ["image", "flow"]}
 
-    def __init__(self, in_channels: int = 3, height: int = 66, width: int = 200, dropout: float = 0.5,
-                 hidden: int = 100, seq_len: int = 10):
-        super().__init__(in_channels - 2, height, width, dropout, hidden, seq_len)  # self.features: the image
+    def __init__(self, in_channels: int = 3, dropout: float = 0.5, hidden: int = 100, seq_len: int = 10):
+        super().__init__(in_channels - 2, dropout, hidden, seq_len)  # self.features: the image
         self.image_channels = in_channels - 2
         self.flow_features = pilotnet_convs(2)
-        n = n_features(self.features, self.image_channels, height, width) + n_features(self.flow_features, 2, height, width)
-        self.fc = nn.Sequential(nn.Linear(n, 512), nn.ReLU(inplace=True), nn.Dropout(dropout))
 
     def encode(self, frames: torch.Tensor) -> torch.Tensor:
         c = self.image_channels

@@ -1,7 +1,9 @@
 """Every model is a `SteeringModel` registered by name; the class attributes declare what a model is.
 
-A model is built from `in_channels` (set from the preprocessing config), `height`, `width` and its own
-options, and maps standardised inputs to a dict of named outputs:
+A model is built from `in_channels` (set from the preprocessing config) and its own options; `create_model`
+runs it once on an input of the configured height and width, which sizes its first fully connected layer
+(`nn.LazyLinear`) and refuses an input too small for its layers. It maps standardised inputs to a dict of named
+outputs:
 
 - `forward(x)` with x (B, C, H, W) returns {"steering": (B,)} in the recording's units; multi-task models
   add "speed" (B,), the next frame's speed in m/s, or "command" (B, 3), logits of the speed command
@@ -12,11 +14,17 @@ options, and maps standardised inputs to a dict of named outputs:
 
 from __future__ import annotations
 
-from typing import Callable, ClassVar
+import inspect
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Callable, ClassVar, get_type_hints
 
+import torch
 import torch.nn as nn
 
+from steerlab.data.preprocess import PreprocessConfig, PreprocessOptions
 from steerlab.errors import SteerlabError
+from steerlab.options import AT_LEAST_0, AT_LEAST_1, Range, value_of
 
 
 class SteeringModel(nn.Module):
@@ -57,9 +65,89 @@ def model_class(name: str):
     return _REGISTRY[name]
 
 
-def create_model(name: str, **cfg) -> SteeringModel:
+def create_model(name: str, in_channels: int | None = None, height: int | None = None, width: int | None = None,
+                 **options) -> SteeringModel:
+    """The model `name` for inputs of `in_channels` x `height` x `width` (default: the model's own, else 66x200),
+    its lazy layers sized by one run on such an input (a checkpoint's `model_cfg` holds exactly these
+    arguments)."""
     cls = model_class(name)
+    if in_channels is None:
+        in_channels = inspect.signature(cls.__init__).parameters["in_channels"].default
+    height, width = height or cls.inputs.get("height", 66), width or cls.inputs.get("width", 200)
     try:
-        return cls(**cfg)
+        model = cls(in_channels=in_channels, **options)
     except TypeError as e:
         raise SteerlabError(f"bad options for model {name!r}: {e}") from None
+    x = torch.zeros((1, 1, in_channels, height, width) if model.recurrent else (1, in_channels, height, width))
+    extra = {"speeds": torch.zeros(1, model.speed_history)} if model.speed_history else {}
+    try:
+        with torch.no_grad():
+            model.eval()(x, **extra)
+    except RuntimeError as e:
+        if "size" not in str(e).lower():
+            raise
+        raise SteerlabError(f"model {name!r} cannot take a {width}x{height} input (preprocess.width x "
+                            f"preprocess.height): it is too small for the model's layers") from None
+    return model.train()
+
+
+# The range of a model option, by its name, for every model that has it.
+OPTION_CHECKS = {"dropout": Range(0, 1, hi_open=True), "hidden": AT_LEAST_1, "seq_len": AT_LEAST_1,
+                 "speed_history": AT_LEAST_1, "weight_gain": AT_LEAST_0, "command_weight": AT_LEAST_0,
+                 "speed_weight": AT_LEAST_0}
+
+
+def model_option_types(name: str) -> dict[str, type]:
+    """The options a model's constructor takes (following `**kw` up to the base classes) and their types."""
+    types: dict[str, type] = {}
+    for cls in model_class(name).__mro__:
+        init = cls.__init__
+        params = inspect.signature(init).parameters
+        hints = get_type_hints(init)
+        types.update({n: hints.get(n, object) for n, p in params.items()
+                      if p.kind not in (p.VAR_KEYWORD, p.VAR_POSITIONAL) and n not in ("self", "in_channels")
+                      and n not in types})
+        if not any(p.kind == p.VAR_KEYWORD for p in params.values()):
+            break
+    return types
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    """The model: section of a config: a registered model's name and its own options, typed and range-checked
+    (`OPTION_CHECKS`); `{name: pilotnet, dropout: 0.3}` in YAML."""
+
+    name: str = "pilotnet"
+    options: Mapping = field(default_factory=lambda: {"dropout": 0.5})
+
+    @classmethod
+    def parse_option(cls, value, where: str) -> "ModelSpec":
+        if not isinstance(value, Mapping) or not isinstance(value.get("name"), str):
+            raise SteerlabError(f"{where} needs a model name, e.g. {{name: pilotnet}}; got {value!r}")
+        name = value["name"]
+        types = model_option_types(name)
+        options = {k: v for k, v in value.items() if k != "name"}
+        unknown = sorted(set(options) - set(types))
+        if unknown:
+            raise SteerlabError(f"unknown {where} options {unknown} for model {name!r}; it takes {sorted(types)}")
+        return cls(name, {k: value_of(types[k], v, f"{where}.{k}", OPTION_CHECKS.get(k)) for k, v in options.items()})
+
+    def as_dict(self) -> dict:
+        return {"name": self.name, **self.options}
+
+    @property
+    def cls(self):
+        return model_class(self.name)
+
+    def preprocess(self, options: PreprocessOptions) -> PreprocessOptions:
+        """The config's preprocessing with what this model needs (its `inputs`) filled in."""
+        return options.merged(self.cls.inputs, f"model {self.name!r}")
+
+    def arguments(self, pre: PreprocessConfig) -> dict:
+        """The model's options completed with the input its preprocessing gives (channels, height, width): what
+        `create_model` takes and a checkpoint keeps as `model_cfg`."""
+        return {**self.options, "in_channels": sum(pre.channels().values()), "height": pre.height,
+                "width": pre.width}
+
+    def build(self, pre: PreprocessConfig) -> SteeringModel:
+        return create_model(self.name, **self.arguments(pre))

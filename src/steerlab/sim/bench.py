@@ -5,24 +5,25 @@ The roads of a suite version never change, and their seeds (9000-9999) are refus
 DAgger's rollouts, so no model has seen them. Drives run in parallel worker processes (one torch thread
 each); a finished drive is kept in its folder and reused when the suite is run again, so an interrupted
 suite continues where it stopped. It is reused only when its drive.json holds the same cache key: the
-checkpoint's content hash, suite version, minutes and smoothing (`cache_key`).
+checkpoint's content hash, suite version, minutes and smoothing (`SuiteOptions.key`).
 """
 
 from __future__ import annotations
 
 import csv
+import hashlib
 import json
-import math
-import multiprocessing as mp
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
 
 from steerlab.errors import SteerlabError
-from steerlab.sim.driving import autonomy
-from steerlab.sim.world import make_road
+from steerlab.pilot import smoothing_option
+from steerlab.options import AT_LEAST_1, Options, POSITIVE, option, parse
+from steerlab.sim.driving import Trajectory, autonomy
+from steerlab.sim.parallel import run_parallel, tick_reporter
+from steerlab.sim.world import DriveOptions, make_road
 
 SUITES = {
     # 11 roads of 3 minutes: 33 minutes of driving, about 30 km
@@ -34,46 +35,51 @@ DRIVE_FIELDS = ["label", "checkpoint", "road_type", "seed", "minutes", "autonomy
 SUMMARY_FIELDS = ["label", "road_type", "drives", "minutes", "distance_km", "interventions", "autonomy",
                   "interventions_per_km", "mean_abs_offset_m", "max_abs_offset_m", "command_gamma_deg"]
 
-_ticks = None  # in a worker: the queue through which it reports progress
+FPS = 20.0  # the suite's frame rate
 
 
-def _init_worker(queue) -> None:
-    global _ticks
-    import torch
+@dataclass(frozen=True)
+class SuiteOptions(Options):
+    """The closed-loop suite: `steerlab sim bench`'s options and a config's `closed_loop:` section."""
 
-    torch.set_num_threads(1)
-    _ticks = queue
+    suite: str = option("v1", lambda v: v in SUITES, " or ".join(SUITES), help="suite version")
+    minutes: float | None = option(None, POSITIVE, "positive and finite",
+                                   help="minutes per road (default: the suite's, 3 for v1)")
+    workers: int = option(2, AT_LEAST_1, help="roads driven in parallel")
+    smoothing: float | None = smoothing_option()
+    roads: str | None = option(None, help="comma list of the suite's road types to drive (default: all)")
+
+    @property
+    def road_minutes(self) -> float:
+        return SUITES[self.suite]["minutes"] if self.minutes is None else self.minutes
+
+    def drives(self) -> list[tuple[str, int]]:
+        """(road type, seed) of every road to drive."""
+        spec = SUITES[self.suite]
+        types = list(spec["roads"]) if self.roads is None else [t.strip() for t in self.roads.split(",") if t.strip()]
+        unknown = [t for t in types if t not in spec["roads"]]
+        if unknown:
+            raise SteerlabError(f"suite {self.suite} has no {', '.join(unknown)} roads; it has "
+                                f"{', '.join(spec['roads'])}")
+        if not types:
+            raise SteerlabError(f"no road to drive: choose road types of suite {self.suite} "
+                                f"({', '.join(spec['roads'])})")
+        return [(t, s) for t in types for s in spec["roads"][t]]
+
+    def key(self, checkpoint: Path) -> dict:
+        """Everything that changes a drive's result besides its road: the checkpoint's content (the sha256 of
+        the file; an exported .onnx carries its metadata inside), the suite version, the minutes and the
+        smoothing. A finished drive is reused only when its drive.json holds exactly this key."""
+        with open(checkpoint, "rb") as f:
+            digest = hashlib.file_digest(f, "sha256").hexdigest()
+        key = {"checkpoint_sha256": digest, "suite": self.suite, "minutes": self.road_minutes,
+               "smoothing": self.smoothing}
+        return json.loads(json.dumps(key))  # as drive.json gives it back
 
 
-def tick_reporter():
-    """In a worker process: the callback through which a drive reports its ticks (None elsewhere)."""
-    return _ticks.put if _ticks is not None else None
-
-
-def run_parallel(fn, jobs: list[tuple], workers: int, minutes_per_job: float, progress: bool, desc: str) -> list:
-    """`fn(*job)` for every job, in `workers` spawned processes with one torch thread each (in this process
-    when workers <= 1), with one progress bar over the ticks of all drives. Results in job order."""
-    per_job = int(round(minutes_per_job * 60 * 20))
-    results = [None] * len(jobs)
-    with tqdm(total=per_job * len(jobs), desc=desc, unit="tick", disable=None if progress else True) as bar:
-        if workers <= 1 or len(jobs) <= 1:
-            for i, job in enumerate(jobs):
-                results[i] = fn(*job)
-                bar.update(per_job)
-            return results
-        ctx = mp.get_context("spawn")  # no fork of a process that already runs torch threads
-        queue = ctx.Queue()
-        with ProcessPoolExecutor(min(workers, len(jobs)), ctx, _init_worker, (queue,)) as pool:
-            futures = {pool.submit(fn, *job): i for i, job in enumerate(jobs)}
-            pending = set(futures)
-            while pending:
-                finished, pending = wait(pending, timeout=0.5, return_when=FIRST_COMPLETED)
-                while not queue.empty():
-                    bar.update(queue.get())
-                for f in finished:
-                    results[futures[f]] = f.result()
-        bar.update(bar.total - bar.n)
-    return results
+def suite_options(section: dict | None, where: str) -> SuiteOptions:
+    """A config's `closed_loop:` section (None: the default suite)."""
+    return parse(SuiteOptions, section or {}, where)
 
 
 def _drive_job(checkpoint: str, road: str, seed: int, minutes: float, out: str, smoothing: float | None,
@@ -83,18 +89,8 @@ def _drive_job(checkpoint: str, road: str, seed: int, minutes: float, out: str, 
     from steerlab.pilot import Pilot
     from steerlab.sim.world import drive
 
-    return drive(Pilot(checkpoint, smoothing=smoothing), out, seed=seed, minutes=minutes, road=road,
+    return drive(Pilot(checkpoint, smoothing=smoothing), out, DriveOptions(seed, minutes, road, fps=FPS),
                  progress=False, on_tick=tick_reporter(), plot=False, meta=None if key is None else {"cache_key": key})
-
-
-def cache_key(checkpoint: Path, suite: str, minutes: float, smoothing: float | None) -> dict:
-    """Everything that changes a drive's result besides its road: the checkpoint's content (the sha256 of the
-    file; an exported .onnx carries its metadata inside), the suite version, the minutes and the smoothing. A
-    finished drive is reused only when its drive.json holds exactly this key."""
-    from steerlab.export import file_sha256
-
-    key = {"checkpoint_sha256": file_sha256(checkpoint), "suite": suite, "minutes": minutes, "smoothing": smoothing}
-    return json.loads(json.dumps(key))  # as drive.json gives it back
 
 
 def _cached(done: Path, key: dict) -> dict | None:
@@ -118,56 +114,32 @@ def labels_for(checkpoints: list[Path]) -> list[str]:
     return [str(p) for p in checkpoints]
 
 
-def suite_minutes(suite: str, minutes: float | None = None, where: str = "") -> float:
-    """Check a suite name and minutes per road (None: the suite's own) before anything drives or trains;
-    `where` names the config section in the error."""
-    if suite not in SUITES:
-        raise SteerlabError(f"{where}unknown suite {suite!r}; known: {', '.join(SUITES)}")
-    minutes = float(SUITES[suite]["minutes"] if minutes is None else minutes)
-    if not (math.isfinite(minutes) and minutes > 0):
-        raise SteerlabError(f"{where}minutes must be positive and finite, got {minutes:g}")
-    return minutes
-
-
-def run_suite(checkpoints, out: str | Path, suite: str = "v1", minutes: float | None = None, workers: int = 2,
-              smoothing: float | None = None, roads: str | None = None, progress: bool = True,
+def run_suite(checkpoints, out: str | Path, o: SuiteOptions = SuiteOptions(), progress: bool = True,
               plots: bool = True) -> list[dict]:
-    """Drive every checkpoint on every road of the suite (or of the road types in the comma list `roads`);
-    write `suite.csv` (one row per drive), `summary.csv` and `suite.md` (per checkpoint and road type) and,
-    with `plots`, one trajectory plot per road in `out/roads/`.
-    Returns the summary rows."""
-    minutes = suite_minutes(suite, minutes)
-    if smoothing is not None and not 0 < smoothing <= 1:
-        raise SteerlabError(f"smoothing must be a number in (0, 1], got {smoothing:g}")
-    if not workers >= 1:
-        raise SteerlabError(f"workers must be an integer of at least 1, got {workers}")
+    """Drive every checkpoint on every road of the suite (or of the road types in `o.roads`); write
+    `suite.csv` (one row per drive), `summary.csv` and `suite.md` (per checkpoint and road type) and, with
+    `plots`, one trajectory plot per road in `out/roads/`. Returns the summary rows."""
     checkpoints = [Path(c) for c in checkpoints]
     if not checkpoints:
         raise SteerlabError("no checkpoint to drive: name at least one")
     for c in checkpoints:
         if not c.is_file():
             raise SteerlabError(f"{c}: checkpoint not found")
-    spec = SUITES[suite]
-    types = list(spec["roads"]) if roads is None else [t.strip() for t in roads.split(",") if t.strip()]
-    unknown = [t for t in types if t not in spec["roads"]]
-    if unknown:
-        raise SteerlabError(f"suite {suite} has no {', '.join(unknown)} roads; it has {', '.join(spec['roads'])}")
-    roads = [(t, s) for t in types for s in spec["roads"][t]]
-    if not roads:
-        raise SteerlabError(f"no road to drive: choose road types of suite {suite} ({', '.join(spec['roads'])})")
+    roads, minutes = o.drives(), o.road_minutes
     out = Path(out)
     labels = labels_for(checkpoints)
     jobs, rows = [], {}
     for label, ckpt in zip(labels, checkpoints):
-        key = cache_key(ckpt, suite, minutes, smoothing)
+        key = o.key(ckpt)
         for road, seed in roads:
             folder = out / label / f"{road}-{seed}"
             cached = _cached(folder / "drive.json", key)
             if cached is not None:
                 rows[(label, road, seed)] = cached
             else:
-                jobs.append((label, str(ckpt), road, seed, minutes, str(folder), smoothing, key))
-    results = run_parallel(_drive_job, [job[1:] for job in jobs], workers, minutes, progress, f"suite {suite}")
+                jobs.append((label, str(ckpt), road, seed, minutes, str(folder), o.smoothing, key))
+    results = run_parallel(_drive_job, [job[1:] for job in jobs], o.workers, int(round(minutes * 60 * FPS)),
+                           progress, f"suite {o.suite}")
     rows.update({(job[0], job[2], job[3]): r for job, r in zip(jobs, results)})
     drives = [{**{k: rows[(label, road, seed)][k] for k in DRIVE_FIELDS[5:]}, "label": label, "checkpoint": str(ckpt),
                "road_type": road, "seed": seed, "minutes": minutes}
@@ -176,17 +148,16 @@ def run_suite(checkpoints, out: str | Path, suite: str = "v1", minutes: float | 
     out.mkdir(parents=True, exist_ok=True)
     _write_csv(out / "suite.csv", DRIVE_FIELDS, drives)
     _write_csv(out / "summary.csv", SUMMARY_FIELDS, summary)
-    (out / "suite.md").write_text(markdown(summary, suite, minutes))
+    (out / "suite.md").write_text(markdown(summary, o.suite, minutes))
     if plots:
         _plot_roads(out, drives, minutes)
     return summary
 
 
-def closed_loop_metrics(checkpoint: Path, closed: dict, progress: bool, plots: bool = True) -> dict:
+def closed_loop_metrics(checkpoint: Path, o: SuiteOptions, progress: bool, plots: bool = True) -> dict:
     """A checkpoint on the closed-loop suite (drives kept in the `suite` folder beside it): autonomy over all
     roads and per road type, interventions per km and command gamma."""
-    summary = run_suite([checkpoint], checkpoint.parent / "suite", closed.get("suite", "v1"), closed.get("minutes"),
-                        int(closed.get("workers", 2)), progress=progress, plots=plots)
+    summary = run_suite([checkpoint], checkpoint.parent / "suite", o, progress=progress, plots=plots)
     out = {f"autonomy_{s['road_type']}": s["autonomy"] for s in summary}
     overall = next(s for s in summary if s["road_type"] == "all")
     return {**out, "autonomy": overall["autonomy"], "interventions_per_km": overall["interventions_per_km"],
@@ -238,8 +209,8 @@ def _plot_roads(out: Path, drives: list[dict], minutes: float) -> None:
 
     (out / "roads").mkdir(exist_ok=True)
     for road, seed in dict.fromkeys((d["road_type"], d["seed"]) for d in drives):
-        trajs = {f"{d['label']} ({d['autonomy']:.0f} %)": np.loadtxt(
-                     out / d["label"] / f"{road}-{seed}" / "trajectory.csv", delimiter=",", skiprows=1, ndmin=2)
+        trajs = {f"{d['label']} ({d['autonomy']:.0f} %)": Trajectory.read(
+                     out / d["label"] / f"{road}-{seed}" / "trajectory.csv")
                  for d in drives if (d["road_type"], d["seed"]) == (road, seed)}
         plot_trajectory(out / "roads" / f"{road}-{seed}.png", make_road(seed, road, minutes * 60), trajs,
                         f"{road} road {seed}")

@@ -5,13 +5,13 @@ from __future__ import annotations
 
 import numpy as np
 
+from steerlab.data.car import CH2_CAR, Car
 from steerlab.sim.road import LANE_CENTER, Road
-from steerlab.sim.vehicle import VehicleParams, VehicleState
+from steerlab.sim.vehicle import VehicleState
 
 DRIFT_TARGET = 0.85   # m beside the lane centre the driver aims for while drifting out
 DRIFT_TURN = 0.7      # m: the driver notices and starts to steer back
 RECOVERED = 0.15      # m: back to normal driving
-_CAR = VehicleParams()  # the car whose throttle and brake the cruise controller scales to
 
 
 def pure_pursuit(road: Road, state: VehicleState, s: float, d_target: float, wheelbase: float) -> float:
@@ -27,13 +27,13 @@ def cruise(road: Road, s: float, v: float, gain: float = 0.8) -> tuple[float, fl
     """Throttle and brake that follow the road's speed profile (used by the expert and the closed loop)."""
     target = road.speed_limit[road.index(s + 2.0 * v)]
     acc = float(np.clip(gain * (target - v), -2.5, 1.5))
-    return (acc / _CAR.max_accel, 0.0) if acc >= 0 else (0.0, -acc / _CAR.max_decel)
+    return (acc / CH2_CAR.max_accel, 0.0) if acc >= 0 else (0.0, -acc / CH2_CAR.max_decel)
 
 
 class ExpertDriver:
-    def __init__(self, road: Road, seed: int, params: VehicleParams, dt: float, drift_every_s: float | None = 25.0,
+    def __init__(self, road: Road, seed: int, car: Car, dt: float, drift_every_s: float | None = 25.0,
                  lag_s: float = 0.2, noise_deg: float = 0.3):
-        self.road, self.p, self.dt = road, params, dt
+        self.road, self.car, self.dt = road, car, dt
         self.rng = np.random.default_rng([seed, 4])
         self.drift_every = drift_every_s
         self.alpha = dt / (lag_s + dt)
@@ -55,9 +55,9 @@ class ExpertDriver:
         elif self.episode == "recover" and abs(offset) <= RECOVERED:
             self.episode, self.next_drift = "normal", t + self._draw_wait()
         d_target = LANE_CENTER + (self.side * DRIFT_TARGET if self.episode == "drift-out" else 0.0)
-        target = pure_pursuit(self.road, state, s, d_target, self.p.wheelbase)
+        target = pure_pursuit(self.road, state, s, d_target, self.car.wheelbase)
         # Ornstein-Uhlenbeck noise on the hand wheel, then a first-order lag: a human, not a controller
         self.noise += -self.noise * self.dt / 1.0 + np.radians(self.noise_deg) * np.sqrt(self.dt) * self.rng.standard_normal()
-        self.delta += self.alpha * (target + self.noise / self.p.steering_ratio - self.delta)
+        self.delta += self.alpha * (target + self.noise / self.car.steering_ratio - self.delta)
         throttle, brake = cruise(self.road, s, state.v)
         return self.delta, throttle, brake, self.episode

@@ -1,21 +1,88 @@
 """The one driving loop of every closed loop: the synthetic world (`sim drive`, the suite, DAgger rollouts) and
-replay on recorded camera data (`steerlab replay`).
+replay on recorded camera data (`steerlab replay`), and the `Trajectory` it returns.
 
-A world here is anything with `intervene(limit_m)`, `render()`, `state` (with `.v`, m/s), `expert_steering()`,
-`step(road_wheel)`, `steering_ratio` and `done`: the synthetic `World` and the replay of a recording
-(`sim.replay.ReplayWorld`). Each tick the car is put back if it left the lane (an intervention, after which the
-pilot forgets its past), the camera frame is taken, the pilot answers, and the car moves by the model's
-command (or, for DAgger, by whatever `choose` picks)."""
+A world here is anything with `intervene(limit_m)`, `render(lateral=0)`, `state` (with `.v`, m/s), `s` (its
+arc length), `expert_steering()`, `step(road_wheel)`, `steering_ratio`, `done` and `record_row(tick)` (what a
+DAgger rollout records of a tick besides the frames and the label): the synthetic `World` and the replay of a
+recording (`sim.replay.ReplayWorld`). Each tick the car is put back if it left the lane (an intervention, after
+which the pilot forgets its past), the camera frame is taken, the pilot answers, and the car moves by the
+model's command (or, for DAgger, by whatever `choose` picks)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import csv
+from dataclasses import dataclass, fields
 from functools import cached_property
+from pathlib import Path
 
 import numpy as np
 from tqdm import tqdm
 
-TRAJECTORY = ["time_s", "x", "y", "s", "lateral_offset_m", "steering", "speed", "heading_error_rad", "intervention"]
+
+@dataclass
+class Trajectory:
+    """One row per tick: time (s), pose (m) and arc length along the road or path (m), lateral offset from the
+    lane centre or the human's path (m, left positive), the pilot's steering command (in its checkpoint's
+    convention), speed (m/s), heading error (rad), whether the car was put back before the tick; for replay
+    also the recording's segment and frame of the tick."""
+
+    time_s: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    s: np.ndarray
+    offset: np.ndarray
+    command: np.ndarray
+    speed: np.ndarray
+    heading: np.ndarray
+    intervention: np.ndarray
+    segment: np.ndarray | None = None
+    frame: np.ndarray | None = None
+
+    COLUMNS = {"time_s": "time_s", "x": "x", "y": "y", "s": "s", "offset": "lateral_offset_m", "command": "steering",
+               "speed": "speed", "heading": "heading_error_rad", "intervention": "intervention",
+               "segment": "segment", "frame": "frame"}
+
+    def __len__(self) -> int:
+        return len(self.time_s)
+
+    @property
+    def interventions(self) -> int:
+        return int(np.sum(self.intervention))
+
+    def _present(self) -> list[str]:
+        return [f.name for f in fields(self) if getattr(self, f.name) is not None]
+
+    def concat(self, other: Trajectory) -> Trajectory:
+        return Trajectory(**{k: np.concatenate([getattr(self, k), getattr(other, k)]) for k in self._present()})
+
+    def write(self, path: str | Path) -> None:
+        names = self._present()
+        with open(path, "w", newline="") as f:
+            w = csv.writer(f)
+            w.writerow([self.COLUMNS[k] for k in names])
+            columns = [getattr(self, k) for k in names]
+            ints = {"intervention", "segment", "frame"}
+            w.writerows([[int(v) if k in ints else f"{v:.4f}" for k, v in zip(names, row)] for row in zip(*columns)])
+
+    @classmethod
+    def read(cls, path: str | Path) -> Trajectory:
+        with open(path, newline="") as f:
+            rows = list(csv.reader(f))
+        by_column = {v: k for k, v in cls.COLUMNS.items()}
+        data = np.array(rows[1:], float).reshape(-1, len(rows[0]))
+        return cls(**{by_column[name]: data[:, i] if by_column[name] not in ("intervention", "segment", "frame")
+                      else data[:, i].astype(np.int64) for i, name in enumerate(rows[0])})
+
+    def metrics(self, dt: float) -> dict:
+        """Closed-loop metrics: autonomy, interventions per km, mean and max |offset|, command gamma (degrees of
+        the pilot's steering convention), km driven."""
+        km = float(np.sum(self.speed) * dt / 1000)
+        n = self.interventions
+        return {"autonomy": autonomy(n, len(self) * dt), "interventions": n,
+                "interventions_per_km": n / max(km, 1e-9), "mean_abs_offset_m": float(np.mean(np.abs(self.offset))),
+                "max_abs_offset_m": float(np.max(np.abs(self.offset))),
+                "command_gamma_deg": float(np.degrees(np.std(np.diff(self.command)))) if len(self) > 1 else 0.0,
+                "distance_km": km}
 
 
 @dataclass
@@ -41,24 +108,12 @@ def autonomy(interventions: int, elapsed_s: float) -> float:
     return (1.0 - interventions * 6.0 / elapsed_s) * 100.0
 
 
-def drive_metrics(offset: np.ndarray, command: np.ndarray, speed: np.ndarray, dt: float, interventions: int) -> dict:
-    """Closed-loop metrics of one drive from its per-tick lateral offsets (m), steering commands (rad) and
-    speeds (m/s): autonomy, interventions per km, mean and max |offset|, command gamma, km driven."""
-    km = float(np.sum(speed) * dt / 1000)
-    return {"autonomy": autonomy(interventions, len(offset) * dt), "interventions": int(interventions),
-            "interventions_per_km": interventions / max(km, 1e-9),
-            "mean_abs_offset_m": float(np.mean(np.abs(offset))), "max_abs_offset_m": float(np.max(np.abs(offset))),
-            "command_gamma_deg": float(np.degrees(np.std(np.diff(command)))) if len(command) > 1 else 0.0,
-            "distance_km": km}
-
-
 def drive_loop(world, pilot, ticks: int, limit_m: float, fps: float, choose=None, on_step=None, desc: str = "drive",
-               progress: bool = True, on_tick=None) -> np.ndarray:
+               progress: bool = True, on_tick=None) -> Trajectory:
     """Drive `pilot` in `world` for `ticks` frames (or until `world.done`). The pilot's steering (in
     `pilot.convention`) becomes a road-wheel angle through `world.steering_ratio`; `choose(tick)` returns the
     road-wheel angle to apply instead (DAgger's mix of model and expert); `on_step(tick)` sees every tick
-    (recording, video); `on_tick(k)` is called every 100 ticks (progress of a suite). Returns the trajectory,
-    one row per tick with the columns of TRAJECTORY (steering: the pilot's command in its convention)."""
+    (recording, video); `on_tick(k)` is called every 100 ticks (progress of a suite)."""
     rows = []
     for i in tqdm(range(ticks), desc=desc, unit="tick", disable=None if progress else True):
         if world.done:
@@ -77,4 +132,31 @@ def drive_loop(world, pilot, ticks: int, limit_m: float, fps: float, choose=None
         world.step(tick.model if choose is None else choose(tick))
         if on_tick and (i + 1) % 100 == 0:
             on_tick(100)
-    return np.array(rows, dtype=float).reshape(-1, len(TRAJECTORY))
+    a = np.array(rows, dtype=float).reshape(-1, 9).T
+    return Trajectory(*a[:8], a[8].astype(bool))
+
+
+def rollout(pilot, worlds, writer, convention, beta: float, rng: np.random.Generator, limit_m: float, fps: float,
+            on_tick=None, desc: str = "rollout", progress: bool = False) -> Trajectory:
+    """DAgger's data collection in any world: drive `pilot` through each (world, ticks) of `worlds` while, with
+    probability `beta` each tick, the expert steers instead, and record every visited frame with `writer` —
+    the centre camera, and the side views the writer has cameras for (the world rendered from a camera the
+    car's `side_camera_offset_m` to either side) — labelled with the expert's steering in `convention`."""
+    trajs = []
+    for world, ticks in worlds:
+        sides = {c: off for c, off in (("left", world.car.side_camera_offset_m),
+                                       ("right", -(world.car.side_camera_offset_m or 0.0))) if c in writer.cameras}
+        pilot.reset()
+
+        def on_step(t, world=world, sides=sides):
+            frames = {"center": t.frame, **{c: world.render(off) for c, off in sides.items()}}
+            writer.add(frames, {**world.record_row(t.index), "lateral_offset": t.offset, "heading_error": t.heading,
+                                "steering": float(convention.from_road_wheel_left(t.expert, world.steering_ratio)),
+                                "episode": "rollout"})
+
+        trajs.append(drive_loop(world, pilot, ticks, limit_m, fps, on_step=on_step, desc=desc, progress=progress,
+                                choose=lambda t: t.expert if rng.random() < beta else t.model, on_tick=on_tick))
+    out = trajs[0]
+    for t in trajs[1:]:
+        out = out.concat(t)
+    return out

@@ -7,23 +7,22 @@ from pathlib import Path
 import numpy as np
 
 from steerlab.figures import COLORS, figure
+from steerlab.sim.driving import Trajectory
 from steerlab.sim.road import EDGE, LANE_CENTER
 
 
-def plot_trajectory(path: str | Path, road, trajs: dict[str, np.ndarray], title: str) -> None:
-    """Top-down view of closed-loop drives on one road against its lane, and their lateral offsets over time.
-
-    trajs: label -> array with columns time_s, x, y, s, lateral_offset_m, steering, speed."""
+def plot_trajectory(path: str | Path, road, trajs: dict[str, Trajectory], title: str) -> None:
+    """Top-down view of closed-loop drives on one road against its lane, and their lateral offsets over time."""
     with figure(path, 1, 2, figsize=(13, 5), gridspec_kw={"width_ratios": [1, 1.4]}) as (fig, (ax, ax2)):
-        s_all = np.concatenate([t[:, 3] for t in trajs.values()])
+        s_all = np.concatenate([t.s for t in trajs.values()])
         a, b = road.index(s_all.min() - 20), road.index(s_all.max() + 20) + 1
         for d, style in [(EDGE, "k-"), (-EDGE, "k-"), (0.0, "k--")]:
             ax.plot(road.x[a:b] - d * np.sin(road.psi[a:b]), road.y[a:b] + d * np.cos(road.psi[a:b]), style, lw=0.7)
         ax.plot(road.x[a:b] - LANE_CENTER * np.sin(road.psi[a:b]), road.y[a:b] + LANE_CENTER * np.cos(road.psi[a:b]),
                 color="0.7", lw=0.7, label="lane centre")
         for (label, t), color in zip(trajs.items(), COLORS * 3):
-            ax.plot(t[:, 1], t[:, 2], color=color, lw=1.0, label=label)
-            ax2.plot(t[:, 0], t[:, 4], color=color, lw=0.8, label=label)
+            ax.plot(t.x, t.y, color=color, lw=1.0, label=label)
+            ax2.plot(t.time_s, t.offset, color=color, lw=0.8, label=label)
         ax.set_aspect("equal")
         ax.set_xlabel("x [m]")
         ax.set_ylabel("y [m]")
@@ -68,16 +67,16 @@ def plot_rounds(path: str | Path, rows: list[dict]) -> None:
         ax.legend(lines[0] + extra[0], lines[1] + extra[1], fontsize=8, loc="lower right")
 
 
-def plot_offsets(path: Path, trajs: dict[str, np.ndarray], limit_m: float, title: str) -> None:
+def plot_offsets(path: Path, trajs: dict[str, Trajectory], limit_m: float, title: str) -> None:
     """The lateral offset of every checkpoint along the route (km driven), interventions marked."""
     with figure(path, figsize=(12, 4)) as (fig, ax):
         for (label, t), color in zip(trajs.items(), COLORS * 5):
-            dt = np.diff(t[:, 0], prepend=t[0, 0])
-            km = np.cumsum(np.where(dt > 0, dt, 0) * t[:, 6]) / 1000
-            hits = t[:, 8] > 0
-            ax.plot(km, t[:, 4], color=color, lw=0.8, label=f"{label} ({int(hits.sum())} interventions)")
+            dt = np.diff(t.time_s, prepend=t.time_s[0])
+            km = np.cumsum(np.where(dt > 0, dt, 0) * t.speed) / 1000
+            hits = t.intervention > 0
+            ax.plot(km, t.offset, color=color, lw=0.8, label=f"{label} ({int(hits.sum())} interventions)")
             pre = np.flatnonzero(hits) - 1  # where the car was just before it was put back
-            ax.plot(km[hits], t[np.clip(pre, 0, None), 4], "x", color=color, ms=7)
+            ax.plot(km[hits], t.offset[np.clip(pre, 0, None)], "x", color=color, ms=7)
         for d in (-limit_m, limit_m):
             ax.axhline(d, color="tab:red", ls=":", lw=0.8)
         ax.set_xlabel("distance along the route [km]")

@@ -17,7 +17,6 @@ from steerlab.data.geometry import Camera, camera
 from steerlab.sim.road import DS, EDGE, LANE, LINE_WIDTH, ROAD_TYPES, VERGE, Road
 
 MAX_RANGE = 250.0   # m: ground further away is drawn as haze
-SIDE_OFFSET = 0.508  # m: left/right cameras sit 20 inches beside the centre one (paper 002 V-D)
 
 
 # (B, G, R) base colours

@@ -1,168 +1,148 @@
-"""Training configuration: a YAML file plus `section.key=value` overrides from the command line."""
+"""The training config: a YAML file plus `section.key=value` overrides from the command line, parsed once into a
+frozen `TrainConfig` whose every option is typed and range-checked (`steerlab.options`).
+
+The sections `dagger`, `tune` and `closed_loop` belong to the commands that read them (`steerlab sim dagger`,
+`steerlab tune`, the closed-loop suite) and are parsed into their own types there, before any work."""
 
 from __future__ import annotations
 
 import copy
-import math
 import re
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
+from typing import Literal
 
 import yaml
 
-from steerlab.data.geometry import STEERING_RATIO
+from steerlab.data.car import Car
+from steerlab.data.preprocess import PreprocessConfig, PreprocessOptions
+from steerlab.data.splits import Split
 from steerlab.data.tub import is_tub
 from steerlab.errors import SteerlabError
+from steerlab.models.registry import ModelSpec
+from steerlab.options import AT_LEAST_0, AT_LEAST_1, Options, POSITIVE, Range, UNIT, as_dict, option, parse
 
-DEFAULTS = {
-    "data": None,            # recording folder or driving_log.csv
-    "extra_data": [],        # more recordings, used whole for training only (e.g. DAgger rollouts)
-    "range": None,           # frames of the recording to use, "a:b"
-    "labels": None,          # CH2: label CSV when the folder holds several
-    "camera": "center",
-    "reader": {},            # reader options, e.g. {full_lock_deg: 25, skip_missing: true} for donkeycar tubs
-    "cache": ".steerlab-cache",
-    "preprocess": {},        # PreprocessConfig fields; "preset" defaults to the recording's
-    "split": {"protocol": "paper", "k": 3, "length": 1000},
-    "model": {"name": "pilotnet", "dropout": 0.5},  # split, model and preprocess are replaced whole
-    "train": {
-        "epochs": 30, "batch_size": 100, "lr": 1e-4, "patience": 5, "flip": False, "seed": 0,
-        "loss": "mse",        # mse or mae of the steering (models with a loss of their own keep it); the best
-                              # epoch is the one with the lowest validation RMSE (mse) or MAE (mae)
-        "smoothness": 0.0,    # recurrent models: plus this weight times the same loss on the steering's change
-                              # between consecutive frames (smoothness in the cost function, paper 000's outlook)
-        "exclude_episodes": [],  # e.g. [drift-out] to train on the recovery half of drift episodes only
-        # side-camera recovery synthesis (paper 002 Eq. 3): left/right frames with a recovery angle added
-        "side_cameras": False, "side_offset_m": 0.508, "recovery_s": 1.0, "steering_ratio": STEERING_RATIO,
-        # viewpoint shifts (NVIDIA PilotNet): virtual cameras [shift_m (left +), yaw_deg (left +)] warped from
-        # the centre camera, labelled like the side cameras; without speed the return distance is fixed
-        "views": [], "recovery_distance_m": None,
-        "min_speed": 0.0,     # m/s; frames slower are dropped from both splits (paper 002 V-A uses 4)
-        "balance": False,     # thin out straight driving, redrawn every epoch (paper 003)
-        "rotation_deg": 0.0,  # augmentation (paper 002 IV-B1): random rotation within +-rotation_deg,
-        "brightness": 0.0,    # and brightness scaled by a random factor within 1 +- brightness
-        "motion_dropout": 0.0,  # fraction of samples shown "no motion seen" (difference, flow, stacked frames)
-        "target_shift_s": 0.0,  # train on the steering this many seconds ahead
-        "recovery_weight": 1,   # samples in recovery episodes are drawn this many times per epoch
-        "keep": "best",         # best.pt: the epoch with the best validation score (stopping after `patience`
-                                # epochs without a better one), or the last epoch (validation only watched: a
-                                # refit whose validation block is the held-out one)
-        "init": None,           # start from the weights of this checkpoint (same model and options)
-        "teacher": None,        # distillation: train on this checkpoint's predictions (an ensemble, say) instead
-                                # of the recorded steering of the main recording
-        "device": "auto",       # auto (CUDA when present, else the CPU), cpu or cuda
-        "tensorboard": False,   # also log every epoch to out/tensorboard (tensorboard --logdir out)
-    },
-    "out": "runs/train",
-    "dagger": None,          # DAgger rounds (steerlab sim dagger; options in dagger.py)
-    "tune": None,            # search space of steerlab tune: config key -> range (tune.py)
-    "closed_loop": None,     # suite for steerlab tune --objective autonomy: {suite: v1, minutes, workers}
-}
+LOSSES = {"mse": "rmse", "mae": "mae"}  # train.loss -> the validation metric that picks the best epoch
+
+
+def _pairs(views) -> bool:
+    return all(len(v) == 2 for v in views)
+
+
+@dataclass(frozen=True)
+class TrainOptions(Options):
+    """The train: section."""
+
+    epochs: int = option(30, AT_LEAST_1)
+    batch_size: int = option(100, AT_LEAST_1)
+    lr: float = option(1e-4, POSITIVE)
+    patience: int = option(5, AT_LEAST_1)
+    flip: bool = False
+    seed: int = 0
+    loss: Literal[tuple(LOSSES)] = option("mse", help="mse or mae of the steering (models with a loss of their "
+                                          "own keep it); the best epoch has the lowest validation RMSE or MAE")
+    smoothness: float = option(0.0, AT_LEAST_0, help="recurrent models: plus this weight times the same loss on "
+                               "the steering's change between consecutive frames (paper 000's outlook)")
+    exclude_episodes: tuple[str, ...] = option((), expected="a list of episode names",
+                                               help="e.g. [drift-out]: train on the recovery half of drift episodes")
+    side_cameras: bool = option(False, help="side-camera recovery synthesis (paper 002 Eq. 3)")
+    side_offset_m: float | None = option(None, Range(), help="side cameras' offset (default: the car's)")
+    recovery_s: float = option(1.0, POSITIVE, help="seconds in which a displaced car returns to its path")
+    steering_ratio: float | None = option(None, POSITIVE, help="for the recovery labels (default: the car's)")
+    views: tuple[tuple[float, float], ...] = option(
+        (), _pairs, "a list of [shift_m, yaw_deg] pairs of numbers",
+        help="viewpoint shifts (NVIDIA PilotNet): virtual cameras warped from the centre camera")
+    recovery_distance_m: float | None = option(None, POSITIVE, help="return distance without a speed signal")
+    min_speed: float = option(0.0, AT_LEAST_0, help="m/s; slower frames are dropped (paper 002 V-A uses 4)")
+    balance: bool = option(False, help="thin out straight driving, redrawn every epoch (paper 003)")
+    rotation_deg: float = option(0.0, Range(0, 180, unit="degrees"), help="augmentation (paper 002 IV-B1)")
+    brightness: float = option(0.0, Range(0, 1, hi_open=True), help="brightness scaled within 1 +- this")
+    motion_dropout: float = option(0.0, UNIT, help="fraction of samples shown 'no motion seen'")
+    target_shift_s: float = option(0.0, AT_LEAST_0, help="train on the steering this many seconds ahead")
+    recovery_weight: int = option(1, AT_LEAST_1, help="samples in recovery episodes are drawn this many times")
+    keep: Literal["best", "last"] = option("best", help="best.pt: the best validation epoch, or the last one")
+    init: str | None = option(None, expected="a checkpoint path", help="start from this checkpoint's weights")
+    teacher: str | None = option(None, expected="a checkpoint path", help="distillation: its predictions")
+    device: Literal["auto", "cpu", "cuda"] = "auto"
+    tensorboard: bool = False
+    workers: int = option(0, AT_LEAST_0, help="data-loading worker processes (0: in this one; the results do not "
+                                                 "depend on it)")
+
+
+@dataclass(frozen=True)
+class TrainConfig(Options):
+    """A training run: the recording and what to take from it, the model, and how to train it."""
+
+    data: str | None = option(None, expected="a recording's path")
+    extra_data: tuple[str, ...] = option((), expected="a list of recordings", help="used whole, for training")
+    range: str | None = option(None, expected='a frame range like "0:1800"')
+    labels: str | None = None
+    camera: str = "center"
+    reader: dict = option({}, help="reader options, e.g. {full_lock_deg: 25, skip_missing: true}")
+    cache: str | None = option(None, help="the cache root (data/cache.py)")
+    preprocess: PreprocessOptions = field(default_factory=PreprocessOptions)
+    split: Split = field(default_factory=Split)
+    model: ModelSpec = field(default_factory=ModelSpec)
+    train: TrainOptions = field(default_factory=TrainOptions)
+    out: str = "runs/train"
+    dagger: dict | None = None       # steerlab sim dagger (dagger.DaggerOptions)
+    tune: dict | None = None         # steerlab tune's search space (tune/space.py)
+    closed_loop: dict | None = None  # the closed-loop suite (sim/bench.SuiteOptions)
+
+    def __post_init__(self):
+        super().__post_init__()
+        if not self.data:
+            raise SteerlabError("the config names no data (set data: PATH or pass data=PATH)")
+        t, cls = self.train, self.model.cls
+        if t.smoothness > 0 and not cls.recurrent:
+            raise SteerlabError(f"train.smoothness needs a recurrent model (it trains on windows of consecutive "
+                                f"frames); {self.model.name!r} sees single frames in shuffled batches")
+        if t.smoothness > 0 and self.model.options.get("seq_len", 2) < 2:
+            raise SteerlabError(f"train.smoothness needs windows of at least 2 frames; model.seq_len is "
+                                f"{self.model.options['seq_len']}")
+        if t.balance and cls.recurrent:
+            raise SteerlabError("balanced sampling picks single frames; recurrent models train on sequences "
+                                "(paper 003 does not balance its LSTM either)")
+        if hasattr(cls, "loss") and t.loss != "mse":
+            raise SteerlabError(f"model {self.model.name!r} trains on a loss of its own; train.loss={t.loss} does "
+                                "not apply")
+        self.model.build(self.preprocessing())  # the input fits the model's layers
+
+    def preprocessing(self, geometry: str | None = None) -> PreprocessConfig:
+        """The preprocessing of this config's model on a recording of the camera `geometry`."""
+        return self.model.preprocess(self.preprocess).resolve(geometry)
+
+    def for_car(self, car: Car) -> TrainConfig:
+        """The config with the car's values where it leaves them to the car (the side cameras' offset and the
+        steering ratio of the recovery labels), as a run records it."""
+        t = self.train
+        return replace(self, train=replace(t, side_offset_m=car.side_camera_offset_m if t.side_offset_m is None
+                                           else t.side_offset_m,
+                                           steering_ratio=t.steering_ratio or car.steering_ratio))
+
+    def identity(self) -> dict:
+        """What a run's results depend on, as plain values: not the data-loading workers, and the side cameras'
+        offset and the steering ratio only where recovery labels use them."""
+        d = as_dict(self)
+        t = d["train"]
+        del t["workers"]
+        if not t["side_cameras"]:
+            del t["side_offset_m"]
+        if not (t["side_cameras"] or t["views"]):
+            del t["steering_ratio"]
+        return d
 
 
 # What a config that leaves them out gets on a donkeycar tub, under the user's own settings: the model and loss
 # chosen on the selection blocks of both shared tubs (docs/RESULTS.md, "steerlab side by side with donkeycar").
 # multimodal-lstm had the lowest mean selection MAE of the two tubs; the MAE loss suits the nearly binary
-# steering of an RC car. The general defaults above (PilotNet, MSE) lose to donkeycar's linear model there.
-TUB_DEFAULTS = {
-    "model": {"name": "multimodal-lstm"},
-    "train": {"batch_size": 32, "lr": 3.0e-4, "loss": "mae"},
-}
-
-LOSSES = {"mse": "rmse", "mae": "mae"}  # train.loss -> the validation metric that picks the best epoch
-
-
-def _finite(lo: float = -math.inf, hi: float = math.inf, lo_open: bool = False, hi_open: bool = False):
-    return lambda v: (math.isfinite(v) and (lo < v if lo_open else lo <= v) and (v < hi if hi_open else v <= hi))
-
-
-def _views(v: list) -> bool:
-    return all(isinstance(p, (list, tuple)) and len(p) == 2 and all(_is(x, float) and math.isfinite(float(x))
-                                                                    for x in p) for p in v)
-
-
-# The typed schema of the options: config key -> (type, check of the value, what is expected). Every config is
-# checked against it when it is read, before any work; None is allowed where the default is None. Numbers may
-# be written as text such as 1e-4 (YAML 1.1 reads a number without a dot as text).
-SCHEMA = {
-    "train.epochs": (int, lambda v: v >= 1, "an integer of at least 1"),
-    "train.batch_size": (int, lambda v: v >= 1, "an integer of at least 1"),
-    "train.lr": (float, _finite(0, lo_open=True), "a positive finite number"),
-    "train.patience": (int, lambda v: v >= 1, "an integer of at least 1"),
-    "train.seed": (int, None, "an integer"),
-    "train.flip": (bool, None, "true or false"),
-    "train.tensorboard": (bool, None, "true or false"),
-    "train.loss": (str, lambda v: v in LOSSES, " or ".join(LOSSES)),
-    "train.smoothness": (float, _finite(0), "a finite number of at least 0"),
-    "train.exclude_episodes": (list, lambda v: all(isinstance(e, str) for e in v), "a list of episode names"),
-    "train.side_cameras": (bool, None, "true or false"),
-    "train.side_offset_m": (float, _finite(), "a finite number"),
-    "train.recovery_s": (float, _finite(0, lo_open=True), "a positive finite number"),
-    "train.steering_ratio": (float, _finite(0, lo_open=True), "a positive finite number"),
-    "train.views": (list, _views, "a list of [shift_m, yaw_deg] pairs of numbers"),
-    "train.recovery_distance_m": (float, _finite(0, lo_open=True), "a positive finite number"),
-    "train.min_speed": (float, _finite(0), "a finite number of at least 0"),
-    "train.balance": (bool, None, "true or false"),
-    "train.rotation_deg": (float, _finite(0, 180), "a number of degrees in [0, 180]"),
-    "train.brightness": (float, _finite(0, 1, hi_open=True), "a number in [0, 1)"),
-    "train.motion_dropout": (float, _finite(0, 1), "a number in [0, 1]"),
-    "train.target_shift_s": (float, _finite(0), "a finite number of at least 0"),
-    "train.recovery_weight": (int, lambda v: v >= 1, "an integer of at least 1"),
-    "train.keep": (str, lambda v: v in ("best", "last"), "best or last"),
-    "train.init": (str, None, "a checkpoint path"),
-    "train.teacher": (str, None, "a checkpoint path"),
-    "train.device": (str, lambda v: v in ("auto", "cpu", "cuda"), "auto, cpu or cuda"),
-    "model.dropout": (float, _finite(0, 1, hi_open=True), "a number in [0, 1)"),
-}
-
-
-def _is(value, kind) -> bool:
-    if isinstance(value, bool):
-        return kind is bool
-    if kind is float and isinstance(value, str):
-        try:
-            float(value)
-        except ValueError:
-            return False
-        return True
-    return isinstance(value, (int, float) if kind is float else kind)
-
-
-def check_config(cfg: dict) -> None:
-    """Check every option of the schema for type and range, and that the model can take what the options ask
-    of it: a one-line error naming the first bad one."""
-    for key, (kind, check, expected) in SCHEMA.items():
-        section, name = key.split(".")
-        node = cfg.get(section)
-        if not isinstance(node, dict) or name not in node:
-            continue
-        value = node[name]
-        if value is None and DEFAULTS.get(section, {}).get(name, 0) is None:
-            continue
-        if not _is(value, kind) or (check is not None and not check(float(value) if kind is float else value)):
-            raise SteerlabError(f"{key} must be {expected}, got {value!r}")
-    smoothness = (cfg.get("train") or {}).get("smoothness")
-    if smoothness and float(smoothness) > 0:  # the change between consecutive frames of a training window
-        model = cfg.get("model") or {}
-        cls = _model_class(model.get("name"))
-        if cls is not None and not cls.recurrent:
-            raise SteerlabError(f"train.smoothness needs a recurrent model (it trains on windows of consecutive "
-                                f"frames); {model['name']!r} sees single frames in shuffled batches")
-        if cls is not None and isinstance(model.get("seq_len"), int) and model["seq_len"] < 2:
-            raise SteerlabError(f"train.smoothness needs windows of at least 2 frames; model.seq_len is "
-                                f"{model['seq_len']}")
-
-
-def _merge(base: dict, new: dict) -> dict:
-    out = copy.deepcopy(base)
-    for k, v in (new or {}).items():
-        if isinstance(v, dict) and isinstance(out.get(k), dict) and k == "train":
-            out[k] = _merge(out[k], v)
-        else:
-            out[k] = copy.deepcopy(v)
-    return out
+# steering of an RC car. The general defaults (PilotNet, MSE) lose to donkeycar's linear model there.
+TUB_DEFAULTS = {"model": {"name": "multimodal-lstm"}, "train": {"batch_size": 32, "lr": 3.0e-4, "loss": "mae"}}
+SECTIONS = [f.name for f in fields(TrainConfig)]
 
 
 def apply_override(cfg: dict, text: str) -> None:
+    """`section.key=value` into a raw config; the value is read as YAML."""
     if "=" not in text:
         raise SteerlabError(f"override {text!r} must look like section.key=value, e.g. train.epochs=5")
     key, value = text.split("=", 1)
@@ -176,47 +156,52 @@ def apply_override(cfg: dict, text: str) -> None:
     node[parts[-1]] = value if re.fullmatch(r"\s*\d*:\d*\s*", value) else yaml.safe_load(value)
 
 
-def _model_class(name):
-    from steerlab.models import list_models, model_class
+def read_yaml(path: str | Path, what: str = "sections (data, split, model, train, ...)") -> dict:
+    """A YAML config file as a mapping, with one-line errors."""
+    path = Path(path)
+    if not path.is_file():
+        raise SteerlabError(f"{path}: config file not found")
+    try:
+        data = yaml.safe_load(path.read_text()) or {}
+    except yaml.YAMLError as e:
+        raise SteerlabError(f"{path}: not valid YAML: {e}") from None
+    if not isinstance(data, dict):
+        raise SteerlabError(f"{path}: expected a mapping of {what}")
+    return data
 
-    return model_class(name) if name in list_models() else None
 
-
-def _layered(layers: list[dict | None], overrides: list[str]) -> dict:
-    cfg = {}
+def layered(*layers: dict | None, overrides=()) -> dict:
+    """Raw config layers merged in order (the train section key by key, every other section whole), then the
+    overrides."""
+    cfg: dict = {}
     for layer in layers:
-        cfg = _merge(cfg, layer)
+        for k, v in (layer or {}).items():
+            if k == "train" and isinstance(v, dict) and isinstance(cfg.get(k), dict):
+                cfg[k] = {**cfg[k], **copy.deepcopy(v)}
+            else:
+                cfg[k] = copy.deepcopy(v)
     for o in overrides:
         apply_override(cfg, o)
     return cfg
 
 
-def load_config(path: str | Path | None = None, overrides: list[str] = (), base: dict | None = None) -> dict:
-    """Defaults <- (on a donkeycar tub) TUB_DEFAULTS <- `base` <- YAML file <- overrides. Relative data paths
-    are taken relative to the working directory."""
-    user = {}
-    if path is not None:
-        path = Path(path)
-        if not path.is_file():
-            raise SteerlabError(f"{path}: config file not found")
-        try:
-            user = yaml.safe_load(path.read_text()) or {}
-        except yaml.YAMLError as e:
-            raise SteerlabError(f"{path}: not valid YAML: {e}") from None
-        if not isinstance(user, dict):
-            raise SteerlabError(f"{path}: expected a mapping of sections (data, split, model, train, ...)")
-    cfg = _layered([DEFAULTS, base, user], overrides)
-    if isinstance(cfg["data"], str) and is_tub(Path(cfg["data"])):
-        plain, cfg = cfg, _layered([DEFAULTS, TUB_DEFAULTS, base, user], overrides)
-        if hasattr(_model_class(cfg["model"].get("name")), "loss"):  # a model that trains on a loss of its own
-            cfg["train"]["loss"] = plain["train"]["loss"]
-    unknown = set(cfg) - set(DEFAULTS)
+def parse_config(*layers: dict | None, overrides=()) -> TrainConfig:
+    """Raw config layers (plain values, merged by `layered`) and overrides as a TrainConfig. Under them lie the
+    default model and, when the data is a donkeycar tub, TUB_DEFAULTS (a model with a loss of its own keeps it)."""
+    plain = layered({"model": as_dict(ModelSpec())}, *layers, overrides=overrides)
+    raw = plain
+    if isinstance(plain.get("data"), str) and is_tub(Path(plain["data"])):
+        raw = layered(TUB_DEFAULTS, *layers, overrides=overrides)
+        model = raw.get("model")
+        if isinstance(model, dict) and hasattr(ModelSpec.parse_option(model, "model").cls, "loss"):
+            raw["train"]["loss"] = (plain.get("train") or {}).get("loss", "mse")
+    unknown = sorted(set(raw) - set(SECTIONS))
     if unknown:
-        raise SteerlabError(f"unknown config sections {sorted(unknown)}; known: {sorted(DEFAULTS)}")
-    unknown = set(cfg["train"]) - set(DEFAULTS["train"])
-    if unknown:
-        raise SteerlabError(f"unknown train options {sorted(unknown)}; known: {sorted(DEFAULTS['train'])}")
-    if not cfg["data"]:
-        raise SteerlabError("the config names no data (set data: PATH or pass data=PATH)")
-    check_config(cfg)
-    return cfg
+        raise SteerlabError(f"unknown config sections {unknown}; known: {sorted(SECTIONS)}")
+    return parse(TrainConfig, raw)
+
+
+def load_config(path: str | Path | None = None, overrides=(), base: dict | None = None) -> TrainConfig:
+    """`base` <- the YAML file <- overrides, parsed. Relative data paths are taken relative to the working
+    directory."""
+    return parse_config(base, None if path is None else read_yaml(path), overrides=overrides)

@@ -1,17 +1,18 @@
-"""The training loop: `train(cfg)` reads as prepare data -> train_one_epoch / evaluate -> checkpoints.
+"""The training loop: `train(cfg)` = `build` (the data, the model, the batches of every epoch) then `fit`
+(epochs of training and validation, checkpoints).
 
-Batches are gathered from the memory-mapped cache; validation uses the same cache. The best checkpoint
-(lowest validation RMSE) is `best.pt`; `last.pt` also holds the optimiser and RNG state, so a run that is
-interrupted continues where it stopped when started again with the same config.
+Batches come from the memory-mapped cache through `batches.loader`; validation reads the same cache. The best
+checkpoint (lowest validation RMSE, or MAE for the MAE loss) is `best.pt`; `last.pt` also holds the optimiser
+and RNG state and the identity of the data, so a run that is interrupted continues where it stopped when
+started again with the same config on the same data.
 """
 
 from __future__ import annotations
 
-import csv
 import json
 import math
 import time
-from functools import partial
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -19,20 +20,23 @@ import torch
 from tqdm import tqdm
 
 from steerlab.checkpoint import load_checkpoint, save_checkpoint
+from steerlab.data.car import car_of
 from steerlab.data.dataset import CompiledDataset
-from steerlab.data.inputs import augment, channel_stats, segment_starts
+from steerlab.data.inputs import channel_stats, segment_starts
 from steerlab.data.recording import SteeringConvention
 from steerlab.data.splits import make_split
 from steerlab.errors import SteerlabError
 from steerlab.evaluate.metrics import all_metrics
 from steerlab.evaluate.scoring import write_predictions
 from steerlab.locks import folder_lock
-from steerlab.models import create_model
-from steerlab.train.config import LOSSES, check_config
+from steerlab.models import SteeringModel
+from steerlab.options import as_dict
+from steerlab.train.batches import (Batch, EpochSampler, FrameBatches, balance_weights, loader, recovery_repeats,
+                                    sequence_windows)
+from steerlab.train.config import LOSSES, TrainConfig, parse_config
 from steerlab.train.distributed import Ranks, setup, wrap
-from steerlab.train.sources import (Batches, balanced, model_options, model_preprocess, prepare_dataset,
-                                    recovery_weighted, sequence_windows, steering_ahead, training_sources,
-                                    usable_frames)
+from steerlab.train.log import EpochLog
+from steerlab.train.sources import main_recording, prepare_dataset, steering_ahead, training_sources, usable_frames
 
 
 def _mean_error(error: torch.Tensor, loss: str) -> torch.Tensor:
@@ -51,39 +55,24 @@ def objective(model, out: dict, targets: dict, loss: str = "mse", smoothness: fl
     return value
 
 
-def train_one_epoch(model, opt, batches: Batches, samples: np.ndarray, batch_size: int, flip: bool,
-                    rng: np.random.Generator, transform=None, motion_dropout: float = 0.0, progress: bool = True,
-                    desc: str = "", ranks: Ranks = Ranks(), loss_name: str = "mse", smoothness: float = 0.0) -> float:
-    """One pass over `samples`: frame codes (M,), or windows (M, T) of frame codes for recurrent models.
-    Flips and motion dropout are drawn per sample (per window: a window is mirrored or still as a whole).
-    With several ranks every rank draws the same global batches and trains on its contiguous share of each."""
+def train_one_epoch(model, opt, batches, ranks: Ranks = Ranks(), loss_name: str = "mse", smoothness: float = 0.0,
+                    progress: bool = True, desc: str = "") -> float:
+    """One pass over `batches` (a DataLoader of this rank's share of each global batch), returning the mean
+    training loss over all ranks."""
     net = getattr(model, "module", model)  # the model itself, also inside DDP
     model.train()
-    order = rng.permutation(len(samples))
     total, count = 0.0, 0
-    steps = range(0, len(order), batch_size)
-    for s in tqdm(steps, desc=desc, unit="batch", leave=False, disable=None if progress and ranks.main else True):
-        b = samples[order[s: s + batch_size]]
-        flips = np.repeat(rng.random(len(b)) < 0.5, b[0].size) if flip else None
-        still = np.repeat(rng.random(len(b)) < motion_dropout, b[0].size) if motion_dropout else None
-        if len(b) < ranks.world:  # a last batch too small to share
-            continue
-        lo, hi = ranks.rank * len(b) // ranks.world, (ranks.rank + 1) * len(b) // ranks.world
-        share = ranks.world * (hi - lo) / len(b)  # DDP averages over ranks: weight by the share of the batch
-        b, k = b[lo:hi], b[0].size
-        flips, still = (None if a is None else a[lo * k: hi * k] for a in (flips, still))
-        inputs, targets = batches.get(b.ravel(), flips, still, transform)
-        if b.ndim == 2:  # windows: (B*T, ...) -> (B, T, ...)
-            inputs, targets = ({k: v.view(len(b), b.shape[1], *v.shape[1:]) for k, v in d.items()}
-                               for d in (inputs, targets))
-        inputs, targets = ({k: v.to(ranks.device) for k, v in d.items()} for d in (inputs, targets))
+    for inputs, targets, weight in tqdm(batches, desc=desc, unit="batch", leave=False,
+                                        disable=None if progress and ranks.main else True):
+        inputs, targets = ({k: v.to(ranks.device, non_blocking=True) for k, v in d.items()} for d in (inputs, targets))
+        n = len(targets["steering"])
         out = model(**inputs)
         loss = objective(net, out[0] if net.recurrent else out, targets, loss_name, smoothness)  # (out, state)
         opt.zero_grad(set_to_none=True)
-        (loss * share if ranks.world > 1 else loss).backward()
+        (loss * weight if ranks.world > 1 else loss).backward()
         opt.step()
-        total += float(loss.detach()) * len(b)
-        count += len(b)
+        total += float(loss.detach()) * n
+        count += n
     total, count = ranks.sum(total, count)
     return total / count
 
@@ -97,21 +86,21 @@ def _numpy(out: dict) -> dict[str, np.ndarray]:
 
 
 @torch.inference_mode()
-def predict(model, batches: Batches, idx: np.ndarray, batch_size: int = 256) -> dict[str, np.ndarray]:
+def predict(model, data: FrameBatches, idx: np.ndarray, batch_size: int = 256) -> dict[str, np.ndarray]:
     """Predictions for frames `idx` (in time order). Recurrent models run statefully through each contiguous
     run of frames, from a zero state at the start of the run and at every segment start, as the Pilot does."""
     model.eval()
     device = next(model.parameters(), torch.zeros(0)).device
 
     def inputs(frames):
-        return {k: v.to(device) for k, v in batches.get(frames)[0].items()}
+        return {k: v.to(device) for k, v in data[Batch(frames)][0].items()}
 
     parts = []
     if not model.recurrent:
         for s in range(0, len(idx), batch_size):
             parts.append(_numpy(model(**inputs(idx[s: s + batch_size]))))
     else:
-        breaks = np.flatnonzero((np.diff(idx) != 1) | (batches.starts[idx[1:]] == idx[1:])) + 1
+        breaks = np.flatnonzero((np.diff(idx) != 1) | (data.starts[idx[1:]] == idx[1:])) + 1
         for frames in np.split(idx, breaks):
             state = None
             for s in range(0, len(frames), batch_size):
@@ -121,201 +110,191 @@ def predict(model, batches: Batches, idx: np.ndarray, batch_size: int = 256) -> 
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
 
-METRIC = {"speed": "speed_mae", "command": "command_accuracy"}  # the metric of each extra target
+@dataclass
+class Run:
+    """What `build` makes of a config and `fit` trains: the compiled main recording and its validation frames
+    with their targets, the model, the batches and the epoch sampler."""
+
+    cfg: TrainConfig
+    ds: CompiledDataset
+    model: SteeringModel
+    model_cfg: dict
+    stats: dict
+    data: FrameBatches
+    sampler: EpochSampler
+    train_codes: np.ndarray
+    val_idx: np.ndarray
+    truth: dict
+    convention: SteeringConvention
+
+    def checkpoint(self, path: Path, metrics: dict, **extra) -> None:
+        save_checkpoint(path, self.model, self.model_cfg, self.ds.config, self.stats, self.convention, metrics,
+                        geometry=self.ds.meta["geometry"], frame_rate=self.ds.meta["frame_rate"], **extra)
 
 
-class EpochLog:
-    """One row per epoch in `out/log.csv` (rewritten from the history first, so that a resumed run has no
-    duplicate epochs) and, with `tensorboard`, the same values as scalars in `out/tensorboard`."""
-
-    def __init__(self, out: Path, targets: tuple, history: list[dict], tensorboard: bool = False):
-        self.path = out / "log.csv"
-        self.fields = (["epoch", "train_loss", "val_mse", "val_rmse", "val_mae", "val_mae_deg", "val_gamma_deg"]
-                       + [f"val_{METRIC[t]}" for t in targets] + ["seconds"])
-        with open(self.path, "w", newline="") as f:
-            w = csv.DictWriter(f, self.fields)
-            w.writeheader()
-            w.writerows(history)
-        self.board = None
-        if tensorboard:
-            try:
-                from torch.utils.tensorboard import SummaryWriter
-            except ImportError:
-                raise SteerlabError("train.tensorboard needs the tensorboard package: pip install tensorboard") from None
-            start = history[-1]["epoch"] + 1 if history else 1  # a resumed run drops later events first
-            self.board = SummaryWriter(str(out / "tensorboard"), purge_step=start)
-
-    def write(self, epoch: int, loss: float, m: dict, seconds: float) -> dict:
-        row = {"epoch": epoch, "train_loss": loss, "seconds": round(seconds, 2)}
-        row.update({f"val_{k}": m[k] for k in ("mse", "rmse", "mae", "mae_deg", "gamma_deg", *METRIC.values())
-                    if k in m})
-        with open(self.path, "a", newline="") as f:
-            csv.DictWriter(f, self.fields).writerow(row)
-        if self.board is not None:
-            for key, value in row.items():
-                if key != "epoch":  # train_loss -> train/loss, val_rmse -> val/rmse
-                    self.board.add_scalar(key.replace("_", "/", 1), value, epoch)
-            self.board.flush()
-        return row
-
-    def close(self) -> None:
-        if self.board is not None:
-            self.board.close()
-
-
-def _write_predictions(path: Path, ds: CompiledDataset, idx: np.ndarray, pred: dict) -> None:
-    extra = {k: pred[k] for k in ("speed", "command") if k in pred}
-    write_predictions(path, ds.labels["frame_ids"][idx], pred["steering"], extra)
-
-
-def train(cfg: dict, progress: bool = True, on_epoch=None) -> dict:
+def train(cfg: TrainConfig, progress: bool = True, on_epoch=None) -> dict:
     """Train one model as configured; returns the best validation metrics. Resumes from `out/last.pt`.
     `on_epoch(epoch, metrics)` is called after every epoch's checkpoint (steerlab tune reports and prunes
     there: an exception it raises ends the run, which stays resumable). The run holds a lock on `out`: a
     second run into the same folder is refused while the first one runs."""
-    check_config(cfg)
-    out = Path(cfg["out"])
-    ranks = setup(str(cfg["train"]["device"]))
-    if int(cfg["train"]["batch_size"]) % ranks.world:
-        raise SteerlabError(f"train.batch_size {cfg['train']['batch_size']} is the global batch; it must divide "
-                            f"evenly over {ranks.world} ranks")
+    out = Path(cfg.out)
+    ranks = setup(cfg.train.device)
+    if cfg.train.batch_size % ranks.world:
+        raise SteerlabError(f"train.batch_size {cfg.train.batch_size} is the global batch; it must divide evenly "
+                            f"over {ranks.world} ranks")
     # checkpoints named by the config are read before any work: a bad one fails at once
-    init, teacher = (load_checkpoint(cfg["train"][k]) if cfg["train"].get(k) else None for k in ("init", "teacher"))
+    init, teacher = (load_checkpoint(p) if p else None for p in (cfg.train.init, cfg.train.teacher))
+    car = car_of(main_recording(cfg).geometry)
+    cfg = cfg.for_car(car)
     if not ranks.main:  # rank 0 holds the lock for all ranks
-        return _train(cfg, ranks, progress, on_epoch, init, teacher)
+        return fit(build(cfg, ranks, progress, init, teacher), ranks, False, on_epoch)
     out.mkdir(parents=True, exist_ok=True)
     with folder_lock(out, "steerlab train run"):
         for tmp in out.glob("*.tmp-*"):  # left by a killed run: only the holder of the lock writes here
             tmp.unlink(missing_ok=True)
-        return _train(cfg, ranks, progress, on_epoch, init, teacher)
+        _claim(out, cfg, car)
+        return fit(build(cfg, ranks, progress, init, teacher), ranks, progress, on_epoch)
 
 
-def _train(cfg: dict, ranks: Ranks, progress: bool, on_epoch, init: dict | None, teacher: dict | None) -> dict:
-    out = Path(cfg["out"])
-    tc = cfg["train"]
-    score = LOSSES[tc["loss"]]
-    progress = progress and ranks.main
+def _claim(out: Path, cfg: TrainConfig, car) -> None:
+    """A folder that holds a run of another config is refused; a run of an earlier version's config (fewer
+    options, text for numbers, the car's values written out) is the same run when it parses to the same
+    settings."""
     cfg_file = out / "config.json"
     if (out / "last.pt").exists():
-        if not cfg_file.exists() or json.loads(cfg_file.read_text()) != json.loads(json.dumps(cfg)):
+        try:
+            earlier = parse_config(json.loads(cfg_file.read_text())).for_car(car).identity()
+        except (OSError, ValueError, SteerlabError):
+            earlier = None
+        if earlier != cfg.identity():
             raise SteerlabError(f"{out} holds a run with another config; choose a new out directory or delete it")
-    if ranks.main:
-        out.mkdir(parents=True, exist_ok=True)
-        cfg_file.write_text(json.dumps(cfg, indent=1))
+    cfg_file.write_text(json.dumps(as_dict(cfg), indent=1))
 
-    name = cfg["model"]["name"]
-    cfg = {**cfg, "preprocess": model_preprocess(name, cfg.get("preprocess"))}
+
+def build(cfg: TrainConfig, ranks: Ranks, progress: bool, init: dict | None, teacher: dict | None) -> Run:
+    """Compile the data (rank 0 first, the other ranks then read the cache), pick the usable frames of the
+    split, gather the training sources and make the model and the epoch sampler."""
+    t = cfg.train
+    progress = progress and ranks.main
     if not ranks.main:
-        ranks.barrier()  # rank 0 compiles the cache first; the others then read it
+        ranks.barrier()
     ds = prepare_dataset(cfg, progress)
     if ranks.main:
         ranks.barrier()
-    model_cfg = model_options(cfg["model"], ds.config)
+    model_cfg = cfg.model.arguments(ds.config)
     if init:  # before the other streams compile
         if init.get("geometry", ds.meta["geometry"]) != ds.meta["geometry"]:  # older checkpoints record none
-            raise SteerlabError(f"{tc['init']}: train.init was trained on the {init['geometry']!r} camera "
-                                f"geometry and {ds.meta['source']} has the {ds.meta['geometry']!r} geometry: "
-                                "pretrain on recordings of the same camera (steerlab sim record --geometry)")
-        if init["model"] != name or init["model_cfg"] != model_cfg:
-            raise SteerlabError(f"{tc['init']}: train.init must be a checkpoint of the same model and options "
-                                f"({name}, {model_cfg}); it holds {init['model']}, {init['model_cfg']}")
-    train_idx, val_idx = make_split(cfg["split"], len(ds), ds.labels.get("session"))
-    min_speed = float(tc["min_speed"])
-    train_idx = usable_frames(ds, train_idx, "training", min_speed, tc.get("exclude_episodes"))
-    val_idx = usable_frames(ds, val_idx, "validation", min_speed)
+            raise SteerlabError(f"{t.init}: train.init was trained on the {init['geometry']!r} camera geometry "
+                                f"and {ds.meta['source']} has the {ds.meta['geometry']!r} geometry: pretrain on "
+                                "recordings of the same camera (steerlab sim record --geometry)")
+        if init["model"] != cfg.model.name or init["model_cfg"] != model_cfg:
+            raise SteerlabError(f"{t.init}: train.init must be a checkpoint of the same model and options "
+                                f"({cfg.model.name}, {model_cfg}); it holds {init['model']}, {init['model_cfg']}")
+    train_idx, val_idx = make_split(cfg.split, len(ds), ds.labels.get("session"))
+    train_idx = usable_frames(ds, train_idx, "training", t.min_speed, t.exclude_episodes)
+    val_idx = usable_frames(ds, val_idx, "validation", t.min_speed)
     stats = channel_stats(ds.arrays, ds.config, train_idx, segment_starts(ds.labels["segment"]))
     sources, train_codes = training_sources(cfg, ds, train_idx, progress, teacher)
-    torch.manual_seed(int(tc["seed"]))
-    model = create_model(name, **model_cfg)
+    torch.manual_seed(t.seed)
+    model = cfg.model.build(ds.config)
     if init:
         model.load_state_dict(init["state_dict"])
-    if hasattr(model, "loss") and tc["loss"] != "mse":
-        raise SteerlabError(f"model {name!r} trains on a loss of its own; train.loss={tc['loss']} does not apply")
     if (model.targets or model.speed_history) and "speed" not in ds.labels:
-        raise SteerlabError(f"model {name!r} needs a recording with speed; {ds.meta['source']} has none")
-    batches = Batches(sources, stats, model.speed_history)
+        raise SteerlabError(f"model {cfg.model.name!r} needs a recording with speed; {ds.meta['source']} has none")
+    data = FrameBatches(sources, stats, model.speed_history, t.rotation_deg, t.brightness)
     samples = train_codes
     if model.recurrent:
-        if tc["balance"]:
-            raise SteerlabError("balanced sampling picks single frames; recurrent models train on sequences "
-                                "(paper 003 does not balance its LSTM either)")
-        samples = sequence_windows(train_codes, batches.starts, model.seq_len)
+        samples = sequence_windows(train_codes, data.starts, model.seq_len)
         if len(samples) == 0:
             raise SteerlabError(f"no training window of {model.seq_len} consecutive frames in one segment")
-    if int(tc["recovery_weight"]) > 1:
-        episodes = np.concatenate([d.labels.get("episode", np.full(len(d), "")) for d, _ in sources])
+    repeats = None
+    if t.recovery_weight > 1:
+        episodes = data.episodes()
         if not np.isin(episodes, "recover").any():
             raise SteerlabError("recovery_weight needs recordings with recovery episodes (the synthetic world's)")
-        samples = recovery_weighted(samples, episodes, int(tc["recovery_weight"]))
+        repeats = recovery_repeats(samples, episodes, t.recovery_weight)
+    weights = balance_weights(data.steering(samples)) if t.balance else None
+    sampler = EpochSampler(samples, t.batch_size, t.seed, t.flip, t.motion_dropout, weights, repeats, ranks.rank,
+                           ranks.world)
     if all(p.dim() != 5 for p in model.parameters()):  # channels-last exists for 2-D convolutions only
         model = model.to(memory_format=torch.channels_last)
-    convention = SteeringConvention(**ds.meta["convention"])
-    recorded = steering_ahead(ds, float(tc["target_shift_s"]))  # the recording's, also under a teacher
-    truth = {"steering": recorded[val_idx], **{k: v[val_idx] for k, v in batches.targets.items()}}
+    recorded = steering_ahead(ds, t.target_shift_s)  # the recording's, also under a teacher
+    truth = {"steering": recorded[val_idx], **{k: v[val_idx] for k, v in data.targets.items()}}
+    return Run(cfg, ds, model, model_cfg, stats, data, sampler, train_codes, val_idx, truth,
+               SteeringConvention(**ds.meta["convention"]))
 
-    def checkpoint(path, metrics, **extra):
+
+def fit(run: Run, ranks: Ranks, progress: bool, on_epoch=None) -> dict:
+    """Train `run` epoch by epoch (continuing from `out/last.pt` when it holds the same data), validating after
+    each, until `train.epochs` or `train.patience` epochs without a better validation score; returns the
+    best validation metrics."""
+    cfg, t, model = run.cfg, run.cfg.train, run.model
+    out, score = Path(cfg.out), LOSSES[t.loss]
+    deg = run.convention.degrees_per_unit
+
+    def save(path, metrics, **extra):
         if ranks.main:
-            save_checkpoint(path, model, model_cfg, ds.config, stats, convention, metrics,
-                            geometry=ds.meta["geometry"], frame_rate=ds.meta["frame_rate"], **extra)
+            run.checkpoint(path, metrics, **extra)
+
+    def keep_predictions(pred):
+        if ranks.main:
+            write_predictions(out / "val_predictions.csv", run.ds.labels["frame_ids"][run.val_idx], pred["steering"],
+                              {k: pred[k] for k in ("speed", "command") if k in pred})
 
     if not model.trainable:
-        model.fit(batches.steering(train_codes))
-        pred = predict(model, batches, val_idx)
-        metrics = {**all_metrics(pred, truth, convention.degrees_per_unit), "epoch": 0}
-        checkpoint(out / "best.pt", metrics)
-        if ranks.main:
-            _write_predictions(out / "val_predictions.csv", ds, val_idx, pred)
+        model.fit(run.data.steering(run.train_codes))
+        pred = predict(model, run.data, run.val_idx)
+        metrics = {**all_metrics(pred, run.truth, deg), "epoch": 0}
+        save(out / "best.pt", metrics)
+        keep_predictions(pred)
         return metrics
 
     step_model = wrap(model, ranks)  # on the device; in DDP with several ranks
-    opt = torch.optim.Adam(model.parameters(), lr=float(tc["lr"]))
+    opt = torch.optim.Adam(model.parameters(), lr=t.lr)
+    data_id = run.ds.path.name  # the compiled cache entry: its name holds the hash of the source and its labels
     start, best, since_best, history = 1, None, 0, []
     if (out / "last.pt").exists():
         state = load_checkpoint(out / "last.pt")
+        if state.get("data", data_id) != data_id:
+            raise SteerlabError(f"{out} holds a run trained on other data ({state['data']}, now {data_id}: the "
+                                "recording or its labels changed); choose a new out directory or delete it")
         model.load_state_dict(state["state_dict"])
         opt.load_state_dict(state["optimizer"])
         start, best, since_best, history = state["epoch"] + 1, state["best"], state["since_best"], state["history"]
         torch.set_rng_state(state["torch_rng"])
         if ranks.main:
             print(f"resuming {out} after epoch {state['epoch']}")
-    log = EpochLog(out, model.targets, history, bool(tc["tensorboard"])) if ranks.main else None
-
-    rotation, brightness = float(tc["rotation_deg"]), float(tc["brightness"])
-    for epoch in range(start, int(tc["epochs"]) + 1):
-        if since_best >= int(tc["patience"]) and tc["keep"] == "best":
+    log = EpochLog(out, model.targets, history, t.tensorboard) if ranks.main else None
+    batches = loader(run.data, run.sampler, t.workers, ranks.device)
+    for epoch in range(start, t.epochs + 1):
+        if since_best >= t.patience and t.keep == "best":
             break
         t0 = time.time()
-        rng = np.random.default_rng([int(tc["seed"]), epoch])  # the same on every rank: the same global batches
-        augment_rng = np.random.default_rng([int(tc["seed"]), epoch, 1 + ranks.rank])  # per sample, per rank
-        transform = (partial(augment, cfg=ds.config, rng=augment_rng, rotation_deg=rotation, brightness=brightness)
-                     if rotation or brightness else None)
-        epoch_samples = balanced(samples, batches.steering(samples), rng) if tc["balance"] else samples
-        loss = train_one_epoch(step_model, opt, batches, epoch_samples, int(tc["batch_size"]), bool(tc["flip"]),
-                               rng, transform, float(tc["motion_dropout"]), progress, desc=f"epoch {epoch}",
-                               ranks=ranks, loss_name=tc["loss"], smoothness=float(tc["smoothness"]))
-        pred = predict(model, batches, val_idx)
-        m = all_metrics(pred, truth, convention.degrees_per_unit)
+        run.sampler.set_epoch(epoch)
+        loss = train_one_epoch(step_model, opt, batches, ranks, t.loss, t.smoothness, progress, f"epoch {epoch}")
+        pred = predict(model, run.data, run.val_idx)
+        m = all_metrics(pred, run.truth, deg)
         for what, value in (("training loss", loss), (f"validation {score}", m[score])):
             if not math.isfinite(value):  # stop before a diverged model can become the best one
                 kept = "no checkpoint was saved" if best is None else f"best.pt keeps epoch {best['epoch']}"
                 raise SteerlabError(f"training diverged in epoch {epoch}: the {what} is {value} (train.lr "
-                                    f"{tc['lr']} may be too high); {kept}")
+                                    f"{t.lr:g} may be too high); {kept}")
         if log is not None:
             history.append(log.write(epoch, loss, m, time.time() - t0))
         if progress:
             extra = "".join(f"  {k} {m[k]:.3f}" for k in ("speed_mae", "command_accuracy") if k in m)
             angles = (f"mae {m['mae_deg']:.2f} deg  gamma {m['gamma_deg']:.3f} (target {m['target_gamma_deg']:.3f})"
-                      if np.isfinite(m["mae_deg"]) else f"mae {m['mae']:.4f} ({convention.unit})")
+                      if np.isfinite(m["mae_deg"]) else
+                      f"mae {m['mae']:.4f} ({run.convention.unit}; degrees n/a: no full-lock angle)")
             print(f"epoch {epoch}: train loss {loss:.5f}  val rmse {m['rmse']:.4f}  {angles}{extra}")
-        if tc["keep"] == "last" or best is None or m[score] < best[score]:
+        if t.keep == "last" or best is None or m[score] < best[score]:
             best, since_best = {**m, "epoch": epoch}, 0
-            checkpoint(out / "best.pt", best)
-            if ranks.main:
-                _write_predictions(out / "val_predictions.csv", ds, val_idx, pred)
+            save(out / "best.pt", best)
+            keep_predictions(pred)
         else:
             since_best += 1
-        checkpoint(out / "last.pt", best, optimizer=opt.state_dict(), epoch=epoch, best=best,
-                   since_best=since_best, history=history, torch_rng=torch.get_rng_state())
+        save(out / "last.pt", best, optimizer=opt.state_dict(), epoch=epoch, best=best, since_best=since_best,
+             history=history, torch_rng=torch.get_rng_state(), data=data_id)
         if on_epoch is not None:
             on_epoch(epoch, m)
     if log is not None:

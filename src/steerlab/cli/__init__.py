@@ -1,0 +1,129 @@
+"""The `steerlab` command: one module per group of subcommands (`data.py`, `training.py`, `driving.py`), each
+registering its subcommands on the parser.
+
+A subcommand's numeric and choice options are the fields of the options dataclasses it passes on
+(`OPTIONS`): their flags, types, defaults, allowed values and help come from the fields (`add_options`), and
+`from_args` parses them into the dataclass, so every option is checked before the command does anything, with
+a one-line error (exit code 2) that names the flag; argparse's own errors are one line too."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from dataclasses import MISSING
+
+from steerlab.errors import SteerlabError
+from steerlab.options import optional, options_of, parse
+
+# subcommand -> the options dataclasses whose fields are its flags (filled by the modules below)
+OPTIONS: dict[str, list[type]] = {}
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (exit code 2) that point to the command's --help."""
+
+    def error(self, message: str):
+        print(f"error: {message} (see: {self.prog} --help)", file=sys.stderr)
+        sys.exit(2)
+
+
+def flag(name: str) -> str:
+    return "--" + name.replace("_", "-")
+
+
+def add_options(q: argparse.ArgumentParser, command: str, *classes: type, skip=()) -> None:
+    """Flags for the fields of `classes` (a field `max_heading` is `--max-heading`; a boolean that defaults to
+    true is `--no-NAME`); every flag defaults to None, so that a flag not given keeps the field's default."""
+    OPTIONS.setdefault(command, []).extend(classes)
+    for cls in classes:
+        for o in options_of(cls):
+            if o.key in skip:
+                continue
+            kind, _ = optional(o.kind)
+            default = "" if o.default in (None, MISSING) else f" (default {o.default})"
+            helptext = (o.help or o.expected) + default
+            if kind is bool:
+                negated = o.default is True
+                q.add_argument(flag(f"no_{o.key}" if negated else o.key), dest=o.key, default=None,
+                               action="store_false" if negated else "store_true",
+                               help=f"without {o.help or o.key}" if negated else o.help or o.key)
+            elif getattr(kind, "__origin__", None) is not None and str(kind).startswith("typing.Literal"):
+                q.add_argument(flag(o.key), dest=o.key, default=None, choices=list(kind.__args__), help=helptext)
+            else:
+                q.add_argument(flag(o.key), dest=o.key, default=None, type=kind if kind in (int, float) else str,
+                               help=helptext)
+
+
+def from_args(cls, args: argparse.Namespace):
+    """The dataclass `cls` from the flags given on the command line, checked (errors name the flag)."""
+    given = {o.key: getattr(args, o.key) for o in options_of(cls) if getattr(args, o.key, None) is not None}
+    return parse(cls, given, name=flag)
+
+
+def data_args(q: argparse.ArgumentParser, range_help: str = "frames to use, START:STOP (e.g. 0:2400)",
+              camera: bool = True, required: bool = True) -> None:
+    """The flags that name a recording (`data.readers.Source`)."""
+    q.add_argument("--data", required=required, help="recording: CH2 folder, driving_log.csv, steerlab recording, "
+                   "donkeycar tub, ROS bag or video with a CSV log")
+    q.add_argument("--range", help=range_help)
+    q.add_argument("--labels", help="CH2: label CSV when the folder holds several")
+    q.add_argument("--reader", action="append", default=[], metavar="KEY=VALUE",
+                   help="reader option, repeatable: full_lock_deg=25, skip_missing=true (tubs), log=FILE.csv "
+                        "(videos), ... (docs/ARCHITECTURE.md lists them)")
+    if camera:
+        q.add_argument("--camera", default="center", help="camera to use (default center)")
+
+
+def source(args: argparse.Namespace):
+    """The recording the data flags name."""
+    from steerlab.data.readers import Source, reader_options
+
+    return Source(args.data, args.range, args.labels, reader_options(args.reader))
+
+
+def print_table(metrics: dict, keys=None) -> None:
+    for k in [k for k in keys if k in metrics] if keys else metrics:
+        v = metrics[k]
+        if isinstance(v, float):
+            print(f"  {k:<18} {v:.6f}")
+        elif not isinstance(v, dict):
+            print(f"  {k:<18} {v}")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from steerlab.cli import data, driving, training
+
+    p = Parser(prog="steerlab", description="End-to-end driving models: camera in, steering out.")
+    sub = p.add_subparsers(dest="command", required=True, parser_class=Parser)
+    for module in (data, training, driving):
+        module.register(sub)
+    return p
+
+
+def parse_args(argv=None) -> argparse.Namespace:
+    """The command line; `section.key=value` overrides may stand anywhere after the config, before or after
+    the options (`steerlab tune CONFIG --trials 3 train.epochs=2`)."""
+    parser = build_parser()
+    args, extra = parser.parse_known_args(argv)
+    overrides = [x for x in extra if "=" in x and not x.startswith("-")]
+    if extra and (len(overrides) < len(extra) or not hasattr(args, "overrides")):
+        parser.error(f"unrecognized arguments: {' '.join(extra)}")
+    if overrides:
+        args.overrides = [*args.overrides, *overrides]
+    return args
+
+
+def main(argv=None) -> int:
+    try:
+        args = parse_args(argv)
+    except SystemExit as e:  # --help, or an argparse error (already printed)
+        return int(e.code or 0)
+    try:
+        args.func(args)
+    except SteerlabError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+    return 0

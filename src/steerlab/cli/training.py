@@ -1,0 +1,97 @@
+"""Subcommands that train: train, experiment, tune."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from dataclasses import dataclass
+
+from steerlab.cli import add_options, from_args, print_table
+from steerlab.cli.data import SPEED_METRICS
+from steerlab.errors import SteerlabError
+from steerlab.options import AT_LEAST_1, Options, option
+
+
+@dataclass(frozen=True)
+class TrainCommand(Options):
+    nproc: int = option(1, AT_LEAST_1, help="data-parallel ranks on this machine (torchrun + DDP; train.batch_size "
+                        "stays the global batch)")
+
+
+@dataclass(frozen=True)
+class ExperimentCommand(Options):
+    seeds: int = option(3, AT_LEAST_1, help="runs per model, seeds 0..N-1")
+
+
+def cmd_train(a) -> None:
+    from steerlab.train.config import load_config
+    from steerlab.train.distributed import finish
+    from steerlab.train.loop import train
+
+    nproc = from_args(TrainCommand, a).nproc
+    cfg = load_config(a.config, a.overrides)
+    if cfg.dagger is not None:
+        raise SteerlabError(f"{a.config} has a dagger section: run it with `steerlab sim dagger {a.config}`")
+    if nproc > 1 and "WORLD_SIZE" not in os.environ:  # start the ranks with torchrun
+        cmd = [sys.executable, "-m", "torch.distributed.run", "--standalone", f"--nproc-per-node={nproc}",
+               "-m", "steerlab", "train", a.config, *a.overrides]
+        if subprocess.run(cmd).returncode:
+            raise SteerlabError(f"distributed training with {nproc} ranks failed (see the messages above)")
+        return
+    try:
+        best = train(cfg)
+    finally:
+        finish()
+    if os.environ.get("RANK", "0") != "0":
+        return
+    print(f"best checkpoint: {cfg.out}/best.pt (epoch {best.get('epoch')})")
+    print_table(best, ["mse", "rmse", "mae", "mae_deg", "gamma_deg", "target_gamma_deg", *SPEED_METRICS])
+
+
+def cmd_experiment(a) -> None:
+    from steerlab.experiment import run_experiment
+
+    table = run_experiment(a.config, a.overrides, from_args(ExperimentCommand, a).seeds)
+    print(table.read_text())
+    print(f"wrote {table}, {table.parent / 'table.csv'}, {table.parent / 'predictions.png'}")
+
+
+def cmd_tune(a) -> None:
+    from steerlab.train.config import load_config
+    from steerlab.tune import TuneOptions, run_tune
+
+    o = from_args(TuneOptions, a)
+    out = run_tune(load_config(a.config, a.overrides), o)
+    for name in ("summary.md", "importance.md", "pareto.md"):
+        if (out / name).exists():
+            print((out / name).read_text())
+    print(f"wrote {out}/trials.csv, {out}/best.yaml (run it: steerlab train {out}/best.yaml)"
+          + "".join(f", {out}/{f}" for f in ("importance.png", "slice.png", "history.png", "pareto.png")
+                    if (out / f).exists()))
+
+
+def register(sub) -> None:
+    from steerlab.tune import TuneOptions
+
+    q = sub.add_parser("train", help="train a model from a YAML config", epilog="example: steerlab train "
+                       "configs/ch2_pilotnet.yaml train.epochs=5 out=runs/quick")
+    q.add_argument("config", help="YAML config (see configs/)")
+    q.add_argument("overrides", nargs="*", help="section.key=value overrides, e.g. train.lr=3e-4")
+    add_options(q, "train", TrainCommand)
+    q.set_defaults(func=cmd_train)
+
+    q = sub.add_parser("experiment", help="train several models with several seeds and tabulate them",
+                       epilog="example: steerlab experiment configs/experiment_ch2.yaml --seeds 3")
+    q.add_argument("config", help="YAML config with a 'models' list (see configs/experiment_ch2.yaml)")
+    q.add_argument("overrides", nargs="*", help="section.key=value overrides for every run")
+    add_options(q, "experiment", ExperimentCommand)
+    q.set_defaults(func=cmd_experiment)
+
+    q = sub.add_parser("tune", help="BOHB-style hyperparameter search (Optuna TPE + Hyperband) over a config's "
+                       "tune: section", epilog="example: steerlab tune configs/tune_multimodal_lstm.yaml --trials 40; "
+                       "more workers: run the same command elsewhere with --storage postgresql://... --study NAME")
+    q.add_argument("config", help="training config with a tune: section (config key -> range)")
+    q.add_argument("overrides", nargs="*", help="section.key=value overrides, e.g. train.epochs=8")
+    add_options(q, "tune", TuneOptions)
+    q.set_defaults(func=cmd_tune)

@@ -1,0 +1,270 @@
+"""Typed options: every config section and every command's options is a frozen dataclass whose fields carry
+their type, default, allowed values and help. `parse` turns what YAML or the command line gives (numbers
+written as text such as 1e-4 included) into one, with a one-line error that names the option; code that
+receives the dataclass reads attributes and never casts or checks again.
+
+    @dataclass(frozen=True)
+    class Suite:
+        minutes: float = option(3.0, Range(0, lo_open=True), help="minutes per road")
+
+    parse(Suite, {"minutes": "2"}, "closed_loop")  ->  Suite(minutes=2.0)
+    parse(Suite, {"minutes": -1}, "closed_loop")   ->  SteerlabError: closed_loop.minutes must be ... got -1
+
+`options_of(cls)` lists a dataclass's options (key, type, check, default) for documentation and for the
+bad-input sweeps of the tests."""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import math
+import types
+from collections.abc import Callable, Iterator, Mapping
+from dataclasses import MISSING, dataclass, field, fields
+from typing import Any, Literal, Union, get_args, get_origin, get_type_hints
+
+from steerlab.errors import SteerlabError
+
+
+@dataclass(frozen=True)
+class Range:
+    """A number in [lo, hi] (either bound open or absent); finite unless `finite` is False."""
+
+    lo: float | None = None
+    hi: float | None = None
+    lo_open: bool = False
+    hi_open: bool = False
+    unit: str = ""
+
+    def __call__(self, v) -> bool:
+        return (math.isfinite(v) and (self.lo is None or (self.lo < v if self.lo_open else self.lo <= v))
+                and (self.hi is None or (v < self.hi if self.hi_open else v <= self.hi)))
+
+    def words(self, kind: type) -> str:
+        unit = f" {self.unit}" if self.unit else ""
+        if self.lo is not None and self.hi is not None:
+            return (f"a number in {'(' if self.lo_open else '['}{self.lo:g}, {self.hi:g}"
+                    f"{')' if self.hi_open else ']'}{unit}")
+        if kind is int:
+            return "an integer" + (f" of at least {self.lo:g}" if self.lo is not None else "")
+        if self.lo == 0 and self.lo_open:
+            return "a positive finite number" + unit
+        if self.lo is not None:
+            return f"a finite number{unit} of at least {self.lo:g}"
+        return f"a finite number{unit}"
+
+
+POSITIVE = Range(0, lo_open=True)
+FRACTION = Range(0, 1, lo_open=True)  # (0, 1]: exponential smoothing's alpha
+AT_LEAST_0 = Range(0)
+AT_LEAST_1 = Range(1)
+UNIT = Range(0, 1)
+
+
+class Options:
+    """Base of the option dataclasses: made directly in Python (not through `parse`), every value is still
+    checked (`ClassName.field must be ...`)."""
+
+    def __post_init__(self):
+        hints = _hints(type(self))
+        for f in fields(self):
+            value, check = getattr(self, f.name), f.metadata.get("check")
+            if value is None or check is None:
+                continue
+            try:
+                ok = bool(check(value))
+            except (TypeError, ValueError):
+                ok = False
+            if not ok:
+                raise _bad(f"{type(self).__name__}.{f.name}", f.metadata.get("expected") or words(hints[f.name], check),
+                           value)
+
+
+def option(default: Any = MISSING, check: Callable | None = None, expected: str | None = None, help: str = ""):
+    """A dataclass field with its check (a `Range`, or any `check(value) -> bool` on the parsed value) and the
+    words an error uses for what is expected (derived from a Range when not given)."""
+    meta = {"check": check, "expected": expected, "help": help}
+    if isinstance(default, (list, dict, set)):
+        return field(default_factory=lambda: copy.deepcopy(default), metadata=meta)
+    return field(default=default, metadata=meta)
+
+
+@dataclass(frozen=True)
+class OptionInfo:
+    key: str
+    kind: Any
+    default: Any
+    check: Callable | None
+    expected: str
+    help: str
+
+
+def _shown(value) -> str:
+    return f"{value:g}" if isinstance(value, float) else repr(value)
+
+
+def _bad(where: str, expected: str, value) -> SteerlabError:
+    return SteerlabError(f"{where} must be {expected}, got {_shown(value)}")
+
+
+def optional(kind) -> tuple[Any, bool]:
+    """(the type inside Optional[...], whether None is allowed)."""
+    if get_origin(kind) in (Union, types.UnionType):
+        args = [a for a in get_args(kind) if a is not type(None)]
+        if len(args) < len(get_args(kind)):
+            return (args[0] if len(args) == 1 else Union[tuple(args)]), True
+    return kind, False
+
+
+def words(kind, check=None) -> str:
+    """What a value of this type (and check) must be, in the words of an error message."""
+    kind, _ = optional(kind)
+    if isinstance(check, Range):
+        return check.words(kind)
+    if get_origin(kind) is Literal:
+        choices = [str(c) for c in get_args(kind)]
+        return " or ".join(choices) if len(choices) < 3 else f"{', '.join(choices[:-1])} or {choices[-1]}"
+    if kind is bool:
+        return "true or false"
+    if kind is int:
+        return "an integer"
+    if kind is float:
+        return "a finite number"
+    if kind is str:
+        return "text"
+    if get_origin(kind) is tuple:
+        return "a list"
+    if dataclasses.is_dataclass(kind):
+        return "a mapping of options"
+    return "a mapping" if kind in (dict, Mapping) else str(kind)
+
+
+def value_of(kind, value, where: str, check=None, expected: str | None = None):
+    """`value` as the type `kind` (and passing `check`), or a one-line error naming `where`."""
+    inner, nullable = optional(kind)
+    if value is None:
+        if nullable:
+            return None
+        raise _bad(where, expected or words(inner, check), value)
+    expected = expected or words(inner, check)
+    if hasattr(inner, "parse_option"):  # a type that parses itself (a union of forms, say)
+        return inner.parse_option(value, where)
+    if dataclasses.is_dataclass(inner):
+        return parse(inner, value, where)
+    origin = get_origin(inner)
+    if origin is Literal:
+        if value not in get_args(inner) or isinstance(value, bool):
+            raise _bad(where, expected, value)
+        return value
+    if origin is tuple:
+        if not isinstance(value, (list, tuple)):
+            raise _bad(where, expected, value)
+        args = get_args(inner)
+        if len(args) == 2 and args[1] is Ellipsis:
+            out = tuple(value_of(args[0], v, f"{where}[{i}]", expected=expected if check else None)
+                        for i, v in enumerate(value))
+        elif len(args) != len(value):
+            raise _bad(where, expected, value)
+        else:
+            out = tuple(value_of(a, v, f"{where}[{i}]") for i, (a, v) in enumerate(zip(args, value)))
+    elif inner is bool:
+        if not isinstance(value, bool):
+            raise _bad(where, expected, value)
+        out = value
+    elif inner is int:
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise _bad(where, expected, value)
+        out = value
+    elif inner is float:
+        if isinstance(value, bool) or not isinstance(value, (int, float, str)):
+            raise _bad(where, expected, value)
+        try:
+            out = float(value)
+        except ValueError:
+            raise _bad(where, expected, value) from None
+        if check is None and not math.isfinite(out):
+            raise _bad(where, expected, value)
+    elif inner is str:
+        if not isinstance(value, str):
+            raise _bad(where, expected, value)
+        out = value
+    elif inner in (dict, Mapping) or get_origin(inner) in (dict, Mapping):
+        if not isinstance(value, Mapping):
+            raise _bad(where, expected, value)
+        out = dict(value)
+    elif inner is Any:
+        out = value
+    else:
+        raise TypeError(f"{where}: options of type {inner} are not supported")
+    if check is not None and not check(out):
+        raise _bad(where, expected, value)
+    return out
+
+
+def _hints(cls) -> dict:
+    return get_type_hints(cls, include_extras=False)
+
+
+def parse(cls, data, where: str = "", name: Callable[[str], str] | None = None):
+    """An instance of the dataclass `cls` from a mapping: every value converted to its field's type and
+    checked; unknown keys and missing required ones are errors. `where` prefixes the option names in errors
+    (`train` -> train.lr); `name(field)` names them instead (command-line options: --max-heading)."""
+    if isinstance(data, cls):
+        return data
+    data = {} if data is None else data
+    own = [f for f in fields(cls) if f.init]
+    if not isinstance(data, Mapping):
+        raise SteerlabError(f"{where or cls.__name__} must be a mapping of options "
+                            f"({', '.join(f.name for f in own)}), got {data!r}")
+    unknown = sorted(set(map(str, data)) - {f.name for f in own})
+    if unknown:
+        raise SteerlabError(f"unknown {where + ' ' if where else ''}options {unknown}; known: "
+                            f"{sorted(f.name for f in own)}")
+    hints, kwargs = _hints(cls), {}
+    for f in own:
+        key = name(f.name) if name else f"{where}.{f.name}" if where else f.name
+        if f.name in data:
+            kwargs[f.name] = value_of(hints[f.name], data[f.name], key, f.metadata.get("check"),
+                                      f.metadata.get("expected"))
+        elif f.default is MISSING and f.default_factory is MISSING:
+            raise SteerlabError(f"{key} is missing: it must be {words(hints[f.name], f.metadata.get('check'))}")
+    return cls(**kwargs)
+
+
+def as_dict(obj) -> Any:
+    """A dataclass (nested ones included) as plain values: dicts, lists, text and numbers (JSON and
+    checkpoints keep this form)."""
+    if hasattr(obj, "as_dict") and not isinstance(obj, type):
+        return obj.as_dict()
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        return {f.name: as_dict(getattr(obj, f.name)) for f in fields(obj)}
+    if isinstance(obj, (list, tuple)):
+        return [as_dict(v) for v in obj]
+    if isinstance(obj, dict):
+        return {k: as_dict(v) for k, v in obj.items()}
+    return obj
+
+
+def option_info(cls, name: str) -> OptionInfo | None:
+    """The option `name` of the dataclass `cls` (None when it has none of that name)."""
+    return next((o for o in options_of(cls) if o.key == name), None)
+
+
+def options_of(cls, prefix: str = "") -> Iterator[OptionInfo]:
+    """Every option of a dataclass, nested sections expanded: key (dotted), type, default, check, what is
+    expected, help."""
+    hints = _hints(cls)
+    for f in fields(cls):
+        if not f.init:
+            continue
+        key = f"{prefix}.{f.name}" if prefix else f.name
+        kind = hints[f.name]
+        inner, _ = optional(kind)
+        if dataclasses.is_dataclass(inner) and not hasattr(inner, "parse_option"):
+            yield from options_of(inner, key)
+            continue
+        default = f.default if f.default is not MISSING else (
+            f.default_factory() if f.default_factory is not MISSING else MISSING)
+        check = f.metadata.get("check")
+        yield OptionInfo(key, kind, default, check, f.metadata.get("expected") or words(kind, check),
+                         f.metadata.get("help", ""))

@@ -1,0 +1,132 @@
+"""`steerlab replay`: checkpoints replayed in closed loop on a recording (`sim/replay.py`), in parallel worker
+processes, and the reports: `replay.csv` (one row per checkpoint), `segments.csv` (per segment), `replay.md`,
+`replay.json`, `replay.png` (the offset along the route, interventions marked) and `LABEL/trajectory.csv`."""
+
+from __future__ import annotations
+
+import csv
+import json
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+from steerlab.data.car import CARS
+from steerlab.data.geometry import CAMERAS, with_overrides
+from steerlab.data.readers import Source
+from steerlab.errors import DataError, SteerlabError, warn
+from steerlab.pilot import smoothing_option
+from steerlab.options import AT_LEAST_1, Options, POSITIVE, option
+from steerlab.sim.bench import labels_for
+from steerlab.sim.driving import Trajectory
+from steerlab.sim.parallel import run_parallel, tick_reporter
+from steerlab.sim.plots import plot_offsets
+from steerlab.sim.replay import MAX_HEADING_DEG, Replay, human_road_wheel, replay_recording, replay_segments, \
+    replay_speed
+
+RESULT_FIELDS = ["checkpoint", "recording", "segment", "frames", "km", "seconds", "speed_mps", "speed_source",
+                 "autonomy", "interventions", "interventions_per_km", "mean_offset_m", "max_offset_m",
+                 "mean_heading_deg", "max_heading_deg", "gamma"]
+POSITIVE_WORDS = "positive and finite"
+
+
+@dataclass(frozen=True)
+class ReplayOptions(Options):
+    """`steerlab replay`'s options."""
+
+    speed: float | None = option(None, POSITIVE, POSITIVE_WORDS,
+                                 help="speed in m/s (default: the recorded one, else estimated from the frames)")
+    limit: float | None = option(None, POSITIVE, POSITIVE_WORDS, help="metres off the human's path that count as "
+                                 "an intervention (default: the car's: 1 for cars, 0.3 for donkeycars)")
+    max_heading: float = option(MAX_HEADING_DEG, POSITIVE, POSITIVE_WORDS, help="degrees of heading error beyond "
+                                "which the warped view is not trusted: an intervention")
+    mount_height: float | None = option(None, POSITIVE, POSITIVE_WORDS,
+                                        help="camera height above the road, m (default: the geometry's)")
+    pitch: float | None = option(None, help="camera pitch, degrees down (default: the geometry's)")
+    fov: float | None = option(None, POSITIVE, POSITIVE_WORDS,
+                               help="horizontal field of view, degrees (default: the geometry's)")
+    workers: int = option(2, AT_LEAST_1, help="checkpoints replayed in parallel")
+    smoothing: float | None = smoothing_option()
+
+
+def _job(checkpoint: str, label: str, source: Source, replay: dict, video: str | None, out: str,
+         smoothing: float | None) -> list[dict]:
+    """One checkpoint on one recording (in a worker process): result rows, and the trajectory in `out`."""
+    from steerlab.pilot import Pilot
+
+    rec = source.open()
+    rows, traj = replay_recording(Pilot(checkpoint, smoothing=smoothing), Replay(rec, **replay, frames=source.frames),
+                                  video, on_tick=tick_reporter())
+    Path(out).mkdir(parents=True, exist_ok=True)
+    traj.write(Path(out) / "trajectory.csv")
+    return [{"checkpoint": label, "recording": rec.name, **r} for r in rows]
+
+
+def run_replay(checkpoints, source: Source, out: str | Path, o: ReplayOptions = ReplayOptions(),
+               video: str | Path | None = None, progress: bool = True) -> list[dict]:
+    """Replay every checkpoint on the recording of `source` (only its frames, if given, e.g. a validation
+    split); write the reports. Returns the rows of replay.csv."""
+    from steerlab.pilot import Pilot
+
+    checkpoints = [Path(c) for c in checkpoints]
+    for c in checkpoints:
+        if not c.is_file():
+            raise SteerlabError(f"{c}: checkpoint not found")
+    rec = source.open()
+    if rec.geometry not in CAMERAS:
+        raise DataError(rec.source, f"no camera geometry for its {rec.geometry!r} frames; replay knows "
+                                    f"{', '.join(CAMERAS)}")
+    cam = with_overrides(CAMERAS[rec.geometry], o.mount_height, o.pitch, o.fov)
+    car = CARS[rec.geometry]
+    for c in checkpoints:
+        pilot = Pilot(c)
+        if pilot.geometry != rec.geometry:
+            raise SteerlabError(f"{c} was trained on the {pilot.geometry!r} camera geometry and {rec.source} has the "
+                                f"{rec.geometry!r} geometry: replay it on recordings of its own camera")
+        if pilot.speed_history and rec.speed is None and o.speed is None:
+            warn(f"{c} reads the speed; {rec.source} records none, so it gets the estimated constant speed")
+        try:
+            pilot.convention.to_road_wheel_left(0.0, car.steering_ratio)
+        except SteerlabError as e:
+            raise SteerlabError(f"{c}: its steering cannot become a wheel angle: {e}") from None
+    human_road_wheel(rec, car)  # the path can be rebuilt
+    segments = replay_segments(rec, source.frames)
+    speed, speed_source = replay_speed(rec, cam, car, o.speed)
+    out = Path(out)
+    names = labels_for(checkpoints)
+    videos = [None] * len(names) if video is None else (
+        [str(video)] if len(names) == 1 else [str(Path(video).with_name(f"{Path(video).stem}-{n.replace('/', '-')}"
+                                                                           f"{Path(video).suffix}")) for n in names])
+    replay = {"cam": cam, "car": car, "speed": speed, "limit_m": o.limit, "max_heading_deg": o.max_heading}
+    jobs = [(str(c), n, source, replay, v, str(out / n), o.smoothing) for c, n, v in zip(checkpoints, names, videos)]
+    results = run_parallel(_job, jobs, o.workers, sum(b - a for a, b in segments), progress, "replay")
+    rows = [{**r, "speed_source": speed_source} for rs in results for r in rs]
+    out.mkdir(parents=True, exist_ok=True)
+    for name, keep in (("replay.csv", lambda r: r["segment"] == "all"), ("segments.csv", lambda r: True)):
+        with open(out / name, "w", newline="") as f:
+            w = csv.DictWriter(f, RESULT_FIELDS)
+            w.writeheader()
+            w.writerows([{k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in r.items()} for r in rows if keep(r)])
+    whole = [r for r in rows if r["segment"] == "all"]
+    limit = car.lane_limit_m if o.limit is None else o.limit
+    (out / "replay.md").write_text(markdown(whole, limit, o.max_heading, o.smoothing))
+    (out / "replay.json").write_text(json.dumps({"data": source.data, "range": source.range, "camera": asdict(cam),
+                                                 "car": asdict(car), "limit_m": limit, "smoothing": o.smoothing,
+                                                 "rows": rows}, indent=1))
+    plot_offsets(out / "replay.png", {n: Trajectory.read(out / n / "trajectory.csv") for n in names}, limit,
+                 f"replay on {rec.name}")
+    return whole
+
+
+def markdown(rows: list[dict], limit_m: float, max_heading_deg: float, smoothing: float | None = None) -> str:
+    smoothed = "" if smoothing is None else f" The steering is smoothed exponentially, a = {smoothing:g}."
+    lines = [f"Closed-loop replay: an intervention when the car is more than {limit_m:g} m off the human's path or "
+             f"turned more than {max_heading_deg:g} deg from it; autonomy = (1 - interventions x 6 s / elapsed s) "
+             f"x 100, negative when a short drive needs many.{smoothed}", "",
+             "| checkpoint | recording | km | speed [m/s] | interventions | interventions/km | autonomy [%] | "
+             "mean abs offset [m] | max abs offset [m] | mean abs heading [deg] | command gamma [deg] |",
+             "|---" * 11 + "|"]
+    for r in rows:
+        lines.append(f"| {r['checkpoint']} | {r['recording']} | {r['km']:.2f} | {r['speed_mps']:.1f} "
+                     f"({r['speed_source']}) | {r['interventions']} | {r['interventions_per_km']:.1f} | "
+                     f"{r['autonomy']:.1f} | {r['mean_offset_m']:.3f} | {r['max_offset_m']:.3f} | "
+                     f"{r['mean_heading_deg']:.2f} | {r['gamma']:.3f} |")
+    return "\n".join(lines) + "\n"
