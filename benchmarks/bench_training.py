@@ -21,7 +21,7 @@ from steerlab.data.preprocess import PreprocessConfig, preprocess
 from steerlab.data.readers import open_recording
 from steerlab.models import create_model
 from steerlab.data.inputs import Standardizer, channel_stats, stack_modalities
-from steerlab.train.sources import Batches
+from steerlab.train.batches import Batch, FrameBatches
 
 N, BATCH = 1200, 100
 
@@ -46,10 +46,10 @@ def bench(rec, modalities: list[str], cache: str) -> None:
     channels = sum(cfg.channels().values())
     ds = compile_recording(rec, cfg, cache, progress=False)
     stats = channel_stats(ds.arrays, cfg, np.arange(N), np.zeros(N, int))
-    batches = Batches([(ds, ds.steering)], stats)
+    batches = FrameBatches([(ds, ds.steering)], stats)
 
     def cached(idx):
-        inputs, targets = batches.get(idx)
+        inputs, targets, _ = batches[Batch(idx)]
         return inputs["x"], targets["steering"]
     standardize = Standardizer(stats)
     order = np.random.default_rng(0).permutation(N)

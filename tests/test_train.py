@@ -1,4 +1,5 @@
 import csv
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -8,14 +9,15 @@ from dataclasses import replace
 
 from steerlab.checkpoint import load_checkpoint
 from steerlab.data.car import CH2_CAR
-from steerlab.data.readers import Source
+from steerlab.data.readers import Source, open_recording
 from steerlab.errors import SteerlabError
 from steerlab.evaluate.offline import evaluate
 from steerlab.models import list_models, model_class
 from steerlab.sim.world import RecordOptions
 from steerlab.train import loop, sources
-from steerlab.train.batches import EpochSampler, FrameBatches, balance_weights
-from steerlab.train.config import TrainOptions, load_config
+from steerlab.train.batches import EpochSampler, FrameBatches, balance_weights, loader
+from steerlab.train.config import TrainOptions, load_config, parse_config
+from steerlab.train.distributed import Ranks
 
 
 def _raw(rec, tmp_path, model=None, split=None, preprocess=None, extra=(), **train):
@@ -290,3 +292,51 @@ def test_every_model_learns_and_streams_as_in_batch(model, pre, tiny_recording, 
     np.testing.assert_allclose([float(r["steering_angle"]) for r in streamed], batch["steering"], atol=1e-4)
     for k in set(batch) - {"steering"}:
         np.testing.assert_allclose([float(r[k]) for r in streamed], batch[k], atol=1e-3)
+
+
+def test_a_run_of_an_earlier_version_loads_and_resumes(tiny_recording, tmp_path, monkeypatch):
+    """tests/data/run-0.1.0 is a run folder as steerlab 0.1.0 (commit 4e71608) wrote it after its first epoch of
+    two: a config.json of raw values (the learning rate as text, the car's steering ratio and side-camera offset
+    written out), a last.pt without the identity of its data, checkpoints of a model whose first fully connected
+    layer was sized by hand. Its checkpoint drives, and the same config continues the run with epoch 2."""
+    import json
+    import shutil
+
+    from steerlab.pilot import Pilot
+
+    old = Path(__file__).parent / "data" / "run-0.1.0"
+    monkeypatch.chdir(tmp_path)
+    shutil.copytree(old, tmp_path / "run")
+    (tmp_path / "rec").symlink_to(tiny_recording)  # the recording it was trained on: the same seed, the same bytes
+    first = Pilot(tmp_path / "run" / "best.pt").step(open_recording(tiny_recording).load_frame(0))
+    assert np.isfinite(first.steering)
+    user = {"data": "rec", "cache": "cache", "out": "run", "split": {"train": "0:240", "val": "240:300"},
+            "model": {"name": "cg23", "dropout": 0.2}, "preprocess": {"width": 16, "height": 8},
+            "train": {"epochs": 2, "batch_size": 32, "lr": "3e-4", "side_cameras": True}}
+    assert parse_config(json.loads((old / "config.json").read_text())).identity() == load_config(
+        None, base=user).for_car(CH2_CAR).identity()
+    best = loop.train(load_config(None, base=user), progress=False)
+    rows = _log(tmp_path)
+    assert [r["epoch"] for r in rows] == ["1", "2"] and best["epoch"] in (1, 2)
+    assert rows[0] == next(csv.DictReader(open(old / "log.csv")))  # epoch 1 is the earlier version's
+    with pytest.raises(SteerlabError, match="another config"):
+        loop.train(load_config(None, base={**user, "train": {**user["train"], "lr": 1e-3}}), progress=False)
+
+
+def test_the_batches_do_not_depend_on_the_number_of_workers(tiny_recording, tmp_path):
+    """Every random draw (order, flips, motion dropout, augmentation) is made where the batches are drawn, so one
+    or two worker processes give the batches that loading in this process gives."""
+    cfg = _cfg(tiny_recording, tmp_path, flip=True, motion_dropout=0.5, rotation_deg=5, brightness=0.2,
+               model={"name": "pilotnet-flow", "dropout": 0.0}).for_car(CH2_CAR)
+    run = loop.build(cfg, Ranks(), False, None, None)
+    epochs = {}
+    for workers in (0, 2):
+        batches = loader(run.data, run.sampler, workers, torch.device("cpu"))
+        run.sampler.set_epoch(3)
+        epochs[workers] = list(batches)
+    assert len(epochs[0]) == len(epochs[2]) == 8  # 240 frames in batches of 32
+    for (x0, y0, w0), (x2, y2, w2) in zip(epochs[0], epochs[2]):
+        assert torch.equal(x0["x"], x2["x"]) and torch.equal(y0["steering"], y2["steering"]) and w0 == w2
+    run.sampler.set_epoch(4)
+    assert not torch.equal(next(iter(loader(run.data, run.sampler, 0, torch.device("cpu"))))[0]["x"],
+                           epochs[0][0][0]["x"])  # another epoch, another draw

@@ -104,17 +104,11 @@ def plot_open_vs_closed(path: str | Path, tables: dict[str, list[dict]], metric:
 
 
 def rank_correlation(x, y) -> float:
-    """Spearman's rank correlation; tied values share their mean rank (many models drive at 100 %). NaN for
-    fewer than three points or when x or y takes a single value."""
-    rx, ry = (_mean_ranks(v) for v in (x, y))
-    if len(rx) < 3 or np.ptp(rx) == 0 or np.ptp(ry) == 0:
+    """Spearman's rank correlation (`scipy.stats.spearmanr`: tied values share their mean rank, and many models
+    drive at 100 %). NaN for fewer than three points or when x or y takes a single value."""
+    from scipy.stats import spearmanr
+
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    if len(x) < 3 or np.ptp(x) == 0 or np.ptp(y) == 0:
         return float("nan")
-    return float(np.corrcoef(rx, ry)[0, 1])
-
-
-def _mean_ranks(values) -> np.ndarray:
-    v = np.asarray(values, float)
-    ranks = np.empty(len(v))
-    ranks[np.argsort(v, kind="stable")] = np.arange(len(v))
-    _, group = np.unique(v, return_inverse=True)
-    return (np.bincount(group, ranks) / np.bincount(group))[group]
+    return float(spearmanr(x, y).statistic)
