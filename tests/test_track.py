@@ -110,3 +110,232 @@ def test_load_calibration_bad_input(tmp_path, name, content, message):
     assert str(path) in str(e.value) and "\n" not in str(e.value)
     with pytest.raises(SteerlabError, match="cannot read"):
         load_calibration(tmp_path / "absent.json")
+
+
+# --- closed tracks -----------------------------------------------------------------------------------------------
+
+from steerlab.sim.track import Track  # noqa: E402
+
+SEEDS = (0, 1, 2, 3, 4)
+
+
+@pytest.fixture(scope="module")
+def tracks():
+    return {seed: Track(seed) for seed in SEEDS}
+
+
+def test_tracks_close_smoothly_and_keep_their_lane_clear(tracks):
+    radii = []
+    for tr in tracks.values():
+        assert 10 <= tr.length <= 60 and tr.ds < 0.03
+        assert abs(abs(tr.psi[-1] + tr.kappa[-1] * tr.ds - tr.psi[0]) - 2 * math.pi) < 1e-3  # one full turn
+        # across the start line: position, heading and curvature continue
+        for eps in (1e-3, 0.05):
+            a, b = np.array(tr.pose(-eps)), np.array(tr.pose(eps))
+            assert np.hypot(*(b[:2] - a[:2])) == pytest.approx(2 * eps, rel=1e-3, abs=1e-6)
+            assert abs((b[2] - a[2] + math.pi) % (2 * math.pi) - math.pi) < 1e-9 + 2 * eps * abs(tr.curvature(0))
+        assert tr.curvature(0.0) == 0 and tr.curvature(-tr.ds / 2) == 0
+        assert np.abs(np.diff(tr.kappa)).max() < 0.1  # no curvature jumps between samples 2 cm apart
+        # heading is the direction of travel, curvature its rate of change
+        step = np.hypot(np.diff(tr.x), np.diff(tr.y))
+        assert np.allclose(step, tr.ds, rtol=1e-3)
+        travel = np.arctan2(np.diff(tr.y), np.diff(tr.x))
+        assert np.abs((travel - (tr.psi[:-1] + tr.psi[1:]) / 2 + math.pi) % (2 * math.pi) - math.pi).max() < 1e-3
+        radii.append(1 / np.abs(tr.kappa).max())
+        # no two parts of the lane closer than the clearance (an independent check on the edges' points)
+        left, right = (np.stack(tr.offset(d), 1)[::5] for d in (tr.lane_width / 2, -tr.lane_width / 2))
+        edges = np.concatenate([left, right])
+        s = np.concatenate([tr.s[::5], tr.s[::5]])
+        dist = np.hypot(*(edges[:, None] - edges[None]).transpose(2, 0, 1))
+        along = np.abs(s[:, None] - s[None])
+        along = np.minimum(along, tr.length - along)
+        assert dist[along > 2.5].min() > 0.4
+    assert min(radii) < 1.6 and all(r >= 0.8 - 1e-9 for r in radii)  # tight turns, never tighter than 0.8 m
+    assert len({round(tr.length) for tr in tracks.values()}) == len(tracks)  # each seed its own track
+    assert Track(3).x.tobytes() == tracks[3].x.tobytes()
+
+
+def test_track_project_pose_and_wrap(tracks):
+    tr = tracks[1]
+    for s, d in ((0.05, 0.2), (tr.length / 3, -0.3), (tr.length - 0.02, 0.1)):
+        x, y, _ = tr.pose(s, d)
+        s2, d2, heading = tr.project(float(x), float(y), s_hint=s + 0.5)
+        assert abs(tr.delta(s, s2)) < 1e-3 and d2 == pytest.approx(d, abs=1e-3)
+        assert abs((heading - tr.pose(s)[2] + math.pi) % (2 * math.pi) - math.pi) < 1e-3
+    x, y, _ = tr.pose(0.05)  # just past the start line, found from a hint just before it
+    s2, _, _ = tr.project(float(x), float(y), s_hint=tr.length - 0.1)
+    assert s2 == pytest.approx(0.05, abs=1e-3)
+    assert tr.project(float(x), float(y)) == pytest.approx((s2, *tr.project(float(x), float(y), 0.0)[1:]))
+    assert tr.delta(tr.length - 0.1, 0.2) == pytest.approx(0.3) and tr.delta(0.2, tr.length - 0.1) == pytest.approx(-0.3)
+    assert tr.wrap(-0.5) == pytest.approx(tr.length - 0.5)
+    assert tr.lines == (-tr.lane_width / 2, tr.lane_width / 2) and Track(1, style="centre").lines == (0.0,)
+    xs, ys = np.array([tr.pose(3.0, 0.3)[:2], tr.pose(3.0, -0.2)[:2]]).T
+    assert tr.overhang(xs, ys, 3.0) == pytest.approx(0.3 - tr.lane_width / 2, abs=1e-4)
+
+
+@pytest.mark.parametrize("kwargs,message", [({"lane_width": 0.0}, "lane width must be positive, got 0.0 m"),
+                                            ({"lane_width": -1}, "lane width must be positive"),
+                                            ({"style": "dashed"}, "unknown track style 'dashed'")])
+def test_track_bad_options(kwargs, message):
+    with pytest.raises(SteerlabError, match=message):
+        Track(0, **kwargs)
+
+
+def test_speed_profile_respects_its_limits(tracks):
+    tr = tracks[2]
+    v = tr.speed_profile(5.0, lat_acc=3.5, decel=3.0)
+    assert v.max() <= 5.0 and v.min() > 1.0
+    assert np.all(v * v * np.abs(tr.kappa) <= 3.5 + 1e-9)
+    nxt = np.roll(v, -1)  # braking within 3 m/s^2 before every turn, also across the start line
+    assert np.all(v * v <= nxt * nxt + 2 * 3.0 * tr.ds + 1e-9)
+    assert np.isclose(v, 5.0).any()  # straights long enough to reach the top speed
+    with pytest.raises(SteerlabError, match="positive top speed"):
+        tr.speed_profile(0.0)
+
+
+# --- the small car -----------------------------------------------------------------------------------------------
+
+from steerlab.sim.smallcar import SmallCar, SmallCarParams, speed_after, throttle_for  # noqa: E402
+from steerlab.sim.vehicle import VehicleState  # noqa: E402
+
+
+def test_small_car_throttle_lag_and_braking():
+    p = SmallCarParams(rolling=0.0, drag=0.0)  # the first-order model alone
+    v, dt = 0.0, 0.01
+    for _ in range(30):  # one time constant at full throttle: 1 - 1/e of the top speed
+        v = speed_after(v, 1.0, dt, p)
+    assert v == pytest.approx(5.0 * (1 - math.exp(-1)), rel=1e-9)
+    v1 = v
+    for _ in range(300):  # faster than throttle 0.5 asks: slows towards it with the coasting time constant
+        v = speed_after(v, 0.5, dt, p)
+    assert v == pytest.approx(2.5 + (v1 - 2.5) * math.exp(-3.0 / p.coast_time_constant), rel=1e-9)
+    assert speed_after(2.5, -0.5, 0.1, p) == pytest.approx(2.5 * math.exp(-0.1 / p.coast_time_constant) - 0.3)
+    assert speed_after(0.1, -1.0, 0.5, p) == 0.0  # stops, never reverses
+    real = SmallCarParams()
+    for v0, accel in ((1.0, 2.0), (3.0, 0.0), (3.0, -1.0), (3.0, -5.0)):  # the feed-forward inverts the model
+        u = throttle_for(v0, accel, real)
+        assert (speed_after(v0, u, 1e-4, real) - v0) / 1e-4 == pytest.approx(accel, abs=0.02)
+    v = 0.0
+    for _ in range(300):
+        v = speed_after(v, 1.0, dt, real)
+    assert 4.5 < v < 5.0  # drag keeps it under the top speed
+
+
+def test_small_car_turns_on_its_kinematic_circle():
+    p = SmallCarParams()
+    car = SmallCar(VehicleState(0.0, 0.0, 0.0, 2.0), p)
+    radius = p.wheelbase / math.tan(p.full_lock)
+    steps = 2000
+    dt = 2 * math.pi * radius / 2.0 / steps
+    for _ in range(steps):
+        car.vehicle.advance(1.0, 2.0, dt)  # asks for more than full lock: limited to 25 degrees
+    assert car.state.x == pytest.approx(0.0, abs=1e-6) and car.state.y == pytest.approx(0.0, abs=1e-6)
+    assert car.state.psi == pytest.approx(2 * math.pi)
+    car.state = VehicleState(1.0, 2.0, math.pi / 2, 0.0)
+    xs, ys = car.corners()
+    assert np.allclose(xs, [0.9, 1.1, 1.1, 0.9]) and np.allclose(ys, [1.93, 1.93, 2.35, 2.35])
+    assert np.allclose(car.camera_pose(), (1.0, 2.0 + p.camera_forward, math.pi / 2))
+
+
+# --- the racing expert -------------------------------------------------------------------------------------------
+
+from steerlab.sim.racer import Racer, expert_controls  # noqa: E402
+
+
+def race(track, laps, drift_every_s, seed=0, dt=0.05):
+    """The expert racing `laps` laps from standstill: (ticks, worst overhang of the body, episodes seen, time)."""
+    p = SmallCarParams()
+    x, y, psi = track.pose(0.0)
+    car = SmallCar(VehicleState(float(x), float(y), float(psi), 0.0), p)
+    racer = Racer(track, p, seed, dt, drift_every_s=drift_every_s)
+    s, progress, t, worst, episodes, ticks = 0.0, 0.0, 0.0, -1.0, set(), 0
+    while progress < laps * track.length and t < 60 * laps:
+        st = car.state
+        s_new, d, _ = track.project(st.x, st.y, s)
+        progress += float(track.delta(s, s_new))
+        s = s_new
+        worst = max(worst, track.overhang(*car.corners(), s))
+        delta, throttle, episode = racer.act(st, s, d, t)
+        assert abs(delta) <= p.full_lock + 1e-12 and -1 <= throttle <= 1
+        episodes.add(episode)
+        car.step(delta, throttle, dt)
+        t += dt
+        ticks += 1
+    assert progress >= laps * track.length, f"seed {track.seed}: {progress / track.length:.2f} laps in {t:.0f} s"
+    return worst, episodes, t
+
+
+def test_expert_races_three_laps_inside_the_lane(tracks):
+    for tr in tracks.values():
+        worst, episodes, t = race(tr, 3, None)
+        assert worst < -0.1 and episodes == {"normal"}
+        assert t / 3 < tr.length / 2.0  # faster than 2 m/s on average
+    pursuit, throttle = expert_controls(tracks[0], VehicleState(*map(float, tracks[0].pose(1.0, 0.1)), 1.0), 1.0,
+                                        SmallCarParams())
+    assert pursuit < 0 and throttle > 0.2  # left of the centre: steer right; slow: speed up
+
+
+def test_expert_drifts_and_recovers_without_leaving_the_lane(tracks):
+    for seed, tr in tracks.items():
+        worst, episodes, _ = race(tr, 2, 3.0, seed)
+        assert worst < 0 and episodes == {"normal", "drift-out", "recover"}
+
+
+# --- the renderer ------------------------------------------------------------------------------------------------
+
+from steerlab.sim.track_render import TrackRenderer  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def renderers(tracks):
+    return {seed: TrackRenderer(tracks[seed]) for seed in (1, 2)}
+
+
+def test_rendered_frames_are_deterministic_and_differ_between_tracks(renderers, tracks):
+    frames = {}
+    for seed, r in renderers.items():
+        x, y, psi = tracks[seed].pose(2.0)
+        frames[seed] = r.render(float(x), float(y), float(psi), 2.0)
+        assert frames[seed].shape == (120, 160, 3) and frames[seed].dtype == np.uint8
+        assert frames[seed].std() > 10  # a scene, not a flat colour
+    again = TrackRenderer(tracks[1])
+    x, y, psi = tracks[1].pose(2.0)
+    assert again.render(float(x), float(y), float(psi), 2.0).tobytes() == frames[1].tobytes()
+    assert np.abs(frames[1].astype(int) - frames[2].astype(int)).mean() > 20
+    # the clutter stands in the room: frames without it differ above the horizon only
+    bare = TrackRenderer(tracks[1])
+    bare.face_start = bare.face_start[:0]
+    diff = np.abs(bare.render(float(x), float(y), float(psi), 2.0).astype(int) - frames[1].astype(int)).sum(-1)
+    assert diff.sum() > 0 and diff[80:].sum() < diff[:50].sum()
+
+
+def test_lane_lines_appear_where_the_camera_projects_them(renderers, tracks):
+    cam = DONKEY_FISHEYE
+    for seed, r in renderers.items():
+        tr = tracks[seed]
+        # the start straight: the camera on the centre line at its beginning, looking along it
+        straight = np.flatnonzero(np.abs(tr.kappa) < 1e-12)
+        first = -next(k for k in range(len(tr.s)) if (len(tr.s) - 1 - k) not in set(straight)) * tr.ds
+        last = next(k for k in range(len(tr.s)) if k not in set(straight)) * tr.ds
+        s_cam = first + 0.05
+        x, y, psi = (float(v) for v in tr.pose(s_cam))
+        frame = r.render(x, y, psi, s_cam).astype(float)
+        light = r.room.brightness[tr.index(s_cam)] * r.room.tint[tr.index(s_cam)]
+        tape = r.room.tape_bgr * light
+        hits = 0
+        points = [s for s in np.arange(s_cam + 0.45, min(last, s_cam + 1.6), 0.05) if abs(s) > 0.12]  # off the start line
+        for s in points:
+            for d, inside in ((-tr.lane_width / 2, -tr.lane_width / 2 + 0.12), (tr.lane_width / 2, tr.lane_width / 2 - 0.12)):
+                (u, v), (ui, vi) = ([int(round(float(c))) for c in cam.project(*_rel(tr, s, e, x, y, psi))]
+                                    for e in (d, inside))
+                on, off = frame[v, u], frame[vi, ui]
+                hits += np.linalg.norm(on - tape) < np.linalg.norm(off - tape) and np.linalg.norm(on - off) > 30
+        assert len(points) >= 8 and hits >= 0.9 * 2 * len(points), (seed, hits, 2 * len(points))
+
+
+def _rel(tr, s, d, x, y, psi):
+    """(forward, left, up) from a camera at (x, y, psi) to the floor point (s, d) of the track."""
+    px, py, _ = tr.pose(s, d)
+    dx, dy = float(px) - x, float(py) - y
+    return (dx * math.cos(psi) + dy * math.sin(psi), -dx * math.sin(psi) + dy * math.cos(psi),
+            -DONKEY_FISHEYE.mount_height)

@@ -119,11 +119,11 @@ class Room:
         base = np.array(palette[int(rng.integers(len(palette)))], np.float32) * rng.uniform(0.85, 1.1)
         shade = _noise(rng, (h, w), 60, 0.05) * _noise(rng, (h, w), 12, 0.02)
         if kind == "concrete":
-            shade *= _tile(rng, (h, w), 0.06)
+            shade *= _tile(rng, (h, w), 0.03)
         elif kind == "epoxy":
             shade *= _tile(rng, (h, w), 0.015)
         elif kind == "carpet":
-            shade *= _tile(rng, (h, w), 0.12, 0.6)
+            shade *= _tile(rng, (h, w), 0.06, 0.6)
             tiles = rng.uniform(0.93, 1.07, (h // 50 + 1, w // 50 + 1)).astype(np.float32)
             shade *= cv2.resize(tiles, (tiles.shape[1] * 50, tiles.shape[0] * 50), interpolation=cv2.INTER_NEAREST)[:h, :w]
         elif kind == "wood":
@@ -362,12 +362,14 @@ class TrackRenderer:
         fwd, left, up = (a.astype(np.float32).ravel() for a in cam.vehicle_rays())
         h = cam.mount_height
         below = up < -1e-6
-        # level of detail: a pixel's floor footprint in texels (rays above the horizon as if they met the floor
-        # far away); the pixels are kept grouped by level, so that each level is one slice and one remap
+        # level of detail: a pixel's floor footprint in texels, across its ray (along it, a grazing ray's
+        # footprint is long: choosing the level by it would wash out a tape line a metre ahead); rays above the
+        # horizon as if they met the floor far away. The pixels are kept grouped by level, so that each level is
+        # one slice and one remap
         t_floor = np.where(below, h / np.where(below, -up, 1), 1e3).astype(np.float32)
         grid = (cam.height, cam.width)
         fx, fy = (t_floor * fwd).reshape(grid), (t_floor * left).reshape(grid)
-        step = np.maximum(np.hypot(np.gradient(fx, axis=0), np.gradient(fy, axis=0)),
+        step = np.minimum(np.hypot(np.gradient(fx, axis=0), np.gradient(fy, axis=0)),
                           np.hypot(np.gradient(fx, axis=1), np.gradient(fy, axis=1))).ravel()
         level = np.clip(np.floor(np.log2(np.maximum(step / RES, 1.0))), 0, LEVELS - 1).astype(int)
         level[~below] = 1
