@@ -339,3 +339,111 @@ def _rel(tr, s, d, x, y, psi):
     dx, dy = float(px) - x, float(py) - y
     return (dx * math.cos(psi) + dy * math.sin(psi), -dx * math.sin(psi) + dy * math.cos(psi),
             -DONKEY_FISHEYE.mount_height)
+
+
+# --- the donkeycar tub writer ------------------------------------------------------------------------------------
+
+from steerlab.data.readers import open_recording  # noqa: E402
+from steerlab.data.recording import read_image  # noqa: E402
+from steerlab.data.writer import TubWriter  # noqa: E402
+
+
+def write_race_tub(folder, renderer, track, n=25, max_len=10):
+    """n ticks of the expert racing on `track`, rendered and written as a tub; returns the written
+    (servo angle, throttle, timestamp ns) per record."""
+    p = SmallCarParams()
+    x, y, psi = track.pose(0.0)
+    car = SmallCar(VehicleState(float(x), float(y), float(psi), 1.0), p)
+    racer = Racer(track, p, 0, 0.05)
+    writer = TubWriter(folder, full_lock_deg=p.full_lock_deg, max_len=max_len)
+    s, rows = 0.0, []
+    for i in range(n):
+        st = car.state
+        s, d, _ = track.project(st.x, st.y, s)
+        delta, throttle, _ = racer.act(st, s, d, i * 0.05)
+        frame = renderer.render(*car.camera_pose(), s)
+        if i == 0:
+            frame[:20, :20] = (0, 0, 255)  # a red corner (BGR) to check the colours of the JPEG bytes
+        writer.add(frame, i * 50_000_000, delta, throttle)
+        rows.append((writer.servo(delta), throttle, 1_577_836_800_000_000_000 + i * 50_000_000))
+        car.step(delta, throttle, 0.05)
+    writer.close()
+    return rows
+
+
+def test_tub_writer_is_read_back_exactly_by_steerlab(renderers, tracks, tmp_path):
+    rows = write_race_tub(tmp_path / "tub", renderers[1], tracks[1])
+    rec = open_recording(tmp_path / "tub")
+    angle, throttle, ts = map(np.array, zip(*rows))
+    assert len(rec) == 25 and rec.geometry == "donkey" and rec.convention.kind == "normalized"
+    np.testing.assert_array_equal(rec.steering, angle)
+    np.testing.assert_array_equal(rec.throttle, throttle)
+    np.testing.assert_array_equal(rec.timestamps_ns, ts)
+    assert np.ptp(angle) > 0 and np.all(np.abs(angle) <= 1)
+    # the servo command: road-wheel angle / full lock, positive right
+    writer = TubWriter(tmp_path / "other", full_lock_deg=25)
+    assert writer.servo(math.radians(12.5)) == pytest.approx(-0.5) and writer.servo(-1.0) == 1.0
+    first = read_image(rec.frames["center"][0])
+    assert first.shape == (120, 160, 3) and tuple(first[5, 5]) == pytest.approx((0, 0, 255), abs=12)
+    # catalogs of at most max_len records, their manifests counting the lines' lengths
+    lines = (tmp_path / "tub" / "manifest.json").read_text().splitlines()
+    assert len(lines) == 5 and json.loads(lines[0]) == ["cam/image_array", "user/angle", "user/throttle", "user/mode"]
+    catalogs = json.loads(lines[4])
+    assert catalogs == {"paths": ["catalog_0.catalog", "catalog_1.catalog", "catalog_2.catalog"],
+                        "current_index": 25, "max_len": 10, "deleted_indexes": []}
+    for n, start in enumerate((0, 10, 20)):
+        meta = json.loads((tmp_path / "tub" / f"catalog_{n}.catalog_manifest").read_text())
+        body = (tmp_path / "tub" / f"catalog_{n}.catalog").read_text()
+        assert meta["start_index"] == start and meta["line_lengths"] == [len(x) + 1 for x in body.splitlines()]
+    with pytest.raises(SteerlabError, match="not empty"):
+        TubWriter(tmp_path / "tub", full_lock_deg=25)
+    with pytest.raises(SteerlabError, match="full_lock_deg must lie in"):
+        TubWriter(tmp_path / "x", full_lock_deg=0)
+
+
+@pytest.fixture
+def donkeycar_tub():
+    """donkeycar's tub module (its import prints a banner and sets the root logger to INFO: undone)."""
+    import logging
+
+    root = logging.getLogger()
+    handlers, level = root.handlers[:], root.level
+    tub_v2 = pytest.importorskip("donkeycar.parts.tub_v2", reason="donkeycar is not installed")
+    root.handlers[:] = handlers
+    root.setLevel(level)
+    return tub_v2
+
+
+def test_tub_writer_is_read_by_donkeycar_as_its_own(donkeycar_tub, renderers, tracks, tmp_path, monkeypatch):
+    from donkeycar.config import Config
+    from donkeycar.pipeline.types import TubRecord
+
+    rows = write_race_tub(tmp_path / "tub", renderers[1], tracks[1])
+    tub = donkeycar_tub.Tub(str(tmp_path / "tub"), read_only=True)
+    records = list(tub)
+    assert len(tub) == len(records) == 25
+    assert [r["_index"] for r in records] == list(range(25))
+    assert [(r["user/angle"], r["user/throttle"], r["_timestamp_ms"] * 1_000_000) for r in records] == rows
+    assert {r["user/mode"] for r in records} == {"user"} and records[0]["_session_id"] == "20-01-01_0"
+    cfg = Config()
+    cfg.IMAGE_W, cfg.IMAGE_H, cfg.IMAGE_DEPTH = 160, 120, 3
+    rgb = TubRecord(cfg, tub.base_path, records[0]).image()
+    assert rgb.shape == (120, 160, 3) and tuple(rgb[5, 5]) == pytest.approx((255, 0, 0), abs=12)  # red in RGB
+    tub.close()
+    # the manifest's lines and the records' keys as donkeycar's own writer makes them
+    ticks = iter(1_700_000_000.0 + 0.05 * i for i in range(3))
+    monkeypatch.setattr(donkeycar_tub, "time", type("Clock", (), {"time": staticmethod(lambda: next(ticks))}))
+    theirs = donkeycar_tub.TubWriter(str(tmp_path / "theirs"), inputs=["cam/image_array", "user/angle", "user/throttle",
+                                                                       "user/mode"],
+                                     types=["image_array", "float", "float", "str"])
+    for _ in range(3):
+        theirs.run(np.zeros((120, 160, 3), np.uint8), 0.1, 0.2, "user")
+    theirs.close()
+    ours, them = ((tmp_path / t / "manifest.json").read_text().splitlines() for t in ("tub", "theirs"))
+    assert ours[:3] == them[:3]
+    for a, b in zip(ours[3:], them[3:]):
+        assert list(json.loads(a)) == list(json.loads(b))
+    assert list(json.loads(ours[3])["sessions"]) == list(json.loads(them[3])["sessions"])
+    for name in ("catalog_0.catalog", "catalog_0.catalog_manifest"):
+        ours, them = (json.loads((tmp_path / t / name).read_text().splitlines()[0]) for t in ("tub", "theirs"))
+        assert list(ours) == list(them)

@@ -33,6 +33,7 @@ WALL_RES = 0.03   # m per wall texel
 CEIL_RES = 0.05   # m per ceiling texel
 LEVELS = 4        # levels of detail of the atlas (each half the resolution of the one before)
 PAD = 16          # texels between the atlas regions
+MIRROR_LEVEL = 2  # the level of detail a glossy floor mirrors the room with (a blurred reflection)
 
 # (B, G, R)
 FLOORS = {
@@ -128,7 +129,7 @@ class Room:
             shade *= cv2.resize(tiles, (tiles.shape[1] * 50, tiles.shape[0] * 50), interpolation=cv2.INTER_NEAREST)[:h, :w]
         elif kind == "wood":
             plank = int(rng.integers(8, 16))  # cm
-            rows = rng.uniform(0.85, 1.15, h // plank + 1).astype(np.float32)
+            rows = rng.uniform(0.92, 1.08, h // plank + 1).astype(np.float32)
             grain = cv2.resize(rng.standard_normal((h // 2 + 1, w // 40 + 2)).astype(np.float32), (w, h))
             shade *= np.repeat(rows, plank)[:h, None] * (1 + 0.05 * grain) * _tile(rng, (h, w), 0.03)
         elif kind == "tarp":
@@ -161,8 +162,8 @@ class Room:
 
     def _lamps(self, rng: np.random.Generator) -> tuple[np.ndarray, bool]:
         """The ceiling lamps' (x, y), in a grid, and whether long tubes run along x."""
-        nx = max(1, int((self.x1 - self.x0) / rng.uniform(2.5, 5)))
-        ny = max(1, int((self.y1 - self.y0) / rng.uniform(2.5, 5)))
+        nx = max(1, int((self.x1 - self.x0) / rng.uniform(3, 6)))
+        ny = max(1, int((self.y1 - self.y0) / rng.uniform(3, 6)))
         gx = (np.arange(nx) + 0.5) / nx * (self.x1 - self.x0) + self.x0
         gy = (np.arange(ny) + 0.5) / ny * (self.y1 - self.y0) + self.y0
         return np.array([(x, y) for x in gx for y in gy]), bool(rng.random() < 0.5)
@@ -236,10 +237,10 @@ class Room:
         floor mirrors; blurred the more the less glossy the floor)."""
         w, h = int(math.ceil((self.x1 - self.x0) / CEIL_RES)), int(math.ceil((self.y1 - self.y0) / CEIL_RES))
         lights = np.zeros((h, w), np.float32)
-        tube = rng.random() < 0.6  # long fluorescent tubes or square panels
+        tube = rng.random() < 0.75  # long fluorescent tubes or square panels
         for lx, ly in self.lamps:
             if tube:
-                half = (0.6, 0.06) if self.tubes_along_x else (0.06, 0.6)
+                half = (0.6, 0.05) if self.tubes_along_x else (0.05, 0.6)
             else:
                 half = (0.3, 0.3)
             a = (int((lx - half[0] - self.x0) / CEIL_RES), int((ly - half[1] - self.y0) / CEIL_RES))
@@ -373,14 +374,18 @@ class TrackRenderer:
                           np.hypot(np.gradient(fx, axis=1), np.gradient(fy, axis=1))).ravel()
         level = np.clip(np.floor(np.log2(np.maximum(step / RES, 1.0))), 0, LEVELS - 1).astype(int)
         level[~below] = 1
-        order = np.argsort(level, kind="stable")
+        key = np.where(below, level, LEVELS + level)  # rays below the horizon first (only they meet the floor)
+        order = np.argsort(key, kind="stable")
         self.unsort = np.argsort(order)
-        edges = np.searchsorted(level[order], np.arange(LEVELS + 1))
-        self.levels = [(k, slice(edges[k], edges[k + 1])) for k in range(LEVELS) if edges[k + 1] > edges[k]]
+        edges = np.searchsorted(key[order], np.arange(2 * LEVELS + 1))
+        self.levels = [(k % LEVELS, slice(edges[k], edges[k + 1])) for k in range(2 * LEVELS) if edges[k + 1] > edges[k]]
+        self.below = slice(0, int(below.sum()))
         fwd, left, up, below = fwd[order], left[order], up[order], below[order]
         self.fwd, self.left, self.up = fwd, left, up
         self.t_floor = np.where(below, h / np.where(below, -up, 1), np.inf).astype(np.float32)
         self.t_mirror = np.where(below, (h + room.height) / np.where(below, -up, 1), np.inf).astype(np.float32)
+        # Schlick's approximation of the share of light a floor mirrors: more the more grazing the ray
+        self.fresnel = (0.05 + 0.95 * (1 - np.clip(-up, 0, 1)) ** 5).astype(np.float32)
         above = up > 1e-6
         self.t_ceiling = np.where(above, (room.height - h) / np.where(above, up, 1), np.inf).astype(np.float32)
         # the lens darkens towards the corners; the sensor adds noise
@@ -406,7 +411,7 @@ class TrackRenderer:
         """BGR uint8 frame of the camera at world position (x, y) (m), heading psi (rad), the car at arc length s
         of the track (for the light along the lap)."""
         room, cam = self.room, self.cam
-        h = cam.mount_height
+        x, y, h = float(x), float(y), cam.mount_height  # Python floats keep the per-pixel arithmetic in float32
         c, sn = np.float32(math.cos(psi)), np.float32(math.sin(psi))
         dx = self.fwd * c - self.left * sn
         dy = self.fwd * sn + self.left * c
@@ -436,12 +441,26 @@ class TrackRenderer:
             cv2.remap(room.atlas[k], ((mx[sl] + 0.5) * scale - 0.5)[:, None], ((my[sl] + 0.5) * scale - 0.5)[:, None],
                       cv2.INTER_LINEAR, dst=base[sl], borderMode=cv2.BORDER_REPLICATE)
         frame = base.reshape(-1, 3).astype(np.float32)
-        if room.gloss > 0:  # the lamps mirrored in the floor
-            rx = ((x - room.x0 + self.t_mirror * dx) * np.float32(1 / CEIL_RES))[:, None]
-            ry = ((y - room.y0 + self.t_mirror * dy) * np.float32(1 / CEIL_RES))[:, None]
-            spec = cv2.remap(room.lights, rx, ry, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT)
-            spec *= floor[:, None]
-            frame += spec * np.float32(255 * room.gloss)
+        if room.gloss > 0:
+            # a glossy floor mirrors the room: the mirror ray of a floor pixel meets the wall at the height the
+            # ray itself would have met it below the floor, or the ceiling at the mirror point; read blurred.
+            # Only rays below the horizon can meet the floor.
+            b = self.below
+            mirror_z = -z[b]
+            on_wall = mirror_z < room.height
+            lx = (x - room.x0 + self.t_mirror[b] * dx[b]) * np.float32(1 / CEIL_RES)
+            ly = (y - room.y0 + self.t_mirror[b] * dy[b]) * np.float32(1 / CEIL_RES)
+            rx = np.where(on_wall, perim[b] * np.float32(1 / WALL_RES), lx)
+            ry = np.where(on_wall, room.wall_row + (room.height - mirror_z) * np.float32(1 / WALL_RES), room.ceil_row + ly)
+            scale = np.float32(0.5 ** MIRROR_LEVEL)
+            mirror = cv2.remap(room.atlas[MIRROR_LEVEL], ((rx + 0.5) * scale - 0.5).astype(np.float32)[:, None],
+                               ((ry + 0.5) * scale - 0.5).astype(np.float32)[:, None], cv2.INTER_LINEAR,
+                               borderMode=cv2.BORDER_REPLICATE).reshape(-1, 3)
+            k = (self.fresnel[b] * np.float32(room.gloss) * floor[b])[:, None]
+            frame[b] += k * (mirror - frame[b])
+            # the lamps, far brighter than anything the atlas holds, add their light
+            spec = cv2.remap(room.lights, lx[:, None], ly[:, None], cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT)
+            frame[b] += spec * (np.float32(255 * room.gloss) * floor[b])[:, None]
         i = self.track.index(s)
         light = room.brightness[i] * room.tint[i]
         frame *= self.vignette * light
