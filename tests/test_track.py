@@ -166,7 +166,8 @@ def test_track_project_pose_and_wrap(tracks):
     s2, _, _ = tr.project(float(x), float(y), s_hint=tr.length - 0.1)
     assert s2 == pytest.approx(0.05, abs=1e-3)
     assert tr.project(float(x), float(y)) == pytest.approx((s2, *tr.project(float(x), float(y), 0.0)[1:]))
-    assert tr.delta(tr.length - 0.1, 0.2) == pytest.approx(0.3) and tr.delta(0.2, tr.length - 0.1) == pytest.approx(-0.3)
+    assert tr.delta(tr.length - 0.1, 0.2) == pytest.approx(0.3)
+    assert tr.delta(0.2, tr.length - 0.1) == pytest.approx(-0.3)
     assert tr.wrap(-0.5) == pytest.approx(tr.length - 0.5)
     assert tr.lines == (-tr.lane_width / 2, tr.lane_width / 2) and Track(1, style="centre").lines == (0.0,)
     xs, ys = np.array([tr.pose(3.0, 0.3)[:2], tr.pose(3.0, -0.2)[:2]]).T
@@ -323,9 +324,11 @@ def test_lane_lines_appear_where_the_camera_projects_them(renderers, tracks):
         light = r.room.brightness[tr.index(s_cam)] * r.room.tint[tr.index(s_cam)]
         tape = r.room.tape_bgr * light
         hits = 0
-        points = [s for s in np.arange(s_cam + 0.45, min(last, s_cam + 1.6), 0.05) if abs(s) > 0.12]  # off the start line
+        points = [s for s in np.arange(s_cam + 0.45, min(last, s_cam + 1.6), 0.05)
+                  if abs(s) > 0.12]  # off the start line
         for s in points:
-            for d, inside in ((-tr.lane_width / 2, -tr.lane_width / 2 + 0.12), (tr.lane_width / 2, tr.lane_width / 2 - 0.12)):
+            half = tr.lane_width / 2
+            for d, inside in ((-half, -half + 0.12), (half, half - 0.12)):
                 (u, v), (ui, vi) = ([int(round(float(c))) for c in cam.project(*_rel(tr, s, e, x, y, psi))]
                                     for e in (d, inside))
                 on, off = frame[v, u], frame[vi, ui]

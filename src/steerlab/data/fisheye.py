@@ -53,6 +53,7 @@ class FisheyeCamera:
     pitch_deg: float = 20.0     # down positive
 
     def __post_init__(self):
+        object.__setattr__(self, "d", tuple(float(v) for v in self.d))  # hashable: the pinhole maps are cached
         values = (self.fx, self.fy, self.cx, self.cy, self.skew, self.mount_height, self.pitch_deg, *self.d)
         if len(self.d) != 4 or not all(math.isfinite(float(v)) for v in values):
             raise SteerlabError(f"a fisheye camera needs finite K, four finite coefficients D and a finite mount, "

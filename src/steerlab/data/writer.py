@@ -94,7 +94,8 @@ class TubWriter:
             raise SteerlabError(f"full_lock_deg must lie in (0, 90) degrees, got {full_lock_deg}")
         if max_len < 1:
             raise SteerlabError(f"max_len (records per catalog) must be at least 1, got {max_len}")
-        self.out, self.full_lock, self.max_len, self.start_ns = Path(out), math.radians(full_lock_deg), max_len, start_ns
+        self.out, self.full_lock = Path(out), math.radians(full_lock_deg)
+        self.max_len, self.start_ns = max_len, start_ns
         if self.out.exists() and any(self.out.iterdir()):
             raise SteerlabError(f"{self.out} exists and is not empty; choose a new output folder")
         (self.out / "images").mkdir(parents=True, exist_ok=True)
@@ -123,7 +124,8 @@ class TubWriter:
         paths = []
         for n, first in enumerate(range(0, max(len(self.records), 1), self.max_len)):
             name = f"catalog_{n}.catalog"
-            lines = [json.dumps(r, allow_nan=False, sort_keys=True) + "\n" for r in self.records[first: first + self.max_len]]
+            lines = [json.dumps(r, allow_nan=False, sort_keys=True) + "\n"
+                     for r in self.records[first: first + self.max_len]]
             (self.out / name).write_text("".join(lines))
             manifest = {"path": f"catalog_{n}.catalog_manifest", "created_at": created, "start_index": first,
                         "line_lengths": [len(line) for line in lines]}

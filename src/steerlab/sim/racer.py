@@ -88,15 +88,15 @@ class Racer:
         d_target = self.side * DRIFT_TARGET * self.room if self.episode == "drift-out" else 0.0
         target = pursuit(self.track, state, s, d_target, self.car.wheelbase)
         # Ornstein-Uhlenbeck noise on the road wheel, then a first-order lag: a human, not a controller
-        sd = self.dt
-        self.noise += -self.noise * sd / 0.5 + math.radians(self.noise_deg) * math.sqrt(sd) * self.rng.standard_normal()
+        dt = self.dt
+        self.noise += -self.noise * dt / 0.5 + math.radians(self.noise_deg) * math.sqrt(dt) * self.rng.standard_normal()
         self.delta += self.alpha * (target + self.noise - self.delta)
         self.delta = float(np.clip(self.delta, -self.car.full_lock, self.car.full_lock))
         # the pace wanders slowly within about +-5 %
-        self.wander += -self.wander * sd / 4.0 + 0.05 * math.sqrt(sd / 2.0) * self.rng.standard_normal()
+        self.wander += -self.wander * dt / 4.0 + 0.05 * math.sqrt(dt / 2.0) * self.rng.standard_normal()
         v_target = (self.pace + self.wander) * target_speed(self.track, s, state.v, self.car)
         err = v_target - state.v
-        self.integral = float(np.clip(self.integral + err * sd, -1.0, 1.0))
+        self.integral = float(np.clip(self.integral + err * dt, -1.0, 1.0))
         accel = float(np.clip(err / 0.25, -self.car.brake_decel, 4.0))
         throttle = throttle_for(state.v, accel, self.car) + 0.05 * self.integral
         return self.delta, float(np.clip(throttle, -1.0, 1.0)), self.episode

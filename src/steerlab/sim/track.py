@@ -179,7 +179,8 @@ class Track:
         i, j, w = self._interp(s)
         return self.kappa[i] + w * (self.kappa[j] - self.kappa[i])
 
-    def project(self, x: float, y: float, s_hint: float | None = None, window: float = 3.0) -> tuple[float, float, float]:
+    def project(self, x: float, y: float, s_hint: float | None = None,
+                window: float = 3.0) -> tuple[float, float, float]:
         """Road coordinates (s in [0, length), d) and the centre line's heading at s of a world point: the
         nearest centre-line point within `window` m of `s_hint` along the track (the whole track without a
         hint). Keep the hint within a car's move of the last answer so that a nearby part of the loop is never

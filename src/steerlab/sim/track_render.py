@@ -49,6 +49,14 @@ TAPES = {"white": (240, 240, 240), "yellow": (40, 200, 235), "orange": (30, 120,
 WALLS = [(215, 215, 210), (200, 205, 200), (180, 195, 205), (205, 200, 185), (185, 190, 180), (150, 160, 170)]
 
 
+CLUTTER = ["box", "cone", "bin", "chair", "legs", "cabinet"]
+
+
+def _pick(rng: np.random.Generator, colours: list[tuple[int, int, int]]) -> np.ndarray:
+    """One of the colours, as float32 BGR."""
+    return np.array(colours[int(rng.integers(len(colours)))], np.float32)
+
+
 def _noise(rng: np.random.Generator, shape: tuple[int, int], cells: float, amplitude: float) -> np.ndarray:
     """A smooth random field of `shape` around 1 with features about `cells` texels wide."""
     small = rng.standard_normal((max(2, int(shape[0] / cells)) + 1, max(2, int(shape[1] / cells)) + 1))
@@ -70,7 +78,7 @@ class Room:
     def __init__(self, track: Track, seed: int | None = None):
         self.track = track
         rng = np.random.default_rng([track.seed if seed is None else seed, 21])
-        self.floor_kind = str(rng.choice(list(FLOORS)))
+        self.floor_kind = str(rng.choice(list(FLOORS), p=[0.25, 0.25, 0.15, 0.15, 0.2]))
         self.gloss = GLOSS[self.floor_kind] * rng.uniform(0.6, 1.2)
         self.tape_name = str(rng.choice(list(TAPES)))
         if FLOORS[self.floor_kind][0][0] > 200 and self.tape_name == "white":  # white tape on a white tarp
@@ -126,7 +134,8 @@ class Room:
         elif kind == "carpet":
             shade *= _tile(rng, (h, w), 0.06, 0.6)
             tiles = rng.uniform(0.93, 1.07, (h // 50 + 1, w // 50 + 1)).astype(np.float32)
-            shade *= cv2.resize(tiles, (tiles.shape[1] * 50, tiles.shape[0] * 50), interpolation=cv2.INTER_NEAREST)[:h, :w]
+            shade *= cv2.resize(tiles, (tiles.shape[1] * 50, tiles.shape[0] * 50),
+                                interpolation=cv2.INTER_NEAREST)[:h, :w]
         elif kind == "wood":
             plank = int(rng.integers(8, 16))  # cm
             rows = rng.uniform(0.92, 1.08, h // plank + 1).astype(np.float32)
@@ -139,16 +148,17 @@ class Room:
             ground = np.array((95, 100, 105), np.float32) * _tile(rng, (h, w), 0.08)[..., None]
             inside = np.zeros((h, w), np.uint8)
             pts = np.stack(tr.offset(0.0), 1)
-            lo, hi = (pts.min(0) - tr.lane_width - [self.x0, self.y0]) / RES, (pts.max(0) + tr.lane_width - [self.x0, self.y0]) / RES
+            lo = (pts.min(0) - tr.lane_width - [self.x0, self.y0]) / RES
+            hi = (pts.max(0) + tr.lane_width - [self.x0, self.y0]) / RES
             cv2.rectangle(inside, tuple(int(v) for v in lo), tuple(int(v) for v in hi), 1, -1)
             img = np.where(inside[..., None] > 0, img, ground)
             creases = np.zeros((h, w), np.float32)
-            for _ in range(int((self.x1 - self.x0) * (self.y1 - self.y0) / 2)):
+            for _ in range(int((self.x1 - self.x0) * (self.y1 - self.y0) / 1.5)):
                 p = rng.uniform([0, 0], [w, h])
-                q = p + rng.normal(0, 60, 2)
-                cv2.line(creases, tuple(int(v) for v in p), tuple(int(v) for v in q), float(rng.uniform(-0.15, 0.15)),
-                         int(rng.integers(1, 4)), cv2.LINE_AA)
-            img *= (1 + cv2.GaussianBlur(creases, (0, 0), 2) * inside)[..., None]
+                q = p + rng.normal(0, 120, 2)
+                cv2.line(creases, tuple(int(v) for v in p), tuple(int(v) for v in q), float(rng.uniform(-0.12, 0.12)),
+                         int(rng.integers(2, 7)), cv2.LINE_AA)
+            img *= (1 + cv2.GaussianBlur(creases, (0, 0), 3) * inside)[..., None]
         elif kind == "concrete":  # expansion joints
             step = int(rng.uniform(3, 6) / RES)
             off = int(rng.integers(0, step))
@@ -221,11 +231,12 @@ class Room:
                 for z in np.arange(0, top, 0.1):
                     rect(p, z, p + width, z + 0.02, base * 0.65)
             elif kind == "window":
-                rect(p, 1.0, p + rng.uniform(1, 2.5), min(self.height - 0.2, 2.3), np.array((250, 245, 235), np.float32))
+                rect(p, 1.0, p + rng.uniform(1, 2.5), min(self.height - 0.2, 2.3),
+                     np.array((250, 245, 235), np.float32))
             elif kind == "board":
                 rect(p, 0.9, p + rng.uniform(0.8, 2), 1.9, np.array((235, 238, 240), np.float32) * rng.uniform(0.85, 1))
             else:
-                colour = np.array(rng.choice([(90, 90, 95), (60, 70, 140), (150, 140, 120), (40, 40, 45)]), np.float32)
+                colour = _pick(rng, [(90, 90, 95), (60, 70, 140), (150, 140, 120), (40, 40, 45)])
                 rect(p, 0, p + rng.uniform(0.5, 1.5), rng.uniform(0.8, 2.0), colour)
         rect(0, 0, 2 * (wx + wy), rng.uniform(0.06, 0.15), base * rng.uniform(0.3, 0.6))  # skirting
         for corner in (wx, wx + wy, 2 * wx + wy):  # shade of the corners
@@ -266,7 +277,7 @@ class Room:
         objects = []
         area = (self.x1 - self.x0) * (self.y1 - self.y0)
         for _ in range(int(area / rng.uniform(5, 12))):
-            kind = str(rng.choice(["box", "cone", "bin", "chair", "legs", "cabinet"], p=[0.3, 0.2, 0.15, 0.12, 0.08, 0.15]))
+            kind = str(rng.choice(CLUTTER, p=[0.3, 0.2, 0.15, 0.12, 0.08, 0.15]))
             x, y = rng.uniform([self.x0 + 0.3, self.y0 + 0.3], [self.x1 - 0.3, self.y1 - 0.3])
             yaw = rng.uniform(0, math.pi)
             if kind == "cabinet":  # against a wall
@@ -304,12 +315,13 @@ class Room:
 
         size = min(room, 1.0)
         if kind == "box":
-            colour = np.array(rng.choice([(80, 130, 170), (95, 145, 185), (60, 110, 150), (200, 200, 200), (150, 90, 40)]), np.float32)
+            colour = _pick(rng, [(80, 130, 170), (95, 145, 185), (60, 110, 150), (200, 200, 200), (150, 90, 40)])
             hx, hy = rng.uniform(0.12, 0.45, 2) * size
             z1 = rng.uniform(0.15, 0.7)
             box(x, y, hx, hy, 0.0, z1, colour * rng.uniform(0.85, 1.1))
             if rng.random() < 0.35:  # another box on top
-                box(x, y, hx * 0.8, hy * 0.8, z1, z1 + rng.uniform(0.15, 0.5), colour * rng.uniform(0.8, 1.1), yaw + rng.uniform(-0.4, 0.4))
+                box(x, y, hx * 0.8, hy * 0.8, z1, z1 + rng.uniform(0.15, 0.5), colour * rng.uniform(0.8, 1.1),
+                    yaw + rng.uniform(-0.4, 0.4))
         elif kind == "cone":
             r, hgt = rng.uniform(0.1, 0.17), rng.uniform(0.3, 0.7)
             orange = np.array((20, 90, 235), np.float32)
@@ -318,11 +330,11 @@ class Room:
             prism(x, y, r * 0.55, r * 0.4, hgt * 0.45, hgt * 0.6, np.array((235, 235, 235), np.float32))
             prism(x, y, r * 0.4, 0.0, hgt * 0.6, hgt, orange)
         elif kind == "bin":
-            colour = np.array(rng.choice([(40, 40, 40), (150, 80, 30), (40, 120, 40), (50, 50, 170), (200, 200, 200)]), np.float32)
+            colour = _pick(rng, [(40, 40, 40), (150, 80, 30), (40, 120, 40), (50, 50, 170), (200, 200, 200)])
             r = rng.uniform(0.12, 0.3) * max(size, 0.5)
             prism(x, y, r, r * 1.05, 0.0, rng.uniform(0.3, 0.9), colour, 8)
         elif kind == "chair":
-            colour = np.array(rng.choice([(30, 30, 30), (120, 120, 120), (140, 70, 30), (40, 40, 160)]), np.float32)
+            colour = _pick(rng, [(30, 30, 30), (120, 120, 120), (140, 70, 30), (40, 40, 160)])
             leg = np.array((80, 80, 80), np.float32)
             c, s = math.cos(yaw), math.sin(yaw)
             for fx, fy in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
@@ -332,17 +344,17 @@ class Room:
             bx, by = -0.21, 0.0
             box(x + bx * c - by * s, y + bx * s + by * c, 0.02, 0.22, 0.47, 0.88, colour)
         elif kind == "legs":
-            jeans = np.array(rng.choice([(120, 70, 40), (60, 50, 40), (40, 40, 40), (110, 110, 100)]), np.float32)
-            shoe = np.array(rng.choice([(220, 220, 220), (30, 30, 30), (60, 60, 140)]), np.float32)
+            jeans = _pick(rng, [(120, 70, 40), (60, 50, 40), (40, 40, 40), (110, 110, 100)])
+            shoe = _pick(rng, [(220, 220, 220), (30, 30, 30), (60, 60, 140)])
             c, s = math.cos(yaw), math.sin(yaw)
             for side in (-1, 1):
                 lx, ly = 0.0, 0.12 * side
                 px, py = x + lx * c - ly * s, y + lx * s + ly * c
                 box(px + 0.05 * c, py + 0.05 * s, 0.14, 0.05, 0.0, 0.08, shoe)
                 prism(px, py, 0.065, 0.08, 0.08, 0.9, jeans)
-            box(x, y, 0.13, 0.22, 0.85, 1.5, np.array(rng.choice([(40, 40, 160), (200, 200, 200), (60, 60, 60), (140, 90, 40)]), np.float32))
+            box(x, y, 0.13, 0.22, 0.85, 1.5, _pick(rng, [(40, 40, 160), (200, 200, 200), (60, 60, 60), (140, 90, 40)]))
         else:  # cabinet or table against the wall
-            colour = np.array(rng.choice([(110, 110, 115), (70, 90, 130), (160, 160, 160), (50, 60, 80)]), np.float32)
+            colour = _pick(rng, [(110, 110, 115), (70, 90, 130), (160, 160, 160), (50, 60, 80)])
             box(x, y, rng.uniform(0.3, 1.0), 0.25, 0.0, rng.uniform(0.7, 2.0), colour)
         return {"x": x, "y": y, "faces": faces}
 
@@ -355,7 +367,8 @@ def _subdivide(poly: np.ndarray, k: int = 2) -> np.ndarray:
 
 
 class TrackRenderer:
-    """Renders `track` through `cam` (by default the donkeycar fisheye at 160x120)."""
+    """Renders `track` through `cam` (by default the donkeycar fisheye at 160x120). The room's look is drawn
+    from the track's seed, or from `seed` to put one track into several rooms."""
 
     def __init__(self, track: Track, cam: FisheyeCamera = DONKEY_FISHEYE, seed: int | None = None):
         self.track, self.cam = track, cam
@@ -378,7 +391,8 @@ class TrackRenderer:
         order = np.argsort(key, kind="stable")
         self.unsort = np.argsort(order)
         edges = np.searchsorted(key[order], np.arange(2 * LEVELS + 1))
-        self.levels = [(k % LEVELS, slice(edges[k], edges[k + 1])) for k in range(2 * LEVELS) if edges[k + 1] > edges[k]]
+        self.levels = [(k % LEVELS, slice(edges[k], edges[k + 1])) for k in range(2 * LEVELS)
+                       if edges[k + 1] > edges[k]]
         self.below = slice(0, int(below.sum()))
         fwd, left, up, below = fwd[order], left[order], up[order], below[order]
         self.fwd, self.left, self.up = fwd, left, up
@@ -408,8 +422,8 @@ class TrackRenderer:
         self.face_shade = (0.65 + 0.35 * np.clip(self.face_normal @ sun, -1, 1)).astype(np.float32)
 
     def render(self, x: float, y: float, psi: float, s: float) -> np.ndarray:
-        """BGR uint8 frame of the camera at world position (x, y) (m), heading psi (rad), the car at arc length s
-        of the track (for the light along the lap)."""
+        """BGR uint8 frame of the camera at world position (x, y) (m; `SmallCar.camera_pose()`), heading psi
+        (rad), the car at arc length s of the track (for the light along the lap)."""
         room, cam = self.room, self.cam
         x, y, h = float(x), float(y), cam.mount_height  # Python floats keep the per-pixel arithmetic in float32
         c, sn = np.float32(math.cos(psi)), np.float32(math.sin(psi))
@@ -451,7 +465,8 @@ class TrackRenderer:
             lx = (x - room.x0 + self.t_mirror[b] * dx[b]) * np.float32(1 / CEIL_RES)
             ly = (y - room.y0 + self.t_mirror[b] * dy[b]) * np.float32(1 / CEIL_RES)
             rx = np.where(on_wall, perim[b] * np.float32(1 / WALL_RES), lx)
-            ry = np.where(on_wall, room.wall_row + (room.height - mirror_z) * np.float32(1 / WALL_RES), room.ceil_row + ly)
+            ry = np.where(on_wall, room.wall_row + (room.height - mirror_z) * np.float32(1 / WALL_RES),
+                          room.ceil_row + ly)
             scale = np.float32(0.5 ** MIRROR_LEVEL)
             mirror = cv2.remap(room.atlas[MIRROR_LEVEL], ((rx + 0.5) * scale - 0.5).astype(np.float32)[:, None],
                                ((ry + 0.5) * scale - 0.5).astype(np.float32)[:, None], cv2.INTER_LINEAR,
@@ -482,9 +497,10 @@ class TrackRenderer:
         # and reaches into the image
         behind = xyz[:, 2] < np.hypot(xyz[:, 0], xyz[:, 1]) * math.cos(math.radians(100))
         cent = self.face_centre - (x, y, cam.mount_height)
-        draw = ((np.einsum("ij,ij->i", self.face_normal, cent) < 0) & (np.add.reduceat(behind, self.face_start) == 0)
-                & (np.maximum.reduceat(u, self.face_start) > 0) & (np.minimum.reduceat(u, self.face_start) < cam.width)
-                & (np.maximum.reduceat(v, self.face_start) > 0) & (np.minimum.reduceat(v, self.face_start) < cam.height))
+        start = self.face_start
+        draw = ((np.einsum("ij,ij->i", self.face_normal, cent) < 0) & (np.add.reduceat(behind, start) == 0)
+                & (np.maximum.reduceat(u, start) > 0) & (np.minimum.reduceat(u, start) < cam.width)
+                & (np.maximum.reduceat(v, start) > 0) & (np.minimum.reduceat(v, start) < cam.height))
         faces = np.flatnonzero(draw)
         if not len(faces):
             return
