@@ -40,6 +40,9 @@ def test_fisheye_hand_computed_cases():
     assert cam.project(1.0, 0.3, 0.0)[0] < 79.5
     pitched = FisheyeCamera(fx=70.0, fy=70.0, cx=79.5, cy=59.5, d=(0.0, 0.0, 0.0, 0.0), pitch_deg=20.0)
     assert pitched.project(100.0, 0.0, 0.0)[1] == pytest.approx(59.5 - 70 * math.radians(20), abs=1e-9)
+    # a world point 1 m ahead of a camera at (2, 3) heading +y, on the floor, is straight ahead below the centre
+    u, v = cam.project_world(2.0, 4.0, 0.0, (2.0, 3.0, math.pi / 2))
+    assert u == pytest.approx(79.5) and v == pytest.approx(59.5 + 70 * math.atan(0.2))
     fwd, left, up = pitched.vehicle_rays()
     assert fwd[60, 80] > 0.9 and up[0, 80] > 0 > up[119, 80]
 
@@ -337,19 +340,12 @@ def test_lane_lines_appear_where_the_camera_projects_them(renderers, tracks):
         for s in points:
             half = tr.lane_width / 2
             for d, inside in ((-half, -half + 0.12), (half, half - 0.12)):
-                (u, v), (ui, vi) = ([int(round(float(c))) for c in cam.project(*_rel(tr, s, e, x, y, psi))]
+                (u, v), (ui, vi) = ([int(round(float(c))) for c in cam.project_world(*tr.pose(s, e)[:2], 0.0,
+                                                                                     (x, y, psi))]
                                     for e in (d, inside))
                 on, off = frame[v, u], frame[vi, ui]
                 hits += np.linalg.norm(on - tape) < np.linalg.norm(off - tape) and np.linalg.norm(on - off) > 30
         assert len(points) >= 8 and hits >= 0.9 * 2 * len(points), (seed, hits, 2 * len(points))
-
-
-def _rel(tr, s, d, x, y, psi):
-    """(forward, left, up) from a camera at (x, y, psi) to the floor point (s, d) of the track."""
-    px, py, _ = tr.pose(s, d)
-    dx, dy = float(px) - x, float(py) - y
-    return (dx * math.cos(psi) + dy * math.sin(psi), -dx * math.sin(psi) + dy * math.cos(psi),
-            -DONKEY_FISHEYE.mount_height)
 
 
 # --- the donkeycar tub writer ------------------------------------------------------------------------------------

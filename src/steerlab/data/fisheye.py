@@ -149,6 +149,18 @@ class FisheyeCamera:
         (a point on the floor has up = -mount_height)."""
         return self.project_camera(self.vehicle_to_camera(fwd, left, up))
 
+    def world_to_camera(self, x, y, z, pose: tuple[float, float, float]) -> np.ndarray:
+        """World points (x, y on the floor plane, z up from the floor; m) -> camera axes (..., 3), the camera at
+        world `pose` = (x, y, heading psi) on its mount."""
+        cx, cy, psi = pose
+        dx, dy = np.asarray(x, float) - cx, np.asarray(y, float) - cy
+        c, s = math.cos(psi), math.sin(psi)
+        return self.vehicle_to_camera(dx * c + dy * s, -dx * s + dy * c, np.asarray(z, float) - self.mount_height)
+
+    def project_world(self, x, y, z, pose: tuple[float, float, float]) -> tuple[np.ndarray, np.ndarray]:
+        """Pixel coordinates (u, v) of world points seen from the camera at world `pose` (see `world_to_camera`)."""
+        return self.project_camera(self.world_to_camera(x, y, z, pose))
+
     def vehicle_rays(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(forward, left, up) unit directions of every pixel's ray in vehicle axes, each (height, width)."""
         return self.camera_to_vehicle(self.rays())

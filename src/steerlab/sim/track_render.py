@@ -81,7 +81,7 @@ class Room:
         self.floor_kind = str(rng.choice(list(FLOORS), p=[0.25, 0.25, 0.15, 0.15, 0.2]))
         self.gloss = GLOSS[self.floor_kind] * rng.uniform(0.6, 1.2)
         self.tape_name = str(rng.choice(list(TAPES)))
-        if FLOORS[self.floor_kind][0][0] > 200 and self.tape_name == "white":  # white tape on a white tarp
+        if self.floor_kind == "tarp" and self.tape_name == "white":  # invisible on a white tarp
             self.tape_name = "orange"
         self.tape_bgr = np.array(TAPES[self.tape_name], np.float32) * rng.uniform(0.9, 1.0)
         self.tape_width = float(rng.uniform(0.04, 0.06))
@@ -137,14 +137,14 @@ class Room:
             shade *= cv2.resize(tiles, (tiles.shape[1] * 50, tiles.shape[0] * 50),
                                 interpolation=cv2.INTER_NEAREST)[:h, :w]
         elif kind == "wood":
-            plank = int(rng.integers(8, 16))  # cm
+            plank = int(rng.integers(8, 16))  # texels: planks 8-15 cm wide
             rows = rng.uniform(0.92, 1.08, h // plank + 1).astype(np.float32)
             grain = cv2.resize(rng.standard_normal((h // 2 + 1, w // 40 + 2)).astype(np.float32), (w, h))
             shade *= np.repeat(rows, plank)[:h, None] * (1 + 0.05 * grain) * _tile(rng, (h, w), 0.03)
         elif kind == "tarp":
             shade *= _tile(rng, (h, w), 0.02)
         img = shade[..., None] * base
-        if kind == "tarp":  # the tarp lies on asphalt; creases catch the light
+        if kind == "tarp":  # the tarp lies on a darker floor; its creases catch the light
             ground = np.array((95, 100, 105), np.float32) * _tile(rng, (h, w), 0.08)[..., None]
             inside = np.zeros((h, w), np.uint8)
             pts = np.stack(tr.offset(0.0), 1)
@@ -488,10 +488,8 @@ class TrackRenderer:
 
     def _draw_clutter(self, img: np.ndarray, x: float, y: float, psi: float, light: np.ndarray) -> None:
         cam = self.cam
-        c, sn = math.cos(psi), math.sin(psi)
-        rel = self.face_points - (x, y, cam.mount_height)
-        fwd, left = rel[:, 0] * c + rel[:, 1] * sn, -rel[:, 0] * sn + rel[:, 1] * c
-        xyz = cam.vehicle_to_camera(fwd, left, rel[:, 2])
+        pts = self.face_points
+        xyz = cam.world_to_camera(pts[:, 0], pts[:, 1], pts[:, 2], (x, y, psi))
         u, v = cam.project_camera(xyz)
         # a face is drawn if it faces the camera, lies wholly in front of the lens (where the projection holds)
         # and reaches into the image
