@@ -80,9 +80,11 @@ class Room:
         rng = np.random.default_rng([track.seed if seed is None else seed, 21])
         self.floor_kind = str(rng.choice(list(FLOORS), p=[0.25, 0.25, 0.15, 0.15, 0.2]))
         self.gloss = GLOSS[self.floor_kind] * rng.uniform(0.6, 1.2)
-        self.tape_name = str(rng.choice(list(TAPES)))
-        if self.floor_kind == "tarp" and self.tape_name == "white":  # invisible on a white tarp
-            self.tape_name = "orange"
+        palette = FLOORS[self.floor_kind]
+        self.floor_bgr = np.array(palette[int(rng.integers(len(palette)))], np.float32) * rng.uniform(0.85, 1.1)
+        # people tape a track in a colour that stands out from their floor
+        self.tape_name = next(str(t) for t in rng.permutation(list(TAPES))
+                              if np.linalg.norm(np.array(TAPES[str(t)]) - self.floor_bgr) > 120)
         self.tape_bgr = np.array(TAPES[self.tape_name], np.float32) * rng.uniform(0.9, 1.0)
         self.tape_width = float(rng.uniform(0.04, 0.06))
         outline = np.concatenate([np.stack(track.offset(d), 1) for d in (-track.lane_width / 2, track.lane_width / 2)])
@@ -124,8 +126,7 @@ class Room:
     def _floor(self, rng: np.random.Generator) -> np.ndarray:
         tr, kind = self.track, self.floor_kind
         w, h = int(math.ceil((self.x1 - self.x0) / RES)), int(math.ceil((self.y1 - self.y0) / RES))
-        palette = FLOORS[kind]
-        base = np.array(palette[int(rng.integers(len(palette)))], np.float32) * rng.uniform(0.85, 1.1)
+        base = self.floor_bgr
         shade = _noise(rng, (h, w), 60, 0.05) * _noise(rng, (h, w), 12, 0.02)
         if kind == "concrete":
             shade *= _tile(rng, (h, w), 0.03)
