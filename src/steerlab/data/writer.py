@@ -1,10 +1,12 @@
-"""`RecordingWriter`: frames and per-frame rows written as a steerlab recording (`native.py`) or as a Udacity
-simulator driving log (`simlog.py`), the layouts their readers read back."""
+"""The writers of recordings: `RecordingWriter` (frames and per-frame rows as a steerlab recording, `native.py`,
+or a Udacity simulator driving log, `simlog.py`) and `TubWriter` (a donkeycar tub v2, `tub.py`), each in the
+layout its reader reads back."""
 
 from __future__ import annotations
 
 import csv
 import json
+import math
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -71,4 +73,71 @@ class RecordingWriter:
         (self.out / "recording.json").write_text(json.dumps(
             {"format": "steerlab-recording-1", **meta, "geometry": self.geometry, "steering": self.convention.as_dict(),
              "episodes": list(EPISODES)}, indent=1))
+        return self.out
+
+
+TUB_KEYS = ["cam/image_array", "user/angle", "user/throttle", "user/mode"]
+TUB_TYPES = ["image_array", "float", "float", "str"]
+TUB_JPEG = [cv2.IMWRITE_JPEG_QUALITY, 75]  # what donkeycar's own writer (PIL's default quality) gives
+
+
+class TubWriter:
+    """Writes a donkeycar tub v2 (`tub.py` describes the layout) as donkeycar 5.x's own `Tub` writes it: the
+    five manifest lines, catalogs of at most `max_len` records with their `.catalog_manifest` (line lengths),
+    and `images/<index>_cam_image_array_.jpg`.
+
+    Frames come in as OpenCV gives them, BGR; `cv2.imwrite` stores a BGR array as a JPEG of its true colours,
+    which is what donkeycar's writer (PIL, from its RGB arrays) stores too, so donkeycar reads RGB and steerlab
+    BGR from the same bytes. `user/angle` is the servo command: the road-wheel angle over the car's full lock,
+    positive right, clipped to [-1, 1]; `user/mode` is "user" (a person drove). Times are `start_ns` (the
+    recorded clock's origin, 2020-01-01 by default, so that the same drive gives the same bytes) plus each
+    frame's `timestamp_ns`, in whole milliseconds; the session id is the start day's, as donkeycar names it."""
+
+    def __init__(self, out: str | Path, full_lock_deg: float, max_len: int = 1000, start_ns: int = EPOCH_NS):
+        if not 0 < full_lock_deg < 90:
+            raise SteerlabError(f"full_lock_deg must lie in (0, 90) degrees, got {full_lock_deg}")
+        if max_len < 1:
+            raise SteerlabError(f"max_len (records per catalog) must be at least 1, got {max_len}")
+        self.out, self.full_lock = Path(out), math.radians(full_lock_deg)
+        self.max_len, self.start_ns = max_len, start_ns
+        if self.out.exists() and any(self.out.iterdir()):
+            raise SteerlabError(f"{self.out} exists and is not empty; choose a new output folder")
+        (self.out / "images").mkdir(parents=True, exist_ok=True)
+        start = datetime.fromtimestamp(start_ns / 1e9, timezone.utc)
+        self.session = f"{start:%y-%m-%d}_0"
+        self.records: list[dict] = []
+
+    def servo(self, road_wheel: float) -> float:
+        """The servo command of a road-wheel angle (rad, positive left): [-1, 1], positive right."""
+        return float(np.clip(-road_wheel / self.full_lock, -1.0, 1.0))
+
+    def add(self, frame: np.ndarray, timestamp_ns: int, road_wheel: float, throttle: float) -> None:
+        """One record: a BGR frame, its time (ns from the start), the road-wheel angle (rad, positive left) and
+        the throttle in [-1, 1]."""
+        i = len(self.records)
+        name = f"{i}_cam_image_array_.jpg"
+        if not cv2.imwrite(str(self.out / "images" / name), frame, TUB_JPEG):
+            raise SteerlabError(f"cannot write {self.out / 'images' / name}")
+        self.records.append({"_index": i, "_session_id": self.session,
+                             "_timestamp_ms": (self.start_ns + int(timestamp_ns)) // 1_000_000,
+                             "cam/image_array": name, "user/angle": self.servo(road_wheel),
+                             "user/mode": "user", "user/throttle": float(np.clip(throttle, -1.0, 1.0))})
+
+    def close(self) -> Path:
+        created = self.start_ns / 1e9
+        paths = []
+        for n, first in enumerate(range(0, max(len(self.records), 1), self.max_len)):
+            name = f"catalog_{n}.catalog"
+            lines = [json.dumps(r, allow_nan=False, sort_keys=True) + "\n"
+                     for r in self.records[first: first + self.max_len]]
+            (self.out / name).write_text("".join(lines))
+            manifest = {"path": f"catalog_{n}.catalog_manifest", "created_at": created, "start_index": first,
+                        "line_lengths": [len(line) for line in lines]}
+            (self.out / f"catalog_{n}.catalog_manifest").write_text(json.dumps(manifest, allow_nan=False,
+                                                                               sort_keys=True) + "\n")
+            paths.append(name)
+        sessions = {"all_full_ids": [self.session], "last_id": 0, "last_full_id": self.session}
+        catalogs = {"paths": paths, "current_index": len(self.records), "max_len": self.max_len, "deleted_indexes": []}
+        lines = [TUB_KEYS, TUB_TYPES, {}, {"created_at": created, "sessions": sessions}, catalogs]
+        (self.out / "manifest.json").write_text("".join(json.dumps(line) + "\n" for line in lines))
         return self.out
