@@ -15,10 +15,12 @@ import torch
 from _common import CH2, machine, need_ch2
 from bench_pilot import checkpoint
 
+from steerlab.data.readers import Source
 from steerlab.evaluate.offline import evaluate
-from steerlab.sim.replay import run_replay
+from steerlab.sim.replay_run import ReplayOptions, run_replay
 
 LABELS, RANGE = CH2 / "CH2_final_evaluation.csv", "1800:2400"
+SOURCE, WARM = Source(str(CH2), RANGE, str(LABELS)), Source(str(CH2), "1800:1820", str(LABELS))
 
 
 def timed(fn) -> float:
@@ -36,9 +38,9 @@ def main() -> None:
         tmp = Path(tmp)
         for name, flow in (("pilotnet", "farneback"), ("flow-lstm", "dis")):
             ckpt = checkpoint(tmp, name, flow)
-            evaluate(ckpt, CH2, "1800:1820", tmp / "warm", LABELS, progress=False)  # imports, first decode
-            ev = timed(lambda: evaluate(ckpt, CH2, RANGE, tmp / f"eval-{name}", LABELS, progress=False))
-            rp = timed(lambda: run_replay([ckpt], CH2, tmp / f"replay-{name}", RANGE, LABELS, speed=15.0, workers=1,
+            evaluate(ckpt, WARM, tmp / "warm", progress=False)  # imports, first decode
+            ev = timed(lambda: evaluate(ckpt, SOURCE, tmp / f"eval-{name}", progress=False))
+            rp = timed(lambda: run_replay([ckpt], SOURCE, tmp / f"replay-{name}", ReplayOptions(speed=15.0, workers=1),
                                           progress=False))
             print(f"| {name} | {ev:.1f} | {rp:.1f} | {rp / ev:.2f} |")
 

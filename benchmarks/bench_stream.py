@@ -43,7 +43,7 @@ def fps(run) -> float:
 
 
 def set_threads(n: int) -> None:
-    torch.set_num_threads(n)  # ONNX Runtime sessions made afterwards follow torch's count (export.OnnxModel)
+    torch.set_num_threads(n)  # ONNX Runtime sessions made afterwards follow torch's count (runtime.OnnxModel)
     cv2.setNumThreads(n)
 
 

@@ -14,7 +14,6 @@ import torch
 
 from conftest import CH2, SIM, made
 from steerlab.checkpoint import save_checkpoint
-from steerlab.data.preprocess import PreprocessConfig
 from steerlab.data.readers import open_recording
 from steerlab.data.recording import SteeringConvention
 from steerlab.errors import SteerlabError
@@ -186,13 +185,10 @@ def test_serve_answers_every_frame_like_the_pilot(tiny_checkpoint, tiny_recordin
     client, replies, got = socketio.Client(), [], threading.Event()
     client.on("steer", lambda data: (replies.append(data), got.set()))
     try:
-        for _ in range(100):  # wait for the server to listen
-            try:
-                client.connect(f"http://127.0.0.1:{port}")
-                break
-            except socketio.exceptions.ConnectionError:
-                time.sleep(0.1)
-        assert got.wait(10)  # the greeting: stand still
+        ready = server.stdout.readline()  # printed once the server listens, however long its start took
+        assert ready.startswith("steerlab serve: pilotnet on port"), ready + server.stderr.read()
+        client.connect(f"http://127.0.0.1:{port}")
+        assert got.wait(60)  # the greeting: stand still
         assert replies.pop() == {"steering_angle": "0.0", "throttle": "0.0"}
         speeds = [8.0 + 0.1 * i for i in range(len(jpegs))]  # mph
         messages = [{"steering_angle": "0", "throttle": "0", "speed": str(s), "image": base64.b64encode(j).decode()}

@@ -18,6 +18,7 @@ import numpy as np
 
 from steerlab.dagger import dagger_options, run_dagger
 from steerlab.data.labels import COMMANDS, speed_targets
+from steerlab.data.preprocess import PreprocessConfig
 from steerlab.data.recording import SteeringConvention
 from steerlab.data.splits import make_split
 from steerlab.errors import SteerlabError

@@ -13,11 +13,12 @@ that).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from steerlab.sim.vehicle import Vehicle, VehicleParams, VehicleState
+from steerlab.data.car import CARS
+from steerlab.sim.vehicle import Vehicle, VehicleState
 
 
 @dataclass(frozen=True)
@@ -73,7 +74,8 @@ class SmallCar:
 
     def __init__(self, state: VehicleState, params: SmallCarParams | None = None):
         self.p = params or SmallCarParams()
-        self.vehicle = Vehicle(state, VehicleParams(wheelbase=self.p.wheelbase, max_road_wheel=self.p.full_lock))
+        self.vehicle = Vehicle(state, replace(CARS["donkey"], wheelbase=self.p.wheelbase,
+                                              full_lock_deg=self.p.full_lock_deg))
 
     @property
     def state(self) -> VehicleState:
