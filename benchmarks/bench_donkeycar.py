@@ -35,9 +35,9 @@ from pathlib import Path
 
 from _common import ROOT, SHARED, machine
 
-from steerlab.data.readers import open_recording
+from steerlab.data.readers import Source
 from steerlab.evaluate.offline import evaluate
-from steerlab.sim.replay import run_replay
+from steerlab.sim.replay_run import ReplayOptions, run_replay
 from steerlab.train.config import load_config
 from steerlab.train.loop import train
 
@@ -139,9 +139,9 @@ def run_steerlab(tub: Path, n: int, epochs: int, work: Path, models: list[str]) 
             t = time.time()
             run = train(cfg, progress=False)  # the refit keeps its last epoch: its validation block is held out
             seconds += time.time() - t
-        ckpt = run_dir / "best.pt"
-        m = evaluate(ckpt, tub, f"{b}:{n}", run_dir / "test", reader=READER, progress=False)
-        r = run_replay([ckpt], tub, run_dir / "replay", f"{b}:{n}", reader=READER, speed=REPLAY_SPEED, workers=1,
+        ckpt, held_out = run_dir / "best.pt", Source(str(tub), f"{b}:{n}", reader=READER)
+        m = evaluate(ckpt, held_out, run_dir / "test", progress=False)
+        r = run_replay([ckpt], held_out, run_dir / "replay", ReplayOptions(speed=REPLAY_SPEED, workers=1),
                        progress=False)[0]
         results[name] = {"mae": m["mae"], "train_s": seconds, "interventions_per_km": r["interventions_per_km"],
                          "interventions": r["interventions"], "autonomy": r["autonomy"], "km": r["km"]}
@@ -167,7 +167,7 @@ def main() -> None:
              "replay: interventions (per km) | replay autonomy [%] |", "|---|---|---|---|---|---|---|"]
     for name in ("hall", "taped-track"):
         tub = TUBS / name
-        rec = open_recording(tub, options=READER)
+        rec = Source(str(tub), reader=READER).open()
         n = len(rec)
         a, b = blocks(n)
         print(f"{name}: {n} records; steerlab selects epochs on 0:{a} | {a}:{b}, then trains on 0:{b}; donkeycar "

@@ -1,4 +1,4 @@
-"""The speed that replay estimates from a recording's frames (`sim.replay.estimate_speed`: optical flow of the
+"""The speed that replay estimates from a recording's frames (`data.speed.estimate_speed`: optical flow of the
 road plane through the camera's height and pitch), against the recorded speed where there is one.
 
 python benchmarks/bench_speed_estimate.py
@@ -16,18 +16,18 @@ from _common import SHARED
 
 from steerlab.data.geometry import CAMERAS
 from steerlab.data.readers import open_recording
-from steerlab.sim.replay import estimate_speed
-from steerlab.sim.world import record
+from steerlab.data.speed import estimate_speed
+from steerlab.sim.world import RecordOptions, record
 
 
 def main() -> None:
     print("| recording | estimated [m/s] | recorded, median [m/s] | seconds |\n|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
         recordings = [
-            ("synthetic twisty road, seed 11, 15 s", lambda: record(Path(tmp) / "twisty", seed=11, minutes=0.25,
-             road="twisty", drift=False, side_cameras=False, progress=False), None, None, None),
-            ("synthetic country road, seed 3, 30 s", lambda: record(Path(tmp) / "country", seed=3, minutes=0.5,
-             drift=False, side_cameras=False, progress=False), None, None, None),
+            ("synthetic twisty road, seed 11, 15 s", lambda: record(Path(tmp) / "twisty", RecordOptions(
+             seed=11, minutes=0.25, road="twisty", drift=False, side_cameras=False), progress=False), None, None, None),
+            ("synthetic country road, seed 3, 30 s", lambda: record(Path(tmp) / "country", RecordOptions(
+             seed=3, minutes=0.5, drift=False, side_cameras=False), progress=False), None, None, None),
             ("Udacity simulator lap, rows 0-899", lambda: SHARED / "udacity-sim-track1" / "driving_log.csv",
              "0:900", None, None),
             ("Udacity CH2, frames 0-2399", lambda: SHARED / "udacity-ch2", "0:2400",

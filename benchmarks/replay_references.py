@@ -12,10 +12,11 @@ import argparse
 
 from _common import machine
 
-from steerlab.data.geometry import CAMERAS, CARS
-from steerlab.data.readers import open_recording, reader_options
+from steerlab.data.car import CARS
+from steerlab.data.geometry import CAMERAS
+from steerlab.data.readers import Source, reader_options
 from steerlab.pilot import Controls
-from steerlab.sim.replay import replay_recording
+from steerlab.sim.replay import Replay, replay_recording
 
 
 class Scripted:
@@ -43,14 +44,14 @@ def main() -> None:
     ap.add_argument("--reader", action="append", default=[], help="reader option KEY=VALUE (repeatable)")
     ap.add_argument("--speed", type=float, help="m/s (default: the recorded speed)")
     args = ap.parse_args()
-    rec = open_recording(args.data, args.range, args.labels, reader_options(args.reader))
+    rec = Source(args.data, args.range, args.labels, reader_options(args.reader)).open()
     fps = rec.frame_rate()
     print(f"machine: {machine()}\n\n{rec.name} {args.range or ''} at {args.speed or 'the recorded'} m/s:\n")
     print("| reference | km | interventions | interventions/km | mean abs offset [m] |\n|---|---|---|---|---|")
     for label, delay in (("the human's steering", 0), (f"the human's steering 2 ticks ({2 / fps:.2f} s) late", 2),
                          (f"the human's steering 4 ticks ({4 / fps:.2f} s) late", 4), ("straight ahead (zero)", None)):
-        rows, _ = replay_recording(Scripted(rec, delay), rec, CAMERAS[rec.geometry], CARS[rec.geometry], args.speed,
-                                   CARS[rec.geometry].lane_limit_m)
+        replay = Replay(rec, CAMERAS[rec.geometry], CARS[rec.geometry], args.speed, CARS[rec.geometry].lane_limit_m)
+        rows, _ = replay_recording(Scripted(rec, delay), replay)
         r = next(r for r in rows if r["segment"] == "all")
         print(f"| {label} | {r['km']:.3f} | {r['interventions']} | {r['interventions_per_km']:.1f} | "
               f"{r['mean_offset_m']:.3f} |")

@@ -9,7 +9,7 @@ In the synthetic world both exist. The script
    cameras and flips, and keeps a snapshot after chosen epochs, plus the zero and train-mean baselines: at
    least 20 checkpoints of very different quality;
 3. drives every checkpoint on the suite (the truth: `sim.bench.run_suite`) and replays it on the 11 expert
-   recordings (`sim.replay.run_replay`, recorded speed), summed per checkpoint over the recordings;
+   recordings (`sim.replay_run.run_replay`, recorded speed), summed per checkpoint over the recordings;
 4. reports the Spearman rank correlation (tied values share their mean rank) and R^2 (squared Pearson) of
    replay against truth, for autonomy and for interventions per km, a Markdown table (`results.md`,
    `results.csv`) and a scatter plot (`scatter.png`);
@@ -69,7 +69,7 @@ def suite_roads(suite: str = "v1") -> list[tuple[str, int]]:
 
 def record_expert(out: Path, minutes: float) -> dict[tuple[str, int], Path]:
     """The expert on every suite road: the suite's own road (same seed, type and length as `drive` makes it)."""
-    from steerlab.sim.world import record
+    from steerlab.sim.world import RecordOptions, record
 
     recs = {}
     for road, seed in suite_roads():
@@ -78,26 +78,28 @@ def record_expert(out: Path, minutes: float) -> dict[tuple[str, int], Path]:
         if not (meta.exists() and json.loads(meta.read_text())["minutes"] == minutes):
             shutil.rmtree(folder, ignore_errors=True)
             t0 = time.time()
-            record(folder, seed=seed, minutes=minutes, road=road, drift=False, side_cameras=False, progress=False,
-                   suite_roads_ok=True)
+            record(folder, RecordOptions(seed=seed, minutes=minutes, road=road, drift=False, side_cameras=False),
+                   progress=False, suite_roads_ok=True)
             print(f"recorded the expert on {road} road {seed} ({minutes:g} min) in {time.time() - t0:.0f} s", flush=True)
         recs[(road, seed)] = folder
     return recs
 
 
 def training_data(out: Path) -> Path:
-    from steerlab.sim.world import record
+    from steerlab.sim.world import RecordOptions, record
 
     folder = out / "train-data"
     if not (folder / "recording.json").exists():
         shutil.rmtree(folder, ignore_errors=True)
         t0 = time.time()
-        record(folder, seed=TRAIN_DATA["seed"], minutes=TRAIN_DATA["minutes"], road=TRAIN_DATA["road"], progress=False)
+        record(folder, RecordOptions(seed=TRAIN_DATA["seed"], minutes=TRAIN_DATA["minutes"], road=TRAIN_DATA["road"]),
+               progress=False)
         print(f"recorded the training data ({TRAIN_DATA}) in {time.time() - t0:.0f} s", flush=True)
     return folder
 
 
-def _config(data: Path, out: Path, run: Path, model: dict, pre: dict, train: dict) -> dict:
+def _config(data: Path, out: Path, run: Path, model: dict, pre: dict, train: dict):
+    """The training config (a `TrainConfig`) of one run."""
     from steerlab.train.config import load_config
 
     frames = int(round(TRAIN_DATA["minutes"] * 60 * 20))
@@ -146,19 +148,20 @@ def checkpoints(out: Path, data: Path) -> list[Path]:
 
 
 def true_closed_loop(ckpts: list[Path], out: Path, minutes: float, workers: int) -> dict[str, dict]:
-    from steerlab.sim.bench import run_suite
+    from steerlab.sim.bench import SuiteOptions, run_suite
 
     t0 = time.time()
-    summary = run_suite(ckpts, out / "suite", "v1", minutes, workers=workers, progress=False)
+    summary = run_suite(ckpts, out / "suite", SuiteOptions("v1", minutes, workers=workers), progress=False)
     print(f"suite v1 ({minutes:g} min per road) for {len(ckpts)} checkpoints in {time.time() - t0:.0f} s", flush=True)
     return {r["label"]: r for r in summary if r["road_type"] == "all"}
 
 
 def replay(ckpts: list[Path], recs: dict, out: Path, workers: int) -> tuple[dict[str, dict], list[dict]]:
     """Every checkpoint on every expert recording (recorded speed); per checkpoint the sums over recordings."""
+    from steerlab.data.readers import Source
     from steerlab.sim.bench import labels_for
     from steerlab.sim.driving import autonomy
-    from steerlab.sim.replay import run_replay
+    from steerlab.sim.replay_run import ReplayOptions, run_replay
 
     labels = labels_for(ckpts)
     rows = []
@@ -171,8 +174,8 @@ def replay(ckpts: list[Path], recs: dict, out: Path, workers: int) -> tuple[dict
         missing = [c for c, label in zip(ckpts, labels) if label not in done()]
         if missing:
             t0 = time.time()
-            run_replay(missing, folder, where / str(len(list(where.glob("*/replay.csv")))), speed=None,
-                       workers=workers, progress=False)
+            run_replay(missing, Source(str(folder)), where / str(len(list(where.glob("*/replay.csv")))),
+                       ReplayOptions(speed=None, workers=workers), progress=False)
             print(f"replayed {len(missing)} checkpoints on {road}-{seed} in {time.time() - t0:.0f} s", flush=True)
         have = done()
         rows += [{**have[label], "road_type": road, "seed": seed} for label in labels]

@@ -3,15 +3,18 @@ preprocessing config, normalisation statistics, the steering convention and the 
 
 A checkpoint holds tensors and plain values only (dicts, lists, text, numbers), so it is read with
 `torch.load(weights_only=True)`: reading a checkpoint never runs code from it. It carries the sha256 of its
-weights, checked when it is read, so a damaged file is refused instead of predicting nonsense. Every
+weights and the sha256 of everything else it stores, both checked when it is read, so a damaged file is refused
+instead of predicting nonsense. Every
 checkpoint is read through `load_checkpoint`."""
 
 from __future__ import annotations
 
 import hashlib
+import io
 import os
 import pickle
 import secrets
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -22,8 +25,28 @@ from steerlab.data.recording import SteeringConvention
 from steerlab.errors import SteerlabError
 from steerlab.models import create_model, model_class
 from steerlab.models.ensemble import Ensemble
+from steerlab.paths import regular_file
 
 FORMAT = "steerlab-checkpoint-1"
+
+
+def _hash_into(h, value) -> None:
+    """Feed a value (tensors, and dicts, lists and plain values holding them) into a hash, keys in order."""
+    if isinstance(value, torch.Tensor):
+        t = value.detach().cpu().contiguous()
+        h.update(f"tensor|{t.dtype}|{tuple(t.shape)}\n".encode())
+        h.update(t.reshape(-1).view(torch.uint8).numpy())
+    elif isinstance(value, dict):
+        h.update(f"dict|{len(value)}\n".encode())
+        for k in sorted(value, key=repr):
+            h.update(f"{k!r}:".encode())
+            _hash_into(h, value[k])
+    elif isinstance(value, (list, tuple)):
+        h.update(f"{type(value).__name__}|{len(value)}\n".encode())
+        for v in value:
+            _hash_into(h, v)
+    else:
+        h.update(f"{value!r}\n".encode())
 
 
 def weights_hash(state_dict: dict) -> str:
@@ -36,6 +59,15 @@ def weights_hash(state_dict: dict) -> str:
             h.update(t.reshape(-1).view(torch.uint8).numpy())
         else:
             h.update(f"{name}|{t!r}\n".encode())
+    return h.hexdigest()
+
+
+def content_hash(payload: dict) -> str:
+    """sha256 of everything a checkpoint stores but this hash: the weights and everything the Pilot uses with
+    them (model and options, preprocessing, statistics, convention, camera geometry) and what a resumed run
+    reads (optimiser and RNG state, history)."""
+    h = hashlib.sha256()
+    _hash_into(h, {k: v for k, v in payload.items() if k != "content_sha256"})
     return h.hexdigest()
 
 
@@ -58,21 +90,56 @@ def save_checkpoint(path: str | Path, model, model_cfg: dict, pre: PreprocessCon
         "sha256": weights_hash(state), "preprocess": pre.as_dict(), "stats": stats,
         "convention": convention.as_dict(), "metrics": metrics, **extra,
     })
+    payload["content_sha256"] = content_hash(payload)
     path = Path(path)
     tmp = path.with_name(f"{path.name}.tmp-{os.getpid()}-{secrets.token_hex(4)}")  # unique: never shared
     try:
-        torch.save(payload, tmp)
+        buffer = io.BytesIO()
+        torch.save(payload, buffer)
+        tmp.write_bytes(_sealed(buffer.getvalue()))
         tmp.replace(path)  # never leave a half-written checkpoint
     finally:
         tmp.unlink(missing_ok=True)
 
 
+SEAL = b"steerlab-sha256:"  # the zip comment of a checkpoint: this, then the hex sha256 of every byte before it
+EOCD = b"PK\x05\x06"  # the zip's end-of-central-directory record (22 bytes and its comment close the file)
+
+
+def _sealed(data: bytes) -> bytes:
+    """The zip file `data` (what torch.save writes) with the sha256 of all its bytes as its comment, so that every
+    stored byte is covered: also the zip's own headers and padding, which reading does not check."""
+    if data[-22:-18] != EOCD or data[-2:] != b"\0\0":
+        raise SteerlabError("checkpoint: torch.save wrote an unexpected file layout (no plain zip end record)")
+    head = data[:-2] + (len(SEAL) + 64).to_bytes(2, "little") + SEAL
+    return head + hashlib.sha256(head).hexdigest().encode()
+
+
+def _seal_intact(data: bytes) -> bool | None:
+    """Whether a sealed checkpoint's bytes match their sha256 (None: a file without a comment, as an earlier
+    version or torch.save alone writes it)."""
+    size = len(SEAL) + 64
+    at = data.rfind(EOCD, max(0, len(data) - 22 - size - 64))  # the last end record
+    if at < 0:
+        return False
+    comment = int.from_bytes(data[at + 20: at + 22], "little")
+    if comment == 0 and at + 22 == len(data):
+        return None
+    if comment != size or len(data) != at + 22 + size or data[at + 22: at + 22 + len(SEAL)] != SEAL:
+        return False
+    return hashlib.sha256(data[:-64]).hexdigest().encode() == data[-64:]
+
+
 def load_checkpoint(path: str | Path) -> dict:
-    path = Path(path)
-    if not path.is_file():
-        raise SteerlabError(f"{path}: checkpoint not found")
+    path = regular_file(Path(path), "checkpoint")
+    if path.suffix == ".onnx":
+        raise SteerlabError(f"{path}: an exported .onnx model, not a steerlab checkpoint (.pt): name the checkpoint "
+                            "it was exported from")
+    data = path.read_bytes()
     try:
-        ckpt = torch.load(path, map_location="cpu", weights_only=True)
+        with warnings.catch_warnings():  # a plain pickle's protocol: refused below, not worth a warning
+            warnings.simplefilter("ignore")
+            ckpt = torch.load(io.BytesIO(data), map_location="cpu", weights_only=True)
     except pickle.UnpicklingError as e:
         if "weights only" not in str(e).lower():
             raise SteerlabError(f"{path}: not a readable checkpoint (UnpicklingError)") from None
@@ -80,15 +147,21 @@ def load_checkpoint(path: str | Path) -> dict:
             names = ", ".join(torch.serialization.get_unsafe_globals_in_checkpoint(path)) or "unknown objects"
         except Exception:  # noqa: BLE001 - only used to name them
             names = "unknown objects"
-        raise SteerlabError(f"{path}: the checkpoint holds objects other than tensors and plain values ({names}); "
-                            "steerlab does not load them, as loading could run code from the file") from None
+        raise SteerlabError(f"{path}: the checkpoint holds objects other than tensors and plain values ({names}): not "
+                            "a steerlab checkpoint; steerlab does not load them, as loading could run code from the "
+                            "file") from None
     except Exception as e:  # noqa: BLE001 - any reading failure means the same thing to the user
         raise SteerlabError(f"{path}: not a readable checkpoint ({e.__class__.__name__})") from None
     if not isinstance(ckpt, dict) or ckpt.get("format") != FORMAT or not isinstance(ckpt.get("state_dict"), dict):
         raise SteerlabError(f"{path}: not a steerlab checkpoint")
-    # checkpoints written before the hash existed have none
+    # checkpoints written before the hashes existed have none, or the weights' only
     if "sha256" in ckpt and weights_hash(ckpt["state_dict"]) != ckpt["sha256"]:
         raise SteerlabError(f"{path}: the weights do not match the checkpoint's sha256: the file is damaged")
+    if "content_sha256" in ckpt and content_hash(ckpt) != ckpt["content_sha256"]:
+        raise SteerlabError(f"{path}: the checkpoint's settings (statistics, preprocessing, convention, training "
+                            "state) do not match its sha256: the file is damaged")
+    if _seal_intact(data) is False:
+        raise SteerlabError(f"{path}: the file's bytes do not match the sha256 stored with them: the file is damaged")
     if "preset" in ckpt:  # the camera geometry's earlier name
         ckpt.setdefault("geometry", ckpt.pop("preset"))
     return ckpt

@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Literal
 
 from steerlab.data.car import car_of
+from steerlab.paths import folder_to_write
 from steerlab.options import AT_LEAST_0, AT_LEAST_1, Options, POSITIVE, UNIT, as_dict, option, parse
 from steerlab.errors import SteerlabError
 from steerlab.sim.bench import SUITES, SuiteOptions, run_suite
@@ -75,7 +76,7 @@ def run_dagger(cfg: TrainConfig, progress: bool = True) -> Path:
     from steerlab.train.loop import train
 
     o = dagger_options(cfg)
-    out = Path(cfg.out)
+    out = folder_to_write(cfg.out, "output folder (out)")
     car = car_of(main_recording(cfg).geometry)
     cfg = cfg.for_car(car)
     _claim(out, cfg, o, car)

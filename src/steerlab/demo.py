@@ -31,7 +31,7 @@ class DemoOptions(Options):
     3, with batches of 64 where the demo takes 16 (four times the updates: the single-frame models drive twisty
     roads better with them, docs/RESULTS.md "Batches of 16")."""
 
-    out: str = option("runs/demo", help="output folder")
+    out: str = option("runs/demo", help="output folder", path="folder")
     minutes: float = option(8.0, POSITIVE, "positive and finite",
                             help="minutes of expert driving on mixed roads to train on")
     epochs: int = option(5, AT_LEAST_1, help="epochs of the first training")

@@ -27,6 +27,7 @@ from steerlab.evaluate.metrics import (SMOOTHING_ALPHA, accuracy, all_metrics, e
                                        steering_metrics)
 from steerlab.evaluate.plots import plot_open_vs_closed, plot_recovery, plot_steering, rank_correlation
 from steerlab.evaluate.scoring import read_steering_csv
+from steerlab.paths import folder_to_write
 from steerlab.options import Options, POSITIVE, as_dict, option, parse
 from steerlab.pilot import Pilot
 from steerlab.sim.bench import SuiteOptions, closed_loop_metrics
@@ -128,7 +129,7 @@ def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: boo
     recording itself (`steerlab replay`). Finished runs and drives are reused, so an
     interrupted experiment continues where it stopped."""
     exp = load_experiment(path, overrides)
-    out = exp.out
+    out = folder_to_write(exp.out, "output folder (out)")
     rows, preds = [], {}
     labels = frames = deg = split_replay = cfg = None
     for entry in exp.entries:

@@ -54,6 +54,10 @@ def export_onnx(checkpoint: str | Path, out: str | Path, calib: str | Path | Non
     from steerlab.checkpoint import load_checkpoint, model_from_checkpoint
 
     ckpt = load_checkpoint(checkpoint)
+    if calib is not None and ckpt.get("geometry") not in (None, calib_rec.geometry):
+        raise SteerlabError(f"--calib {calib}: the recording's camera geometry ({calib_rec.geometry}) is not the "
+                            f"model's ({ckpt['geometry']}): calibrate on frames of the camera {checkpoint} was "
+                            "trained on")
     model, pre, convention = model_from_checkpoint(ckpt)
     c = sum(pre.channels().values())
     x = torch.zeros(1, c, pre.height, pre.width)

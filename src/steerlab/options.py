@@ -80,10 +80,12 @@ class Options:
                            value)
 
 
-def option(default: Any = MISSING, check: Callable | None = None, expected: str | None = None, help: str = ""):
-    """A dataclass field with its check (a `Range`, or any `check(value) -> bool` on the parsed value) and the
-    words an error uses for what is expected (derived from a Range when not given)."""
-    meta = {"check": check, "expected": expected, "help": help}
+def option(default: Any = MISSING, check: Callable | None = None, expected: str | None = None, help: str = "",
+           path: str | None = None):
+    """A dataclass field with its check (a `Range`, or any `check(value) -> bool` on the parsed value), the
+    words an error uses for what is expected (derived from a Range when not given), its help, and for a path what
+    it names (`path`: "file" to read, "folder" to write into, "new-file" to write; the command line checks it)."""
+    meta = {"check": check, "expected": expected, "help": help, "path": path}
     if isinstance(default, (list, dict, set)):
         return field(default_factory=lambda: copy.deepcopy(default), metadata=meta)
     return field(default=default, metadata=meta)
@@ -97,6 +99,7 @@ class OptionInfo:
     check: Callable | None
     expected: str
     help: str
+    path: str | None = None
 
 
 def _shown(value) -> str:
@@ -267,4 +270,4 @@ def options_of(cls, prefix: str = "") -> Iterator[OptionInfo]:
             f.default_factory() if f.default_factory is not MISSING else MISSING)
         check = f.metadata.get("check")
         yield OptionInfo(key, kind, default, check, f.metadata.get("expected") or words(kind, check),
-                         f.metadata.get("help", ""))
+                         f.metadata.get("help", ""), f.metadata.get("path"))

@@ -23,6 +23,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from steerlab.data.geometry import CAMERAS
 from steerlab.data.modalities import frame_difference, optical_flow
 from steerlab.data.preprocess import preprocess
 from steerlab.errors import SteerlabError
@@ -58,14 +59,29 @@ class Controls:
     command: int | None = None
 
 
+def _check_speed(speed):
+    """A measured speed must be a real, finite number of m/s (or None: not measured)."""
+    if speed is not None and (isinstance(speed, bool) or not isinstance(speed, (int, float, np.number))
+                              or not np.isfinite(speed)):
+        raise SteerlabError(f"the measured speed must be a finite number of m/s, got {speed!r}")
+    return speed
+
+
 class Pilot:
-    def __init__(self, checkpoint: str | Path | dict, smoothing: float | None = None, threads: int | None = None):
+    def __init__(self, checkpoint: str | Path | dict, smoothing: float | None = None, threads: int | None = None,
+                 other_camera: bool = False):
         """`checkpoint`: a .pt checkpoint (path or loaded dict) or an exported .onnx file (self-contained: its
         preprocessing, statistics and convention are in its metadata). `threads`: ONNX Runtime's intra-op
-        threads for an .onnx file (default: see `runtime.OnnxModel`)."""
+        threads for an .onnx file (default: see `runtime.OnnxModel`). A frame of another size than the camera
+        the model was trained on is refused, unless `other_camera` (then it is cropped and resized like any)."""
+        if smoothing is not None and not FRACTION(smoothing):
+            raise SteerlabError(f"smoothing must be a number in (0, 1], got {smoothing!r}")
         self.net = load_model(checkpoint, threads)
+        self.source = f"checkpoint of {checkpoint['model']}" if isinstance(checkpoint, dict) else str(checkpoint)
         self.name, self.config, self.convention = self.net.name, self.net.config, self.net.convention
         self.geometry, self.speed_history, self.targets = self.net.geometry, self.net.speed_history, self.net.targets
+        cam = None if other_camera else CAMERAS.get(self.geometry)
+        self.frame_size = None if cam is None else (cam.height, cam.width)
         self.smoothing = smoothing
         self._channels, c = {}, 0  # each modality's channels of the network input, in input order
         for m, n in self.config.channels().items():
@@ -91,6 +107,7 @@ class Pilot:
     def step(self, frame: np.ndarray | bytes, speed: float | None = None) -> Controls:
         """One raw frame (and the measured speed in m/s, for models that use it) -> controls. The frame is a
         BGR array or an encoded image (JPEG or PNG bytes, or a 1-D uint8 array of them)."""
+        _check_speed(speed)
         cur = self._prepare(frame)
         return self._drive(cur, self._motion(cur if self._prev is None else self._prev, cur), speed)
 
@@ -102,7 +119,7 @@ class Pilot:
         segment). `load`, when given, turns each item into a BGR frame on the worker threads (a frame index or
         a file, say)."""
         prepare = self._prepare if load is None else lambda item: self._prepare(load(item))
-        pairs = zip(frames, repeat(None)) if speeds is None else zip(frames, speeds, strict=True)
+        pairs = zip(frames, repeat(None)) if speeds is None else zip(frames, map(_check_speed, speeds), strict=True)
         before = self._prev  # the frame before the first one (None: the first starts a segment)
 
         def motion(prev: Future | None, cur: Future) -> tuple:
@@ -127,14 +144,30 @@ class Pilot:
         done, speed = pending.popleft()
         return self._drive(*done.result(), speed)
 
+    def expected(self) -> str:
+        size = "HxW" if self.frame_size is None else "x".join(map(str, self.frame_size))
+        camera = "" if self.frame_size is None else f" of the {self.geometry!r} camera the model was trained on"
+        return f"a {size}x3 uint8 BGR array{camera}, or the bytes of a JPEG or PNG image"
+
     def _prepare(self, frame: np.ndarray | bytes) -> tuple[np.ndarray, np.ndarray]:
-        """Decode if encoded, then preprocess: (image, gray). Depends on the config alone (thread safe)."""
-        if isinstance(frame, bytes):
+        """Check, decode if encoded, then preprocess: (image, gray). Depends on the config alone (thread safe)."""
+        if isinstance(frame, (bytes, bytearray, memoryview)):
             frame = np.frombuffer(frame, np.uint8)
-        if frame.ndim == 1:
-            encoded, frame = frame, cv2.imdecode(frame, cv2.IMREAD_COLOR)
+        if not isinstance(frame, np.ndarray):
+            raise SteerlabError(f"the Pilot got {type(frame).__name__} as a frame; it takes {self.expected()}")
+        if frame.ndim == 1 and frame.dtype == np.uint8:
+            encoded, frame = frame, cv2.imdecode(frame, cv2.IMREAD_COLOR) if frame.size else None
             if frame is None:
-                raise SteerlabError(f"cannot decode a frame of {encoded.size} bytes (not a JPEG or PNG image)")
+                raise SteerlabError(f"cannot decode a frame of {encoded.size} bytes (not a JPEG or PNG image); the "
+                                    f"Pilot takes {self.expected()}")
+        if frame.dtype != np.uint8 or frame.ndim != 3 or frame.shape[2] != 3:
+            raise SteerlabError(f"the Pilot got a {'x'.join(map(str, frame.shape))} {frame.dtype} frame; it takes "
+                                f"{self.expected()}")
+        if self.frame_size is not None and frame.shape[:2] != self.frame_size:
+            h, w = self.frame_size
+            raise SteerlabError(f"a {frame.shape[1]}x{frame.shape[0]} frame; model {self.name!r} was trained on the "
+                                f"{self.geometry!r} camera ({w}x{h}): give it that camera's frames "
+                                "(other_camera: crop and resize any frame)")
         return preprocess(frame, self.config)
 
     def _motion(self, prev: tuple[np.ndarray, np.ndarray], cur: tuple[np.ndarray, np.ndarray]) -> dict:

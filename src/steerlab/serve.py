@@ -80,6 +80,10 @@ class DriveSession:
         brake = -1.0 if math.isfinite(speed) and speed > 0.5 else 0.0
         return {"steering_angle": "0.0", "throttle": str(brake)}
 
+    def malformed(self, problem: str) -> dict[str, str]:
+        """A safe stop for an event that carries no usable telemetry."""
+        return self._safe_stop(math.nan, problem)
+
     def command(self, data: dict) -> dict[str, str]:
         try:
             speed = float(data["speed"]) * MPH_TO_MS
@@ -89,6 +93,10 @@ class DriveSession:
         frame = None if jpeg is None else cv2.imdecode(np.frombuffer(jpeg, np.uint8), cv2.IMREAD_COLOR)
         if frame is None or not math.isfinite(speed):
             return self._safe_stop(speed, f"missing or undecodable {'speed' if frame is not None else 'image'}")
+        low, high = 0.0, CARS["sim"].speeds[1]
+        if not low <= speed <= high:  # never driven, never recorded
+            return self._safe_stop(speed, f"a speed of {data['speed']} mph is none a car drives at (0 to "
+                                          f"{high / MPH_TO_MS:.0f} mph)")
         if frame.shape[1::-1] != SIM_FRAME:
             return self._safe_stop(speed, f"the image is {frame.shape[1]}x{frame.shape[0]}, not the simulator's "
                                           f"{SIM_FRAME[0]}x{SIM_FRAME[1]}")
@@ -148,14 +156,21 @@ def make_app(session: DriveSession):
         sio.emit("steer", {"steering_angle": "0.0", "throttle": "0.0"}, room=sid)
 
     @sio.on("telemetry")
-    def telemetry(sid, data):
-        if not data:  # manual mode
+    def telemetry(sid, *payload):
+        if len(payload) != 1:  # malformed: no payload, or several
+            sio.emit("steer", session.malformed(f"a telemetry event with {len(payload)} payloads"), room=sid)
+            return
+        if not payload[0]:  # manual mode
             sio.emit("manual", {}, skip_sid=True)
             return
-        sio.emit("steer", session.command(data if isinstance(data, dict) else {}), room=sid)
+        try:
+            reply = session.command(payload[0] if isinstance(payload[0], dict) else {})
+        except Exception as e:  # noqa: BLE001 - whatever went wrong, the car gets an answer: stop
+            reply = session.malformed(f"the telemetry could not be handled ({e.__class__.__name__}: {e})")
+        sio.emit("steer", reply, room=sid)
 
     @sio.on("manual")
-    def manual(sid, data):
+    def manual(sid, *_):
         session.pilot.reset()  # a human drove in between: the next autonomous frame starts a new segment
 
     @sio.on("disconnect")
@@ -173,7 +188,7 @@ class ServeOptions(Options):
     set_speed: float = option(4.0, Range(0), "a finite number of at least 0 (m/s)",
                               help="speed the PI controller holds, m/s")
     smoothing: float | None = smoothing_option()
-    record: str | None = option(None, help="folder to record the drive to (driving_log.csv + IMG/)")
+    record: str | None = option(None, help="folder to record the drive to (driving_log.csv + IMG/)", path="folder")
 
 
 def serve(checkpoint: str | Path, o: ServeOptions = ServeOptions(), host: str = "0.0.0.0") -> None:

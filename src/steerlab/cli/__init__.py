@@ -9,8 +9,10 @@ a one-line error (exit code 2) that names the flag; argparse's own errors are on
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from dataclasses import MISSING
+from pathlib import Path
 
 from steerlab.errors import SteerlabError
 from steerlab.options import optional, options_of, parse
@@ -31,6 +33,36 @@ def flag(name: str) -> str:
     return "--" + name.replace("_", "-")
 
 
+READ = {"checkpoint": "checkpoint", "checkpoints": "checkpoint", "config": "config file", "labels": "label file",
+        "truth": "answer file", "pred": "predictions file"}  # what a file to read is called in messages
+
+
+def path_option(q: argparse.ArgumentParser, *names: str, kind: str, **kw) -> None:
+    """An argument that names a path (`kind`: a file to read, a folder to write into, a file to write),
+    checked before the command runs (`check_paths`)."""
+    action = q.add_argument(*names, **kw)
+    q.set_defaults(paths={**(q.get_default("paths") or {}), action.dest: kind})
+
+
+def check_paths(args: argparse.Namespace) -> None:
+    """Every path argument: a file to read exists and is a regular file; a folder to write into is not a file;
+    a file to write is not a folder. One line naming the path and the argument."""
+    from steerlab.paths import folder_to_write, regular_file
+
+    for dest, kind in (getattr(args, "paths", None) or {}).items():
+        values = getattr(args, dest, None)
+        for value in values if isinstance(values, list) else [values]:
+            if value is None:
+                continue
+            path, name = Path(value), flag(dest)
+            if kind == "file":
+                regular_file(path, READ.get(dest, f"file for {name}"))
+            elif kind == "folder":
+                folder_to_write(path, f"output folder ({name})")
+            elif kind == "new-file" and path.is_dir():
+                raise SteerlabError(f"{path}: {name} names a folder; it needs a file to write")
+
+
 def add_options(q: argparse.ArgumentParser, command: str, *classes: type, skip=()) -> None:
     """Flags for the fields of `classes` (a field `max_heading` is `--max-heading`; a boolean that defaults to
     true is `--no-NAME`); every flag defaults to None, so that a flag not given keeps the field's default."""
@@ -42,7 +74,10 @@ def add_options(q: argparse.ArgumentParser, command: str, *classes: type, skip=(
             kind, _ = optional(o.kind)
             default = "" if o.default in (None, MISSING) else f" (default {o.default})"
             helptext = (o.help or o.expected) + default
-            if kind is bool:
+            if o.path:
+                q.add_argument(flag(o.key), dest=o.key, default=None, help=helptext)
+                q.set_defaults(paths={**(q.get_default("paths") or {}), o.key: o.path})
+            elif kind is bool:
                 negated = o.default is True
                 q.add_argument(flag(f"no_{o.key}" if negated else o.key), dest=o.key, default=None,
                                action="store_false" if negated else "store_true",
@@ -66,7 +101,7 @@ def data_args(q: argparse.ArgumentParser, range_help: str = "frames to use, STAR
     q.add_argument("--data", required=required, help="recording: CH2 folder, driving_log.csv, steerlab recording, "
                    "donkeycar tub, ROS bag or video with a CSV log")
     q.add_argument("--range", help=range_help)
-    q.add_argument("--labels", help="CH2: label CSV when the folder holds several")
+    path_option(q, "--labels", kind="file", help="CH2: label CSV when the folder holds several")
     q.add_argument("--reader", action="append", default=[], metavar="KEY=VALUE",
                    help="reader option, repeatable: full_lock_deg=25, skip_missing=true (tubs), log=FILE.csv "
                         "(videos), ... (docs/ARCHITECTURE.md lists them)")
@@ -84,7 +119,9 @@ def source(args: argparse.Namespace):
 def print_table(metrics: dict, keys=None) -> None:
     for k in [k for k in keys if k in metrics] if keys else metrics:
         v = metrics[k]
-        if isinstance(v, float):
+        if isinstance(v, float) and math.isnan(v) and k.endswith("_deg"):
+            print(f"  {k:<18} n/a (no full-lock angle: degrees unknown)")
+        elif isinstance(v, float):
             print(f"  {k:<18} {v:.6f}")
         elif not isinstance(v, dict):
             print(f"  {k:<18} {v}")
@@ -119,6 +156,7 @@ def main(argv=None) -> int:
     except SystemExit as e:  # --help, or an argparse error (already printed)
         return int(e.code or 0)
     try:
+        check_paths(args)
         args.func(args)
     except SteerlabError as e:
         print(f"error: {e}", file=sys.stderr)

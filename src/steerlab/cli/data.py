@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from steerlab.cli import add_options, data_args, from_args, print_table, source
+from steerlab.cli import path_option, add_options, data_args, from_args, print_table, source
 from steerlab.errors import SteerlabError
 
 SPEED_METRICS = ["speed_mae", "command_accuracy"]  # printed when the model predicts speed or speed commands
@@ -30,7 +30,7 @@ def cmd_evaluate(a) -> None:
     from steerlab.evaluate.offline import evaluate
 
     m = evaluate(a.checkpoint, source(a), a.out, a.camera, a.video,
-                 allow_convention_mismatch=a.allow_convention_mismatch)
+                 allow_convention_mismatch=a.allow_convention_mismatch, other_camera=a.allow_other_camera)
     print_table(m, ["frames", "mse", "rmse", "mae", "mae_deg", "gamma_deg", "target_gamma_deg", "tre", "qce",
                     "speed_weighted_mae", *SPEED_METRICS])
     print(f"with exponential smoothing a=0.2: rmse {m['smoothed_a0.2']['rmse']:.6f}, "
@@ -98,43 +98,47 @@ def register(sub) -> None:
     q.add_argument("--color", default="gray", help="gray, yuv, hsv or rgb (default gray)")
     q.add_argument("--modalities", default="image", help="comma list of image,diff,flow (default image)")
     q.add_argument("--flow", default="farneback", help="farneback or dis (default farneback)")
-    q.add_argument("--cache", help="cache folder (default: $STEERLAB_CACHE, else .steerlab-cache)")
+    path_option(q, "--cache", kind="folder", help="cache folder (default: $STEERLAB_CACHE, else .steerlab-cache)")
     q.set_defaults(func=cmd_compile)
 
     q = sub.add_parser("evaluate", help="open-loop evaluation of a checkpoint, frame by frame",
                        epilog="example: steerlab evaluate runs/ch2/best.pt --data ../shared/data/udacity-ch2 "
                               "--range 1800:2400 --out runs/eval")
-    q.add_argument("checkpoint", help="checkpoint (.pt) or exported model (.onnx)")
+    path_option(q, "checkpoint", kind="file", help="checkpoint (.pt) or exported model (.onnx)")
     data_args(q)
-    q.add_argument("--out", default="runs/eval", help="output folder (default runs/eval)")
-    q.add_argument("--video", help="also write an MP4 of the frames with predicted and recorded steering")
+    path_option(q, "--out", kind="folder", default="runs/eval", help="output folder (default runs/eval)")
+    path_option(q, "--video", kind="new-file", help="also write an MP4 of the frames with predicted and recorded steering")
     q.add_argument("--allow-convention-mismatch", action="store_true",
                    help="evaluate a checkpoint whose steering convention (e.g. simulator road wheel, positive "
                         "right) is not the recording's (e.g. CH2 steering wheel, positive left): with a warning, "
                         "its predictions converted to the recording's convention (values of normalized steering "
                         "without a full-lock angle are compared unconverted). Without it such a mismatch is an error")
+    q.add_argument("--allow-other-camera", action="store_true",
+                   help="evaluate a checkpoint on a recording of another camera geometry than its own (e.g. a sim "
+                        "checkpoint on CH2 frames): with a warning, the frames cropped and resized as the model's "
+                        "own. Without it such a mismatch is an error")
     q.set_defaults(func=cmd_evaluate)
 
     q = sub.add_parser("score", help="score predictions like the Udacity Challenge 2 leaderboard",
                        epilog="example: steerlab score --truth CH2_final_evaluation.csv --pred predictions.csv")
-    q.add_argument("--truth", required=True, help="answer file frame_id,steering_angle,public")
-    q.add_argument("--pred", required=True, help="predictions frame_id,steering_angle")
+    path_option(q, "--truth", kind="file", required=True, help="answer file frame_id,steering_angle,public")
+    path_option(q, "--pred", kind="file", required=True, help="predictions frame_id,steering_angle")
     q.set_defaults(func=cmd_score)
 
     q = sub.add_parser("ensemble", help="one checkpoint that runs the mean of several (seeds, or models with the "
                        "same inputs)", epilog="example: steerlab ensemble runs/ch2/seed0/best.pt "
                                               "runs/ch2/seed1/best.pt runs/ch2/seed2/best.pt --out runs/ens.pt")
-    q.add_argument("checkpoints", nargs="+", help="checkpoints (.pt) of the same preprocessing, camera geometry and "
+    path_option(q, "checkpoints", kind="file", nargs="+", help="checkpoints (.pt) of the same preprocessing, camera geometry and "
                                                   "steering convention")
-    q.add_argument("--out", required=True, help="checkpoint to write (.pt)")
+    path_option(q, "--out", kind="new-file", required=True, help="checkpoint to write (.pt)")
     q.set_defaults(func=cmd_ensemble)
 
     q = sub.add_parser("export", help="export a checkpoint to one self-contained ONNX file for ONNX Runtime",
                        epilog="example: steerlab export runs/demo/pilotnet/best.pt --out model.onnx; int8, calibrated "
                               "on the training frames: steerlab export runs/demo/pilotnet/best.pt --out "
                               "model-int8.onnx --int8 --calib runs/demo/recording --calib-range 0:7680")
-    q.add_argument("checkpoint", help="checkpoint (.pt)")
-    q.add_argument("--out", required=True, help="ONNX file to write (.onnx); it carries its preprocessing and statistics")
+    path_option(q, "checkpoint", kind="file", help="checkpoint (.pt)")
+    path_option(q, "--out", kind="new-file", required=True, help="ONNX file to write (.onnx); it carries its preprocessing and statistics")
     q.add_argument("--int8", action="store_true", help="quantize to int8 (ONNX Runtime static quantization, "
                                                        "calibrated on --calib)")
     q.add_argument("--calib", metavar="DATA", help="recording whose frames calibrate --int8 (any layout)")
@@ -145,10 +149,10 @@ def register(sub) -> None:
     q = sub.add_parser("latency", help="per-frame streaming latency of the Pilot on N threads: which models fit "
                        "a 20 Hz loop", epilog="example: steerlab latency --threads 1 --data "
                        "../shared/data/donkeycar/hall --out runs/latency")
-    q.add_argument("checkpoints", nargs="*", help="checkpoints (.pt) or exported models (.onnx) to time")
+    path_option(q, "checkpoints", kind="file", nargs="*", help="checkpoints (.pt) or exported models (.onnx) to time")
     add_options(q, "latency", LatencyOptions)
     data_args(q, "its frames, START:STOP, cycled through (default 0:100)", camera=False, required=False)
-    q.add_argument("--out", help="folder for latency.csv and latency.md")
+    path_option(q, "--out", kind="folder", help="folder for latency.csv and latency.md")
     q.set_defaults(func=cmd_latency)
 
     q = sub.add_parser("models", help="list the registered models", epilog="example: steerlab models")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from steerlab.cli import Parser, add_options, data_args, from_args, print_table, source
+from steerlab.cli import path_option, Parser, add_options, data_args, from_args, print_table, source
 
 
 def cmd_sim_record(a) -> None:
@@ -19,7 +19,8 @@ def cmd_sim_drive(a) -> None:
     from steerlab.sim.world import DriveOptions, drive
 
     o = from_args(DriveOptions, a)
-    r = drive(Pilot(a.checkpoint, smoothing=from_args(DriveWith, a).smoothing), a.out, o, video=a.video)
+    pilot = Pilot(a.checkpoint, smoothing=from_args(DriveWith, a).smoothing, other_camera=o.geometry is not None)
+    r = drive(pilot, a.out, o, video=a.video)
     print_table(r)
     print(f"wrote {a.out}/trajectory.csv, path.png, frames.png, drive.json" + (f", {a.video}" if a.video else ""))
 
@@ -83,38 +84,38 @@ def register(sub) -> None:
                                                                                     parser_class=Parser)
     q = sim.add_parser("record", help="record the expert driver on a procedural road",
                        epilog="example: steerlab sim record --seed 3 --minutes 6 --road mixed --out runs/mixed-seed3")
-    q.add_argument("--out", required=True, help="folder to write the recording to (new or empty)")
+    path_option(q, "--out", kind="folder", required=True, help="folder to write the recording to (new or empty)")
     add_options(q, "sim record", RecordOptions)
     q.set_defaults(func=cmd_sim_record)
 
     q = sim.add_parser("drive", help="let a trained model drive in closed loop",
                        epilog="example: steerlab sim drive runs/a/best.pt --road twisty --minutes 2 --out runs/drive")
-    q.add_argument("checkpoint", help="checkpoint (.pt) or exported model (.onnx)")
+    path_option(q, "checkpoint", kind="file", help="checkpoint (.pt) or exported model (.onnx)")
     add_options(q, "sim drive", DriveOptions, DriveWith)
-    q.add_argument("--out", default="runs/drive", help="output folder (default runs/drive)")
-    q.add_argument("--video", help="also write an MP4 of the drive with the model's and the expert's steering")
+    path_option(q, "--out", kind="folder", default="runs/drive", help="output folder (default runs/drive)")
+    path_option(q, "--video", kind="new-file", help="also write an MP4 of the drive with the model's and the expert's steering")
     q.set_defaults(func=cmd_sim_drive)
 
     q = sim.add_parser("bench", help="drive checkpoints on the fixed closed-loop benchmark roads",
                        epilog="example: steerlab sim bench runs/a/best.pt runs/b/best.pt --out runs/bench")
-    q.add_argument("checkpoints", nargs="+", help="checkpoints to compare")
-    q.add_argument("--out", default="runs/bench", help="output folder (default runs/bench)")
+    path_option(q, "checkpoints", kind="file", nargs="+", help="checkpoints to compare")
+    path_option(q, "--out", kind="folder", default="runs/bench", help="output folder (default runs/bench)")
     add_options(q, "sim bench", SuiteOptions)
     q.set_defaults(func=cmd_sim_bench)
 
     q = sim.add_parser("dagger", help="DAgger: train, roll the model out, let the expert label, aggregate, retrain",
                        epilog="example: steerlab sim dagger configs/dagger_pilotnet.yaml dagger.iterations=2")
-    q.add_argument("config", help="training config with a 'dagger' section (see configs/dagger_pilotnet.yaml)")
+    path_option(q, "config", kind="file", help="training config with a 'dagger' section (see configs/dagger_pilotnet.yaml)")
     q.add_argument("overrides", nargs="*", help="section.key=value overrides, e.g. dagger.minutes=2")
     q.set_defaults(func=cmd_sim_dagger)
 
     q = sub.add_parser("replay", help="closed-loop replay on a recording: would the model keep the car on the "
                        "human's path?", epilog="example: steerlab replay runs/ch2/best.pt --data "
                        "../shared/data/udacity-ch2 --range 1800:2400 --speed 15 --out runs/replay --video replay.mp4")
-    q.add_argument("checkpoints", nargs="+", help="checkpoints (.pt) or exported models (.onnx) to replay")
+    path_option(q, "checkpoints", kind="file", nargs="+", help="checkpoints (.pt) or exported models (.onnx) to replay")
     data_args(q, camera=False)
-    q.add_argument("--out", default="runs/replay", help="output folder (default runs/replay)")
-    q.add_argument("--video", help="also write an MP4 of the warped view with the model's and the human's steering "
+    path_option(q, "--out", kind="folder", default="runs/replay", help="output folder (default runs/replay)")
+    path_option(q, "--video", kind="new-file", help="also write an MP4 of the warped view with the model's and the human's steering "
                    "(one per checkpoint)")
     add_options(q, "replay", ReplayOptions)
     q.set_defaults(func=cmd_replay)
@@ -122,7 +123,7 @@ def register(sub) -> None:
     q = sub.add_parser("serve", help="drive the Udacity simulator (socket.io server on port 4567)",
                        epilog="example: steerlab serve runs/sim/best.pt --record runs/sim-drive; then start the "
                               "simulator in autonomous mode (README: connecting the simulator)")
-    q.add_argument("checkpoint", help="checkpoint (.pt) or exported model (.onnx)")
+    path_option(q, "checkpoint", kind="file", help="checkpoint (.pt) or exported model (.onnx)")
     add_options(q, "serve", ServeOptions)
     q.set_defaults(func=cmd_serve)
 

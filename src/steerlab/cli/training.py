@@ -7,7 +7,7 @@ import subprocess
 import sys
 from dataclasses import dataclass
 
-from steerlab.cli import add_options, from_args, print_table
+from steerlab.cli import path_option, add_options, from_args, print_table
 from steerlab.cli.data import SPEED_METRICS
 from steerlab.errors import SteerlabError
 from steerlab.options import AT_LEAST_1, Options, option
@@ -76,14 +76,14 @@ def register(sub) -> None:
 
     q = sub.add_parser("train", help="train a model from a YAML config", epilog="example: steerlab train "
                        "configs/ch2_pilotnet.yaml train.epochs=5 out=runs/quick")
-    q.add_argument("config", help="YAML config (see configs/)")
+    path_option(q, "config", kind="file", help="YAML config (see configs/)")
     q.add_argument("overrides", nargs="*", help="section.key=value overrides, e.g. train.lr=3e-4")
     add_options(q, "train", TrainCommand)
     q.set_defaults(func=cmd_train)
 
     q = sub.add_parser("experiment", help="train several models with several seeds and tabulate them",
                        epilog="example: steerlab experiment configs/experiment_ch2.yaml --seeds 3")
-    q.add_argument("config", help="YAML config with a 'models' list (see configs/experiment_ch2.yaml)")
+    path_option(q, "config", kind="file", help="YAML config with a 'models' list (see configs/experiment_ch2.yaml)")
     q.add_argument("overrides", nargs="*", help="section.key=value overrides for every run")
     add_options(q, "experiment", ExperimentCommand)
     q.set_defaults(func=cmd_experiment)
@@ -91,7 +91,7 @@ def register(sub) -> None:
     q = sub.add_parser("tune", help="BOHB-style hyperparameter search (Optuna TPE + Hyperband) over a config's "
                        "tune: section", epilog="example: steerlab tune configs/tune_multimodal_lstm.yaml --trials 40; "
                        "more workers: run the same command elsewhere with --storage postgresql://... --study NAME")
-    q.add_argument("config", help="training config with a tune: section (config key -> range)")
+    path_option(q, "config", kind="file", help="training config with a tune: section (config key -> range)")
     q.add_argument("overrides", nargs="*", help="section.key=value overrides, e.g. train.epochs=8")
     add_options(q, "tune", TuneOptions)
     q.set_defaults(func=cmd_tune)

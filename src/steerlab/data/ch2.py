@@ -32,9 +32,7 @@ def _ch2_label_file(folder: Path) -> Path:
 def read_ch2(folder: str | Path, frame_range=None, labels: str | Path | None = None) -> Recording:
     folder = Path(folder)
     label_path = Path(labels) if labels else _ch2_label_file(folder)
-    if not label_path.exists():
-        raise DataError(label_path, "label file not found")
-    rows = read_rows(label_path)
+    rows = read_rows(label_path, "label file")
     if not rows:
         raise DataError(label_path, "the label file is empty")
     header = [h.strip() for h in rows[0]]

@@ -2,7 +2,8 @@
 
 A Recording plus a PreprocessConfig is decoded, preprocessed and turned into its modalities once, into
 memory-mapped .npy arrays under `<cache>/<key>/`, where the key hashes the source files and the config.
-A second run with the same source and config reuses the arrays at once. Work is done in chunks on a pool of
+A second run with the same source and config reuses the arrays, once their checksums (sha1, in `meta.json`) show
+they are the bytes that were written: a damaged entry (a truncated or changed file) is said and compiled again. Work is done in chunks on a pool of
 threads (OpenCV releases the GIL), written straight into the memory maps, so the decoded recording is never
 held in RAM. A cache entry is built in a temporary folder and renamed into place when complete, so an
 interrupted compile never leaves a half-written cache behind; the temporary folders of killed compiles are
@@ -24,11 +25,12 @@ import numpy as np
 from tqdm import tqdm
 
 from steerlab.data.cache import cache_root
+from steerlab.data.geometry import CAMERAS, shift_view
 from steerlab.data.geometry import camera as geometry_of
-from steerlab.data.geometry import shift_view
 from steerlab.data.modalities import frame_difference, optical_flow
 from steerlab.data.preprocess import PreprocessConfig, preprocess
 from steerlab.data.recording import Recording
+from steerlab.errors import DataError, warn
 from steerlab.locks import pid_alive, waiting_lock
 
 CHUNK = 64
@@ -37,7 +39,7 @@ CHUNK = 64
 def source_key(rec: Recording, camera: str) -> str:
     """Hash of what the cache depends on: image files (path, size, mtime), every label, and the steering
     convention the reader gave them (a tub read with and without `full_lock_deg` are two entries)."""
-    h = hashlib.sha1(b"layout 2\n")  # the entry's layout: a new one never reads an older entry
+    h = hashlib.sha1(b"layout 3\n")  # the entry's layout: a new one never reads an older entry
     h.update(json.dumps(rec.convention.as_dict(), sort_keys=True).encode())
     for p in rec.frames[camera]:
         st = os.stat(p)
@@ -111,13 +113,42 @@ def compile_recording(rec: Recording, cfg: PreprocessConfig, cache_dir: str | Pa
     name = camera if view is None else f"{camera}@{view[0]:+g}m{view[1]:+g}deg"
     key = f"{rec.name}-{name}-{source_key(rec, camera)}-{cfg.key()}"
     final = cache_root(cache_dir) / key
-    if not (final / "meta.json").exists():
-        final.parent.mkdir(parents=True, exist_ok=True)
-        remove_leftovers(final.parent)
-        with waiting_lock(final.parent / f".{key}.lock"):
-            if not (final / "meta.json").exists():  # else another process compiled it while this one waited
-                _build(rec, cfg, camera, view, final, workers, progress, name)
+    final.parent.mkdir(parents=True, exist_ok=True)
+    with waiting_lock(final.parent / f".{key}.lock"):  # another process may be compiling or checking it
+        damage = _damage(final) if (final / "meta.json").exists() else None
+        if damage:
+            warn(f"{final / damage}: the compiled cache entry is damaged (not the bytes that were written); "
+                 "compiling it again")
+            shutil.rmtree(final)
+        if not (final / "meta.json").exists():
+            remove_leftovers(final.parent)
+            _build(rec, cfg, camera, view, final, workers, progress, name)
     return replace(CompiledDataset.load(final), config=user_cfg)
+
+
+def _sha1(path: Path) -> str:
+    with open(path, "rb") as f:
+        return hashlib.file_digest(f, "sha1").hexdigest()
+
+
+def _damage(entry: Path) -> str | None:
+    """The first file of a cache entry that is not what was written (its checksum differs, or it is missing),
+    or None."""
+    try:
+        sums = json.loads((entry / "meta.json").read_text())["checksums"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return "meta.json"
+    for name, digest in sums.items():
+        if not (entry / name).is_file() or _sha1(entry / name) != digest:
+            return name
+    return None
+
+
+def expected_size(rec: Recording, camera: str = "center") -> tuple[int, int]:
+    """(height, width) every frame of a recording must have: its camera geometry's, or for a recording of a
+    camera steerlab does not know, its first frame's."""
+    cam = CAMERAS.get(rec.geometry)
+    return (cam.height, cam.width) if cam is not None else rec.load_frame(0, camera).shape[:2]
 
 
 def remove_leftovers(cache: Path) -> None:
@@ -142,8 +173,13 @@ def _build(rec: Recording, cfg: PreprocessConfig, camera: str, view, final: Path
     seg = rec.segment_ids()
     geometry = None if view is None else geometry_of(rec.geometry)
 
+    size = expected_size(rec, camera)
+
     def load(i: int) -> np.ndarray:
         frame = rec.load_frame(i, camera)
+        if frame.shape[:2] != size:
+            raise DataError(rec.frames[camera][i], f"the frame is {frame.shape[1]}x{frame.shape[0]}; the recording's "
+                                                   f"frames are {size[1]}x{size[0]} (frame {i})")
         return frame if view is None else shift_view(frame, geometry, *view)
 
     def work(start: int) -> int:
@@ -176,7 +212,8 @@ def _build(rec: Recording, cfg: PreprocessConfig, camera: str, view, final: Path
         meta = {"preprocess": cfg.as_dict(), "source": str(rec.source), "name": rec.name, "camera": camera,
                 "view": view,
                 "frames": n, "convention": rec.convention.as_dict(), "geometry": rec.geometry,
-                "frame_rate": rec.frame_rate()}
+                "frame_rate": rec.frame_rate(),
+                "checksums": {f.name: _sha1(f) for f in sorted(tmp.iterdir())}}
         (tmp / "meta.json").write_text(json.dumps(meta, indent=1))
         try:
             tmp.rename(final)

@@ -24,7 +24,7 @@ def read_native(folder: str | Path, frame_range=None) -> Recording:
         meta = json.loads(meta_path.read_text())
     except (OSError, json.JSONDecodeError) as e:
         raise DataError(meta_path, f"cannot read recording metadata: {e}") from None
-    rows = read_rows(log) if log.exists() else []
+    rows = read_rows(log, "log")
     if not rows:
         raise DataError(log, "missing or empty log")
     header = [h.strip() for h in rows[0]]

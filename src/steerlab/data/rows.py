@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from steerlab.errors import DataError
+from steerlab.paths import regular_file
 
 
 def parse_range(text: str | None) -> tuple[int | None, int | None] | None:
@@ -39,7 +40,8 @@ def apply_range(n: int, rng, source: Path) -> slice:
     return slice(start, stop)
 
 
-def read_rows(path: Path) -> list[list[str]]:
+def read_rows(path: Path, what: str = "CSV file") -> list[list[str]]:
+    regular_file(path, what)
     try:
         with open(path, newline="") as f:
             return [row for row in csv.reader(f) if row and any(c.strip() for c in row)]

@@ -25,6 +25,7 @@ import numpy as np
 
 from steerlab.data.rows import apply_range
 from steerlab.data.recording import Recording, SteeringConvention
+from steerlab.paths import regular_file
 from steerlab.errors import DataError, SteerlabError, warn
 
 OPTIONS = ("full_lock_deg", "skip_missing", "strict")
@@ -40,8 +41,7 @@ def _json_lines(path: Path, torn: list[int] | None = None) -> list[tuple[int, ob
     """(line number, parsed value) for every non-empty line. A broken line is an error naming it, or, given a
     list `torn`, its number is added there; a line with NUL bytes in it counts as torn (its record is kept
     when the rest of the line holds one)."""
-    if not path.is_file():
-        raise DataError(path, "file not found")
+    regular_file(path)
     out = []
     with open(path, encoding="utf-8", errors="replace") as f:
         for n, line in enumerate(f, start=1):
@@ -93,10 +93,30 @@ def _manifest(folder: Path) -> tuple[list[str], list[str], set[int]]:
     keys, catalogs = lines[0][1], lines[4][1]
     if not isinstance(keys, list) or "cam/image_array" not in keys or "user/angle" not in keys:
         raise DataError(path, f"the record keys {keys} lack 'cam/image_array' or 'user/angle'", lines[0][0])
-    if not isinstance(catalogs, dict) or not isinstance(catalogs.get("paths"), list):
-        raise DataError(path, "the catalog line lacks 'paths' (the catalog files in order)", lines[4][0])
+    if not isinstance(catalogs, dict) or not isinstance(catalogs.get("paths"), list) \
+            or not all(isinstance(p, str) and p for p in catalogs["paths"]):
+        raise DataError(path, "the catalog line lacks 'paths' (the catalog files in order, by name)", lines[4][0])
     deleted = catalogs.get("deleted_indexes", [])
-    return keys, catalogs["paths"], {int(i) for i in deleted}
+    if not isinstance(deleted, list) or not all(_integer(i) for i in deleted):
+        raise DataError(path, f"deleted_indexes must be a list of record indexes (integers), got {deleted!r}",
+                        lines[4][0])
+    return keys, catalogs["paths"], set(deleted)
+
+
+def _integer(value) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _lines_cut_off(catalog: Path) -> int:
+    """How many of the lines a catalog's `.catalog_manifest` lists (its `line_lengths`, which add up to the
+    catalog's size) lie wholly beyond the catalog's end: records lost when a copy or the car cut the catalog off
+    at a line end, which no line shows. 0 without a readable catalog manifest."""
+    try:
+        lengths = json.loads((catalog.parent / f"{catalog.name}_manifest").read_text().splitlines()[0])["line_lengths"]
+        starts = np.cumsum([0] + [int(n) for n in lengths])[:-1]
+    except (OSError, ValueError, KeyError, TypeError, IndexError):
+        return 0
+    return int(np.sum(starts >= catalog.stat().st_size))
 
 
 def _in_range(value) -> bool:
@@ -110,7 +130,7 @@ def read_tub(folder: str | Path, frame_range=None, full_lock_deg: float | None =
     folder = Path(folder)
     _, catalogs, deleted = _manifest(folder)
     records = []  # (catalog, line, record)
-    torn_at, lost = {}, 0  # torn lines by catalog, records lost
+    torn_at, cut_at, lost = {}, {}, 0  # torn lines and lines cut off at the end by catalog, records lost
     for name in catalogs:
         torn: list[int] = []
         lines = _json_lines(folder / name, torn)
@@ -120,13 +140,27 @@ def read_tub(folder: str | Path, frame_range=None, full_lock_deg: float | None =
                                            "lines are read past with a warning)", torn[0])
         if torn:
             torn_at[name], lost = torn, lost + _records_lost(lines, torn)
+        cut = _lines_cut_off(folder / name)
+        if cut and strict:
+            raise DataError(folder / name, f"the catalog ends {cut} line(s) before its catalog_manifest does (cut off), "
+                                           "refused as reader option strict is true")
+        if cut:
+            cut_at[name], lost = cut, lost + cut
         for line, rec in lines:
             if not isinstance(rec, dict) or any(k not in rec for k in REQUIRED):
                 raise DataError(folder / name, f"a record needs the keys {', '.join(REQUIRED)}", line)
-            if int(rec["_index"]) not in deleted:
+            bad = next((k for k, ok in (("_index", _integer(rec["_index"])),
+                                        ("_timestamp_ms", _integer(rec["_timestamp_ms"])),
+                                        ("cam/image_array", isinstance(rec["cam/image_array"], str))) if not ok), None)
+            if bad is not None:
+                raise DataError(folder / name, f"{bad} is {rec[bad]!r}; "
+                                               f"{'a file name' if bad == 'cam/image_array' else 'an integer'} is "
+                                               "expected", line)
+            if rec["_index"] not in deleted:
                 records.append((folder / name, line, rec))
-    if torn_at:
-        where = "; ".join(f"{name} row(s) {_ranges(rows)}" for name, rows in torn_at.items())
+    if torn_at or cut_at:
+        where = "; ".join([f"{name} row(s) {_ranges(rows)}" for name, rows in torn_at.items()]
+                          + [f"{name}: {n} line(s) cut off at its end" for name, n in cut_at.items()])
         warn(f"{folder}: read past torn catalog lines (a car that lost power mid-write?): {where}; {lost} "
              "record(s) lost (reader option strict: true refuses such a tub)")
     if not records:

@@ -23,19 +23,22 @@ from steerlab.video import DriveVideo
 
 
 def evaluate(checkpoint: str | Path, source: Source, out: str | Path, camera: str = "center",
-             video: str | Path | None = None, progress: bool = True, allow_convention_mismatch: bool = False) -> dict:
+             video: str | Path | None = None, progress: bool = True, allow_convention_mismatch: bool = False,
+             other_camera: bool = False) -> dict:
     """Run the Pilot over every frame of the recording of `source` (resetting at segment starts, feeding the
     recorded speed); write metrics (with speed MAE and command accuracy for speed models), predictions and a
     plot, and optionally a video of the frames with the predicted and the recorded steering.
 
     A checkpoint whose steering convention is not the recording's is refused, since its metrics would mix
     units; with `allow_convention_mismatch` it is evaluated with a warning, its predictions converted to the
-    recording's convention (or compared unconverted where normalized steering has no full-lock angle)."""
+    recording's convention (or compared unconverted where normalized steering has no full-lock angle). A
+    recording of another camera geometry than the model's is refused too; with `other_camera` its frames are
+    cropped and resized as the model's own would be, with a warning."""
     out = Path(out)
     rec = source.open()
     if camera not in rec.frames:
         raise SteerlabError(f"{rec.source} has no {camera!r} camera (it has {', '.join(rec.cameras)})")
-    pilot = Pilot(checkpoint)
+    pilot = Pilot(checkpoint, other_camera=other_camera)
     if pilot.speed_history and rec.speed is None:
         raise SteerlabError(f"model {pilot.name!r} needs the measured speed with every frame; {rec.source} has none")
     convert = None
@@ -44,8 +47,10 @@ def evaluate(checkpoint: str | Path, source: Source, out: str | Path, camera: st
         what = (f"{checkpoint} predicts {pilot.convention.describe()} steering and {rec.source} records "
                 f"{rec.convention.describe()} steering")
         if not allow_convention_mismatch:
+            also = ("" if pilot.geometry in (None, rec.geometry) else f"; and the recording's camera geometry "
+                    f"({rec.geometry}) is not the model's ({pilot.geometry}) either")
             raise SteerlabError(f"{what}: the metrics would mix units; evaluate it on recordings of its own "
-                                "convention, or pass --allow-convention-mismatch to convert its predictions")
+                                f"convention, or pass --allow-convention-mismatch to convert its predictions{also}")
         try:
             pilot.convention.convert(0.0, rec.convention, *ratios)
             convert = lambda y: pilot.convention.convert(y, rec.convention, *ratios)  # noqa: E731
@@ -54,15 +59,19 @@ def evaluate(checkpoint: str | Path, source: Source, out: str | Path, camera: st
         except SteerlabError:
             warn(f"{what}: normalized steering without a full-lock angle cannot be converted, so the metrics "
                  "compare unconverted values")
+    if pilot.geometry is not None and pilot.geometry != rec.geometry:
+        what = (f"{checkpoint} was trained on the {pilot.geometry!r} camera geometry and {rec.source} has the "
+                f"{rec.geometry!r} geometry")
+        if not other_camera:
+            raise SteerlabError(f"{what}: evaluate it on recordings of its own camera, or pass --allow-other-camera "
+                                "to crop and resize these frames anyway")
+        warn(f"{what}: expect worse predictions than the model can make")
     if video:  # both sides are shown as a steering-wheel angle, which needs a physical scale
         try:
             for conv, ratio in zip((pilot.convention, rec.convention), ratios):
                 conv.to_road_wheel_left(0.0, ratio)
         except SteerlabError as e:
             raise SteerlabError(f"cannot write {video} (it shows steering-wheel angles): {e}") from None
-    if pilot.geometry != rec.geometry:
-        warn(f"{checkpoint} was trained on the {pilot.geometry!r} camera geometry and {rec.source} has the "
-             f"{rec.geometry!r} geometry: expect worse predictions than the model can make")
     out.mkdir(parents=True, exist_ok=True)  # only once the inputs are known to be good
     seg = rec.segment_ids()
     offsets = rec.extra.get("lateral_offset")

@@ -8,15 +8,14 @@ from pathlib import Path
 
 import numpy as np
 
+from steerlab.paths import regular_file
 from steerlab.errors import DataError
 from steerlab.evaluate.metrics import gamma_deg, mae_deg, rmse
 
 
 def read_steering_csv(path: str | Path, need_public: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """Read `frame_id,steering_angle[,public]`; returns ids, angles and the public flags (or None)."""
-    path = Path(path)
-    if not path.is_file():
-        raise DataError(path, "file not found")
+    path = regular_file(Path(path), "predictions file")
     with open(path, newline="") as f:
         rows = [r for r in csv.reader(f) if r]
     if not rows:

@@ -103,15 +103,22 @@ def _cached(done: Path, key: dict) -> dict | None:
 
 
 def labels_for(checkpoints: list[Path]) -> list[str]:
-    """Short unique names: the run folder of `run/best.pt`, with as many parent folders as it takes (and the
-    file name where one run's best.pt and last.pt are compared)."""
+    """Short unique names (each a folder below the output folder): the run folder of `run/best.pt`, with as
+    many parent folders as it takes (and the file name where one run's best.pt and last.pt are compared). The
+    same checkpoint named twice is an error."""
+    seen = {}
+    for p in checkpoints:
+        if p.resolve() in seen:
+            raise SteerlabError(f"{p} is named twice (as {seen[p.resolve()]} too): name each checkpoint once")
+        seen[p.resolve()] = p
     for short in (True, False):
         for depth in range(1, 8):
             names = ["/".join((p.parent if short and p.name in ("best.pt", "last.pt") else p.with_suffix("")).parts[-depth:])
                      for p in checkpoints]
-            if len(set(names)) == len(names):
+            names = [n.lstrip("/") for n in names]
+            if len(set(names)) == len(names) and all(names):
                 return names
-    return [str(p) for p in checkpoints]
+    return [f"{k}-{p.stem}" for k, p in enumerate(checkpoints)]
 
 
 def run_suite(checkpoints, out: str | Path, o: SuiteOptions = SuiteOptions(), progress: bool = True,

@@ -18,6 +18,8 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
+from steerlab.errors import SteerlabError
+
 
 @dataclass
 class Trajectory:
@@ -101,6 +103,17 @@ class Tick:
     @cached_property
     def expert(self) -> float:
         return self.world.expert_steering()
+
+
+def check_steers(pilot, car) -> None:
+    """A pilot whose steering cannot become a wheel angle of `car` (normalized steering without a full-lock
+    angle) is refused before it drives, naming the model."""
+    try:
+        pilot.convention.to_road_wheel_left(0.0, car.steering_ratio)
+    except SteerlabError:
+        raise SteerlabError(f"{pilot.source}: model {pilot.name!r} predicts normalized steering without a full-lock "
+                            "angle, so its steering has no angle to steer a car with (train it on the tub with the "
+                            "reader option full_lock_deg)") from None
 
 
 def autonomy(interventions: int, elapsed_s: float) -> float:

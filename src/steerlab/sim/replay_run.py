@@ -70,6 +70,7 @@ def run_replay(checkpoints, source: Source, out: str | Path, o: ReplayOptions = 
     for c in checkpoints:
         if not c.is_file():
             raise SteerlabError(f"{c}: checkpoint not found")
+    names = labels_for(checkpoints)
     rec = source.open()
     if rec.geometry not in CAMERAS:
         raise DataError(rec.source, f"no camera geometry for its {rec.geometry!r} frames; replay knows "
@@ -91,7 +92,6 @@ def run_replay(checkpoints, source: Source, out: str | Path, o: ReplayOptions = 
     segments = replay_segments(rec, source.frames)
     speed, speed_source = replay_speed(rec, cam, car, o.speed)
     out = Path(out)
-    names = labels_for(checkpoints)
     videos = [None] * len(names) if video is None else (
         [str(video)] if len(names) == 1 else [str(Path(video).with_name(f"{Path(video).stem}-{n.replace('/', '-')}"
                                                                            f"{Path(video).suffix}")) for n in names])

@@ -21,13 +21,14 @@ from steerlab.data.writer import CONVENTION, RecordingWriter
 from steerlab.errors import SteerlabError, warn
 from steerlab.options import Options, POSITIVE, option
 from steerlab.sim.driver import ExpertDriver, cruise, pure_pursuit
-from steerlab.sim.driving import drive_loop, rollout
+from steerlab.sim.driving import check_steers, drive_loop, rollout
 from steerlab.sim.plots import plot_trajectory
 from steerlab.sim.render import Renderer
 from steerlab.sim.road import LANE_CENTER, ROAD_TYPES, Road
 from steerlab.sim.vehicle import Vehicle, VehicleState
 from steerlab.video import DriveVideo
 
+ROAD_CAMERAS = ("sim", "ch2")  # the camera geometries the road world renders
 RESERVED_SEEDS = range(9000, 10000)  # the roads of the closed-loop benchmark (sim/bench.py): never recorded
 CHUNK_GAP_NS = 1_000_000_000  # between the chunks of a mixed recording: a new segment
 
@@ -206,17 +207,24 @@ def record(out: str | Path, o: RecordOptions = RecordOptions(), progress: bool =
 
 
 def geometry_for(pilot, geometry: str | None) -> str:
-    """The camera geometry to drive a pilot with: by default the one it was trained on; warns on a mismatch."""
+    """The camera geometry to drive a pilot with: by default the one it was trained on. Another one (`geometry`)
+    only for a Pilot that takes other cameras' frames (`Pilot(other_camera=True)`); `mismatch` warns of it."""
     if geometry is None:
-        if pilot.geometry in CAMERAS and pilot.geometry != "donkey":
-            return pilot.geometry
-        warn(f"the checkpoint was trained on the {pilot.geometry!r} camera geometry, which the synthetic road "
-             "world does not render; driving with the 'sim' camera")
-        return "sim"
-    if geometry != pilot.geometry:
+        if pilot.geometry in ROAD_CAMERAS or pilot.geometry is None:
+            return pilot.geometry or "sim"
+        raise SteerlabError(f"{pilot.source}: model {pilot.name!r} was trained on the {pilot.geometry!r} camera, which "
+                            f"the road world does not render (it renders {', '.join(ROAD_CAMERAS)}); choose one with "
+                            "--geometry to drive it with another camera anyway")
+    if geometry != pilot.geometry and getattr(pilot, "frame_size", None) is not None:
+        raise SteerlabError(f"{pilot.source}: model {pilot.name!r} was trained on the {pilot.geometry!r} camera and "
+                            f"takes no {geometry!r} frames (a Pilot with other_camera=True does)")
+    return geometry
+
+
+def mismatch(pilot, geometry: str) -> None:
+    if geometry != (pilot.geometry or geometry):
         warn(f"the checkpoint was trained on the {pilot.geometry!r} camera geometry and is driven with the "
              f"{geometry!r} camera: expect it to drive worse than it can")
-    return geometry
 
 
 def drive(pilot, out: str | Path | None, o: DriveOptions = DriveOptions(), video: str | Path | None = None,
@@ -226,8 +234,11 @@ def drive(pilot, out: str | Path | None, o: DriveOptions = DriveOptions(), video
     centre by more than `o.limit_m` is an intervention: the car is put back on the lane centre and
     `pilot.reset()` clears the pilot's memory. `on_tick(k)` is called every 100 ticks (progress of the suite).
     With `out`: trajectory.csv, frames.png, drive.json (the result and `meta`) and, with `plot`, path.png."""
+    geometry = geometry_for(pilot, o.geometry)
+    check_steers(pilot, car_of(geometry))
+    mismatch(pilot, geometry)
     n = _frames(o.minutes, o.fps)
-    world = World(o.seed, o.road, geometry_for(pilot, o.geometry), n / o.fps, o.fps)
+    world = World(o.seed, o.road, geometry, n / o.fps, o.fps)
     ratio = world.steering_ratio
     strip = []
     movie = DriveVideo(video, o.fps) if video else None
@@ -271,6 +282,8 @@ def world_rollout(pilot, out: str | Path, seed: int, minutes: float, road: str =
     _check_seed(seed)
     n = _frames(minutes, fps)
     geometry = geometry_for(pilot, geometry)
+    check_steers(pilot, car_of(geometry))
+    mismatch(pilot, geometry)
     world = World(seed, road, geometry, n / fps, fps)
     writer = RecordingWriter(out, list(_cameras(world.car, side_cameras)), geometry=geometry)
     t = rollout(pilot, [(world, n)], writer, CONVENTION, beta, np.random.default_rng([seed, 5]), limit_m, fps,

@@ -20,6 +20,7 @@ from steerlab.data.splits import Split
 from steerlab.data.tub import is_tub
 from steerlab.errors import SteerlabError
 from steerlab.models.registry import ModelSpec
+from steerlab.paths import regular_file
 from steerlab.options import AT_LEAST_0, AT_LEAST_1, Options, POSITIVE, Range, UNIT, as_dict, option, parse
 
 LOSSES = {"mse": "rmse", "mae": "mae"}  # train.loss -> the validation metric that picks the best epoch
@@ -158,9 +159,7 @@ def apply_override(cfg: dict, text: str) -> None:
 
 def read_yaml(path: str | Path, what: str = "sections (data, split, model, train, ...)") -> dict:
     """A YAML config file as a mapping, with one-line errors."""
-    path = Path(path)
-    if not path.is_file():
-        raise SteerlabError(f"{path}: config file not found")
+    path = regular_file(path, "config file")
     try:
         data = yaml.safe_load(path.read_text()) or {}
     except yaml.YAMLError as e:

@@ -20,6 +20,7 @@ import torch
 from tqdm import tqdm
 
 from steerlab.checkpoint import load_checkpoint, save_checkpoint
+from steerlab.data.cache import cache_root
 from steerlab.data.car import car_of
 from steerlab.data.dataset import CompiledDataset
 from steerlab.data.inputs import channel_stats, segment_starts
@@ -29,6 +30,7 @@ from steerlab.errors import SteerlabError
 from steerlab.evaluate.metrics import all_metrics
 from steerlab.evaluate.scoring import write_predictions
 from steerlab.locks import folder_lock
+from steerlab.paths import folder_to_write
 from steerlab.models import SteeringModel
 from steerlab.options import as_dict
 from steerlab.train.batches import (Batch, EpochSampler, FrameBatches, balance_weights, loader, recovery_repeats,
@@ -137,12 +139,18 @@ def train(cfg: TrainConfig, progress: bool = True, on_epoch=None) -> dict:
     `on_epoch(epoch, metrics)` is called after every epoch's checkpoint (steerlab tune reports and prunes
     there: an exception it raises ends the run, which stays resumable). The run holds a lock on `out`: a
     second run into the same folder is refused while the first one runs."""
-    out = Path(cfg.out)
+    out = folder_to_write(cfg.out, "output folder (out)")
+    folder_to_write(cache_root(cfg.cache), "cache folder (cache)")
     ranks = setup(cfg.train.device)
     if cfg.train.batch_size % ranks.world:
         raise SteerlabError(f"train.batch_size {cfg.train.batch_size} is the global batch; it must divide evenly "
                             f"over {ranks.world} ranks")
     # checkpoints named by the config are read before any work: a bad one fails at once
+    for key, role in (("init", "starting point"), ("teacher", "teacher")):
+        path = getattr(cfg.train, key)
+        if path and Path(path).suffix == ".onnx":
+            raise SteerlabError(f"{path}: train.{key}: an .onnx file cannot be a {role} (it holds a graph for ONNX "
+                                "Runtime, not weights to train); name the .pt checkpoint it was exported from")
     init, teacher = (load_checkpoint(p) if p else None for p in (cfg.train.init, cfg.train.teacher))
     car = car_of(main_recording(cfg).geometry)
     cfg = cfg.for_car(car)

@@ -15,6 +15,7 @@ from tqdm import tqdm
 
 from steerlab.errors import SteerlabError, warn
 from steerlab.locks import pid_alive, waiting_lock
+from steerlab.paths import folder_to_write
 from steerlab.options import AT_LEAST_1, Options, Range, as_dict, option
 from steerlab.sim.bench import closed_loop_metrics, suite_options
 from steerlab.train.config import TrainConfig
@@ -108,7 +109,7 @@ def run_tune(cfg: TrainConfig, o: TuneOptions, progress: bool = True) -> Path:
     optuna = storage_optuna()
     space = search_space(cfg.tune, cfg)
     closed = suite_options(cfg.closed_loop, "closed_loop") if o.objective == "autonomy" else None
-    out = Path(cfg.out)
+    out = folder_to_write(cfg.out, "output folder (out)")
     name = o.study or out.name
     epochs, trials, objective = cfg.train.epochs, o.trials, o.objective
     store = storage_of(o.storage, out, o.join)
