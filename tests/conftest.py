@@ -85,3 +85,14 @@ def made(tmp_path, kind="road_wheel", positive="right", geometry="sim", name="mo
                     SteeringConvention(kind, positive, full_lock_deg and math.radians(full_lock_deg)), {"rmse": 0.1},
                     geometry=geometry, frame_rate=20.0)
     return path
+
+
+def resaved(path, ckpt) -> None:
+    """A checkpoint edited on purpose (its statistics or convention changed by a test), saved with its content
+    hash made again, as steerlab would save it."""
+    import torch
+
+    from steerlab.checkpoint import content_hash
+
+    ckpt["content_sha256"] = content_hash(ckpt)
+    torch.save(ckpt, path)

@@ -923,3 +923,28 @@ def test_a_damaged_tub_catalog_is_read_past_with_the_loss_said(tmp_path, capsys)
             continue
         err = capsys.readouterr().err
         assert len(rec) == ROWS or ("record(s) lost" in err or "read past torn" in err), (what, err)
+
+
+# ---------------------------------------------------------------- the Python API: one rule with the command line
+
+def test_the_pilot_and_the_donkeycar_part_refuse_what_is_not_a_frame_or_a_speed(tmp_path):
+    """What cannot be a camera frame of the model's camera, or a measured speed, is a SteerlabError that names
+    what is expected, from the Pilot and from the donkeycar part alike; `other_camera` takes any size."""
+    from steerlab.donkey import SteerlabPilot
+    from steerlab.pilot import Pilot
+
+    ckpt = made(tmp_path, "normalized", "right", "donkey", full_lock_deg=25)
+    pilot, part = Pilot(ckpt), SteerlabPilot(ckpt)
+    rgb = np.zeros((120, 160, 3), np.uint8)
+    for frame in (b"", None, "abc", bytearray(b"xyz"), rgb.astype(np.float64), rgb[..., 0],
+                  np.zeros((480, 640, 3), np.uint8)):
+        with pytest.raises(SteerlabError, match=r"120x160x3 uint8|trained on the 'donkey' camera \(160x120\)"):
+            pilot.step(frame)
+    with pytest.raises(SteerlabError, match="the measured speed must be a finite number of m/s, got 'fast'"):
+        part.run(rgb, speed="fast")
+    with pytest.raises(SteerlabError, match="got nan"):
+        pilot.step(rgb, float("nan"))
+    with pytest.raises(SteerlabError, match="expects 120x160x3 uint8 RGB frames"):
+        part.run(np.zeros((480, 640, 3), np.uint8))
+    assert np.isfinite(Pilot(ckpt, other_camera=True).step(np.zeros((480, 640, 3), np.uint8)).steering)
+    assert np.isfinite(pilot.step(cv2.imencode(".jpg", rgb)[1].tobytes()).steering)  # the bytes of a JPEG

@@ -8,6 +8,7 @@ import cv2
 import numpy as np
 import pytest
 
+from conftest import resaved
 from steerlab.cli import main
 from steerlab.data.car import CH2_CAR
 from steerlab.data.geometry import CAMERAS, shift_view
@@ -120,7 +121,7 @@ def test_suite_cache_key_covers_checkpoint_smoothing_and_minutes(tiny_checkpoint
     assert not bench("--smoothing", "0.5")
     retrained = torch.load(ckpt, weights_only=True)  # another checkpoint at the same path
     retrained["metrics"]["rmse"] = 0.123
-    torch.save(retrained, ckpt)
+    resaved(ckpt, retrained)
     assert bench("--smoothing", "0.5")
     assert json.loads(drive_json.read_text())["cache_key"]["checkpoint_sha256"] != key["checkpoint_sha256"]
     assert bench("--smoothing", "0.5", "--minutes", "0.03")  # the last --minutes counts
@@ -282,12 +283,17 @@ def test_drive_and_evaluate_videos(tiny_checkpoint, tiny_recording, tmp_path):
     assert first.shape[1] == 640 and first.shape[0] > 320  # the camera view with the wheels below it
 
 
-def test_geometry_mismatch_warns(tiny_checkpoint, ch2_folder, tmp_path, capsys):
+def test_another_camera_is_refused_unless_asked_for(tiny_checkpoint, ch2_folder, tmp_path, capsys):
     from steerlab.evaluate.offline import evaluate
     from steerlab.pilot import Pilot
 
-    drive(Pilot(tiny_checkpoint), None, DriveOptions(seed=101, minutes=0.01, geometry="ch2"), progress=False)
+    with pytest.raises(SteerlabError, match="trained on the 'sim' camera and takes no 'ch2' frames"):
+        drive(Pilot(tiny_checkpoint), None, DriveOptions(seed=101, minutes=0.01, geometry="ch2"), progress=False)
+    drive(Pilot(tiny_checkpoint, other_camera=True), None, DriveOptions(seed=101, minutes=0.01, geometry="ch2"),
+          progress=False)
     assert "trained on the 'sim' camera geometry" in capsys.readouterr().err
-    evaluate(tiny_checkpoint, Source(str(ch2_folder), labels=str(ch2_folder / "labels.csv")), tmp_path / "e",
-             progress=False)
+    source = Source(str(ch2_folder), labels=str(ch2_folder / "labels.csv"))
+    with pytest.raises(SteerlabError, match="pass --allow-other-camera"):
+        evaluate(tiny_checkpoint, source, tmp_path / "e", progress=False)
+    evaluate(tiny_checkpoint, source, tmp_path / "e", progress=False, other_camera=True)
     assert "has the 'ch2' geometry" in capsys.readouterr().err

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 import torch
 
-from conftest import CH2, SIM, made
+from conftest import CH2, SIM, made, resaved
 from steerlab.checkpoint import save_checkpoint
 from steerlab.data.readers import open_recording
 from steerlab.data.recording import SteeringConvention
@@ -77,7 +77,7 @@ def test_an_ensemble_runs_the_mean_of_its_members_on_torch_and_onnx(tmp_path, na
     members = [made(tmp_path, "steering_wheel", "left", "ch2", f"m{s}.pt", model=name, seed=s) for s in range(3)]
     ckpt = torch.load(members[1], weights_only=True)
     ckpt["stats"] = {"mean": [m + 60.0 for m in ckpt["stats"]["mean"]], "std": [s / 8 for s in ckpt["stats"]["std"]]}
-    torch.save(ckpt, members[1])
+    resaved(members[1], ckpt)
     assert main(["ensemble", *map(str, members), "--out", str(tmp_path / "ens.pt")]) == 0
     ensemble = Pilot(tmp_path / "ens.pt")
     onnx = Pilot(export_onnx(tmp_path / "ens.pt", tmp_path / "ens.onnx"))
@@ -196,10 +196,15 @@ def test_serve_answers_every_frame_like_the_pilot(tiny_checkpoint, tiny_recordin
         messages.insert(10, {"steering_angle": "0", "throttle": "0", "speed": "9.0", "image": "not base64 !"})
         tiny = cv2.imencode(".jpg", np.zeros((1, 1, 3), np.uint8))[1].tobytes()
         messages.insert(20, jpeg_message(tiny))  # a 1x1 frame: answered, and the server keeps serving
+        messages.insert(25, jpeg_message(jpegs[0], mph=-50))  # impossible speeds: a safe stop, never recorded
+        messages.insert(26, jpeg_message(jpegs[0], mph=1e300))
         for m in messages:
             got.clear()
             client.emit("telemetry", m)
             assert got.wait(10)
+        got.clear()
+        client.emit("telemetry")  # no payload at all: malformed, a safe stop
+        assert got.wait(10) and replies.pop() == {"steering_angle": "0.0", "throttle": "0.0"}
         client.emit("telemetry", {})  # manual mode: no command comes back
         time.sleep(0.3)
         assert len(replies) == len(messages)
@@ -211,8 +216,10 @@ def test_serve_answers_every_frame_like_the_pilot(tiny_checkpoint, tiny_recordin
     assert "telemetry frame 11: missing or undecodable image; sent a safe stop" in err
     assert replies[20] == {"steering_angle": "0.0", "throttle": "-1.0"}
     assert "telemetry frame 21: the image is 1x1, not the simulator's 320x160; sent a safe stop" in err
+    assert replies[25] == replies[26] == {"steering_angle": "0.0", "throttle": "0.0"}
+    assert "a speed of -50 mph is none a car drives at" in err and "a telemetry event with 0 payloads" in err
     assert "Traceback" not in err, err
-    del replies[20], replies[10]
+    del replies[26], replies[25], replies[20], replies[10]
     pilot, pi = Pilot(tiny_checkpoint), SpeedControl()
     for reply, jpeg, mph in zip(replies, jpegs, speeds):
         v = mph * 0.44704
@@ -255,7 +262,7 @@ def test_serve_refuses_at_start_what_it_can_never_drive(tmp_path):
     donkey = tmp_path / "donkey.pt"
     ckpt = torch.load(untrained(tmp_path, "pilotnet", "donkey"), weights_only=True)
     ckpt["convention"] = SteeringConvention("normalized", "right").as_dict()  # no full-lock angle
-    torch.save(ckpt, donkey)
+    resaved(donkey, ckpt)
     with pytest.raises(SteerlabError, match=r"donkey.pt cannot drive the simulator: it predicts normalized "
                                             r"steering without a full-lock angle"):
         DriveSession(Pilot(donkey), 4.0, tmp_path / "drive", donkey)
@@ -264,7 +271,7 @@ def test_serve_refuses_at_start_what_it_can_never_drive(tmp_path):
         DriveSession(Pilot(untrained(tmp_path, "pilotnet", "ch2")), 4.0, tmp_path / "drive")
     assert not (tmp_path / "drive").exists()
     ckpt["convention"]["full_lock"] = float(np.radians(25))  # a donkeycar whose full lock is known drives
-    torch.save(ckpt, donkey)
+    resaved(donkey, ckpt)
     DriveSession(Pilot(donkey), 4.0)
 
 

@@ -340,3 +340,49 @@ def test_the_batches_do_not_depend_on_the_number_of_workers(tiny_recording, tmp_
     run.sampler.set_epoch(4)
     assert not torch.equal(next(iter(loader(run.data, run.sampler, 0, torch.device("cpu"))))[0]["x"],
                            epochs[0][0][0]["x"])  # another epoch, another draw
+
+
+def test_a_run_does_not_resume_on_changed_data(tiny_recording, tmp_path, monkeypatch):
+    """Interrupted after epoch 1, then the labels change: the run records the identity of its data (the compiled
+    cache's source hash) and refuses to continue on other labels rather than pick a best epoch across them."""
+    import shutil
+
+    data = tmp_path / "rec"
+    shutil.copytree(tiny_recording, data)
+    cfg = _cfg(data, tmp_path, epochs=2)
+    real = loop.train_one_epoch
+    calls = []
+
+    def interrupted(*a, **k):
+        calls.append(1)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+        return real(*a, **k)
+
+    monkeypatch.setattr(loop, "train_one_epoch", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        loop.train(cfg, progress=False)
+    log = (data / "log.csv").read_text().splitlines()
+    header = log[0].split(",")
+    column = header.index("steering")
+    rows = [line.split(",") for line in log[1:]]
+    for r in rows:
+        r[column] = str(-float(r[column]))  # the labels negated
+    (data / "log.csv").write_text("\n".join([log[0]] + [",".join(r) for r in rows]) + "\n")
+    monkeypatch.setattr(loop, "train_one_epoch", real)
+    with pytest.raises(SteerlabError, match="holds a run trained on other data"):
+        loop.train(cfg, progress=False)
+
+
+def test_training_on_a_tub_says_degrees_are_unknown(tmp_path, capsys):
+    """A tub without a full-lock angle has no degrees: the epoch line and the table say n/a, never nan."""
+    from steerlab.cli import main
+    from test_sources import write_tub
+
+    tub = write_tub(tmp_path / "tub", [(i, "s", 1000 + 50 * i, 0.5 * np.sin(i / 5)) for i in range(40)])
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text(f"data: {tub}\ncache: {tmp_path / 'cache'}\nout: {tmp_path / 'run'}\nmodel: {{name: pilotnet}}\n"
+                   "split: {train: '0:30', val: '30:40'}\ntrain: {epochs: 1, batch_size: 8}\n")
+    assert main(["train", str(cfg)]) == 0
+    out = capsys.readouterr().out
+    assert "nan" not in out.lower() and "degrees n/a: no full-lock angle" in out and "n/a (no full-lock angle" in out

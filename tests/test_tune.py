@@ -264,3 +264,42 @@ def test_journal_repair_keeps_every_whole_line(tmp_path, capsys):
             assert (tmp_path / "s.journal.torn").read_bytes() == removed
             assert "its last line is torn" in capsys.readouterr().err
     assert not list(tmp_path.glob("*.lock"))  # Optuna's journal lock is released
+
+
+def test_a_trial_left_running_by_a_dead_worker_on_a_journal_is_retried(tmp_path, tiny_recording, capsys):
+    """A worker killed mid-trial on a journal (no heartbeat) leaves its trial running; the next worker of the same
+    machine sees that its process is gone, fails it and runs it again with the same parameters."""
+    import socket
+
+    import optuna
+
+    from steerlab.tune.storage import storage_of
+
+    cfg = tune_config(tmp_path, tiny_recording, tmp_path / "j", epochs=1)
+    journal = tmp_path / "j.journal"
+    run_tune(cfg, trials=1, storage=str(journal), study_name="j", seed=0)
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    study = optuna.load_study(study_name="j", storage=storage_of(str(journal), tmp_path))
+    killed = study.ask({"train.lr": optuna.distributions.FloatDistribution(1e-5, 0.1, log=True),
+                        "model.dropout": optuna.distributions.FloatDistribution(0.0, 0.6)})
+    killed.set_user_attr("worker", {"host": socket.gethostname(), "pid": dead.pid})
+    capsys.readouterr()
+    run_tune(cfg, trials=2, storage=str(journal), study_name="j", seed=0)
+    assert f"trial {killed.number} was left running by a worker that stopped (pid {dead.pid})" in capsys.readouterr().err
+    trials = optuna.load_study(study_name="j", storage=storage_of(str(journal), tmp_path)).trials
+    assert trials[killed.number].state == optuna.trial.TrialState.FAIL
+    retried = [t for t in trials if t.user_attrs.get("retry_of") == killed.number]
+    assert len(retried) == 1 and retried[0].state == optuna.trial.TrialState.COMPLETE
+    assert retried[0].params == killed.params
+
+
+def test_a_study_without_a_complete_trial_claims_nothing(tmp_path, tiny_recording, monkeypatch):
+    """Every trial failed: the reports say so, no best.yaml is claimed, and the command ends with an error."""
+    def broken(cfg, progress=False, on_epoch=None):
+        raise SteerlabError("training diverged in epoch 1")
+
+    monkeypatch.setattr("steerlab.train.loop.train", broken)
+    with pytest.raises(SteerlabError, match="has no complete trial \\(1 trials: 0 complete, 0 pruned, 1 failed"):
+        run_tune(tune_config(tmp_path, tiny_recording, tmp_path / "f", epochs=1), trials=1, seed=0)
+    assert (tmp_path / "f" / "summary.md").exists() and not (tmp_path / "f" / "best.yaml").exists()

@@ -159,10 +159,10 @@ class SteerlabPilot:
         if gap:
             self.reset()
         self.frames += 1
-        out = self.pilot.step(np.ascontiguousarray(img[..., ::-1]), None if speed is None else float(speed))
+        out = self.pilot.step(np.ascontiguousarray(img[..., ::-1]), speed)
         angle = servo_angle(out.steering, self.pilot.convention, self.full_lock, self.steering_ratio)
         if out.speed is not None:
-            throttle = self.speed_control.update(out.speed, float(speed))
+            throttle = self.speed_control.update(out.speed, speed)
         elif out.command is not None:
             self._commanded = float(np.clip(self._commanded + self.command_step * (out.command - 1), 0.0,
                                             self.max_throttle))

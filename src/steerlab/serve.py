@@ -5,7 +5,8 @@ The simulator (autonomous mode) connects with Socket.IO to port 4567 and sends a
 (320x160). The server answers each with a `steer` event (`steering_angle` in [-1, 1] = +-25 degrees, positive
 right, and `throttle`, both as strings). Telemetry without data means the simulator is in manual mode: the
 server emits `manual` and sends no command. A frame whose image is missing or undecodable gets a safe stop
-(steering 0, brake while moving) and a warning; so does a frame of another size than the simulator's 320x160;
+(steering 0, brake while moving) and a warning; so do a frame of another size than the simulator's 320x160, a
+speed no car drives at (negative, or beyond 100 mph: never recorded) and an event without a payload;
 the server keeps running. A model that can never drive the simulator (normalized steering without a full-lock
 angle, as a donkeycar checkpoint's, or a crop that removes the whole 320x160 frame) is refused at start.
 
@@ -94,9 +95,9 @@ class DriveSession:
         if frame is None or not math.isfinite(speed):
             return self._safe_stop(speed, f"missing or undecodable {'speed' if frame is not None else 'image'}")
         low, high = 0.0, CARS["sim"].speeds[1]
-        if not low <= speed <= high:  # never driven, never recorded
-            return self._safe_stop(speed, f"a speed of {data['speed']} mph is none a car drives at (0 to "
-                                          f"{high / MPH_TO_MS:.0f} mph)")
+        if not low <= speed <= high:  # never driven, never recorded, and not trusted to brake by
+            return self._safe_stop(math.nan, f"a speed of {data['speed']} mph is none a car drives at (0 to "
+                                             f"{high / MPH_TO_MS:.0f} mph)")
         if frame.shape[1::-1] != SIM_FRAME:
             return self._safe_stop(speed, f"the image is {frame.shape[1]}x{frame.shape[0]}, not the simulator's "
                                           f"{SIM_FRAME[0]}x{SIM_FRAME[1]}")

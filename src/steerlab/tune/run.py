@@ -116,7 +116,7 @@ def run_tune(cfg: TrainConfig, o: TuneOptions, progress: bool = True) -> Path:
     study = _load_study(cfg, o, store, name, o.storage or str(out / "study.journal"))
     if isinstance(store, optuna.storages.JournalStorage):
         _retry_dead_local_trials(study, name, progress)
-    surplus = []
+    surplus, failures = [], []
 
     def objective_fn(trial):
         if _ahead(study, trial.number) >= trials:  # other workers have started the last trials already
@@ -135,7 +135,12 @@ def run_tune(cfg: TrainConfig, o: TuneOptions, progress: bool = True) -> Path:
                 if epoch < epochs and trial.should_prune():  # a trial that trained all its epochs is complete
                     raise optuna.TrialPruned()
 
-        best = train(run_cfg, progress=False, on_epoch=on_epoch)
+        try:
+            best = train(run_cfg, progress=False, on_epoch=on_epoch)
+        except SteerlabError as e:  # the trial's training failed (diverged, say): a failed trial, the study goes on
+            trial.set_user_attr("error", str(e))
+            failures.append(trial.number)
+            raise _Failed() from None
         trial.set_user_attr("best_epoch", best.get("epoch"))
         if objective == "rmse":
             return best["rmse"]
@@ -160,6 +165,8 @@ def run_tune(cfg: TrainConfig, o: TuneOptions, progress: bool = True) -> Path:
         if progress:
             value = trial.values if trial.values is not None else trial.intermediate_values
             state = "pruned" if trial.state == optuna.trial.TrialState.PRUNED else trial.state.name.lower()
+            if "error" in trial.user_attrs:
+                state = f"failed ({trial.user_attrs['error']})"
             shown = (", ".join(f"{v:.4f}" for v in value) if isinstance(value, list)
                      else f"{min(value.values()):.4f} after {len(value)} epoch(s)" if value else "-")
             bar.write(f"trial {trial.number}: {state}, {shown}; "
@@ -170,7 +177,7 @@ def run_tune(cfg: TrainConfig, o: TuneOptions, progress: bool = True) -> Path:
     while len(study.get_trials(deepcopy=False, states=done_states)) < trials:
         surplus.clear()
         try:
-            study.optimize(objective_fn, n_trials=1, catch=(_Surplus,), callbacks=[report])
+            study.optimize(objective_fn, n_trials=1, catch=(_Surplus, _Failed), callbacks=[report])
         except (optuna.exceptions.UpdateFinishedTrialError, ValueError) as e:
             if isinstance(e, ValueError) and not str(e).startswith("Cannot tell a FAIL trial"):
                 raise
@@ -179,6 +186,8 @@ def run_tune(cfg: TrainConfig, o: TuneOptions, progress: bool = True) -> Path:
                  "(this worker was stalled or cut off from the storage); the trial is retried, this worker goes on")
             continue
         if surplus and not _wait_for_others(study, trials):
+            break
+        if len(failures) >= trials:  # every trial of this worker failed: not a matter of parameters
             break
     bar.close()
     if board:
@@ -213,6 +222,10 @@ class _Board:
 
     def close(self) -> None:
         self.writer.close()
+
+
+class _Failed(Exception):
+    """A trial whose training failed with a SteerlabError (said in its report line)."""
 
 
 class _Surplus(Exception):
