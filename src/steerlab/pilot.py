@@ -52,11 +52,13 @@ class DriveWith(Options):
 @dataclass(frozen=True)
 class Controls:
     """One frame's output: steering in the checkpoint's convention (radians); for speed models also the next
-    frame's speed (m/s) or the speed command (0 decelerate, 1 maintain, 2 accelerate)."""
+    frame's speed (m/s) or the speed command (0 decelerate, 1 maintain, 2 accelerate); for models that learned
+    the throttle (donkeycar tubs' `user/throttle`) the throttle in [-1, 1]."""
 
     steering: float
     speed: float | None = None
     command: int | None = None
+    throttle: float | None = None
 
 
 def _check_speed(speed):
@@ -201,4 +203,5 @@ class Pilot:
             self._smoothed = y if self._smoothed is None else self.smoothing * y + (1 - self.smoothing) * self._smoothed
             y = self._smoothed
         return Controls(y, float(out["speed"]) if "speed" in out else None,
-                        int(out["command"].argmax()) if "command" in out else None)
+                        int(out["command"].argmax()) if "command" in out else None,
+                        float(out["throttle"]) if "throttle" in out else None)
