@@ -193,8 +193,10 @@ def save_ensemble(checkpoints: list[str | Path], out: str | Path) -> Path:
             if ckpt.get(key) != first.get(key):
                 raise SteerlabError(f"{path} and {path0} differ in {what} ({ckpt.get(key)} and {first.get(key)}): "
                                     f"an ensemble averages models of one {what}")
-        for what in ("recurrent", "speed_history", "targets"):
-            if getattr(model, what) != getattr(models[0], what):
+        for what in ("recurrent", "speed_history", "targets", "throttle"):
+            value, value0 = ((c["model_cfg"].get("throttle", False) for c in (ckpt, first)) if what == "throttle"
+                             else (getattr(m, what) for m in (model, models[0])))
+            if value != value0:
                 raise SteerlabError(f"{path} ({ckpt['model']}) and {path0} ({first['model']}) differ in "
                                     f"{what.replace('_', ' ')}: an ensemble averages models that run alike")
     members = [{"model": c["model"], "model_cfg": c["model_cfg"], "stats": c["stats"]} for c in ckpts]

@@ -13,8 +13,11 @@ deliver) and, optionally, the measured speed (`enc/speed`, m/s, from donkeycar's
   lock, positive right. Without it such a model is refused when the part is made. A tub model whose checkpoint
   knows its car's full lock (reader option `full_lock_deg`) is rescaled to this car's when both are known.
   Values beyond full lock are clipped to [-1, 1].
-- **throttle** ([0, `max_throttle`]): the constant `throttle` for a steering model; for a model that predicts
-  the next frame's speed (`multitask-speed`, which also needs the measured speed with every frame) a PI
+- **throttle**: for a model that learned the throttle (a tub model trained with `train.throttle_weight`, the
+  tub default) the learned throttle times `throttle_scale`, capped to [-`max_throttle`, `max_throttle`]
+  (negative: the brake or reverse, as the tub recorded it); forcing a constant `throttle` on such a model is
+  refused unless `learned_throttle=False` says so. For a steering model the constant `throttle` (0.3 unless
+  given); for a model that predicts the next frame's speed (`multitask-speed`, which also needs the measured speed with every frame) a PI
   controller drives the measured speed to the predicted one around `throttle` as the cruising throttle; for a
   speed-command model (`speed-command`: decelerate / maintain / accelerate) the throttle steps down, stays or
   steps up by `command_step` each frame. donkeycar's `DriveMode` part multiplies it by `AI_THROTTLE_MULT`.
@@ -29,12 +32,14 @@ donkeycar vehicle loop prints it and stops the car). A missing frame (`None`: th
 (0, 0) and starts a new segment.
 
 On the car, `Pilot("model.onnx")` needs numpy, OpenCV and onnxruntime; torch is imported for .pt checkpoints
-only. donkeycar itself is not imported here: a part is any object with `run`.
+only. The model runs on `threads` threads (half the cores by default: a Raspberry Pi's camera and vehicle loop
+need the others). donkeycar itself is not imported here: a part is any object with `run`.
 """
 
 from __future__ import annotations
 
 import math
+import os
 import time
 from pathlib import Path
 from typing import Callable
@@ -70,13 +75,20 @@ def servo_angle(value: float, convention: SteeringConvention, full_lock: float |
     return float(np.clip(servo, -1.0, 1.0))
 
 
+DEFAULT_THROTTLE = 0.3  # the constant throttle of a steering model when none is given
+
+
 class SteerlabPilot:
     """A donkeycar part: `run(img_arr, speed=None) -> (angle, throttle)`; see the module's docstring.
 
     model: an exported `.onnx` file (self-contained; needs onnxruntime, not torch) or a `.pt` checkpoint.
-    throttle: the constant throttle of a steering model, and the cruising throttle of the speed controllers.
+    throttle: the constant throttle of a steering model (default 0.3), and the cruising throttle of the speed
+        controllers; for a model that learned the throttle only with `learned_throttle=False`.
+    learned_throttle: a model that learned the throttle drives with it (False: with the constant `throttle`).
+    throttle_scale: the learned throttle is multiplied by it (donkeycar's AI_THROTTLE_MULT does the same later).
     full_lock_deg: the car's road-wheel angle at full lock, in degrees; needed for models trained on angles.
-    max_throttle: the throttle of a speed or speed-command model never exceeds it.
+    max_throttle: no throttle but the constant one exceeds it (a learned one is capped to +-max_throttle).
+    threads: the model's threads (default: half the cores, at least one).
     kp, ki: the PI gains of the speed controller (throttle per m/s, per m/s and frame).
     command_step: the throttle change per frame of a speed-command model's accelerate / decelerate.
     smoothing: exponential smoothing of the steering (paper 002 Eq. 2), as `steerlab sim drive --smoothing`.
@@ -84,17 +96,28 @@ class SteerlabPilot:
     clock: seconds, for the gap (`time.monotonic`).
     """
 
-    def __init__(self, model: str | Path, throttle: float = 0.3, *, full_lock_deg: float | None = None,
-                 max_throttle: float = 0.5, kp: float = 0.1, ki: float = 0.01, command_step: float = 0.01,
-                 smoothing: float | None = None, reset_after_s: float | None = 0.5,
+    def __init__(self, model: str | Path, throttle: float | None = None, *, learned_throttle: bool = True,
+                 throttle_scale: float = 1.0, full_lock_deg: float | None = None, max_throttle: float = 0.5,
+                 kp: float = 0.1, ki: float = 0.01, command_step: float = 0.01, smoothing: float | None = None,
+                 threads: int | None = None, reset_after_s: float | None = 0.5,
                  clock: Callable[[], float] = time.monotonic):
-        self.throttle = _check("throttle", throttle, 0.0, 1.0)
+        forced = throttle is not None
+        self.throttle = _check("throttle", DEFAULT_THROTTLE if throttle is None else throttle, 0.0, 1.0)
+        self.throttle_scale = _check("throttle_scale", throttle_scale, 0.0, 10.0)
         self.full_lock = None if full_lock_deg is None else math.radians(
             _check("full_lock_deg", full_lock_deg, 0.0, 89.0, low_open=True))
         if smoothing is not None:
             _check("smoothing", smoothing, 0.0, 1.0, low_open=True)
+        if not isinstance(learned_throttle, bool):
+            raise SteerlabError(f"SteerlabPilot: learned_throttle must be True or False, got {learned_throttle!r}")
         self.source = Path(model)
-        self.pilot = Pilot(model, smoothing=smoothing)
+        self.pilot = Pilot(model, smoothing=smoothing,
+                           threads=max(1, (os.cpu_count() or 2) // 2) if threads is None else threads)
+        self.learned = learned_throttle and "throttle" in self.pilot.targets
+        if self.learned and forced:
+            raise SteerlabError(f"SteerlabPilot: {self.source.name} learned the throttle; throttle={throttle!r} "
+                                "would override it: pass learned_throttle=False to drive at a constant throttle, or "
+                                "leave throttle out (throttle_scale and max_throttle shape the learned one)")
         conv = self.pilot.convention
         if conv.kind != "normalized" and self.full_lock is None:
             wheel = "steering-wheel" if conv.kind == "steering_wheel" else "road-wheel"
@@ -102,7 +125,7 @@ class SteerlabPilot:
                                 "steers with a servo command in [-1, 1]: give the car's full-lock road-wheel angle, "
                                 f"SteerlabPilot({str(self.source)!r}, full_lock_deg=...)")
         self.max_throttle = _check("max_throttle", max_throttle, 0.0, 1.0)
-        if self.pilot.targets and self.throttle > self.max_throttle:
+        if {"speed", "command"} & set(self.pilot.targets) and self.throttle > self.max_throttle:
             raise SteerlabError(f"SteerlabPilot: the cruising throttle {self.throttle:g} exceeds max_throttle "
                                 f"{self.max_throttle:g}")
         self.speed_control = SpeedControl(_check("kp", kp, 0.0, 10.0), _check("ki", ki, 0.0, 10.0), self.throttle,
@@ -161,7 +184,9 @@ class SteerlabPilot:
         self.frames += 1
         out = self.pilot.step(np.ascontiguousarray(img[..., ::-1]), speed)
         angle = servo_angle(out.steering, self.pilot.convention, self.full_lock, self.steering_ratio)
-        if out.speed is not None:
+        if self.learned:
+            throttle = float(np.clip(self.throttle_scale * out.throttle, -self.max_throttle, self.max_throttle))
+        elif out.speed is not None:
             throttle = self.speed_control.update(out.speed, speed)
         elif out.command is not None:
             self._commanded = float(np.clip(self._commanded + self.command_step * (out.command - 1), 0.0,

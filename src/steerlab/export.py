@@ -68,7 +68,8 @@ def export_onnx(checkpoint: str | Path, out: str | Path, calib: str | Path | Non
         names.append("speeds")
     with torch.no_grad():
         probe = model(x[:, None]) if model.recurrent else model(*args)
-    outputs = [k for k in ("steering", "speed", "command") if k in (probe[0] if isinstance(probe, tuple) else probe)]
+    outputs = [k for k in ("steering", "speed", "command", "throttle")
+               if k in (probe[0] if isinstance(probe, tuple) else probe)]
     state = None
     if model.recurrent:
         h, _ = probe[1]

@@ -73,11 +73,14 @@ class Pilot:
     def __init__(self, checkpoint: str | Path | dict, smoothing: float | None = None, threads: int | None = None,
                  other_camera: bool = False):
         """`checkpoint`: a .pt checkpoint (path or loaded dict) or an exported .onnx file (self-contained: its
-        preprocessing, statistics and convention are in its metadata). `threads`: ONNX Runtime's intra-op
-        threads for an .onnx file (default: see `runtime.OnnxModel`). A frame of another size than the camera
-        the model was trained on is refused, unless `other_camera` (then it is cropped and resized like any)."""
+        preprocessing, statistics and convention are in its metadata). `threads`: the runtime's threads (ONNX
+        Runtime's intra-op threads, or torch's for a .pt checkpoint; default: see `runtime`). A frame of another
+        size than the camera the model was trained on is refused, unless `other_camera` (then it is cropped and
+        resized like any)."""
         if smoothing is not None and not FRACTION(smoothing):
             raise SteerlabError(f"smoothing must be a number in (0, 1], got {smoothing!r}")
+        if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or threads < 1):
+            raise SteerlabError(f"threads must be a whole number >= 1, got {threads!r}")
         self.net = load_model(checkpoint, threads)
         self.source = f"checkpoint of {checkpoint['model']}" if isinstance(checkpoint, dict) else str(checkpoint)
         self.name, self.config, self.convention = self.net.name, self.net.config, self.net.convention

@@ -31,24 +31,28 @@ _METADATA_PROPS = 14  # ModelProto field number of metadata_props (entries: key 
 
 def load_model(checkpoint: str | Path | dict, threads: int | None = None):
     """The model of a .pt checkpoint (path or loaded dict) on PyTorch, or of an exported .onnx file on ONNX
-    Runtime with `threads` intra-op threads."""
+    Runtime; `threads`: the runtime's intra-op threads (for PyTorch the process's, `torch.set_num_threads`)."""
     if not isinstance(checkpoint, dict) and Path(checkpoint).suffix == ".onnx":
         return OnnxModel(checkpoint, threads)
     if not isinstance(checkpoint, dict):
         from steerlab.checkpoint import load_checkpoint
 
         checkpoint = load_checkpoint(checkpoint)
-    return TorchModel(checkpoint)
+    return TorchModel(checkpoint, threads)
 
 
 class TorchModel:
     """A checkpoint's model: standardised NHWC frame (and speeds) in, numpy outputs out; keeps the recurrent
-    state between calls. `OnnxModel` is the same on ONNX Runtime."""
+    state between calls. `OnnxModel` is the same on ONNX Runtime. `threads` sets torch's (process-wide)."""
 
-    def __init__(self, ckpt: dict):
+    def __init__(self, ckpt: dict, threads: int | None = None):
         import torch
 
+        if threads is not None:
+            torch.set_num_threads(threads)
+
         from steerlab.checkpoint import model_from_checkpoint
+        from steerlab.models.registry import predicted
 
         self.torch = torch
         self.model, self.config, self.convention = model_from_checkpoint(ckpt)
@@ -57,7 +61,7 @@ class TorchModel:
         self.standardize = Standardizer(ckpt["stats"])
         self.recurrent = self.model.recurrent
         self.speed_history = self.model.speed_history
-        self.targets = tuple(self.model.targets)  # what it predicts besides steering: ("speed",), ("command",)
+        self.targets = predicted(self.model)  # what it predicts besides steering: speed or command, throttle
         self.reset()
 
     def reset(self) -> None:
@@ -188,7 +192,7 @@ class OnnxModel:
         self.recurrent = meta["state_shape"] is not None
         self.speed_history = int(meta["speed_history"])
         self.outputs = meta["outputs"] + (["h_out", "c_out"] if self.recurrent else [])
-        self.targets = tuple(k for k in meta["outputs"] if k != "steering")
+        self.targets = tuple(k for k in meta["outputs"] if k != "steering")  # as TorchModel's
         self.state_shape = meta["state_shape"]
         self.inputs = {i.name for i in self.session.get_inputs()}  # a constant baseline's graph takes none
         self.mean = np.asarray(meta["stats"]["mean"], np.float32)

@@ -7,7 +7,8 @@ from pathlib import Path
 from steerlab.cli import path_option, add_options, data_args, from_args, print_table, source
 from steerlab.errors import SteerlabError
 
-SPEED_METRICS = ["speed_mae", "command_accuracy"]  # printed when the model predicts speed or speed commands
+# printed when the model predicts speed, speed commands or the throttle
+OUTPUT_METRICS = ["speed_mae", "command_accuracy", "throttle_mae", "throttle_rmse"]
 
 
 def cmd_compile(a) -> None:
@@ -32,7 +33,7 @@ def cmd_evaluate(a) -> None:
     m = evaluate(a.checkpoint, source(a), a.out, a.camera, a.video,
                  allow_convention_mismatch=a.allow_convention_mismatch, other_camera=a.allow_other_camera)
     print_table(m, ["frames", "mse", "rmse", "mae", "mae_deg", "gamma_deg", "target_gamma_deg", "tre", "qce",
-                    "speed_weighted_mae", *SPEED_METRICS])
+                    "speed_weighted_mae", *OUTPUT_METRICS])
     print(f"with exponential smoothing a=0.2: rmse {m['smoothed_a0.2']['rmse']:.6f}, "
           f"gamma {m['smoothed_a0.2']['gamma_deg']:.4f} deg")
     print(f"wrote {a.out}/predictions.csv, {a.out}/steering.png, {a.out}/metrics.json"

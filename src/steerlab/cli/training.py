@@ -8,7 +8,7 @@ import sys
 from dataclasses import dataclass
 
 from steerlab.cli import path_option, add_options, from_args, print_table
-from steerlab.cli.data import SPEED_METRICS
+from steerlab.cli.data import OUTPUT_METRICS
 from steerlab.errors import SteerlabError
 from steerlab.options import AT_LEAST_1, Options, option
 
@@ -46,7 +46,7 @@ def cmd_train(a) -> None:
     if os.environ.get("RANK", "0") != "0":
         return
     print(f"best checkpoint: {cfg.out}/best.pt (epoch {best.get('epoch')})")
-    print_table(best, ["mse", "rmse", "mae", "mae_deg", "gamma_deg", "target_gamma_deg", *SPEED_METRICS])
+    print_table(best, ["mse", "rmse", "mae", "mae_deg", "gamma_deg", "target_gamma_deg", *OUTPUT_METRICS])
 
 
 def cmd_experiment(a) -> None:

@@ -112,8 +112,8 @@ def accuracy(pred, target) -> float:
 
 def all_metrics(pred: dict, truth: dict, deg_per_unit: float = DEG) -> dict[str, float]:
     """Steering metrics, the speed-weighted MAE where the recording has speed (weighted by truth["speed"], the
-    next frame's speed: one frame's change does not matter to a weight), and speed MAE and speed-command
-    accuracy for models that predict them."""
+    next frame's speed: one frame's change does not matter to a weight), and speed MAE, speed-command accuracy
+    and the throttle's MAE and RMSE (in the recording's throttle unit) for models that predict them."""
     m = steering_metrics(pred["steering"], truth["steering"], deg_per_unit)
     if "speed" in truth and np.any(truth["speed"]):
         m["speed_weighted_mae"] = speed_weighted_mae(pred["steering"], truth["steering"], truth["speed"])
@@ -121,4 +121,7 @@ def all_metrics(pred: dict, truth: dict, deg_per_unit: float = DEG) -> dict[str,
         m["speed_mae"] = speed_mae(pred["speed"], truth["speed"])
     if "command" in pred:
         m["command_accuracy"] = accuracy(pred["command"], truth["command"])
+    if "throttle" in pred and "throttle" in truth:
+        m["throttle_mae"] = mae(pred["throttle"], truth["throttle"])
+        m["throttle_rmse"] = rmse(pred["throttle"], truth["throttle"])
     return m

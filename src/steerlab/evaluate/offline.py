@@ -99,12 +99,14 @@ def evaluate(checkpoint: str | Path, source: Source, out: str | Path, camera: st
     pred = {"steering": np.array([c.steering for c in controls])}
     if convert:
         pred["steering"] = convert(pred["steering"])
-    for k in ("speed", "command"):
+    for k in ("speed", "command", "throttle"):
         if getattr(controls[0], k) is not None:
             pred[k] = np.array([getattr(c, k) for c in controls])
     truth = {"steering": rec.steering}
     if rec.speed is not None:
         truth.update(speed_targets(rec.speed, rec.timestamps_ns, seg))
+    if rec.throttle is not None:
+        truth["throttle"] = rec.throttle
     deg = rec.convention.degrees_per_unit
     metrics = all_metrics(pred, truth, deg)
     smooth = exponential_smoothing(pred["steering"], restarts=[a for a, _ in rec.segments()])
@@ -114,6 +116,7 @@ def evaluate(checkpoint: str | Path, source: Source, out: str | Path, camera: st
     t = (rec.timestamps_ns - rec.timestamps_ns[0]) / 1e9
     plot_steering(out / "steering.png", t, rec.steering, {pilot.name: pred["steering"]},
                   title=f"{rec.name} {source.range or ''}: RMSE {metrics['rmse']:.4f} rad, "
-                        f"gamma {metrics['gamma_deg']:.3f} vs target {metrics['target_gamma_deg']:.3f} deg")
+                        f"gamma {metrics['gamma_deg']:.3f} vs target {metrics['target_gamma_deg']:.3f} deg",
+                  throttle=(rec.throttle, pred["throttle"]) if "throttle" in metrics else None)
     (out / "metrics.json").write_text(json.dumps(metrics, indent=1))
     return metrics

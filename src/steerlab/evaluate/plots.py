@@ -10,20 +10,29 @@ from steerlab.figures import COLORS, MANY_COLORS, figure
 
 
 def plot_steering(path: str | Path, t_s: np.ndarray, target: np.ndarray, preds: dict[str, np.ndarray],
-                  title: str = "") -> None:
-    """Target vs prediction(s) over time, in degrees (paper 000 Fig. 7)."""
-    with figure(path, figsize=(11, 3.6), dpi=110) as (fig, ax):
+                  title: str = "", throttle: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+    """Target vs prediction(s) over time, in degrees (paper 000 Fig. 7); with `throttle` (recorded, predicted)
+    a second panel below shows the throttle."""
+    with figure(path, rows=1 + (throttle is not None), figsize=(11, 3.6 + 2.4 * (throttle is not None)), dpi=110,
+                sharex=True, squeeze=False) as (fig, axes):
+        ax = axes[0, 0]
         ax.plot(t_s, np.degrees(target), color="black", lw=1.4, label="target")
         for (name, p), color in zip(preds.items(), MANY_COLORS):
             ax.plot(t_s, np.degrees(p), lw=1.0, label=name, color=color)
-        ax.set_xlabel("time [s]")
         ax.set_ylabel("steering [deg]")
         ax.set_title(title)
-        ax.grid(alpha=0.3)
         if len(preds) > 3:  # many models: the legend goes beside the plot, not over the curves
             ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8)
         else:
             ax.legend(loc="upper right", fontsize=8)
+        if throttle is not None:
+            axes[1, 0].plot(t_s, throttle[0], color="black", lw=1.4, label="recorded")
+            axes[1, 0].plot(t_s, throttle[1], lw=1.0, color=MANY_COLORS[0], label="predicted")
+            axes[1, 0].set_ylabel("throttle")
+            axes[1, 0].legend(loc="upper right", fontsize=8)
+        for a in axes[:, 0]:
+            a.grid(alpha=0.3)
+        axes[-1, 0].set_xlabel("time [s]")
 
 
 def episodes_of(labels: np.ndarray) -> list[tuple[int, int, int]]:

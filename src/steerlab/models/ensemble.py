@@ -1,5 +1,5 @@
 """An ensemble: the mean of the outputs of several trained models that read the same inputs (seeds of one
-model, or models with the same preprocessing), built by `steerlab ensemble` (`checkpoint.save_ensemble`).
+model, or models with the same preprocessing and outputs), built by `steerlab ensemble` (`checkpoint.save_ensemble`).
 
 It takes the frame as the Pilot prepares it before standardisation (its checkpoint's statistics are the
 identity), and each member standardises it with its own training statistics. Recurrent members' states are
@@ -30,6 +30,7 @@ class Ensemble(SteeringModel):
             self.register_buffer(f"std{k}", torch.tensor(m["stats"]["std"]).view(shape), persistent=False)
         first = self.nets[0]
         self.recurrent, self.speed_history, self.targets = first.recurrent, first.speed_history, first.targets
+        self.learns_throttle = first.learns_throttle
         self.hidden = [net.lstm.hidden_size for net in self.nets] if self.recurrent else []
 
     def forward(self, x: torch.Tensor, speeds: torch.Tensor | None = None, state=None):

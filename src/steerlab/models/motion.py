@@ -40,18 +40,19 @@ class CNN3D(SteeringModel):
 
     inputs = {"stack": 3, "modalities": ["image"], "color": "gray"}
 
-    def __init__(self, in_channels: int = 3, dropout: float = 0.5):
+    def __init__(self, in_channels: int = 3, dropout: float = 0.5, throttle: bool = False):
         super().__init__()
+        self.learns_throttle = throttle
         layers, c = [], 1
         for out, k, s in [(24, 5, 2), (36, 5, 2), (48, 5, 2), (64, 3, 1), (64, 3, 1)]:
             layers += [nn.Conv3d(c, out, (3, k, k), (1, s, s), padding=(1, 0, 0)), nn.ReLU(inplace=True)]
             c = out
         self.features = nn.Sequential(*layers)
         self.frames = in_channels
-        self.head = pilotnet_head(dropout)
+        self.head = pilotnet_head(dropout, 1 + throttle)
 
     def forward(self, x: torch.Tensor) -> dict[str, torch.Tensor]:
-        return {"steering": self.head(self.features(x.unsqueeze(1)).flatten(1)).squeeze(1)}  # channels = time
+        return self.named(self.head(self.features(x.unsqueeze(1)).flatten(1)))  # channels = time
 
 
 @register("two-stream-flow")

@@ -141,14 +141,15 @@ class MultitaskSpeed(SteeringModel):
 class CG23(SteeringModel):
     inputs: dict = {}
 
-    def __init__(self, in_channels: int = 1, dropout: float = 0.5):
+    def __init__(self, in_channels: int = 1, dropout: float = 0.5, throttle: bool = False):
         super().__init__()
+        self.learns_throttle = throttle
         layers, c = [], in_channels
         for out in (16, 32, 64):
             layers += [nn.Conv2d(c, out, 3, padding=1), nn.ReLU(inplace=True), nn.MaxPool2d(2)]
             c = out
         self.features = nn.Sequential(*layers)
-        self.head = nn.Sequential(*dense([None, 256], dropout), nn.Linear(256, 1))
+        self.head = nn.Sequential(*dense([None, 256], dropout), nn.Linear(256, 1 + throttle))
 
     def forward(self, x: torch.Tensor) -> dict[str, torch.Tensor]:
-        return {"steering": self.head(self.features(x).flatten(1)).squeeze(1)}
+        return self.named(self.head(self.features(x).flatten(1)))

@@ -21,23 +21,24 @@ def pilotnet_convs(in_channels: int) -> nn.Sequential:
     return nn.Sequential(*layers)
 
 
-def pilotnet_head(dropout: float) -> nn.Sequential:
-    """Fully connected 1164, 100, 50, 10, 1 with ReLU and dropout after each hidden layer; the first layer takes
-    however many features the convolutions give (sized by the first input, `registry.create_model`)."""
+def pilotnet_head(dropout: float, outputs: int = 1) -> nn.Sequential:
+    """Fully connected 1164, 100, 50, 10, `outputs` with ReLU and dropout after each hidden layer; the first
+    layer takes however many features the convolutions give (sized by the first input, `registry.create_model`)."""
     layers = []
     for b in (1164, 100, 50, 10):
         layers += [nn.LazyLinear(b), nn.ReLU(inplace=True), nn.Dropout(dropout)]
-    return nn.Sequential(*layers, nn.Linear(10, 1))
+    return nn.Sequential(*layers, nn.Linear(10, outputs))
 
 
 @register("pilotnet")
 class PilotNet(SteeringModel):
     inputs: dict = {}  # any colour space and modalities
 
-    def __init__(self, in_channels: int = 1, dropout: float = 0.5):
+    def __init__(self, in_channels: int = 1, dropout: float = 0.5, throttle: bool = False):
         super().__init__()
+        self.learns_throttle = throttle
         self.features = pilotnet_convs(in_channels)
-        self.head = pilotnet_head(dropout)
+        self.head = pilotnet_head(dropout, 1 + throttle)
 
     def forward(self, x: torch.Tensor) -> dict[str, torch.Tensor]:
-        return {"steering": self.head(self.features(x).flatten(1)).squeeze(1)}
+        return self.named(self.head(self.features(x).flatten(1)))

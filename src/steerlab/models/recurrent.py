@@ -7,7 +7,8 @@
   convolution stack on the image, one on the flow), features concatenated, FC -> 512, LSTM 100, one output;
   MSE loss (paper 003's loss_lstm).
 
-A recurrent model takes (B, T, C, H, W) and an optional state and returns ({"steering": (B, T)}, state).
+A recurrent model takes (B, T, C, H, W) and an optional state and returns ({"steering": (B, T)}, state)
+(and "throttle" (B, T) when built with `throttle=True`).
 Training uses windows of `seq_len` consecutive frames of one segment, each starting from a zero state
 (truncated back-propagation through time); evaluation and the Pilot run it statefully over a whole range, one
 frame after another, resetting at segment starts.
@@ -27,13 +28,14 @@ class ConvLSTM(SteeringModel):
     recurrent = True
     inputs = {"modalities": ["image"], "color": "gray"}
 
-    def __init__(self, in_channels: int = 1, dropout: float = 0.5, hidden: int = 100, seq_len: int = 10):
+    def __init__(self, in_channels: int = 1, dropout: float = 0.5, hidden: int = 100, seq_len: int = 10,
+                 throttle: bool = False):
         super().__init__()
-        self.seq_len = seq_len
+        self.seq_len, self.learns_throttle = seq_len, throttle
         self.features = pilotnet_convs(in_channels)
         self.fc = nn.Sequential(nn.LazyLinear(512), nn.ReLU(inplace=True), nn.Dropout(dropout))
         self.lstm = nn.LSTM(512, hidden, batch_first=True)
-        self.out = nn.Linear(hidden, 1)
+        self.out = nn.Linear(hidden, 1 + throttle)
 
     def encode(self, frames: torch.Tensor) -> torch.Tensor:
         """(N, C, H, W) -> (N, 512)"""
@@ -42,7 +44,7 @@ class ConvLSTM(SteeringModel):
     def forward(self, x: torch.Tensor, state=None):
         b, t = x.shape[:2]
         h, state = self.lstm(self.encode(x.flatten(0, 1)).view(b, t, -1), state)
-        return {"steering": self.out(h).squeeze(-1)}, state
+        return self.named(self.out(h)), state
 
 
 @register("multimodal-lstm")
@@ -61,8 +63,9 @@ class FlowLSTM(ConvLSTM):
 
     inputs = {"modalities": ["image", "flow"]}
 
-    def __init__(self, in_channels: int = 3, dropout: float = 0.5, hidden: int = 100, seq_len: int = 10):
-        super().__init__(in_channels - 2, dropout, hidden, seq_len)  # self.features: the image
+    def __init__(self, in_channels: int = 3, dropout: float = 0.5, hidden: int = 100, seq_len: int = 10,
+                 throttle: bool = False):
+        super().__init__(in_channels - 2, dropout, hidden, seq_len, throttle)  # self.features: the image
         self.image_channels = in_channels - 2
         self.flow_features = pilotnet_convs(2)
 

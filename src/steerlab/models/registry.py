@@ -7,7 +7,9 @@ outputs:
 
 - `forward(x)` with x (B, C, H, W) returns {"steering": (B,)} in the recording's units; multi-task models
   add "speed" (B,), the next frame's speed in m/s, or "command" (B, 3), logits of the speed command
-  (decelerate, maintain, accelerate).
+  (decelerate, maintain, accelerate). A model built with `throttle=True` (training sets it when
+  `train.throttle_weight` > 0 and the recording's throttle varies, a donkeycar tub's `user/throttle`) adds
+  "throttle" (B,) from a second value of its last layer: the models with a `throttle` option can.
 - `loss(out, targets)` is the model's training objective (targets: "steering", and "speed"/"command" where the
   recording has speed); without one, training minimises the MSE of the steering.
 """
@@ -40,6 +42,25 @@ class SteeringModel(nn.Module):
     """Labels trained beyond the steering ("speed", "command"); such models need a recording with speed."""
     inputs: ClassVar[dict] = {}
     """Preprocessing options the model needs (modalities, colour, size, stacked frames)."""
+    learns_throttle: bool = False
+    """True when built with `throttle=True`: the last layer has a second value, the throttle."""
+
+    def named(self, y: torch.Tensor) -> dict[str, torch.Tensor]:
+        """The last layer's values (..., 1 or 2) as the model's outputs: the steering, and the throttle."""
+        out = {"steering": y[..., 0]}
+        if self.learns_throttle:
+            out["throttle"] = y[..., 1]
+        return out
+
+
+def predicted(model) -> tuple[str, ...]:
+    """What a model (or a Pilot's runtime model) predicts besides the steering: its `targets` and the throttle."""
+    return tuple(model.targets) + (("throttle",) if model.learns_throttle else ())
+
+
+def learns_throttle(name: str) -> bool:
+    """Whether the model `name` can learn the throttle (its constructor has a `throttle` option)."""
+    return "throttle" in model_option_types(name)
 
 
 _REGISTRY: dict[str, Callable[..., SteeringModel]] = {}
@@ -127,6 +148,9 @@ class ModelSpec:
         name = value["name"]
         types = model_option_types(name)
         options = {k: v for k, v in value.items() if k != "name"}
+        if "throttle" in options:
+            raise SteerlabError(f"{where}.throttle is not set by hand: training adds the throttle output when "
+                                "train.throttle_weight > 0 and the recording's throttle varies")
         unknown = sorted(set(options) - set(types))
         if unknown:
             raise SteerlabError(f"unknown {where} options {unknown} for model {name!r}; it takes {sorted(types)}")

@@ -21,6 +21,7 @@ from steerlab.data.dataset import CompiledDataset
 from steerlab.data.inputs import (Standardizer, augment, flip_horizontal, gather, history, no_motion, segment_starts,
                                   stack_modalities)
 from steerlab.data.labels import speed_targets
+from steerlab.errors import SteerlabError
 
 PREFETCH = 4  # batches each worker prepares ahead
 
@@ -47,11 +48,11 @@ class FrameBatches(Dataset):
     frame i is offsets[k] + i). Samples come back in the order asked for; each source is read in sorted order so
     that the memory-mapped reads run forward.
     inputs: "x" (B, C, H, W), and "speeds" (B, K) for models with a speed history; targets: "steering", and
-    where the recordings have speed, "speed" (the next frame's) and "command" (paper 002 IV-B2). Windows (B, T)
-    come back with a time axis: (B, T, ...)."""
+    where the recordings have speed, "speed" (the next frame's) and "command" (paper 002 IV-B2), and with
+    `throttle` the recorded "throttle". Windows (B, T) come back with a time axis: (B, T, ...)."""
 
     def __init__(self, sources: list[tuple[CompiledDataset, np.ndarray]], stats: dict, speed_history: int = 0,
-                 rotation_deg: float = 0.0, brightness: float = 0.0):
+                 rotation_deg: float = 0.0, brightness: float = 0.0, throttle: bool = False):
         self.sources, self.cfg, self.standardize = sources, sources[0][0].config, Standardizer(stats)
         self.offsets = np.cumsum([0] + [len(ds) for ds, _ in sources])
         self.local_starts = [segment_starts(ds.labels["segment"]) for ds, _ in sources]
@@ -64,6 +65,12 @@ class FrameBatches(Dataset):
             parts = [speed_targets(ds.labels["speed"], ds.labels["timestamps_ns"], ds.labels["segment"])
                      for ds, _ in sources]
             self.targets = {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+        if throttle:
+            missing = [ds.meta["source"] for ds, _ in sources if "throttle" not in ds.labels]
+            if missing:
+                raise SteerlabError(f"the throttle is learned from the main recording, but {missing[0]} has none "
+                                    "(train.throttle_weight=0 learns the steering alone)")
+            self.targets["throttle"] = np.concatenate([ds.labels["throttle"] for ds, _ in sources])
         self.speed_history, self.rotation_deg, self.brightness = speed_history, rotation_deg, brightness
 
     def steering(self, codes: np.ndarray) -> np.ndarray:
@@ -100,7 +107,7 @@ class FrameBatches(Dataset):
             inputs["speeds"] = torch.from_numpy(
                 self.speed[history(codes, self.starts, self.speed_history)].astype(np.float32))
         targets = {"steering": torch.from_numpy(y)}
-        targets.update({k: torch.from_numpy(v[codes].astype(np.float32 if k == "speed" else np.int64))
+        targets.update({k: torch.from_numpy(v[codes].astype(np.int64 if k == "command" else np.float32))
                         for k, v in self.targets.items()})
         if len(shape) == 2:  # windows: (B*T, ...) -> (B, T, ...)
             inputs, targets = ({k: v.view(*shape, *v.shape[1:]) for k, v in d.items()} for d in (inputs, targets))

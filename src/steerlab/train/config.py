@@ -19,7 +19,7 @@ from steerlab.data.preprocess import PreprocessConfig, PreprocessOptions
 from steerlab.data.splits import Split
 from steerlab.data.tub import is_tub
 from steerlab.errors import SteerlabError
-from steerlab.models.registry import ModelSpec
+from steerlab.models.registry import ModelSpec, learns_throttle, list_models
 from steerlab.paths import regular_file
 from steerlab.options import AT_LEAST_0, AT_LEAST_1, Options, POSITIVE, Range, UNIT, as_dict, option, parse
 
@@ -66,6 +66,9 @@ class TrainOptions(Options):
     teacher: str | None = option(None, expected="a checkpoint path", help="distillation: its predictions")
     device: Literal["auto", "cpu", "cuda"] = "auto"
     tensorboard: bool = False
+    throttle_weight: float = option(0.0, AT_LEAST_0, help="also learn the throttle where the recording varies it "
+                                    "(a donkeycar tub's user/throttle): the loss plus this weight times the MAE of "
+                                    "the throttle, as paper 002 weights steering and speed")
     workers: int = option(0, AT_LEAST_0, help="data-loading worker processes (0: in this one; the results do not "
                                                  "depend on it)")
 
@@ -107,6 +110,10 @@ class TrainConfig(Options):
         if hasattr(cls, "loss") and t.loss != "mse":
             raise SteerlabError(f"model {self.model.name!r} trains on a loss of its own; train.loss={t.loss} does "
                                 "not apply")
+        if t.throttle_weight > 0 and not learns_throttle(self.model.name):
+            able = ", ".join(m for m in list_models() if learns_throttle(m))
+            raise SteerlabError(f"train.throttle_weight: model {self.model.name!r} does not learn a throttle; "
+                                f"these do: {able}")
         self.model.build(self.preprocessing())  # the input fits the model's layers
 
     def preprocessing(self, geometry: str | None = None) -> PreprocessConfig:
@@ -131,14 +138,18 @@ class TrainConfig(Options):
             del t["side_offset_m"]
         if not (t["side_cameras"] or t["views"]):
             del t["steering_ratio"]
+        if not t["throttle_weight"]:  # runs from before the throttle could be learned
+            del t["throttle_weight"]
         return d
 
 
 # What a config that leaves them out gets on a donkeycar tub, under the user's own settings: the model and loss
 # chosen on the selection blocks of both shared tubs (docs/RESULTS.md, "steerlab side by side with donkeycar").
 # multimodal-lstm had the lowest mean selection MAE of the two tubs; the MAE loss suits the nearly binary
-# steering of an RC car. The general defaults (PilotNet, MSE) lose to donkeycar's linear model there.
-TUB_DEFAULTS = {"model": {"name": "multimodal-lstm"}, "train": {"batch_size": 32, "lr": 3.0e-4, "loss": "mae"}}
+# steering of an RC car. The general defaults (PilotNet, MSE) lose to donkeycar's linear model there. The
+# throttle is learned beside the steering, as donkeycar's linear model does (weight: "Learned throttle" there).
+TUB_DEFAULTS = {"model": {"name": "multimodal-lstm"},
+                "train": {"batch_size": 32, "lr": 3.0e-4, "loss": "mae", "throttle_weight": 0.5}}
 SECTIONS = [f.name for f in fields(TrainConfig)]
 
 
@@ -186,14 +197,17 @@ def layered(*layers: dict | None, overrides=()) -> dict:
 
 def parse_config(*layers: dict | None, overrides=()) -> TrainConfig:
     """Raw config layers (plain values, merged by `layered`) and overrides as a TrainConfig. Under them lie the
-    default model and, when the data is a donkeycar tub, TUB_DEFAULTS (a model with a loss of its own keeps it)."""
+    default model and, when the data is a donkeycar tub, TUB_DEFAULTS (a model with a loss of its own keeps it, a
+    model that cannot learn the throttle learns none)."""
     plain = layered({"model": as_dict(ModelSpec())}, *layers, overrides=overrides)
     raw = plain
     if isinstance(plain.get("data"), str) and is_tub(Path(plain["data"])):
         raw = layered(TUB_DEFAULTS, *layers, overrides=overrides)
-        model = raw.get("model")
+        model, own = raw.get("model"), plain.get("train") if isinstance(plain.get("train"), dict) else {}
         if isinstance(model, dict) and hasattr(ModelSpec.parse_option(model, "model").cls, "loss"):
-            raw["train"]["loss"] = (plain.get("train") or {}).get("loss", "mse")
+            raw["train"]["loss"] = own.get("loss", "mse")
+        if isinstance(model, dict) and not learns_throttle(ModelSpec.parse_option(model, "model").name):
+            raw["train"]["throttle_weight"] = own.get("throttle_weight", 0.0)
     unknown = sorted(set(raw) - set(SECTIONS))
     if unknown:
         raise SteerlabError(f"unknown config sections {unknown}; known: {sorted(SECTIONS)}")

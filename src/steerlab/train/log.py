@@ -7,7 +7,7 @@ from pathlib import Path
 
 from steerlab.errors import SteerlabError
 
-METRIC = {"speed": "speed_mae", "command": "command_accuracy"}  # the metric of each extra target
+METRIC = {"speed": "speed_mae", "command": "command_accuracy", "throttle": "throttle_mae"}  # of each extra output
 
 
 class EpochLog:

@@ -31,7 +31,8 @@ from steerlab.evaluate.metrics import all_metrics
 from steerlab.evaluate.scoring import write_predictions
 from steerlab.locks import folder_lock
 from steerlab.paths import folder_to_write
-from steerlab.models import SteeringModel
+from steerlab.models import SteeringModel, create_model
+from steerlab.models.registry import predicted
 from steerlab.options import as_dict
 from steerlab.train.batches import (Batch, EpochSampler, FrameBatches, balance_weights, loader, recovery_repeats,
                                     sequence_windows)
@@ -45,20 +46,24 @@ def _mean_error(error: torch.Tensor, loss: str) -> torch.Tensor:
     return torch.mean(error ** 2) if loss == "mse" else torch.mean(error.abs())
 
 
-def objective(model, out: dict, targets: dict, loss: str = "mse", smoothness: float = 0.0) -> torch.Tensor:
+def objective(model, out: dict, targets: dict, loss: str = "mse", smoothness: float = 0.0,
+              throttle_weight: float = 0.0) -> torch.Tensor:
     """The model's own loss when it has one, otherwise the MSE or the MAE of its steering; with `smoothness`,
     plus that weight times the same error of the steering's change from frame to frame within each window
-    (recurrent outputs (B, T): the predicted change against the recorded one)."""
+    (recurrent outputs (B, T): the predicted change against the recorded one); for a model that learns the
+    throttle, plus `throttle_weight` times the MAE of the throttle (paper 002 weights its speed MAE so)."""
     value = (model.loss(out, targets) if hasattr(model, "loss")
              else _mean_error(out["steering"] - targets["steering"], loss))
     if smoothness:
         change = torch.diff(out["steering"], dim=-1) - torch.diff(targets["steering"], dim=-1)
         value = value + smoothness * _mean_error(change, loss)
+    if "throttle" in out:
+        value = value + throttle_weight * torch.mean((out["throttle"] - targets["throttle"]).abs())
     return value
 
 
 def train_one_epoch(model, opt, batches, ranks: Ranks = Ranks(), loss_name: str = "mse", smoothness: float = 0.0,
-                    progress: bool = True, desc: str = "") -> float:
+                    throttle_weight: float = 0.0, progress: bool = True, desc: str = "") -> float:
     """One pass over `batches` (a DataLoader of this rank's share of each global batch), returning the mean
     training loss over all ranks."""
     net = getattr(model, "module", model)  # the model itself, also inside DDP
@@ -69,7 +74,8 @@ def train_one_epoch(model, opt, batches, ranks: Ranks = Ranks(), loss_name: str 
         inputs, targets = ({k: v.to(ranks.device, non_blocking=True) for k, v in d.items()} for d in (inputs, targets))
         n = len(targets["steering"])
         out = model(**inputs)
-        loss = objective(net, out[0] if net.recurrent else out, targets, loss_name, smoothness)  # (out, state)
+        loss = objective(net, out[0] if net.recurrent else out, targets, loss_name, smoothness,  # (out, state)
+                         throttle_weight)
         opt.zero_grad(set_to_none=True)
         (loss * weight if ranks.world > 1 else loss).backward()
         opt.step()
@@ -80,8 +86,8 @@ def train_one_epoch(model, opt, batches, ranks: Ranks = Ranks(), loss_name: str 
 
 
 def _numpy(out: dict) -> dict[str, np.ndarray]:
-    """Model outputs as predictions: steering, speed, and the most likely speed command."""
-    pred = {k: out[k].cpu().numpy().astype(np.float64) for k in ("steering", "speed") if k in out}
+    """Model outputs as predictions: steering, speed, throttle, and the most likely speed command."""
+    pred = {k: out[k].cpu().numpy().astype(np.float64) for k in ("steering", "speed", "throttle") if k in out}
     if "command" in out:
         pred["command"] = out["command"].argmax(-1).cpu().numpy()
     return pred
@@ -179,6 +185,20 @@ def _claim(out: Path, cfg: TrainConfig, car) -> None:
     cfg_file.write_text(json.dumps(as_dict(cfg), indent=1))
 
 
+def throttle_learned(cfg: TrainConfig, ds: CompiledDataset, say: bool) -> bool:
+    """Whether the model learns the throttle: `train.throttle_weight` > 0 and the recording's throttle varies
+    (said once when it does not)."""
+    if not cfg.train.throttle_weight:
+        return False
+    throttle = ds.labels.get("throttle")
+    if throttle is not None and np.ptp(throttle) > 0:
+        return True
+    if say:
+        why = "has no throttle" if throttle is None else f"has a constant throttle ({throttle[0]:g})"
+        print(f"{ds.meta['source']} {why}: the model learns the steering alone (train.throttle_weight ignored)")
+    return False
+
+
 def build(cfg: TrainConfig, ranks: Ranks, progress: bool, init: dict | None, teacher: dict | None) -> Run:
     """Compile the data (rank 0 first, the other ranks then read the cache), pick the usable frames of the
     split, gather the training sources and make the model and the epoch sampler."""
@@ -190,6 +210,8 @@ def build(cfg: TrainConfig, ranks: Ranks, progress: bool, init: dict | None, tea
     if ranks.main:
         ranks.barrier()
     model_cfg = cfg.model.arguments(ds.config)
+    if throttle_learned(cfg, ds, ranks.main):
+        model_cfg["throttle"] = True
     if init:  # before the other streams compile
         if init.get("geometry", ds.meta["geometry"]) != ds.meta["geometry"]:  # older checkpoints record none
             raise SteerlabError(f"{t.init}: train.init was trained on the {init['geometry']!r} camera geometry "
@@ -204,12 +226,12 @@ def build(cfg: TrainConfig, ranks: Ranks, progress: bool, init: dict | None, tea
     stats = channel_stats(ds.arrays, ds.config, train_idx, segment_starts(ds.labels["segment"]))
     sources, train_codes = training_sources(cfg, ds, train_idx, progress, teacher)
     torch.manual_seed(t.seed)
-    model = cfg.model.build(ds.config)
+    model = create_model(cfg.model.name, **model_cfg)
     if init:
         model.load_state_dict(init["state_dict"])
     if (model.targets or model.speed_history) and "speed" not in ds.labels:
         raise SteerlabError(f"model {cfg.model.name!r} needs a recording with speed; {ds.meta['source']} has none")
-    data = FrameBatches(sources, stats, model.speed_history, t.rotation_deg, t.brightness)
+    data = FrameBatches(sources, stats, model.speed_history, t.rotation_deg, t.brightness, model.learns_throttle)
     samples = train_codes
     if model.recurrent:
         samples = sequence_windows(train_codes, data.starts, model.seq_len)
@@ -247,7 +269,7 @@ def fit(run: Run, ranks: Ranks, progress: bool, on_epoch=None) -> dict:
     def keep_predictions(pred):
         if ranks.main:
             write_predictions(out / "val_predictions.csv", run.ds.labels["frame_ids"][run.val_idx], pred["steering"],
-                              {k: pred[k] for k in ("speed", "command") if k in pred})
+                              {k: v for k, v in pred.items() if k != "steering"})
 
     if not model.trainable:
         model.fit(run.data.steering(run.train_codes))
@@ -272,14 +294,15 @@ def fit(run: Run, ranks: Ranks, progress: bool, on_epoch=None) -> dict:
         torch.set_rng_state(state["torch_rng"])
         if ranks.main:
             print(f"resuming {out} after epoch {state['epoch']}")
-    log = EpochLog(out, model.targets, history, t.tensorboard) if ranks.main else None
+    log = EpochLog(out, predicted(model), history, t.tensorboard) if ranks.main else None
     batches = loader(run.data, run.sampler, t.workers, ranks.device)
     for epoch in range(start, t.epochs + 1):
         if since_best >= t.patience and t.keep == "best":
             break
         t0 = time.time()
         run.sampler.set_epoch(epoch)
-        loss = train_one_epoch(step_model, opt, batches, ranks, t.loss, t.smoothness, progress, f"epoch {epoch}")
+        loss = train_one_epoch(step_model, opt, batches, ranks, t.loss, t.smoothness, t.throttle_weight, progress,
+                               f"epoch {epoch}")
         pred = predict(model, run.data, run.val_idx)
         m = all_metrics(pred, run.truth, deg)
         for what, value in (("training loss", loss), (f"validation {score}", m[score])):
@@ -290,7 +313,7 @@ def fit(run: Run, ranks: Ranks, progress: bool, on_epoch=None) -> dict:
         if log is not None:
             history.append(log.write(epoch, loss, m, time.time() - t0))
         if progress:
-            extra = "".join(f"  {k} {m[k]:.3f}" for k in ("speed_mae", "command_accuracy") if k in m)
+            extra = "".join(f"  {k} {m[k]:.3f}" for k in ("speed_mae", "command_accuracy", "throttle_mae") if k in m)
             angles = (f"mae {m['mae_deg']:.2f} deg  gamma {m['gamma_deg']:.3f} (target {m['target_gamma_deg']:.3f})"
                       if np.isfinite(m["mae_deg"]) else
                       f"mae {m['mae']:.4f} ({run.convention.unit}; degrees n/a: no full-lock angle)")

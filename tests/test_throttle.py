@@ -1,0 +1,130 @@
+"""The learned throttle: models with a throttle output, the loss that weights it, training on a tub that varies
+its throttle (and not on one that does not), its metrics in training and `steerlab evaluate`, the ONNX export
+and the donkeycar part that drives with it."""
+
+import json
+import math
+
+import cv2
+import numpy as np
+import pytest
+import torch
+
+from conftest import made
+from steerlab.data.writer import TubWriter
+from steerlab.donkey import SteerlabPilot
+from steerlab.errors import SteerlabError
+from steerlab.models import create_model, list_models
+from steerlab.models.registry import learns_throttle
+from steerlab.train import loop
+from steerlab.train.config import load_config
+
+THROTTLE_MODELS = {"pilotnet", "pilotnet-diff", "pilotnet-flow", "cnn3d", "cg23", "lstm", "multimodal-lstm",
+                   "flow-lstm"}
+
+
+def test_models_with_a_throttle_output():
+    assert {m for m in list_models() if learns_throttle(m)} == THROTTLE_MODELS
+    for name in sorted(THROTTLE_MODELS):
+        plain = create_model(name, in_channels=3)
+        model = create_model(name, in_channels=3, throttle=True)
+        # the steering's weights keep their names: checkpoints of models without the output still load
+        assert set(model.state_dict()) == set(plain.state_dict())
+        x = torch.randn((2, 4, 3, 66, 200) if model.recurrent else (2, 3, 66, 200))
+        out = model.eval()(x)
+        out = out[0] if model.recurrent else out
+        assert set(out) == {"steering", "throttle"} and out["throttle"].shape == out["steering"].shape
+        plain_out = plain.eval()(x)
+        assert set(plain_out[0] if plain.recurrent else plain_out) == {"steering"}
+
+
+def test_objective_adds_the_weighted_mae_of_the_throttle():
+    net = create_model("cg23", throttle=True)
+    out = {"steering": torch.tensor([0.0, 1.0]), "throttle": torch.tensor([0.5, 0.1])}
+    y = {"steering": torch.tensor([1.0, 1.0]), "throttle": torch.tensor([0.3, 0.4])}
+    # MSE of the steering (1 + 0) / 2, plus 2 x MAE of the throttle (0.2 + 0.3) / 2
+    assert float(loop.objective(net, out, y, "mse", 0.0, 2.0)) == pytest.approx(0.5 + 2 * 0.25)
+    assert float(loop.objective(net, out, y, "mae", 0.0, 0.0)) == pytest.approx(0.5)
+
+
+def write_tub(folder, throttle, n=120):
+    """A 160x120 tub at 20 Hz whose frames show the steering (a bar's position) and the throttle (the
+    brightness of the floor), so that both can be learned from one frame."""
+    w = TubWriter(folder, full_lock_deg=25)
+    for i in range(n):
+        angle, t = 0.8 * math.sin(i / 6), throttle(i)
+        frame = np.full((120, 160, 3), int(60 + 150 * t), np.uint8)
+        x = int(80 + 60 * angle)
+        cv2.rectangle(frame, (x - 6, 40), (x + 6, 119), (20, 20, 230), -1)
+        w.add(frame, i * 50_000_000, -angle * math.radians(25), t)
+    return w.close()
+
+
+def train_on(tub, tmp_path, **train):
+    cfg = load_config(None, base={"data": str(tub), "cache": str(tmp_path / "cache"), "out": str(tmp_path / "run"),
+                                  "model": {"name": "cg23"}, "split": {"train": "0:90", "val": "90:120"},
+                                  "train": {"epochs": 12, "batch_size": 16, "lr": 1e-3, "patience": 12, **train}})
+    return loop.train(cfg, progress=False), tmp_path / "run"
+
+
+def test_a_tub_that_varies_its_throttle_gets_a_throttle_model(tmp_path, capsys):
+    from steerlab.checkpoint import load_checkpoint
+    from steerlab.evaluate.offline import evaluate
+    from steerlab.export import export_onnx
+    from steerlab.data.readers import Source
+    from steerlab.pilot import Pilot
+
+    def throttle(i):
+        return 0.2 + 0.5 * (i // 10 % 2)  # 0.2 and 0.7 in blocks of ten frames
+
+    tub = write_tub(tmp_path / "tub", throttle)
+    best, run = train_on(tub, tmp_path)
+    assert "learns the steering alone" not in capsys.readouterr().out
+    recorded = np.array([throttle(i) for i in range(90, 120)])
+    assert best["throttle_mae"] < 0.5 * np.mean(np.abs(recorded - recorded.mean()))  # it sees the brightness
+    assert load_checkpoint(run / "best.pt")["model_cfg"]["throttle"] is True
+    assert "val_throttle_mae" in (run / "log.csv").read_text().splitlines()[0].split(",")
+    assert (run / "val_predictions.csv").read_text().splitlines()[0].endswith("throttle")
+
+    m = evaluate(run / "best.pt", Source(str(tub), "90:120"), tmp_path / "eval", progress=False)
+    saved = json.loads((tmp_path / "eval" / "metrics.json").read_text())
+    assert saved["throttle_mae"] == pytest.approx(m["throttle_mae"]) and "throttle_rmse" in saved
+    pred = np.genfromtxt(tmp_path / "eval" / "predictions.csv", delimiter=",", names=True)
+    assert np.mean(np.abs(pred["throttle"] - recorded)) == pytest.approx(m["throttle_mae"])
+
+    onnx = export_onnx(run / "best.pt", tmp_path / "model.onnx")
+    frame = cv2.imread(str(tub / "images" / "100_cam_image_array_.jpg"))
+    for backend in (run / "best.pt", onnx):
+        assert Pilot(backend).step(frame).throttle == pytest.approx(pred["throttle"][10], abs=1e-4)
+    rgb = np.ascontiguousarray(frame[..., ::-1])
+    learned = pred["throttle"][10]
+    assert SteerlabPilot(onnx).run(rgb)[1] == pytest.approx(min(learned, 0.5), abs=1e-4)
+    assert SteerlabPilot(onnx, throttle_scale=0.5, max_throttle=1.0).run(rgb)[1] == pytest.approx(
+        0.5 * learned, abs=1e-4)
+    assert SteerlabPilot(onnx, 0.25, learned_throttle=False).run(rgb)[1] == 0.25
+    with pytest.raises(SteerlabError, match=r"model.onnx learned the throttle; throttle=0.25 would override it: "
+                                            r"pass learned_throttle=False"):
+        SteerlabPilot(onnx, 0.25)
+
+
+def test_a_tub_of_constant_throttle_gets_no_throttle_output(tmp_path, capsys):
+    from steerlab.checkpoint import load_checkpoint
+
+    tub = write_tub(tmp_path / "tub", lambda i: 0.3, n=60)
+    cfg = load_config(None, base={"data": str(tub), "cache": str(tmp_path / "cache"), "out": str(tmp_path / "run"),
+                                  "split": {"train": "0:40", "val": "40:60"}, "train": {"epochs": 1}})
+    assert cfg.train.throttle_weight == 0.5  # the tub default
+    best = loop.train(cfg, progress=False)
+    assert f"{tub} has a constant throttle (0.3): the model learns the steering alone" in capsys.readouterr().out
+    assert "throttle_mae" not in best and "throttle" not in load_checkpoint(tmp_path / "run" / "best.pt")["model_cfg"]
+    assert SteerlabPilot(tmp_path / "run" / "best.pt").throttle == 0.3  # the constant default
+
+
+def test_the_tub_default_learns_the_throttle_only_with_a_model_that_can(tmp_path):
+    tub = write_tub(tmp_path / "tub", lambda i: 0.3, n=2)
+    base = {"data": str(tub)}
+    assert load_config(None, base=base).train.throttle_weight == 0.5
+    assert load_config(None, base={**base, "model": {"name": "two-stream-flow"}}).train.throttle_weight == 0.0
+    with pytest.raises(SteerlabError, match=r"train.throttle_weight: model 'two-stream-flow' does not learn a "
+                                            r"throttle; these do: cg23, cnn3d, flow-lstm, lstm"):
+        load_config(None, base={**base, "model": {"name": "two-stream-flow"}}, overrides=["train.throttle_weight=1"])
