@@ -5,7 +5,8 @@
 
 A package at the same version on every Python of the file gets one line without a marker; one whose versions differ
 (or that only some Pythons install) gets a line per version with the Pythons it applies to, e.g.
-`pandas==2.3.3; python_version == "3.11"`. `make lock PYTHON=...` (.ci/lock.sh) calls `merge` after the suite passed.
+`pandas==2.3.3; python_version == "3.11"`. While the file has one Python only, every line but torch's names it: a
+Python not locked yet is not held to another's versions. `make lock PYTHON=...` (.ci/lock.sh) calls `merge` after the suite passed.
 """
 
 from __future__ import annotations
@@ -56,10 +57,11 @@ def frozen(text: str) -> dict[str, str]:
     out = {}
     for line in text.splitlines():
         m = LINE.match(line.strip())
-        if m and canonical(m.group(1)) not in SKIP:
+        if m is None:
+            if line.strip() and not line.startswith("#"):
+                raise SystemExit(f"lock.py: not a pinned package in the freeze: {line!r}")
+        elif canonical(m.group(1)) not in SKIP:
             out[canonical(m.group(1))] = m.group(2).split("+")[0]
-        elif line.strip() and not line.startswith("#"):
-            raise SystemExit(f"lock.py: not a pinned package in the freeze: {line!r}")
     return out
 
 
@@ -72,7 +74,8 @@ def render(pythons: list[str], pins: dict[str, dict[str, str]]) -> str:
         for py in pythons:
             if py in pins[name]:
                 by_version.setdefault(pins[name][py], []).append(py)
-        if len(by_version) == 1 and len(next(iter(by_version.values()))) == len(pythons):
+        same = len(by_version) == 1 and len(next(iter(by_version.values()))) == len(pythons)
+        if same and (len(pythons) > 1 or name in HOLD):
             rows.append(f"{name}=={next(iter(by_version))}\n")
             continue
         for version, pys in by_version.items():

@@ -184,12 +184,9 @@ def test_serve_answers_every_frame_like_the_pilot(tiny_checkpoint, tiny_recordin
     client, replies, got = socketio.Client(), [], threading.Event()
     client.on("steer", lambda data: (replies.append(data), got.set()))
     try:
-        for _ in range(100):  # wait for the server to listen
-            try:
-                client.connect(f"http://127.0.0.1:{port}")
-                break
-            except socketio.exceptions.ConnectionError:
-                time.sleep(0.1)
+        listening = server.stdout.readline()  # the server says so once it listens; nothing if it exited
+        assert listening.startswith("steerlab serve: "), server.communicate(timeout=10)[1]
+        client.connect(f"http://127.0.0.1:{port}")
         assert got.wait(10)  # the greeting: stand still
         assert replies.pop() == {"steering_angle": "0.0", "throttle": "0.0"}
         speeds = [8.0 + 0.1 * i for i in range(len(jpegs))]  # mph
