@@ -52,7 +52,7 @@ $(VENV)/.runtime: pyproject.toml constraints.txt | $(VENV)/.made
 $(VENV)/.test: $(VENV)/.runtime
 	touch $(VENV)/.installing
 	$(INSTALL) -e '.[test]'
-	$(BIN)/python -c 'import pytest, xdist, optuna, sklearn, psycopg, onnx, onnxruntime, rosbags, socketio, eventlet'
+	$(BIN)/python -W ignore -c 'import pytest, xdist, optuna, sklearn, psycopg, onnx, onnxruntime, rosbags, socketio, eventlet'
 	rm $(VENV)/.installing
 	touch $@
 

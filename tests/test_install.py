@@ -3,6 +3,7 @@ format, and make's handling of an unsupported Python and of a broken .venv (in a
 installed)."""
 
 import importlib.util
+import os
 import re
 import shutil
 import subprocess
@@ -106,7 +107,11 @@ def project(tmp_path):
 
 
 def make(project, *args):
-    return subprocess.run(["make", "-n", *args], cwd=project, capture_output=True, text=True)
+    """`make -n ARGS` as from a shell: not as a sub-make of the `make test` this suite may run under, which would
+    hand down its own variables (PYTHON=...) and print the folders it enters."""
+    env = {k: v for k, v in os.environ.items() if k not in ("MAKEFLAGS", "MFLAGS", "MAKELEVEL", "MAKEOVERRIDES",
+                                                           "PYTHON")}
+    return subprocess.run(["make", "-n", *args], cwd=project, capture_output=True, text=True, env=env)
 
 
 @pytest.mark.skipif(shutil.which("make") is None, reason="make is not installed")
