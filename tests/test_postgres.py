@@ -154,6 +154,25 @@ def postgres():
         shutil.rmtree(root, ignore_errors=True)
 
 
+def test_the_server_gets_a_folder_its_user_can_enter(tmp_path, monkeypatch):
+    """With TMPDIR in a private folder (a home of mode 700), the server's folder goes to /tmp or /var/tmp."""
+    nobody = pwd.getpwnam("nobody")
+    groups = {nobody.pw_gid}
+    private = tmp_path / "home"
+    private.mkdir(mode=0o700)
+    assert not can_enter(private, nobody.pw_uid, groups) and can_enter(Path("/tmp"), nobody.pw_uid, groups)
+    monkeypatch.setattr(tempfile, "tempdir", str(private))  # what TMPDIR=~/tmp gives
+    folder = server_folder(nobody.pw_uid, groups)
+    try:
+        assert folder.parent in (Path("/tmp"), Path("/var/tmp")) and folder.name.startswith("steerlab-pg-")
+    finally:
+        folder.rmdir()
+    monkeypatch.setattr(tempfile, "tempdir", "/tmp")
+    folder = server_folder(nobody.pw_uid, groups)
+    folder.rmdir()
+    assert folder.parent == Path("/tmp")
+
+
 def steerlab() -> list[str]:
     """The installed `steerlab` command (what a user runs), else `python -m steerlab`."""
     exe = Path(sys.executable).with_name("steerlab")
