@@ -10,7 +10,7 @@ BIN := $(VENV)/bin
 export PYTHONDONTWRITEBYTECODE =
 INSTALL := $(BIN)/python -m pip install --quiet --no-compile --constraint constraints.txt
 
-.PHONY: install demo test check-deps lock bench clean
+.PHONY: install demo test check-deps lock bench clean rebuild
 
 # A Python's version ("3.12"), or nothing when it does not run or is older than MIN_PYTHON.
 comma := ,
@@ -18,30 +18,33 @@ version_of = $(shell $(1) -c 'import sys; print("%d.%d" % sys.version_info[:2] i
 PYTHON_VERSION = $(call version_of,$(PYTHON))
 check_python = $(if $(PYTHON_VERSION),,$(error steerlab needs Python $(MIN_PYTHON) or newer (tested on 3.11, 3.12 and 3.13); PYTHON=$(PYTHON) is $(or $(shell $(PYTHON) -c 'import platform; print("Python", platform.python_version())' 2>/dev/null),not a Python that runs)))
 
-# The .venv is used only as make leaves it. One whose last install did not finish (.venv/.installing stays from the
-# start of an install to its end, as after Ctrl-C), whose python does not run, or made with another Python than a
-# PYTHON given to make, is made anew, with one line saying why.
-ifneq ($(wildcard $(VENV)/.made),)
+# The .venv is used only as make leaves it. One that make did not finish making, whose last install did not finish
+# (.venv/.installing stays from the start of an install to its end, as after Ctrl-C), whose python does not run, or
+# made with another Python than a PYTHON given to make, is made anew, with one line saying why.
+ifneq ($(wildcard $(VENV)),)
+ifeq ($(wildcard $(VENV)/.made),)
+WHY := it was not made by make, or its making did not finish
+else
 VENV_VERSION := $(call version_of,$(BIN)/python)
 WHY := $(if $(wildcard $(VENV)/.installing),its last install did not finish,$(if $(VENV_VERSION),,its python does not run))
 ifneq ($(origin PYTHON),file)
 $(check_python)
 WHY := $(or $(WHY),$(if $(filter $(VENV_VERSION),$(PYTHON_VERSION)),,it has Python $(VENV_VERSION), PYTHON=$(PYTHON) is $(PYTHON_VERSION)))
 endif
+endif
+endif
 ifneq ($(WHY),)
 $(info $(VENV): $(WHY); making it anew)
-$(shell rm -rf $(VENV))
-endif
+REBUILD := rebuild
 endif
 
-$(VENV)/.made:
+$(VENV)/.made: $(REBUILD)
 	$(check_python)
-	@if [ -e $(VENV) ]; then echo "$(VENV): not made by make, or its making did not finish; making it anew"; fi
 	rm -rf $(VENV)
 	$(PYTHON) -m venv $(VENV)
 	touch $@
 
-$(VENV)/.runtime: pyproject.toml constraints.txt | $(VENV)/.made
+$(VENV)/.runtime: pyproject.toml constraints.txt $(REBUILD) | $(VENV)/.made
 	touch $(VENV)/.installing
 	$(INSTALL) --upgrade pip
 	$(INSTALL) -e .
