@@ -17,10 +17,12 @@ one by one to name those that fail. --each resolves every set anyway.
 
     python .ci/resolve_check.py [--each] [--python 3.12 ...]
 
-Run with a recent pip (make check-deps runs it with .venv's). The machine's own pip constraint file, if any
-(PIP_CONSTRAINT, pip.conf), is set aside: it is no part of a user's install. pip's cache keeps what the dry runs
-fetch; they read the metadata of wheels from the index with HTTP range requests (pip's fast-deps) where the index
-does not serve it apart (PEP 658), instead of reading whole wheels (torch's are hundreds of MB) on every run.
+Run with a recent pip (make check-deps runs it with .venv's, pinned in constraints.txt). The machine's own pip
+constraint file, if any (PIP_CONSTRAINT, pip.conf), is set aside: it is no part of a user's install. Where the index
+does not serve wheel metadata apart (PEP 658) pip would download each whole wheel to read it (torch and its CUDA
+libraries: GBs), on every run when the index sends no cache headers either; instead each wheel's metadata is read
+once with HTTP range requests (pip's fast-deps) and kept in ~/.cache/steerlab/wheel-metadata (a released file does
+not change). A run then takes seconds per set, most of it reading the index pages.
 """
 
 from __future__ import annotations
