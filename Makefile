@@ -1,30 +1,84 @@
 # Two entry points for a fresh machine: `make demo` (the main job) and `make test`.
+# `make demo` installs steerlab with its runtime only; `make test` adds every extra and the test tools. Both install
+# the versions of constraints.txt, the ones the suite last passed with (`make lock` refreshes them).
 PYTHON ?= python3
+MIN_PYTHON := 3.11# the same as requires-python in pyproject.toml
 VENV := .venv
 BIN := $(VENV)/bin
-STAMP := $(VENV)/.installed
 # Packages are installed without byte-compiling (half the install time); Python writes each module's bytecode
 # when it is first imported, also where the environment says PYTHONDONTWRITEBYTECODE.
 export PYTHONDONTWRITEBYTECODE =
+INSTALL := $(BIN)/python -m pip install --quiet --no-compile --constraint constraints.txt
 
-.PHONY: install demo test bench clean
+.PHONY: install demo test check-deps lock bench clean rebuild
 
-$(STAMP): pyproject.toml requirements.txt
-	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
-	$(BIN)/pip install --quiet --upgrade pip
-	$(BIN)/pip install --quiet --no-compile -r requirements.txt
-	$(BIN)/pip install --quiet --no-deps -e .
-	touch $(STAMP)
+# A Python's version ("3.12"), or nothing when it does not run or is older than MIN_PYTHON.
+comma := ,
+version_of = $(shell $(1) -c 'import sys; print("%d.%d" % sys.version_info[:2] if sys.version_info >= ($(subst .,$(comma),$(MIN_PYTHON)),) else "")' 2>/dev/null)
+PYTHON_VERSION = $(call version_of,$(PYTHON))
+check_python = $(if $(PYTHON_VERSION),,$(error steerlab needs Python $(MIN_PYTHON) or newer (tested on 3.11, 3.12 and 3.13); PYTHON=$(PYTHON) is $(or $(shell $(PYTHON) -c 'import platform; print("Python", platform.python_version())' 2>/dev/null),not a Python that runs)))
 
-install: $(STAMP)
+# The .venv is used only as make leaves it. One that make did not finish making, whose last install did not finish
+# (.venv/.installing stays from the start of an install to its end, as after Ctrl-C), whose python does not run, or
+# made with another Python than a PYTHON given to make, is made anew, with one line saying why.
+ifneq ($(wildcard $(VENV)),)
+ifeq ($(wildcard $(VENV)/.made),)
+WHY := it was not made by make, or its making did not finish
+else
+VENV_VERSION := $(call version_of,$(BIN)/python)
+WHY := $(if $(wildcard $(VENV)/.installing),its last install did not finish,$(if $(VENV_VERSION),,its python does not run))
+ifneq ($(origin PYTHON),file)
+$(check_python)
+WHY := $(or $(WHY),$(if $(filter $(VENV_VERSION),$(PYTHON_VERSION)),,it has Python $(VENV_VERSION), PYTHON=$(PYTHON) is $(PYTHON_VERSION)))
+endif
+endif
+endif
+ifneq ($(WHY),)
+$(info $(VENV): $(WHY); making it anew)
+REBUILD := rebuild
+endif
 
-demo: $(STAMP)
+$(VENV)/.made: $(REBUILD)
+	$(check_python)
+	rm -rf $(VENV)
+	$(PYTHON) -m venv $(VENV)
+	touch $@
+
+$(VENV)/.runtime: pyproject.toml constraints.txt $(REBUILD) | $(VENV)/.made
+	touch $(VENV)/.installing
+	$(INSTALL) --upgrade pip
+	$(INSTALL) -e .
+	$(BIN)/python -c 'import steerlab.cli, torch, cv2, numpy, matplotlib, yaml, tqdm'
+	rm $(VENV)/.installing
+	touch $@
+
+$(VENV)/.test: $(VENV)/.runtime
+	touch $(VENV)/.installing
+	$(INSTALL) -e '.[test]'
+	$(BIN)/python -W ignore -c 'import pytest, xdist, optuna, sklearn, psycopg, onnx, onnxruntime, rosbags, socketio, eventlet'
+	rm $(VENV)/.installing
+	touch $@
+
+install: $(VENV)/.runtime
+
+demo: $(VENV)/.runtime
 	$(BIN)/steerlab demo --out runs/demo
 
-test: $(STAMP)
+test: $(VENV)/.test
 	$(BIN)/python -m pytest -q -n 2 --dist worksteal
 
-bench: $(STAMP)  # bench_donkeycar.py is left out: it installs donkeycar and trains for about an hour
+# That the runtime, each extra and the test set resolve on every supported Python (and the runtime on aarch64),
+# by pip's own rules, with pyproject.toml's ranges and with constraints.txt: dry runs, no install.
+check-deps: $(VENV)/.runtime
+	$(BIN)/python .ci/resolve_check.py
+
+# constraints.txt anew for PYTHON (make lock PYTHON=python3.12, ...): the newest versions pyproject.toml allows
+# (torch stays at its pinned build), installed in a separate venv; written only when the suite passes there.
+lock:
+	$(check_python)
+	sh .ci/lock.sh $(PYTHON)
+
+bench: $(VENV)/.test  # bench_donkeycar.py is left out: it installs donkeycar and trains for about an hour
 	for b in benchmarks/bench_*.py; do case $$b in *donkeycar*) continue;; esac; $(BIN)/python $$b || exit 1; done
 
 clean:

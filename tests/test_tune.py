@@ -156,7 +156,7 @@ def test_killed_worker_trial_is_failed_and_retried(tmp_path, tiny_recording, mon
     worker = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     storage = optuna.storages.RDBStorage(url)
     try:
-        for _ in range(600):  # until the first trial has finished an epoch
+        while worker.poll() is None:  # until the first trial has finished an epoch, however busy the machine is
             time.sleep(0.1)
             try:
                 trials = optuna.load_study(study_name="s", storage=storage).trials
