@@ -2,14 +2,18 @@
 
 For each tub, the records (minus deleted ones and those whose image is missing) are cut into contiguous
 blocks: the first 80 % are training data for everyone, the last 20 % are the held-out validation block on
-which every model is scored (steering MAE in the tub's own unit, [-1, 1]). steerlab trains on the MAE
+which every model is scored (steering MAE in the tub's own unit, [-1, 1], and, for the models that predict it,
+throttle MAE against the recorded `user/throttle`). Every trainer runs `--seeds` times (steerlab with
+`train.seed` 0, 1, ...; donkeycar's own trainer draws its own split and initialisation each run); the table
+gives the mean and the spread over the runs. steerlab trains on the MAE
 (`train.loss: mae`: the score, and the median suits the nearly binary steering of an RC car), picks the
 number of epochs on the first 70 % / next 10 % (best validation MAE, patience 5) and then trains on the whole
 first 80 % for that many epochs; donkeycar's trainer gets the whole first 80 % as a tub (the rest marked deleted)
 and splits it itself, as its users run it (`donkey train`, default config: 80/20 random split, early
 stopping). Training time is the wall-clock time of each trainer (for steerlab both of its runs). steerlab's
-settings are its defaults for a tub (`TUB_DEFAULTS` in train/config.py: batch 32, Adam 3e-4, MAE loss), only the
-model is named; multimodal-lstm is the tub default.
+settings are its defaults for a tub (`TUB_DEFAULTS` in train/config.py: batch 32, Adam 3e-4, MAE loss, the
+throttle learned with weight 0.5 where the model can), only the model is named; multimodal-lstm is the tub
+default.
 
 Each steerlab model is also replayed in closed loop on the held-out block (`steerlab replay`: the recorded
 frames warped to the simulated car's view, at an assumed REPLAY_SPEED, with an assumed full-lock angle of
@@ -18,10 +22,10 @@ FULL_LOCK_DEG so that the tub's normalized steering becomes a wheel angle; lane 
 donkeycar is never a dependency of steerlab: it lives in its own virtual environment ($DONKEY_VENV, default
 runs/donkeycar-venv, made on first use with `pip install donkeycar[pc]`) and `_donkey_eval.py` runs there.
 
-python benchmarks/bench_donkeycar.py [--epochs 30] [--skip-donkey] [--models pilotnet,cg23,...]
-donkeycar's models are trained once; a later run reuses their results (delete runs/bench-donkeycar/<tub> to
-train them again). The table shows every result kept in runs/bench-donkeycar/<tub>/results.json, the models of
-this run replacing their earlier rows.
+python benchmarks/bench_donkeycar.py [--epochs 30] [--seeds 3] [--skip-donkey] [--models pilotnet,cg23,...]
+    [--donkey-models linear,rnn]
+Every finished run (trainer, model, seed) is kept in runs/bench-donkeycar/<tub>/results.json and reused by a
+later run (delete the file to train them again); the table shows every run kept there.
 """
 
 import argparse
@@ -32,6 +36,8 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+
+import numpy as np
 
 from _common import ROOT, SHARED, machine
 
@@ -46,7 +52,7 @@ OUT = ROOT / "runs" / "bench-donkeycar"
 VENV = Path(os.environ.get("DONKEY_VENV", ROOT / "runs" / "donkeycar-venv"))
 DONKEY = "donkeycar[pc]==5.3.0"  # 5.4 needs Python >= 3.12
 STEERLAB_MODELS = ["pilotnet", "cg23", "multimodal-lstm", "train-mean"]
-DONKEY_MODELS = ["linear", "rnn"]
+DONKEY_MODELS = ["linear"]
 FULL_LOCK_DEG = 25.0  # assumed: the tubs do not record it
 READER = {"skip_missing": True, "full_lock_deg": FULL_LOCK_DEG}
 REPLAY_SPEED = 2.0    # m/s, assumed: the tubs record no speed, and the frames' flow cannot tell it on a plain floor
@@ -83,7 +89,10 @@ def training_tub(tub: Path, keep: set[int], out: Path) -> Path:
     return out
 
 
-def run_donkey(python: Path, tub: Path, rec, a: int, n: int, work: Path) -> dict:
+def run_donkey(python: Path, tub: Path, rec, a: int, n: int, work: Path, kinds: list[str], seeds: int,
+               results: dict) -> None:
+    """Train each donkeycar model `seeds` times on the first `a` records with `donkey train` and score it on the
+    held-out block; runs already in `results` are kept."""
     car = work / "car"
     if not car.exists():
         subprocess.run([str(python.parent / "donkey"), "createcar", "--path", str(car)], check=True,
@@ -91,71 +100,112 @@ def run_donkey(python: Path, tub: Path, rec, a: int, n: int, work: Path) -> dict
         with open(car / "myconfig.py", "a") as f:
             f.write("\nSHOW_PLOT = False\nCREATE_TF_LITE = False\nSAVE_MODEL_AS_H5 = True\n")
     train_tub = training_tub(tub, set(int(i) for i in rec.frame_ids[:a]), work / "train-tub")
-    test = {"images": [str(p) for p in rec.frames["center"][a:n]], "angles": rec.steering[a:n].tolist()}
+    test = {"images": [str(p) for p in rec.frames["center"][a:n]], "angles": rec.steering[a:n].tolist(),
+            "throttles": rec.throttle[a:n].tolist()}
     (work / "test.json").write_text(json.dumps(test))
-    results = {}
-    previous = json.loads((work / "results.json").read_text()) if (work / "results.json").exists() else {}
-    for kind in DONKEY_MODELS:
-        model = work / f"{kind}.h5"
-        if "mae" in previous.get(f"donkeycar {kind}", {}) and model.exists():  # trained in an earlier run
-            results[kind] = previous[f"donkeycar {kind}"]
-            print(f"  donkeycar {kind}: reused from {work / 'results.json'}", flush=True)
-            continue
-        t = time.time()
-        log = work / f"{kind}.log"
-        with open(log, "w") as f:
-            done = subprocess.run([str(python.parent / "donkey"), "train", "--tub", str(train_tub), "--model",
-                                   str(model), "--type", kind, "--framework", "tensorflow"], cwd=car, stdout=f,
-                                  stderr=subprocess.STDOUT)
-        seconds = time.time() - t
-        if done.returncode != 0 or not model.exists():
-            results[kind] = {"error": f"donkey train failed, see {log}"}
-            continue
-        subprocess.run([str(python), str(Path(__file__).with_name("_donkey_eval.py")), str(car / "config.py"),
-                        str(model), kind, str(work / "test.json"), str(work / f"{kind}.json")], check=True, cwd=car,
-                       stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        results[kind] = {"mae": json.loads((work / f"{kind}.json").read_text())["mae"], "train_s": seconds}
-        print(f"  donkeycar {kind}: held-out MAE {results[kind]['mae']:.4f}, {seconds:.0f} s", flush=True)
-    return results
-
-
-def run_steerlab(tub: Path, n: int, epochs: int, work: Path, models: list[str]) -> dict:
-    """Each model: pick the number of epochs on the selection block (train 0:a, validate a:b), then train again
-    on all of 0:b for exactly that many epochs, score that last model on the held-out block and replay it there."""
-    a, b = blocks(n)
-    results = {}
-    for name in models:
-        seconds, run = 0.0, None
-        for stage, split, n_epochs in (("select", {"train": f"0:{a}", "val": f"{a}:{b}"}, epochs),
-                                       ("refit", {"train": f"0:{b}", "val": f"{b}:{n}"}, None)):
-            if stage == "refit" and run.get("epoch", 0) == 0:
-                break  # a baseline: nothing to select
-            run_dir = work / f"{name}-{stage}"
-            shutil.rmtree(run_dir, ignore_errors=True)  # a fresh run: its time is what is measured
-            cfg = load_config(None, base={
-                "data": str(tub), "reader": READER, "cache": str(OUT / "cache"), "out": str(run_dir),
-                "split": split, "model": {"name": name},
-                "train": {"epochs": n_epochs or run["epoch"], "patience": 5, "keep": "best" if n_epochs else "last"}})
+    for kind in kinds:
+        for seed in range(seeds):
+            key = f"donkeycar {kind} {seed}"
+            if "mae" in results.get(key, {}):
+                continue
+            model, log = work / f"{kind}-{seed}.h5", work / f"{kind}-{seed}.log"
             t = time.time()
-            run = train(cfg, progress=False)  # the refit keeps its last epoch: its validation block is held out
-            seconds += time.time() - t
-        ckpt, held_out = run_dir / "best.pt", Source(str(tub), f"{b}:{n}", reader=READER)
-        m = evaluate(ckpt, held_out, run_dir / "test", progress=False)
-        r = run_replay([ckpt], held_out, run_dir / "replay", ReplayOptions(speed=REPLAY_SPEED, workers=1),
-                       progress=False)[0]
-        results[name] = {"mae": m["mae"], "train_s": seconds, "interventions_per_km": r["interventions_per_km"],
-                         "interventions": r["interventions"], "autonomy": r["autonomy"], "km": r["km"]}
-        print(f"  steerlab {name}: held-out MAE {m['mae']:.4f}, {seconds:.0f} s; replay {r['interventions']} "
-              f"interventions in {r['km']:.2f} km", flush=True)
-    return results
+            with open(log, "w") as f:
+                done = subprocess.run([str(python.parent / "donkey"), "train", "--tub", str(train_tub), "--model",
+                                       str(model), "--type", kind, "--framework", "tensorflow"], cwd=car, stdout=f,
+                                      stderr=subprocess.STDOUT)
+            seconds = time.time() - t
+            if done.returncode != 0 or not model.exists():
+                print(f"  donkeycar {kind} run {seed}: donkey train failed, see {log}", flush=True)
+                continue
+            scores = work / f"{kind}-{seed}.json"
+            subprocess.run([str(python), str(Path(__file__).with_name("_donkey_eval.py")), str(car / "config.py"),
+                            str(model), kind, str(work / "test.json"), str(scores)], check=True, cwd=car,
+                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            r = json.loads(scores.read_text())
+            results[key] = {"mae": r["mae"], "throttle_mae": r["throttle_mae"], "train_s": seconds}
+            print(f"  donkeycar {kind} run {seed}: held-out MAE {r['mae']:.4f}, throttle MAE "
+                  f"{r['throttle_mae']:.4f}, {seconds:.0f} s", flush=True)
+            (work / "results.json").write_text(json.dumps(results, indent=1))
+
+
+def run_steerlab(tub: Path, n: int, epochs: int, work: Path, models: list[str], seeds: int, results: dict) -> None:
+    """Each model and seed: pick the number of epochs on the selection block (train 0:a, validate a:b), then
+    train again on all of 0:b for exactly that many epochs, score that last model on the held-out block and
+    replay it there; runs already in `results` are kept."""
+    a, b = blocks(n)
+    for name in models:
+        for seed in range(seeds):
+            key = f"steerlab {name} {seed}"
+            if "mae" in results.get(key, {}):
+                continue
+            seconds, run = 0.0, None
+            for stage, split, n_epochs in (("select", {"train": f"0:{a}", "val": f"{a}:{b}"}, epochs),
+                                           ("refit", {"train": f"0:{b}", "val": f"{b}:{n}"}, None)):
+                if stage == "refit" and run.get("epoch", 0) == 0:
+                    break  # a baseline: nothing to select
+                run_dir = work / f"{name}-{seed}-{stage}"
+                shutil.rmtree(run_dir, ignore_errors=True)  # a fresh run: its time is what is measured
+                cfg = load_config(None, base={
+                    "data": str(tub), "reader": READER, "cache": str(OUT / "cache"), "out": str(run_dir),
+                    "split": split, "model": {"name": name},
+                    "train": {"epochs": n_epochs or run["epoch"], "patience": 5, "seed": seed,
+                              "keep": "best" if n_epochs else "last"}})
+                t = time.time()
+                run = train(cfg, progress=False)  # the refit keeps its last epoch: its validation block is held out
+                seconds += time.time() - t
+            ckpt, held_out = run_dir / "best.pt", Source(str(tub), f"{b}:{n}", reader=READER)
+            m = evaluate(ckpt, held_out, run_dir / "test", progress=False)
+            r = run_replay([ckpt], held_out, run_dir / "replay", ReplayOptions(speed=REPLAY_SPEED, workers=1),
+                           progress=False)[0]
+            results[key] = {"mae": m["mae"], "train_s": seconds, "interventions_per_km": r["interventions_per_km"],
+                            "interventions": r["interventions"], "autonomy": r["autonomy"], "km": r["km"],
+                            **({"throttle_mae": m["throttle_mae"]} if "throttle_mae" in m else {})}
+            throttle = f", throttle MAE {m['throttle_mae']:.4f}" if "throttle_mae" in m else ""
+            print(f"  steerlab {name} seed {seed}: held-out MAE {m['mae']:.4f}{throttle}, {seconds:.0f} s; replay "
+                  f"{r['interventions']} interventions in {r['km']:.2f} km", flush=True)
+            (work / "results.json").write_text(json.dumps(results, indent=1))
+
+
+def spread(values: list[float], digits: int = 4) -> str:
+    """Mean and, over more than one run, the spread (the sample standard deviation)."""
+    if not values:
+        return "-"
+    mean = f"{np.mean(values):.{digits}f}"
+    return mean if len(values) == 1 else f"{mean} +- {np.std(values, ddof=1):.{digits}f}"
+
+
+def table_rows(name: str, results: dict) -> list[str]:
+    """One row per trainer and model: the mean (+- spread) over its runs, and the ratio of mean steering MAEs
+    against donkeycar's linear model."""
+    groups: dict[str, list[dict]] = {}
+    for key, r in results.items():
+        trainer, model, _ = key.rsplit(" ", 2)
+        groups.setdefault(f"{trainer} {model}", []).append(r)
+    linear = [r["mae"] for r in groups.get("donkeycar linear", []) if "mae" in r]
+    rows = []
+    for label, runs in groups.items():
+        trainer, model = label.split(" ", 1)
+        mae = [r["mae"] for r in runs]
+        ratio = f"{np.mean(mae) / np.mean(linear):.2f}x" if linear else "-"
+        throttle = spread([r["throttle_mae"] for r in runs if "throttle_mae" in r])
+        replay = spread([r["interventions"] for r in runs if "interventions" in r], 1)
+        train_s = f"{np.mean([r['train_s'] for r in runs]):.0f}"
+        rows.append(f"| {name} | {model} | {trainer} | {len(runs)} | {spread(mae)} | {ratio} | {throttle} | "
+                    f"{train_s} | {replay} |")
+    return rows
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--epochs", type=int, default=30, help="steerlab's epochs (early stopping after 5)")
+    ap.add_argument("--seeds", type=int, default=3, help="runs of every trainer and model")
     ap.add_argument("--skip-donkey", action="store_true", help="steerlab models only")
     ap.add_argument("--models", default=",".join(STEERLAB_MODELS), help="steerlab models (comma list; default "
                     f"{','.join(STEERLAB_MODELS)})")
+    ap.add_argument("--donkey-models", default=",".join(DONKEY_MODELS), help="donkeycar models (comma list; "
+                    f"default {','.join(DONKEY_MODELS)})")
+    ap.add_argument("--tubs", default="hall,taped-track", help="the shared tubs to run on")
     args = ap.parse_args()
     if not (TUBS / "hall" / "manifest.json").exists():
         print(f"skipped: {TUBS} not found")
@@ -163,9 +213,10 @@ def main() -> None:
     python = None if args.skip_donkey else donkey_python()
     os.environ.setdefault("STEERLAB_CACHE", str(OUT / "cache"))
     lines = [f"machine: {machine()}", "", f"replay: held-out block at an assumed {REPLAY_SPEED} m/s, full lock "
-             f"{FULL_LOCK_DEG} deg", "", "| tub | model | trainer | held-out MAE [-1, 1] | train time [s] | "
-             "replay: interventions (per km) | replay autonomy [%] |", "|---|---|---|---|---|---|---|"]
-    for name in ("hall", "taped-track"):
+             f"{FULL_LOCK_DEG} deg", "", "| tub | model | trainer | runs | held-out steering MAE [-1, 1] | vs "
+             "donkeycar linear | held-out throttle MAE | train time [s] | replay: interventions |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for name in args.tubs.split(","):
         tub = TUBS / name
         rec = Source(str(tub), reader=READER).open()
         n = len(rec)
@@ -175,17 +226,10 @@ def main() -> None:
         work = OUT / name
         work.mkdir(parents=True, exist_ok=True)
         results = json.loads((work / "results.json").read_text()) if (work / "results.json").exists() else {}
-        results.update({f"steerlab {k}": v for k, v in run_steerlab(tub, n, args.epochs, work,
-                                                                     args.models.split(",")).items()})
+        run_steerlab(tub, n, args.epochs, work, args.models.split(","), args.seeds, results)
         if python:
-            results.update({f"donkeycar {k}": v for k, v in run_donkey(python, tub, rec, b, n, work).items()})
-        for label, r in results.items():
-            trainer, model = label.split(" ", 1)
-            mae = f"{r['mae']:.4f}" if "mae" in r else r["error"]
-            replay = (f"{r['interventions']} ({r['interventions_per_km']:.1f}) | {r['autonomy']:.1f}"
-                      if "autonomy" in r else "- | -")
-            lines.append(f"| {name} | {model} | {trainer} | {mae} | {r.get('train_s', float('nan')):.0f} | {replay} |")
-        (work / "results.json").write_text(json.dumps(results, indent=1))
+            run_donkey(python, tub, rec, b, n, work, args.donkey_models.split(","), args.seeds, results)
+        lines += table_rows(name, results)
     table = "\n".join(lines) + "\n"
     (OUT / "table.md").write_text(table)
     print(table)

@@ -61,10 +61,10 @@ def tiny_checkpoint(tiny_recording, tmp_path_factory):
 
 
 def made(tmp_path, kind="road_wheel", positive="right", geometry="sim", name="model.pt", full_lock_deg=None,
-         model="pilotnet", seed=0):
-    """An untrained checkpoint of `model` (initialised with `seed`; per-modality statistics) with the steering
-    convention and camera geometry of a kind of recording: road_wheel/right + sim (the simulator),
-    normalized/right (donkeycar, with `full_lock_deg` if known), steering_wheel/left + ch2 (CH2)."""
+         model="pilotnet", seed=0, **options):
+    """An untrained checkpoint of `model` (initialised with `seed`, built with `options`; per-modality statistics)
+    with the steering convention and camera geometry of a kind of recording: road_wheel/right + sim (the
+    simulator), normalized/right (donkeycar, with `full_lock_deg` if known), steering_wheel/left + ch2 (CH2)."""
     import torch
 
     from steerlab.checkpoint import save_checkpoint
@@ -78,7 +78,7 @@ def made(tmp_path, kind="road_wheel", positive="right", geometry="sim", name="mo
     for modality, channels in pre.channels().items():
         stats["mean"] += [per[modality][0]] * channels
         stats["std"] += [per[modality][1]] * channels
-    model_cfg = {"in_channels": len(stats["mean"]), "height": pre.height, "width": pre.width}
+    model_cfg = {"in_channels": len(stats["mean"]), "height": pre.height, "width": pre.width, **options}
     torch.manual_seed(seed)
     path = tmp_path / name
     save_checkpoint(path, create_model(model, **model_cfg), model_cfg, pre, stats,

@@ -561,6 +561,11 @@ BAD_INPUTS = {
     "train with a folder as config": (lambda t, s: ["train", str(t)], ": a folder, where a config file is expected"),
     "evaluate a folder as checkpoint": (lambda t, s: ["evaluate", str(t), "--data", str(sim_log(t / "sim"))],
                                         ": a folder, where a checkpoint is expected"),
+    "train the throttle with a model that cannot": (_train("model.name=two-stream-flow", "train.throttle_weight=1"),
+                                                    "train.throttle_weight: model 'two-stream-flow' does not learn a "
+                                                    "throttle; these do: cg23"),
+    "set model.throttle by hand": (_train("model.throttle=true"), "model.throttle is not set by hand: training adds "
+                                                                  "the throttle output when train.throttle_weight > 0"),
 }
 
 
@@ -948,3 +953,21 @@ def test_the_pilot_and_the_donkeycar_part_refuse_what_is_not_a_frame_or_a_speed(
         part.run(np.zeros((480, 640, 3), np.uint8))
     assert np.isfinite(Pilot(ckpt, other_camera=True).step(np.zeros((480, 640, 3), np.uint8)).steering)
     assert np.isfinite(pilot.step(cv2.imencode(".jpg", rgb)[1].tobytes()).steering)  # the bytes of a JPEG
+
+
+def test_the_donkeycar_part_refuses_options_it_cannot_use(tmp_path):
+    """A throttle forced on a model that learned one, and options of the wrong type or range: one clear error
+    when the part is made."""
+    from steerlab.donkey import SteerlabPilot
+
+    learned = made(tmp_path, "normalized", "right", "donkey", name="throttle.pt", throttle=True)
+    with pytest.raises(SteerlabError, match=r"throttle.pt learned the throttle; throttle=0.3 would override it: pass "
+                                            r"learned_throttle=False to drive at a constant throttle"):
+        SteerlabPilot(learned, 0.3)
+    assert SteerlabPilot(learned, 0.3, learned_throttle=False).run(np.zeros((120, 160, 3), np.uint8))[1] == 0.3
+    for options, message in [({"learned_throttle": "no"}, "learned_throttle must be True or False, got 'no'"),
+                             ({"threads": 0}, "threads must be a whole number >= 1, got 0"),
+                             ({"threads": 1.5}, "threads must be a whole number >= 1, got 1.5"),
+                             ({"throttle_scale": -1}, r"throttle_scale must be a number in \[0, 10\], got -1")]:
+        with pytest.raises(SteerlabError, match=message):
+            SteerlabPilot(learned, **options)
