@@ -72,7 +72,7 @@ def cmd_tune(a) -> None:
 
 
 def register(sub) -> None:
-    from steerlab.tune import TuneOptions
+    from steerlab.tune.options import TuneOptions
 
     q = sub.add_parser("train", help="train a model from a YAML config", epilog="example: steerlab train "
                        "configs/ch2_pilotnet.yaml train.epochs=5 out=runs/quick")

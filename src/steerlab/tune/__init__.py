@@ -9,6 +9,18 @@ run to completion), or the closed-loop autonomy of the best epoch on the synthet
 machines can share (`storage.py`); the reports are `report.py`'s. One training run per trial under `trials/`.
 """
 
-from steerlab.tune.run import TuneOptions, run_tune
-
 __all__ = ["TuneOptions", "run_tune"]
+
+
+def __getattr__(name: str):
+    """`TuneOptions` and `run_tune`, imported when first asked for (the command line reads the options without
+    loading Optuna and torch)."""
+    if name == "TuneOptions":
+        from steerlab.tune.options import TuneOptions
+
+        return TuneOptions
+    if name == "run_tune":
+        from steerlab.tune.run import run_tune
+
+        return run_tune
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

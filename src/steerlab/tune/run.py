@@ -6,9 +6,8 @@ import json
 import os
 import socket
 import warnings
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
-from typing import Literal
 
 import numpy as np
 from tqdm import tqdm
@@ -16,37 +15,13 @@ from tqdm import tqdm
 from steerlab.errors import SteerlabError, warn
 from steerlab.locks import pid_alive, waiting_lock
 from steerlab.paths import folder_to_write
-from steerlab.options import AT_LEAST_1, Options, Range, as_dict, option
+from steerlab.options import as_dict
 from steerlab.sim.bench import closed_loop_metrics, suite_options
 from steerlab.train.config import TrainConfig
+from steerlab.tune.options import OBJECTIVES, TuneOptions
 from steerlab.tune.report import short, write_reports
 from steerlab.tune.space import search_space, with_params
 from steerlab.tune.storage import heartbeat, optuna as storage_optuna, shown_url, storage_of
-
-OBJECTIVES = {"rmse": ["minimize"], "rmse+gamma": ["minimize", "minimize"], "autonomy": ["maximize"]}
-
-
-@dataclass(frozen=True)
-class TuneOptions(Options):
-    """`steerlab tune`'s options."""
-
-    trials: int = option(20, AT_LEAST_1, help="finished trials the study should have")
-    objective: Literal[tuple(OBJECTIVES)] = option("rmse", help="validation RMSE, RMSE and gamma (Pareto front), "
-                                                   "or closed-loop autonomy")
-    storage: str | None = option(None, help="Optuna storage shared by workers: a journal file (*.journal) or an "
-                                 "RDB URL (sqlite:///study.db, postgresql://...); default OUT/study.journal")
-    study: str | None = option(None, help="study name (default: the name of the config's out folder)")
-    seed: int = option(0, help="sampler seed")
-    reduction_factor: int = option(3, Range(2), "an integer of at least 2",
-                                   help="Hyperband: each rung keeps the best 1/N of the trials")
-    no_pruning: bool = option(False, help="run every trial to completion (no Hyperband)")
-    join: bool = option(False, help="join a study that another worker started: a study that does not exist in "
-                        "the storage is an error (a mistyped --study or --storage), not a new study")
-
-    @property
-    def pruning(self) -> int | None:
-        return None if self.no_pruning else self.reduction_factor
-
 
 def _retry_dead_local_trials(study, name: str, progress: bool) -> None:
     """A journal has no heartbeat. A trial left running by a worker of this machine that no longer runs (killed)
