@@ -414,19 +414,6 @@ def test_tub_writer_is_read_back_exactly_by_steerlab(renderers, tracks, tmp_path
         TubWriter(tmp_path / "x", full_lock_deg=0)
 
 
-@pytest.fixture
-def donkeycar_tub():
-    """donkeycar's tub module (its import prints a banner and sets the root logger to INFO: undone)."""
-    import logging
-
-    root = logging.getLogger()
-    handlers, level = root.handlers[:], root.level
-    tub_v2 = pytest.importorskip("donkeycar.parts.tub_v2", reason="donkeycar is not installed")
-    root.handlers[:] = handlers
-    root.setLevel(level)
-    return tub_v2
-
-
 def test_tub_writer_is_read_by_donkeycar_as_its_own(donkeycar_tub, renderers, tracks, tmp_path, monkeypatch):
     from donkeycar.config import Config
     from donkeycar.pipeline.types import TubRecord
