@@ -104,15 +104,16 @@ def drive_track(pilot, out: str | Path | None, o: TrackDriveOptions = TrackDrive
     strip = []
     movie = DriveVideo(video, o.fps) if video else None
     room = o.lane_width / 2 - world.car.body.width / 2  # where the body meets a lane line on a straight
+    events = 0
 
     def on_step(t):
+        nonlocal events
+        events += t.intervention
         if out is not None and t.index % int(o.fps * 5) == 0 and len(strip) < 12:
             strip.append(t.frame)
         if movie:
-            laps = world.laps
-            movie.add(t.frame, t.model, t.expert, t.offset,
-                      f"track {o.seed}  lap {len(laps.crossings)}  {world.state.v:3.1f} m/s  "
-                      f"off track {len(laps.dirty)} laps", limit=room)
+            movie.add(t.frame, t.model, t.expert, t.offset, f"track {o.seed}  lap {len(world.laps.crossings)}  "
+                      f"{world.state.v:3.1f} m/s  off track {events}", limit=room)
 
     t = drive_loop(world, pilot, _ticks(o.minutes, o.fps), o.limit_m, o.fps, on_step=on_step,
                    desc=f"drive track {o.seed}", progress=progress, on_tick=on_tick)
