@@ -6,6 +6,7 @@ import json
 import math
 from dataclasses import replace
 
+import cv2
 import numpy as np
 import pytest
 
@@ -246,7 +247,7 @@ def test_sim_drive_world_track_with_a_tub_checkpoint(tmp_path, capsys):
     ckpt = made(tmp_path, "normalized", "right", "donkey", full_lock_deg=25)
     out = tmp_path / "drive"
     assert main(["sim", "drive", str(ckpt), "--world", "track", "--minutes", "0.05", "--throttle", "0.4",
-                 "--out", str(out)]) == 0
+                 "--out", str(out), "--video", str(out / "drive.mp4")]) == 0
     assert "off_track" in capsys.readouterr().out
     result = json.loads((out / "drive.json").read_text())
     with open(out / "trajectory.csv") as f:
@@ -256,6 +257,8 @@ def test_sim_drive_world_track_with_a_tub_checkpoint(tmp_path, capsys):
     assert result["autonomy"] == pytest.approx((1 - result["off_track"] * 6 / 3.0) * 100)
     assert float(rows[-1]["speed"]) > 1.0  # throttle 0.4 for a steering model
     assert (out / "track.png").exists() and (out / "frames.png").exists()
+    video = cv2.VideoCapture(str(out / "drive.mp4"))
+    assert sum(1 for _ in iter(lambda: video.read()[0], False)) == 60
 
 
 def test_sim_bench_world_track_writes_its_tables_and_reuses_drives(tmp_path, capsys):
