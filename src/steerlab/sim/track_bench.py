@@ -26,12 +26,12 @@ from pathlib import Path
 import numpy as np
 
 from steerlab.errors import SteerlabError
-from steerlab.options import AT_LEAST_1, Options, POSITIVE, UNIT, option
+from steerlab.options import AT_LEAST_1, Options, POSITIVE, option
 from steerlab.pilot import smoothing_option
 from steerlab.sim.bench import labels_for
 from steerlab.sim.driving import Trajectory, autonomy
 from steerlab.sim.parallel import run_parallel, tick_reporter
-from steerlab.sim.track_world import THROTTLE, TrackDriveOptions, camera_of
+from steerlab.sim.track_world import TrackDriveOptions, calibration_option, camera_of, throttle_option
 
 TRACK_SUITES = {
     # 8 tracks of 2 minutes, 0.9 m lanes: six taped, two with a painted centre line (28-54 m laps; the expert
@@ -59,9 +59,8 @@ class TrackSuiteOptions(Options):
     workers: int = option(2, AT_LEAST_1, help="tracks driven in parallel")
     smoothing: float | None = smoothing_option()
     styles: str | None = option(None, help="comma list of the suite's track styles to drive (default: all)")
-    throttle: float = option(THROTTLE, UNIT, help="the constant throttle of a model that predicts none")
-    calibration: str | None = option(None, path="file", help="fisheye calibration of the car's camera (default: "
-                                     "a 160-degree Raspberry Pi camera)")
+    throttle: float = throttle_option()
+    calibration: str | None = calibration_option()
 
     @property
     def track_minutes(self) -> float:

@@ -52,9 +52,15 @@ def _style():
     return option("taped", help="taped (a line along each lane edge) or centre (one painted centre line)")
 
 
-def _calibration():
+def calibration_option():
+    """The option of every track command that renders: the fisheye calibration file of the car's camera."""
     return option(None, path="file", help="fisheye calibration of the car's camera (JSON or YAML: image size "
                   "160x120, K, D; default: a 160-degree Raspberry Pi camera)")
+
+
+def throttle_option():
+    """The option of every track command that drives a model: the throttle of one that predicts none."""
+    return option(THROTTLE, UNIT, help="the constant throttle of a model that predicts none")
 
 
 @dataclass(frozen=True)
@@ -69,7 +75,7 @@ class TrackRecordOptions(Options):
                                                 "the episode of every frame)")
     lane_width: float = _lane_width()
     style: Literal["taped", "centre"] = _style()
-    calibration: str | None = _calibration()
+    calibration: str | None = calibration_option()
 
 
 @dataclass(frozen=True)
@@ -83,8 +89,8 @@ class TrackDriveOptions(Options):
                             "an off-track event")
     lane_width: float = _lane_width()
     style: Literal["taped", "centre"] = _style()
-    calibration: str | None = _calibration()
-    throttle: float = option(THROTTLE, UNIT, help="the constant throttle of a model that predicts none")
+    calibration: str | None = calibration_option()
+    throttle: float = throttle_option()
 
 
 def camera_of(calibration: str | None) -> FisheyeCamera:
