@@ -60,6 +60,19 @@ def tiny_checkpoint(tiny_recording, tmp_path_factory):
     return out / "best.pt"
 
 
+@pytest.fixture
+def donkeycar_tub():
+    """donkeycar's tub module (its import prints a banner and sets the root logger to INFO: undone)."""
+    import logging
+
+    root = logging.getLogger()
+    handlers, level = root.handlers[:], root.level
+    tub_v2 = pytest.importorskip("donkeycar.parts.tub_v2", reason="donkeycar is not installed")
+    root.handlers[:] = handlers
+    root.setLevel(level)
+    return tub_v2
+
+
 def made(tmp_path, kind="road_wheel", positive="right", geometry="sim", name="model.pt", full_lock_deg=None,
          model="pilotnet", seed=0, **options):
     """An untrained checkpoint of `model` (initialised with `seed`, built with `options`; per-modality statistics)

@@ -332,6 +332,22 @@ def _tune_space(space):
     return build
 
 
+def _track(command, *argv, calibration=None):
+    """`sim COMMAND --world track` with an untrained donkeycar checkpoint (drive, bench) or none (record), the
+    options `argv` and, given its content, a calibration file `calib.json`."""
+    def build(tmp_path, stack):
+        args = [] if command == "record" else [str(made(tmp_path, "normalized", "right", "donkey", full_lock_deg=25))]
+        if calibration is not None:
+            path = tmp_path / "calib.json"
+            path.write_text(calibration if isinstance(calibration, str) else json.dumps(calibration))
+            args += ["--calibration", str(path)]
+        return ["sim", command, *args, "--world", "track", "--out", str(tmp_path / "out"), *argv]
+    return build
+
+
+CALIBRATION = {"image_size": [160, 120], "K": [[81.0, 0.0, 80.0], [0.0, 80.0, 61.0], [0.0, 0.0, 1.0]],
+               "D": [-0.02, -0.01, 0.0, 0.005]}
+
 BAD_INPUTS = {
     # a) recorded values outside their physical range, with file and row
     "sim steering 3.5": (_compile(lambda t: sim_log(t / "sim", {2: "3.5,0.5,0,10"})),
@@ -553,6 +569,25 @@ BAD_INPUTS = {
         lambda t, s: ["sim", "drive", str(made(t, "normalized", "right", "donkey")), "--geometry", "sim", "--out",
                       str(t / "d")],
         "model.pt: model 'pilotnet' predicts normalized steering without a full-lock angle"),
+    "sim drive in an unknown world": (lambda t, s: ["sim", "drive", str(made(t)), "--world", "moon"],
+                                      "argument --world: invalid choice: 'moon' (choose from 'road', 'track')"),
+    "track lane width 0": (_track("record", "--lane-width", "0"), "--lane-width must be a number in (0, 2] m, got 0"),
+    "track lane width -0.5": (_track("drive", "--lane-width=-0.5"), "--lane-width must be a number in (0, 2] m"),
+    "track calibration that does not parse": (_track("drive", calibration="{not json"),
+                                              "calib.json: not a JSON calibration file"),
+    "track calibration of another image size": (
+        _track("bench", calibration={**CALIBRATION, "image_size": [640, 480]}),
+        "calib.json: calibrated at 640x480, but the camera takes 160x120 frames"),
+    "track record with a road option": (_track("record", "--road", "twisty"),
+                                        "--road is an option of the road world (--world road)"),
+    "track record in the simulator's layout": (_track("record", "--layout", "udacity-sim"),
+                                               "--layout must be tub or steerlab, got 'udacity-sim'"),
+    "track record a suite track": (_track("record", "--seed", "9401"), "track seeds 9000-9999 are reserved"),
+    "track drive a road checkpoint": (lambda t, s: ["sim", "drive", str(made(t)), "--world", "track"],
+                                      "model.pt: model 'pilotnet' was trained on the 'sim' camera; the track world "
+                                      "renders the donkeycar camera"),
+    "road drive with a track option": (lambda t, s: ["sim", "drive", str(made(t)), "--throttle", "0.5"],
+                                       "--throttle is an option of the track world (--world track)"),
     "compile labels from a pipe": (_fifo_labels, "fifo.csv: not a regular file (a pipe or a device?), where a label "
                                                  "file is expected"),
     "evaluate into a file as --out": (lambda t, s: ["evaluate", str(made(t)), "--data", str(sim_log(t / "sim")),

@@ -3,6 +3,7 @@ small car, the racing expert and the donkeycar tub writer."""
 
 import json
 import math
+from dataclasses import replace
 
 import cv2
 import numpy as np
@@ -199,12 +200,15 @@ def test_speed_profile_respects_its_limits(tracks):
 
 # --- the small car -----------------------------------------------------------------------------------------------
 
-from steerlab.sim.smallcar import SmallCar, SmallCarParams, speed_after, throttle_for  # noqa: E402
+from steerlab.data.car import CARS  # noqa: E402
+from steerlab.sim.smallcar import SmallCar, speed_after, throttle_for  # noqa: E402
 from steerlab.sim.vehicle import VehicleState  # noqa: E402
 
 
 def test_small_car_throttle_lag_and_braking():
-    p = SmallCarParams(rolling=0.0, drag=0.0)  # the first-order model alone
+    real = CARS["donkey"]
+    assert (real.wheelbase, real.full_lock_deg, real.motor.top_speed, real.max_decel) == (0.26, 25.0, 5.0, 6.0)
+    p = replace(real, drag=0.0, motor=replace(real.motor, rolling=0.0))  # the first-order model alone
     v, dt = 0.0, 0.01
     for _ in range(30):  # one time constant at full throttle: 1 - 1/e of the top speed
         v = speed_after(v, 1.0, dt, p)
@@ -212,10 +216,9 @@ def test_small_car_throttle_lag_and_braking():
     v1 = v
     for _ in range(300):  # faster than throttle 0.5 asks: slows towards it with the coasting time constant
         v = speed_after(v, 0.5, dt, p)
-    assert v == pytest.approx(2.5 + (v1 - 2.5) * math.exp(-3.0 / p.coast_time_constant), rel=1e-9)
-    assert speed_after(2.5, -0.5, 0.1, p) == pytest.approx(2.5 * math.exp(-0.1 / p.coast_time_constant) - 0.3)
+    assert v == pytest.approx(2.5 + (v1 - 2.5) * math.exp(-3.0 / p.motor.coast_time_constant), rel=1e-9)
+    assert speed_after(2.5, -0.5, 0.1, p) == pytest.approx(2.5 * math.exp(-0.1 / p.motor.coast_time_constant) - 0.3)
     assert speed_after(0.1, -1.0, 0.5, p) == 0.0  # stops, never reverses
-    real = SmallCarParams()
     for v0, accel in ((1.0, 2.0), (3.0, 0.0), (3.0, -1.0), (3.0, -5.0)):  # the feed-forward inverts the model
         u = throttle_for(v0, accel, real)
         assert (speed_after(v0, u, 1e-4, real) - v0) / 1e-4 == pytest.approx(accel, abs=0.02)
@@ -226,8 +229,8 @@ def test_small_car_throttle_lag_and_braking():
 
 
 def test_small_car_turns_on_its_kinematic_circle():
-    p = SmallCarParams()
-    car = SmallCar(VehicleState(0.0, 0.0, 0.0, 2.0), p)
+    p = CARS["donkey"]
+    car = SmallCar(VehicleState(0.0, 0.0, 0.0, 2.0))
     radius = p.wheelbase / math.tan(p.full_lock)
     steps = 2000
     dt = 2 * math.pi * radius / 2.0 / steps
@@ -238,7 +241,10 @@ def test_small_car_turns_on_its_kinematic_circle():
     car.state = VehicleState(1.0, 2.0, math.pi / 2, 0.0)
     xs, ys = car.corners()
     assert np.allclose(xs, [0.9, 1.1, 1.1, 0.9]) and np.allclose(ys, [1.93, 1.93, 2.35, 2.35])
-    assert np.allclose(car.camera_pose(), (1.0, 2.0 + p.camera_forward, math.pi / 2))
+    assert np.allclose(car.camera_pose(), (1.0, 2.0 + p.body.camera_forward, math.pi / 2))
+    assert np.allclose(car.camera_pose(0.1), (0.9, 2.0 + p.body.camera_forward, math.pi / 2))  # 0.1 m to its left
+    with pytest.raises(SteerlabError, match="needs a throttle model and a body"):
+        SmallCar(VehicleState(0.0, 0.0, 0.0, 0.0), CARS["sim"])
 
 
 # --- the racing expert -------------------------------------------------------------------------------------------
@@ -248,9 +254,9 @@ from steerlab.sim.racer import Racer, expert_controls  # noqa: E402
 
 def race(track, laps, drift_every_s, seed=0, dt=0.05):
     """The expert racing `laps` laps from standstill: (ticks, worst overhang of the body, episodes seen, time)."""
-    p = SmallCarParams()
+    p = CARS["donkey"]
     x, y, psi = track.pose(0.0)
-    car = SmallCar(VehicleState(float(x), float(y), float(psi), 0.0), p)
+    car = SmallCar(VehicleState(float(x), float(y), float(psi), 0.0))
     racer = Racer(track, p, seed, dt, drift_every_s=drift_every_s)
     s, progress, t, worst, episodes, ticks = 0.0, 0.0, 0.0, -1.0, set(), 0
     while progress < laps * track.length and t < 60 * laps:
@@ -275,7 +281,7 @@ def test_expert_races_three_laps_inside_the_lane(tracks):
         assert worst < -0.1 and episodes == {"normal"}
         assert t / 3 < tr.length / 2.0  # faster than 2 m/s on average
     pursuit, throttle = expert_controls(tracks[0], VehicleState(*map(float, tracks[0].pose(1.0, 0.1)), 1.0), 1.0,
-                                        SmallCarParams())
+                                        CARS["donkey"])
     assert pursuit < 0 and throttle > 0.2  # left of the centre: steer right; slow: speed up
 
 
@@ -358,9 +364,9 @@ from steerlab.data.writer import TubWriter  # noqa: E402
 def write_race_tub(folder, renderer, track, n=25, max_len=10):
     """n ticks of the expert racing on `track`, rendered and written as a tub; returns the written
     (servo angle, throttle, timestamp ns) per record."""
-    p = SmallCarParams()
+    p = CARS["donkey"]
     x, y, psi = track.pose(0.0)
-    car = SmallCar(VehicleState(float(x), float(y), float(psi), 1.0), p)
+    car = SmallCar(VehicleState(float(x), float(y), float(psi), 1.0))
     racer = Racer(track, p, 0, 0.05)
     writer = TubWriter(folder, full_lock_deg=p.full_lock_deg, max_len=max_len)
     s, rows = 0.0, []
@@ -406,19 +412,6 @@ def test_tub_writer_is_read_back_exactly_by_steerlab(renderers, tracks, tmp_path
         TubWriter(tmp_path / "tub", full_lock_deg=25)
     with pytest.raises(SteerlabError, match="full_lock_deg must lie in"):
         TubWriter(tmp_path / "x", full_lock_deg=0)
-
-
-@pytest.fixture
-def donkeycar_tub():
-    """donkeycar's tub module (its import prints a banner and sets the root logger to INFO: undone)."""
-    import logging
-
-    root = logging.getLogger()
-    handlers, level = root.handlers[:], root.level
-    tub_v2 = pytest.importorskip("donkeycar.parts.tub_v2", reason="donkeycar is not installed")
-    root.handlers[:] = handlers
-    root.setLevel(level)
-    return tub_v2
 
 
 def test_tub_writer_is_read_by_donkeycar_as_its_own(donkeycar_tub, renderers, tracks, tmp_path, monkeypatch):

@@ -26,7 +26,8 @@ class DriveVideo:
         self.frames = 0
 
     def add(self, bgr: np.ndarray, model: float, reference: float | None = None, offset: float | None = None,
-            text: str = "") -> None:
+            text: str = "", limit: float = 1.0) -> None:
+        """`limit`: the offset (m) the bar marks as leaving the lane."""
         h, w = bgr.shape[:2]
         img = cv2.resize(bgr, (WIDTH, int(round(h * WIDTH / w))), interpolation=cv2.INTER_LINEAR)
         panel = np.full((150, WIDTH, 3), 30, np.uint8)
@@ -34,7 +35,7 @@ class DriveVideo:
         if reference is not None:
             _wheel(panel, (235, 75), reference, REFERENCE, self.reference)
         if offset is not None:
-            _offset_bar(panel, offset)
+            _offset_bar(panel, offset, limit)
         if text:
             cv2.putText(panel, text, (335, 140), cv2.FONT_HERSHEY_SIMPLEX, 0.45, (200, 200, 200), 1, cv2.LINE_AA)
         out = np.vstack([img, panel])

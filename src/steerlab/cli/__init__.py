@@ -63,9 +63,12 @@ def check_paths(args: argparse.Namespace) -> None:
                 raise SteerlabError(f"{path}: {name} names a folder; it needs a file to write")
 
 
-def add_options(q: argparse.ArgumentParser, command: str, *classes: type, skip=()) -> None:
+def add_options(q: argparse.ArgumentParser, command: str, *classes: type, skip=(), label: str | None = None) -> None:
     """Flags for the fields of `classes` (a field `max_heading` is `--max-heading`; a boolean that defaults to
-    true is `--no-NAME`); every flag defaults to None, so that a flag not given keeps the field's default."""
+    true is `--no-NAME`); every flag defaults to None, so that a flag not given keeps the field's default. A flag
+    that a class of the command made already (the same option of another world; `label` names when these
+    classes apply, e.g. "--world track") is made once: its choices grow by this field's, and its help adds this
+    field's where it differs."""
     OPTIONS.setdefault(command, []).extend(classes)
     for cls in classes:
         for o in options_of(cls):
@@ -74,15 +77,23 @@ def add_options(q: argparse.ArgumentParser, command: str, *classes: type, skip=(
             kind, _ = optional(o.kind)
             default = "" if o.default in (None, MISSING) else f" (default {o.default})"
             helptext = (o.help or o.expected) + default
+            literal = getattr(kind, "__origin__", None) is not None and str(kind).startswith("typing.Literal")
+            negated = kind is bool and o.default is True
+            made = q._option_string_actions.get(flag(f"no_{o.key}" if negated else o.key))
+            if made is not None:
+                if literal:
+                    made.choices = list(dict.fromkeys([*made.choices, *kind.__args__]))
+                if kind is not bool and helptext not in made.help:
+                    made.help += f"; {label or cls.__name__}: {helptext}"
+                continue
             if o.path:
                 q.add_argument(flag(o.key), dest=o.key, default=None, help=helptext)
                 q.set_defaults(paths={**(q.get_default("paths") or {}), o.key: o.path})
             elif kind is bool:
-                negated = o.default is True
                 q.add_argument(flag(f"no_{o.key}" if negated else o.key), dest=o.key, default=None,
                                action="store_false" if negated else "store_true",
                                help=f"without {o.help or o.key}" if negated else o.help or o.key)
-            elif getattr(kind, "__origin__", None) is not None and str(kind).startswith("typing.Literal"):
+            elif literal:
                 q.add_argument(flag(o.key), dest=o.key, default=None, choices=list(kind.__args__), help=helptext)
             else:
                 q.add_argument(flag(o.key), dest=o.key, default=None, type=kind if kind in (int, float) else str,

@@ -91,7 +91,11 @@ class TubWriter:
     BGR from the same bytes. `user/angle` is the servo command: the road-wheel angle over the car's full lock,
     positive right, clipped to [-1, 1]; `user/mode` is "user" (a person drove). Times are `start_ns` (the
     recorded clock's origin, 2020-01-01 by default, so that the same drive gives the same bytes) plus each
-    frame's `timestamp_ns`, in whole milliseconds; the session id is the start day's, as donkeycar names it."""
+    frame's `timestamp_ns`, in whole milliseconds; session ids are the start day's with a count, as donkeycar
+    names them. A record added as `deleted` is written and listed in the manifest's `deleted_indexes`, as
+    donkeycar's tub editor marks the stretches its owner cut out of a drive (neither donkeycar's training nor
+    steerlab's reader uses them); the first record kept after a cut starts a new session, so that no frame
+    history or motion spans the cut."""
 
     def __init__(self, out: str | Path, full_lock_deg: float, max_len: int = 1000, start_ns: int = EPOCH_NS):
         if not 0 < full_lock_deg < 90:
@@ -103,22 +107,28 @@ class TubWriter:
         if self.out.exists() and any(self.out.iterdir()):
             raise SteerlabError(f"{self.out} exists and is not empty; choose a new output folder")
         (self.out / "images").mkdir(parents=True, exist_ok=True)
-        start = datetime.fromtimestamp(start_ns / 1e9, timezone.utc)
-        self.session = f"{start:%y-%m-%d}_0"
+        self.day = f"{datetime.fromtimestamp(start_ns / 1e9, timezone.utc):%y-%m-%d}"
+        self.sessions = [f"{self.day}_0"]
         self.records: list[dict] = []
+        self.deleted: list[int] = []
 
     def servo(self, road_wheel: float) -> float:
         """The servo command of a road-wheel angle (rad, positive left): [-1, 1], positive right."""
         return float(np.clip(-road_wheel / self.full_lock, -1.0, 1.0))
 
-    def add(self, frame: np.ndarray, timestamp_ns: int, road_wheel: float, throttle: float) -> None:
+    def add(self, frame: np.ndarray, timestamp_ns: int, road_wheel: float, throttle: float,
+            deleted: bool = False) -> None:
         """One record: a BGR frame, its time (ns from the start), the road-wheel angle (rad, positive left) and
-        the throttle in [-1, 1]."""
+        the throttle in [-1, 1]; `deleted`: cut out of the drive (see the class's docstring)."""
         i = len(self.records)
+        if deleted:
+            self.deleted.append(i)
+        elif self.deleted and self.deleted[-1] == i - 1:  # the first record kept after a cut
+            self.sessions.append(f"{self.day}_{len(self.sessions)}")
         name = f"{i}_cam_image_array_.jpg"
         if not cv2.imwrite(str(self.out / "images" / name), frame, TUB_JPEG):
             raise SteerlabError(f"cannot write {self.out / 'images' / name}")
-        self.records.append({"_index": i, "_session_id": self.session,
+        self.records.append({"_index": i, "_session_id": self.sessions[-1],
                              "_timestamp_ms": (self.start_ns + int(timestamp_ns)) // 1_000_000,
                              "cam/image_array": name, "user/angle": self.servo(road_wheel),
                              "user/mode": "user", "user/throttle": float(np.clip(throttle, -1.0, 1.0))})
@@ -136,8 +146,10 @@ class TubWriter:
             (self.out / f"catalog_{n}.catalog_manifest").write_text(json.dumps(manifest, allow_nan=False,
                                                                                sort_keys=True) + "\n")
             paths.append(name)
-        sessions = {"all_full_ids": [self.session], "last_id": 0, "last_full_id": self.session}
-        catalogs = {"paths": paths, "current_index": len(self.records), "max_len": self.max_len, "deleted_indexes": []}
+        sessions = {"all_full_ids": self.sessions, "last_id": len(self.sessions) - 1,
+                    "last_full_id": self.sessions[-1]}
+        catalogs = {"paths": paths, "current_index": len(self.records), "max_len": self.max_len,
+                    "deleted_indexes": self.deleted}
         lines = [TUB_KEYS, TUB_TYPES, {}, {"created_at": created, "sessions": sessions}, catalogs]
         (self.out / "manifest.json").write_text("".join(json.dumps(line) + "\n" for line in lines))
         return self.out

@@ -1,12 +1,16 @@
-"""The one driving loop of every closed loop: the synthetic world (`sim drive`, the suite, DAgger rollouts) and
-replay on recorded camera data (`steerlab replay`), and the `Trajectory` it returns.
+"""The one driving loop of every closed loop: the synthetic road world (`sim drive`, the suite, DAgger rollouts),
+the track world of small cars (`sim drive/bench --world track`) and replay on recorded camera data (`steerlab
+replay`), and the `Trajectory` it returns.
 
 A world here is anything with `intervene(limit_m)`, `render(lateral=0)`, `state` (with `.v`, m/s), `s` (its
-arc length), `expert_steering()`, `step(road_wheel)`, `steering_ratio`, `done` and `record_row(tick)` (what a
-DAgger rollout records of a tick besides the frames and the label): the synthetic `World` and the replay of a
-recording (`sim.replay.ReplayWorld`). Each tick the car is put back if it left the lane (an intervention, after
-which the pilot forgets its past), the camera frame is taken, the pilot answers, and the car moves by the
-model's command (or, for DAgger, by whatever `choose` picks)."""
+arc length), `expert_steering()`, `step(road_wheel, throttle=None)`, `steering_ratio`, `done`, `car` and
+`record_row(tick)` (what a DAgger rollout records of a tick besides the frames and the label): the road `World`,
+the `TrackWorld` and the replay of a recording (`sim.replay.ReplayWorld`). Each tick the car is put back if it
+left the lane (an intervention, after which the pilot forgets its past; what leaving the lane means, and what
+`limit_m` measures, is the world's), the camera frame is taken, the pilot answers, and the car moves by the
+model's command (or, for DAgger, by whatever `choose` picks) and, where the pilot gives one, its throttle: a
+world whose speed comes from the throttle (the track world) drives by it, the others follow their own speed
+profile or recording and ignore it."""
 
 from __future__ import annotations
 
@@ -89,8 +93,9 @@ class Trajectory:
 
 @dataclass
 class Tick:
-    """What one tick saw and did: steering as road-wheel angles in radians, positive left. `expert`, the
-    expert's steering in this state, is computed only when something asks for it (a video, a DAgger label)."""
+    """What one tick saw and did: steering as road-wheel angles in radians, positive left, and the pilot's
+    throttle (None when it gives none). `expert`, the expert's steering in this state, is computed only when
+    something asks for it (a video, a DAgger label)."""
 
     index: int
     frame: np.ndarray
@@ -99,6 +104,7 @@ class Tick:
     model: float
     intervention: bool
     world: object
+    throttle: float | None = None
 
     @cached_property
     def expert(self) -> float:
@@ -125,8 +131,9 @@ def drive_loop(world, pilot, ticks: int, limit_m: float, fps: float, choose=None
                progress: bool = True, on_tick=None) -> Trajectory:
     """Drive `pilot` in `world` for `ticks` frames (or until `world.done`). The pilot's steering (in
     `pilot.convention`) becomes a road-wheel angle through `world.steering_ratio`; `choose(tick)` returns the
-    road-wheel angle to apply instead (DAgger's mix of model and expert); `on_step(tick)` sees every tick
-    (recording, video); `on_tick(k)` is called every 100 ticks (progress of a suite)."""
+    road-wheel angle to apply instead (DAgger's mix of model and expert); the pilot's throttle (`Controls.throttle`,
+    None for a pilot that gives none) goes to `world.step` with it. `on_step(tick)` sees every tick (recording,
+    video); `on_tick(k)` is called every 100 ticks (progress of a suite)."""
     rows = []
     for i in tqdm(range(ticks), desc=desc, unit="tick", disable=None if progress else True):
         if world.done:
@@ -136,13 +143,14 @@ def drive_loop(world, pilot, ticks: int, limit_m: float, fps: float, choose=None
             pilot.reset()
         frame = world.render()
         st = world.state
-        command = pilot.step(frame, st.v).steering
+        controls = pilot.step(frame, st.v)
+        command = controls.steering
         tick = Tick(i, frame, offset, heading, pilot.convention.to_road_wheel_left(command, world.steering_ratio),
-                    put_back, world)
+                    put_back, world, controls.throttle)
         if on_step:
             on_step(tick)
         rows.append((i / fps, st.x, st.y, world.s, offset, command, st.v, heading, float(put_back)))
-        world.step(tick.model if choose is None else choose(tick))
+        world.step(tick.model if choose is None else choose(tick), controls.throttle)
         if on_tick and (i + 1) % 100 == 0:
             on_tick(100)
     a = np.array(rows, dtype=float).reshape(-1, 9).T

@@ -20,7 +20,8 @@ import math
 
 import numpy as np
 
-from steerlab.sim.smallcar import SmallCarParams, throttle_for
+from steerlab.data.car import Car
+from steerlab.sim.smallcar import throttle_for
 from steerlab.sim.track import Track
 from steerlab.sim.vehicle import VehicleState
 
@@ -42,33 +43,33 @@ def pursuit(track: Track, state: VehicleState, s: float, d_target: float, wheelb
     return math.atan2(2 * wheelbase * math.sin(alpha), math.hypot(dx, dy))
 
 
-def target_speed(track: Track, s: float, v: float, car: SmallCarParams, lat_acc: float = LAT_ACC,
+def target_speed(track: Track, s: float, v: float, car: Car, lat_acc: float = LAT_ACC,
                  decel: float = DECEL) -> float:
     """The speed profile's value (m/s) one throttle time constant ahead: where the car will be when a change
     of throttle has taken effect."""
-    profile = track.speed_profile(car.top_speed, lat_acc, decel)
-    return float(profile[track.index(s + v * car.time_constant)])
+    profile = track.speed_profile(car.motor.top_speed, lat_acc, decel)
+    return float(profile[track.index(s + v * car.motor.time_constant)])
 
 
-def expert_controls(track: Track, state: VehicleState, s: float, car: SmallCarParams) -> tuple[float, float]:
+def expert_controls(track: Track, state: VehicleState, s: float, car: Car) -> tuple[float, float]:
     """The expert's (road-wheel angle, throttle) in this state without lag, noise or memory: pure pursuit of the
     lane centre and the feed-forward throttle to the full speed profile (labels for any state, as DAgger needs)."""
     v_target = target_speed(track, s, state.v, car)
-    accel = float(np.clip((v_target - state.v) / 0.25, -car.brake_decel, 4.0))
+    accel = float(np.clip((v_target - state.v) / 0.25, -car.max_decel, 4.0))
     return pursuit(track, state, s, 0.0, car.wheelbase), throttle_for(state.v, accel, car)
 
 
 class Racer:
     """The expert on one track: `act` gives each tick's controls and episode label."""
 
-    def __init__(self, track: Track, car: SmallCarParams, seed: int, dt: float, drift_every_s: float | None = 12.0,
+    def __init__(self, track: Track, car: Car, seed: int, dt: float, drift_every_s: float | None = 12.0,
                  lag_s: float = 0.08, noise_deg: float = 0.8, pace: float = 0.9):
         self.track, self.car, self.dt = track, car, dt
         self.rng = np.random.default_rng([seed, 14])
         self.drift_every = drift_every_s
         self.alpha = dt / (lag_s + dt)
         self.noise_deg, self.pace = noise_deg, pace
-        self.room = track.lane_width / 2 - car.width / 2
+        self.room = track.lane_width / 2 - car.body.width / 2
         self.delta = self.noise = self.wander = self.integral = 0.0
         self.episode, self.side = "normal", 0.0
         self.next_drift = self._draw_wait()
@@ -97,6 +98,6 @@ class Racer:
         v_target = (self.pace + self.wander) * target_speed(self.track, s, state.v, self.car)
         err = v_target - state.v
         self.integral = float(np.clip(self.integral + err * dt, -1.0, 1.0))
-        accel = float(np.clip(err / 0.25, -self.car.brake_decel, 4.0))
+        accel = float(np.clip(err / 0.25, -self.car.max_decel, 4.0))
         throttle = throttle_for(state.v, accel, self.car) + 0.05 * self.integral
         return self.delta, float(np.clip(throttle, -1.0, 1.0)), self.episode

@@ -154,7 +154,9 @@ class ReplayWorld:
         alpha = (math.atan2(ty - y, tx - x) - psi + math.pi) % (2 * math.pi) - math.pi
         return math.atan2(2 * self.car.wheelbase * math.sin(alpha), math.hypot(tx - x, ty - y))
 
-    def step(self, road_wheel: float) -> None:
+    def step(self, road_wheel: float, throttle: float | None = None) -> None:
+        """Apply a road-wheel angle for one frame at the recorded (or replayed) speed; a pilot's throttle is not
+        used: the recording's frames come at its own pace."""
         p = self.path
         self.vehicle.advance(road_wheel, float(p.v[self.k + 1]), float(p.t[self.k + 1] - p.t[self.k]))
         self.k += 1

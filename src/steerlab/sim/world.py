@@ -137,8 +137,9 @@ class World:
         """The expert's road-wheel angle (rad, positive left) in this state: pure pursuit of the lane centre."""
         return pure_pursuit(self.road, self.vehicle.state, self.s, LANE_CENTER, self.car.wheelbase)
 
-    def step(self, road_wheel: float) -> None:
-        """Apply a road-wheel angle for one frame; the speed follows the road's speed profile."""
+    def step(self, road_wheel: float, throttle: float | None = None) -> None:
+        """Apply a road-wheel angle for one frame; the speed follows the road's speed profile (a pilot's
+        `throttle` is not used: the road world's car keeps to the road's speeds)."""
         throttle, brake = cruise(self.road, self.s, self.vehicle.state.v)
         self.vehicle.step(road_wheel, throttle, brake, 1.0 / self.fps)
 

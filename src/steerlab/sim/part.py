@@ -1,0 +1,74 @@
+"""A donkeycar part as the pilot of steerlab's closed loop.
+
+donkeycar's vehicle loop drives with parts: each loop a pilot part's `run(img_arr)` gets the camera frame (H x W x
+3 uint8 RGB) and returns `(angle, throttle)`, the servo command in [-1, 1] (positive right) and the throttle in
+[-1, 1]. `PartPilot` puts any object with that interface where `driving.drive_loop` expects a pilot: steerlab's
+own part (`donkey.SteerlabPilot`, made for the track world's car by `donkey_pilot`) or another (donkeycar's
+KerasLinear, say, behind a part of the same interface). The world renders BGR frames, as OpenCV does; the part
+gets them as RGB, as donkeycar's cameras deliver them. Its angle is steering in the convention normalized,
+positive right, with the car's full lock: angle 1 turns the car's road wheels to full lock to the right.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from steerlab.data.car import CARS, Car
+from steerlab.data.recording import SteeringConvention
+from steerlab.donkey import SteerlabPilot
+from steerlab.errors import SteerlabError
+from steerlab.pilot import Controls
+
+
+class PartPilot:
+    """`part`: anything with `run(img_arr) -> (angle, throttle)`, or `run(img_arr, speed)` with `with_speed`
+    (the measured speed in m/s as the part's second input, as donkeycar's `enc/speed`); `full_lock_deg`: the
+    road-wheel angle of the driven car at angle +-1. `reset()` calls the part's own `reset` if it has one (after
+    an off-track event the pilot forgets its past). `name`, `geometry` (the camera the part expects; "donkey"
+    for donkeycar's 160x120 camera) and `source` (what messages name) describe it to the loop."""
+
+    def __init__(self, part, full_lock_deg: float, name: str | None = None, geometry: str | None = "donkey",
+                 source: str | None = None, with_speed: bool = False):
+        if not callable(getattr(part, "run", None)):
+            raise SteerlabError(f"{type(part).__name__} is not a donkeycar part: it has no run(img_arr)")
+        if not 0 < full_lock_deg < 90:
+            raise SteerlabError(f"full_lock_deg must lie in (0, 90) degrees, got {full_lock_deg}")
+        self.part, self.with_speed = part, with_speed
+        self.convention = SteeringConvention("normalized", "right", math.radians(full_lock_deg))
+        self.name = name or type(part).__name__
+        self.geometry = geometry
+        self.source = source or self.name
+
+    def step(self, frame: np.ndarray, speed: float | None = None) -> Controls:
+        """One BGR frame (and the car's speed) -> the part's angle as steering and its throttle, both limited
+        to [-1, 1] as the servo and the ESC limit them."""
+        rgb = np.ascontiguousarray(frame[..., ::-1])
+        out = self.part.run(rgb, speed) if self.with_speed else self.part.run(rgb)
+        try:
+            angle, throttle = (float(v) for v in out)
+        except (TypeError, ValueError):
+            raise SteerlabError(f"{self.source}: run() must return (angle, throttle), two numbers; got {out!r}") \
+                from None
+        if not (math.isfinite(angle) and math.isfinite(throttle)):
+            raise SteerlabError(f"{self.source}: run() returned ({angle}, {throttle}); finite numbers are expected")
+        return Controls(float(np.clip(angle, -1.0, 1.0)), throttle=float(np.clip(throttle, -1.0, 1.0)))
+
+    def reset(self) -> None:
+        reset = getattr(self.part, "reset", None)
+        if callable(reset):
+            reset()
+
+
+def donkey_pilot(checkpoint: str | Path, throttle: float, smoothing: float | None = None,
+                 car: Car = CARS["donkey"]) -> PartPilot:
+    """steerlab's donkeycar part on `checkpoint` driving `car`: its full lock turns the angles of models trained
+    on angles into servo commands, `throttle` is the part's constant throttle for models that predict none, the
+    measured speed is its second input (speed models need it), and it forgets the past when the world puts the
+    car back, not after a gap in wall-clock time (a simulation keeps no wall-clock pace)."""
+    part = SteerlabPilot(checkpoint, throttle, full_lock_deg=car.full_lock_deg, smoothing=smoothing,
+                         reset_after_s=None)
+    return PartPilot(part, car.full_lock_deg, name=part.pilot.name, geometry=part.pilot.geometry,
+                     source=str(checkpoint), with_speed=True)

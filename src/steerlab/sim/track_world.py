@@ -1,0 +1,238 @@
+"""The track world: a small car (`CARS["donkey"]`, `smallcar.SmallCar`) on a closed procedural track
+(`track.Track`), seen through the donkeycar fisheye camera (`track_render.TrackRenderer`), stepped at the frame
+rate. It is a world of `driving.drive_loop` like the road `World`, with what racing a small car on a hall floor
+brings:
+
+- the speed comes from the throttle: `step(road_wheel, throttle)` drives the car's throttle model (`Car.motor`);
+  a pilot that gives no throttle drives at the world's constant `throttle`;
+- leaving the lane is an off-track event, the track's intervention: the car's body (its four corners, `Car.body`)
+  overhangs a lane edge by more than `limit_m` (0 by default: any part of the body outside the lane, as a race
+  marshal sees it). The car is put back on the lane centre at its place along the track, heading along it, at
+  its speed;
+- laps (`Laps`): the world follows the rear axle's progress along the track (`Track.delta` between successive
+  positions, so that driving backwards undoes progress) and times every lap from the start line. The car starts
+  on the start line at standstill, so the first lap includes the standing start; a lap with an off-track event
+  is not clean.
+
+`RacerPilot` is the racing expert (`racer.Racer`) as a pilot of the same loop: recordings and the suite's
+reference laps are driven by it through `drive_loop` too.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from steerlab.data.car import CARS, Car
+from steerlab.data.fisheye import DONKEY_FISHEYE, FisheyeCamera, load_calibration
+from steerlab.data.recording import SteeringConvention
+from steerlab.errors import SteerlabError
+from steerlab.options import AT_LEAST_0, Options, POSITIVE, Range, UNIT, option
+from steerlab.pilot import Controls
+from steerlab.sim.racer import Racer, pursuit
+from steerlab.sim.smallcar import SmallCar
+from steerlab.sim.track import LANE_WIDTH, Track
+from steerlab.sim.track_render import TrackRenderer
+from steerlab.sim.vehicle import VehicleState
+from steerlab.sim.world import RESERVED_SEEDS
+
+THROTTLE = 0.3        # the constant throttle of a pilot that gives none: about 1.4 m/s on a straight
+DRIFT_EVERY_S = 12.0  # the racing expert's drift-and-recover episodes in a recording, on average
+
+
+def _lane_width():
+    return option(LANE_WIDTH, Range(0, 2, lo_open=True, unit="m"),
+                  help="lane width in metres: between the tape lines, or around the painted centre line")
+
+
+def _style():
+    return option("taped", help="taped (a line along each lane edge) or centre (one painted centre line)")
+
+
+def calibration_option():
+    """The option of every track command that renders: the fisheye calibration file of the car's camera."""
+    return option(None, path="file", help="fisheye calibration of the car's camera (JSON or YAML: image size "
+                  "160x120, K, D; default: a 160-degree Raspberry Pi camera)")
+
+
+def throttle_option():
+    """The option of every track command that drives a model: the throttle of one that predicts none."""
+    return option(THROTTLE, UNIT, help="the constant throttle of a model that predicts none")
+
+
+@dataclass(frozen=True)
+class TrackRecordOptions(Options):
+    """`steerlab sim record --world track`: the racing expert on the track made from `seed`."""
+
+    seed: int = option(0, help="track seed (9000-9999 are the track suite's, never recorded)")
+    minutes: float = option(1.0, POSITIVE, "positive and finite", help="minutes of driving")
+    fps: float = option(20.0, POSITIVE, "positive and finite", help="frames per second")
+    drift: bool = option(True, help="drift-and-recover episodes")
+    layout: Literal["tub", "steerlab"] = option("tub", help="a donkeycar tub v2, or steerlab's own layout (with "
+                                                "the episode of every frame)")
+    lane_width: float = _lane_width()
+    style: Literal["taped", "centre"] = _style()
+    calibration: str | None = calibration_option()
+
+
+@dataclass(frozen=True)
+class TrackDriveOptions(Options):
+    """`steerlab sim drive --world track`: a model on the track made from `seed` (100: not used for training)."""
+
+    seed: int = option(100, help="track seed (100: not used for training data)")
+    minutes: float = option(1.0, POSITIVE, "positive and finite", help="minutes of driving")
+    fps: float = option(20.0, POSITIVE, "positive and finite", help="frames per second")
+    limit_m: float = option(0.0, AT_LEAST_0, help="metres the car's body may overhang the lane edge before it is "
+                            "an off-track event")
+    lane_width: float = _lane_width()
+    style: Literal["taped", "centre"] = _style()
+    calibration: str | None = calibration_option()
+    throttle: float = throttle_option()
+
+
+def camera_of(calibration: str | None) -> FisheyeCamera:
+    """The fisheye the frames are rendered through: the donkeycar default, or a calibration file's."""
+    return DONKEY_FISHEYE if calibration is None else load_calibration(calibration)
+
+
+def check_track_seed(seed: int) -> None:
+    if seed in RESERVED_SEEDS:
+        raise SteerlabError(f"track seeds {RESERVED_SEEDS.start}-{RESERVED_SEEDS.stop - 1} are reserved for the "
+                            "track suite and never recorded; choose another seed")
+
+
+class Laps:
+    """Lap timing along a loop of `length` m: `advance(delta, t)` adds `delta` m of progress along the track made
+    by time t (s). A lap is complete when the progress passes a whole multiple of the length, at the time
+    interpolated between the two ticks around it; `off_track()` marks the lap in progress as not clean."""
+
+    def __init__(self, length: float):
+        self.length = length
+        self.progress, self.t = 0.0, 0.0
+        self.crossings = [0.0]  # when the car passed the start line; the start is the first
+        self.dirty: set[int] = set()  # laps (1-based) with an off-track event
+
+    def advance(self, delta: float, t: float) -> None:
+        before, self.progress = self.progress, self.progress + delta
+        while self.progress >= len(self.crossings) * self.length:
+            line = len(self.crossings) * self.length
+            self.crossings.append(self.t + (t - self.t) * (line - before) / (self.progress - before))
+        self.t = t
+
+    def off_track(self) -> None:
+        self.dirty.add(len(self.crossings))
+
+    def result(self) -> dict:
+        """Laps completed, clean ones, the best and mean time of the clean laps (None without one), every lap's
+        time and the laps with an off-track event (a lap in progress at the end included)."""
+        times = np.diff(self.crossings).tolist()
+        clean = [t for k, t in enumerate(times, start=1) if k not in self.dirty]
+        return {"laps": len(times), "clean_laps": len(clean), "best_lap_s": min(clean) if clean else None,
+                "mean_lap_s": float(np.mean(clean)) if clean else None, "lap_times_s": times,
+                "off_track_laps": sorted(self.dirty)}
+
+
+class TrackWorld:
+    """A small car at standstill on the start line of the track made from `seed` (see the module's docstring).
+    `camera`: the fisheye the frames are rendered through (None: none are rendered, for a driver that reads the
+    state, as the racing expert does; `render` gives a black frame). `throttle`: for pilots that give none."""
+
+    def __init__(self, seed: int, lane_width: float = LANE_WIDTH, style: str = "taped", fps: float = 20.0,
+                 camera: FisheyeCamera | None = DONKEY_FISHEYE, throttle: float = THROTTLE,
+                 car: Car = CARS["donkey"]):
+        self.track = Track(seed, lane_width, style)
+        self.renderer = None if camera is None else TrackRenderer(self.track, camera)
+        self.blank = np.zeros((DONKEY_FISHEYE.height, DONKEY_FISHEYE.width, 3), np.uint8)
+        self.car, self.fps, self.throttle = car, fps, throttle
+        x, y, psi = (float(v) for v in self.track.pose(0.0))
+        self.smallcar = SmallCar(VehicleState(x, y, psi, 0.0), car)
+        self.s, self.ticks, self.applied = 0.0, 0, 0.0
+        self.laps = Laps(self.track.length)
+        self.steering_ratio = car.steering_ratio
+        self.done = False  # a track is a loop: a drive ends when its ticks do
+
+    @property
+    def state(self) -> VehicleState:
+        return self.smallcar.state
+
+    @property
+    def time_s(self) -> float:
+        return self.ticks / self.fps
+
+    def observe(self) -> tuple[float, float]:
+        """(lateral offset of the rear axle from the lane centre [m, left positive], heading error [rad])."""
+        st = self.state
+        _, d, track_psi = self.track.project(st.x, st.y, self.s)
+        return d, (st.psi - track_psi + math.pi) % (2 * math.pi) - math.pi
+
+    def overhang(self) -> float:
+        """How far (m) the body's farthest corner lies outside the lane (negative while all are inside)."""
+        return self.track.overhang(*self.smallcar.corners(), self.s)
+
+    def put_back(self) -> None:
+        """An off-track event: the car is set on the lane centre at its place, along the track, at its speed."""
+        x, y, psi = (float(v) for v in self.track.pose(self.s))
+        self.smallcar.state = VehicleState(x, y, psi, self.state.v)
+        self.laps.off_track()
+
+    def intervene(self, limit_m: float) -> tuple[bool, float, float]:
+        """Put the car back (an off-track event) if its body overhangs the lane edge by more than `limit_m`.
+        Returns whether it did and the car's (offset, heading error) after it, as `observe`."""
+        put_back = self.overhang() > limit_m
+        if put_back:
+            self.put_back()
+        return (put_back, *self.observe())
+
+    def render(self, lateral: float = 0.0) -> np.ndarray:
+        """The camera's BGR frame; `lateral`: from a camera that far to the left of it."""
+        if self.renderer is None:
+            return self.blank
+        return self.renderer.render(*self.smallcar.camera_pose(lateral), self.s)
+
+    def expert_steering(self) -> float:
+        """The expert's road-wheel angle (rad, positive left) in this state: pure pursuit of the lane centre."""
+        return pursuit(self.track, self.state, self.s, 0.0, self.car.wheelbase)
+
+    def step(self, road_wheel: float, throttle: float | None = None) -> None:
+        """Apply a road-wheel angle and a throttle in [-1, 1] (None: the world's constant one) for one frame,
+        then follow the car along the track and its laps."""
+        self.applied = float(np.clip(self.throttle if throttle is None else throttle, -1.0, 1.0))
+        self.smallcar.step(road_wheel, self.applied, 1.0 / self.fps)
+        self.ticks += 1
+        st = self.state
+        s = self.track.project(st.x, st.y, self.s, window=3.0 + 2 * st.v / self.fps)[0]
+        self.laps.advance(float(self.track.delta(self.s, s)), self.time_s)
+        self.s = s
+
+    def record_row(self, tick: int) -> dict:
+        """What a recording holds of this tick besides the frames, the steering and the episode: the throttle
+        last applied as throttle and brake (the ESC's negative throttle brakes)."""
+        return {"timestamp_ns": int(round(tick * 1e9 / self.fps)), "speed": self.state.v,
+                "throttle": max(self.applied, 0.0), "brake": max(-self.applied, 0.0),
+                "curvature": float(self.track.curvature(self.s))}
+
+
+class RacerPilot:
+    """The racing expert as a pilot of `drive_loop` in a `TrackWorld`: it reads the world's state, not the frame,
+    and answers its road-wheel angle (positive left) and throttle; `episode` labels its last answer (normal,
+    drift-out, recover)."""
+
+    name, geometry, source = "expert", "donkey", "the racing expert"
+    convention = SteeringConvention("road_wheel", "left")
+
+    def __init__(self, world: TrackWorld, seed: int, drift_every_s: float | None = None):
+        self.world = world
+        self.racer = Racer(world.track, world.car, seed, 1.0 / world.fps, drift_every_s=drift_every_s)
+        self.episode = "normal"
+
+    def step(self, frame, speed=None) -> Controls:
+        w = self.world
+        offset, _ = w.observe()
+        delta, throttle, self.episode = self.racer.act(w.state, w.s, offset, w.time_s)
+        return Controls(delta, throttle=throttle)
+
+    def reset(self) -> None:
+        """Nothing to forget: the expert acts on the state."""
