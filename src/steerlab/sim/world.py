@@ -16,7 +16,6 @@ import numpy as np
 from tqdm import tqdm
 
 from steerlab.data.car import car_of
-from steerlab.data.geometry import CAMERAS
 from steerlab.data.writer import CONVENTION, RecordingWriter
 from steerlab.errors import SteerlabError, warn
 from steerlab.options import Options, POSITIVE, option
