@@ -69,7 +69,8 @@ def add_options(q: argparse.ArgumentParser, command: str, *classes: type, skip=(
     that a class of the command made already (the same option of another world; `label` names when these
     classes apply, e.g. "--world track") is made once: its choices grow by this field's, and its help adds this
     field's where it differs."""
-    OPTIONS.setdefault(command, []).extend(classes)
+    known = OPTIONS.setdefault(command, [])
+    known.extend(c for c in classes if c not in known)  # a parser built again registers nothing twice
     for cls in classes:
         for o in options_of(cls):
             if o.key in skip:
