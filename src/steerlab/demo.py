@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import csv
 import json
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -49,8 +50,9 @@ def run_demo(o: DemoOptions = DemoOptions(), progress: bool = True) -> Path:
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     rec_dir = out / "recording"
+    stages = Stages()
     if not (rec_dir / "recording.json").exists():
-        print(f"[1/5] recording {minutes} min of expert driving on mixed roads (road seed {TRAIN_SEED})")
+        stages.start(f"[1/5] recording {minutes} min of expert driving on mixed roads (road seed {TRAIN_SEED})")
         record(rec_dir, RecordOptions(seed=TRAIN_SEED, minutes=minutes, road=ROADS), progress=progress)
     n = int(round(minutes * 60 * 20))
     split = int(n * 0.8)
@@ -63,24 +65,44 @@ def run_demo(o: DemoOptions = DemoOptions(), progress: bool = True) -> Path:
                   "exclude_episodes": ["drift-out"], "side_cameras": True},
         "dagger": {**DAGGER, "minutes": dagger_minutes, "workers": workers},
     })
-    print(f"[2/5] training PilotNet on frames 0:{split} (drift-out frames excluded), then one DAgger round")
+    stages.start(f"[2/5] training PilotNet on frames 0:{split} (drift-out frames excluded), then one DAgger round")
     ckpt = run_dagger(cfg, progress=progress)
-    print(f"[3/5] open-loop evaluation on the held-out frames {split}:{n}")
+    stages.start(f"[3/5] open-loop evaluation on the held-out frames {split}:{n}")
     offline = evaluate(ckpt, Source(str(rec_dir), f"{split}:{n}"), out / "open-loop", progress=progress)
-    print("[4/5] closed-loop replay of the held-out frames (the recording's frames warped to the car's view)")
+    stages.start("[4/5] closed-loop replay of the held-out frames (the recording's frames warped to the car's view)")
     replay = run_replay([ckpt], Source(str(rec_dir), f"{split}:{n}"), out / "replay", ReplayOptions(workers=1),
                         progress=progress)
-    print(f"[5/5] closed-loop suite: {suite_minutes or 3:g} min on each of its unseen roads")
+    stages.start(f"[5/5] closed-loop suite: {suite_minutes or 3:g} min on each of its unseen roads")
     summary = run_suite([ckpt], out / "closed-loop", SuiteOptions(minutes=suite_minutes, workers=workers),
                         progress=progress)
+    stages.start(None)
     with open(out / "pilotnet" / "dagger.csv") as f:
         rounds = list(csv.DictReader(f))
     report = out / "report.md"
     report.write_text(_report(offline, rounds, dagger_minutes, (out / "replay" / "replay.md").read_text(),
                               (out / "closed-loop" / "suite.md").read_text(), split, n))
     (out / "summary.json").write_text(json.dumps({"open_loop": offline, "dagger": rounds, "replay": replay,
-                                                 "closed_loop": summary}, indent=1))
+                                                 "closed_loop": summary, "seconds": stages.seconds}, indent=1))
     return report
+
+
+class Stages:
+    """The demo's stages as they start: each is announced, and the one before it ends with its wall time
+    (`seconds`, by stage number; a stage that an earlier run finished is not timed)."""
+
+    def __init__(self):
+        self.seconds: dict[str, float] = {}
+        self._current: tuple[str, float] | None = None
+
+    def start(self, line: str | None) -> None:
+        now = time.perf_counter()
+        if self._current:
+            name, began = self._current
+            self.seconds[name] = round(now - began, 1)
+            print(f"      {name} took {now - began:.0f} s")
+        self._current = (line.split("]")[0].lstrip("["), now) if line else None
+        if line:
+            print(line)
 
 
 def _report(m: dict, rounds: list[dict], dagger_minutes: float, replay_table: str, suite_table: str, split: int,
