@@ -98,7 +98,7 @@ cache: {tmp_path / 'cache'}
 split: {{train: "0:220", val: "220:300"}}
 train: {{epochs: 1, batch_size: 16}}
 out: {tmp_path / 'exp'}
-closed_loop: {{suite: v1, minutes: 0.01, workers: 1}}
+closed_loop: {{suite: v1, minutes: 0.01, workers: 1, roads: twisty}}
 replay: {{}}
 models:
   - {{model: {{name: zero}}}}

@@ -80,7 +80,7 @@ def test_suite_roads_are_never_recorded(tmp_path):
 
 def test_suite_on_the_command_line(tiny_checkpoint, tmp_path, capsys):
     out = tmp_path / "bench"
-    assert main(["sim", "bench", str(tiny_checkpoint), "--minutes", "0.02", "--out", str(out)]) == 0
+    assert main(["sim", "bench", str(tiny_checkpoint), "--minutes", "0.01", "--out", str(out)]) == 0
     printed = capsys.readouterr().out
     assert "| run | twisty | 3 |" in printed and "| run | all | 11 |" in printed
     with open(out / "suite.csv") as f:
@@ -91,7 +91,7 @@ def test_suite_on_the_command_line(tiny_checkpoint, tmp_path, capsys):
     # a second run reuses the finished drives
     drive_json = out / "run" / "country-9101" / "drive.json"
     stamp = drive_json.stat().st_mtime_ns
-    assert main(["sim", "bench", str(tiny_checkpoint), "--minutes", "0.02", "--out", str(out),
+    assert main(["sim", "bench", str(tiny_checkpoint), "--minutes", "0.01", "--out", str(out),
                  "--roads", "country"]) == 0
     assert drive_json.stat().st_mtime_ns == stamp
     assert "| run | highway |" not in capsys.readouterr().out
@@ -109,13 +109,13 @@ def test_suite_cache_key_covers_checkpoint_smoothing_and_minutes(tiny_checkpoint
 
     def bench(*options):
         before = drive_json.stat().st_mtime_ns if drive_json.exists() else None
-        assert main(["sim", "bench", str(ckpt), "--minutes", "0.02", "--roads", "highway", "--workers", "1",
+        assert main(["sim", "bench", str(ckpt), "--minutes", "0.01", "--roads", "highway", "--workers", "1",
                      "--out", str(out), *options]) == 0
         return drive_json.stat().st_mtime_ns != before  # driven anew
 
     assert bench()
     key = json.loads(drive_json.read_text())["cache_key"]
-    assert key == {"checkpoint_sha256": key["checkpoint_sha256"], "suite": "v1", "minutes": 0.02, "smoothing": None}
+    assert key == {"checkpoint_sha256": key["checkpoint_sha256"], "suite": "v1", "minutes": 0.01, "smoothing": None}
     assert not bench()  # the same inputs: reused
     assert bench("--smoothing", "0.5") and json.loads(drive_json.read_text())["cache_key"]["smoothing"] == 0.5
     assert not bench("--smoothing", "0.5")
@@ -124,9 +124,9 @@ def test_suite_cache_key_covers_checkpoint_smoothing_and_minutes(tiny_checkpoint
     resaved(ckpt, retrained)
     assert bench("--smoothing", "0.5")
     assert json.loads(drive_json.read_text())["cache_key"]["checkpoint_sha256"] != key["checkpoint_sha256"]
-    assert bench("--smoothing", "0.5", "--minutes", "0.03")  # the last --minutes counts
+    assert bench("--smoothing", "0.5", "--minutes", "0.02")  # the last --minutes counts
     drive_json.write_text(drive_json.read_text()[:40])  # a torn drive.json is driven anew, not a traceback
-    assert bench("--smoothing", "0.5", "--minutes", "0.03")
+    assert bench("--smoothing", "0.5", "--minutes", "0.02")
 
 
 def test_suite_bad_input(tiny_checkpoint, tmp_path, capsys):
@@ -141,13 +141,13 @@ def test_rollout_labels_are_the_experts(tmp_path):
     """A pilot that always steers left drifts off; every frame it visits is labelled with what the expert
     would steer in that state, which an independent replay of the same world reproduces."""
     pilot = ConstantPilot(0.15)
-    out = world_rollout(pilot, tmp_path / "r", seed=21, minutes=0.25, road="country", beta=0.0)
+    out = world_rollout(pilot, tmp_path / "r", seed=21, minutes=0.1, road="country", beta=0.0)
     rec = open_recording(tmp_path / "r")
-    assert len(rec) == 300 and rec.cameras == ["center", "left", "right"] and out["interventions"] > 0
-    world = World(21, "country", "sim", 300 / 20)
+    assert len(rec) == 120 and rec.cameras == ["center", "left", "right"] and out["interventions"] > 0
+    world = World(21, "country", "sim", 120 / 20)
     ratio = world.car.steering_ratio
     labels, resets = [], 0
-    for _ in range(300):
+    for _ in range(120):
         offset, _ = world.observe()
         if abs(offset) > 1.0:
             world.put_back()
@@ -171,9 +171,9 @@ def test_dagger_aggregates_rollouts(tiny_recording, tmp_path):
 
     cfg = load_config(None, base={
         "data": str(tiny_recording), "cache": str(tmp_path / "cache"), "out": str(tmp_path / "dagger"),
-        "split": {"train": "0:240", "val": "240:300"}, "model": {"name": "pilotnet", "dropout": 0.0},
+        "split": {"train": "0:120", "val": "240:300"}, "model": {"name": "pilotnet", "dropout": 0.0},
         "train": {"epochs": 1, "batch_size": 32, "side_cameras": True},
-        "dagger": {"iterations": 1, "minutes": 0.1, "roads": "country,twisty", "epochs": 1, "suite_minutes": 0.01,
+        "dagger": {"iterations": 1, "minutes": 0.02, "roads": "country,twisty", "epochs": 1, "suite_minutes": 0.01,
                    "workers": 1}})
     final = run_dagger(cfg, progress=False)
     assert final.exists()
@@ -214,9 +214,9 @@ def test_dagger_aggregates_rollouts(tiny_recording, tmp_path):
     assert round1.train.init.endswith("round0/best.pt") and len(round1.extra_data) == 2
     # round 1 trains on the main recording's training frames and every rollout frame, with their side cameras
     ds = prepare_dataset(round1, progress=False)
-    sources, codes = training_sources(round1, ds, np.arange(240), progress=False)
+    sources, codes = training_sources(round1, ds, np.arange(120), progress=False)
     rollouts = [open_recording(p) for p in round1.extra_data]
-    assert len(sources) == 9 and len(codes) == 3 * (240 + sum(len(r) for r in rollouts))
+    assert len(sources) == 9 and len(codes) == 3 * (120 + sum(len(r) for r in rollouts))
     batches = FrameBatches(sources, {"mean": [0.0], "std": [1.0]})
     first_rollout = batches.offsets[3]
     np.testing.assert_allclose(batches.steering(np.array([first_rollout])), rollouts[0].steering[:1])

@@ -122,8 +122,8 @@ def test_bad_inputs_give_clear_errors(tmp_path, capsys):
 
 def test_tiny_demo_end_to_end(tmp_path, capsys):
     out = tmp_path / "demo"
-    assert main(["demo", "--out", str(out), "--minutes", "0.3", "--epochs", "1", "--suite-minutes", "0.05",
-                 "--dagger-minutes", "0.05"]) == 0
+    assert main(["demo", "--out", str(out), "--minutes", "0.3", "--epochs", "1", "--suite-minutes", "0.01",
+                 "--dagger-minutes", "0.02", "--workers", "1"]) == 0
     printed = capsys.readouterr().out
     assert "| pilotnet | twisty | 3 |" in printed and "report:" in printed  # the suite's table, at the end
     text = (out / "report.md").read_text()

@@ -209,7 +209,7 @@ def test_speed_models_need_speed(model, ch2_folder, tmp_path):
 
 def test_resume_after_interruption(tiny_recording, tmp_path, monkeypatch):
     """Also with TensorBoard logging: the resumed run's events continue the first one's, epoch for epoch."""
-    cfg = _cfg(tiny_recording, tmp_path, epochs=3, tensorboard=True)
+    cfg = _cfg(tiny_recording, tmp_path, epochs=3, tensorboard=True, split={"train": "0:100", "val": "100:140"})
     real = loop.train_one_epoch
     calls = []
 
@@ -235,7 +235,7 @@ def test_resume_after_interruption(tiny_recording, tmp_path, monkeypatch):
     rmse = board.Scalars("val/rmse")
     assert [e.step for e in rmse] == [1, 2, 3]
     np.testing.assert_allclose([e.value for e in rmse], [float(r["val_rmse"]) for r in rows], rtol=1e-6)
-    other = _cfg(tiny_recording, tmp_path, epochs=3, lr=0.1)
+    other = _cfg(tiny_recording, tmp_path, epochs=3, lr=0.1, split={"train": "0:100", "val": "100:140"})
     with pytest.raises(SteerlabError, match="another config"):
         loop.train(other, progress=False)
 
@@ -327,14 +327,14 @@ def test_the_batches_do_not_depend_on_the_number_of_workers(tiny_recording, tmp_
     """Every random draw (order, flips, motion dropout, augmentation) is made where the batches are drawn, so one
     or two worker processes give the batches that loading in this process gives."""
     cfg = _cfg(tiny_recording, tmp_path, flip=True, motion_dropout=0.5, rotation_deg=5, brightness=0.2,
-               model={"name": "pilotnet-flow", "dropout": 0.0}).for_car(CH2_CAR)
+               model={"name": "pilotnet-flow", "dropout": 0.0}, split={"train": "0:96", "val": "96:120"}).for_car(CH2_CAR)
     run = loop.build(cfg, Ranks(), False, None, None)
     epochs = {}
     for workers in (0, 2):
         batches = loader(run.data, run.sampler, workers, torch.device("cpu"))
         run.sampler.set_epoch(3)
         epochs[workers] = list(batches)
-    assert len(epochs[0]) == len(epochs[2]) == 8  # 240 frames in batches of 32
+    assert len(epochs[0]) == len(epochs[2]) == 3  # 96 frames in batches of 32
     for (x0, y0, w0), (x2, y2, w2) in zip(epochs[0], epochs[2]):
         assert torch.equal(x0["x"], x2["x"]) and torch.equal(y0["steering"], y2["steering"]) and w0 == w2
     run.sampler.set_epoch(4)
