@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pytest
 
-from test_tune import rows, run_tune, tune_config
+from test_tune import HOLD, rows, run_tune, tune_config
 
 HEARTBEAT = "1,3"  # STEERLAB_TUNE_HEARTBEAT: beat every second, fail a trial silent for 3 s
 
@@ -179,11 +179,15 @@ def steerlab() -> list[str]:
     return [str(exe)] if exe.exists() else [sys.executable, "-m", "steerlab"]
 
 
-def worker(cfg, url, study, trials, *options, seed=0):
+def worker(cfg, url, study, trials, *options, seed=0, hold=False):
+    """A `steerlab tune` worker; `hold`: one whose trial stops after its first epoch until it is killed."""
     env = {**os.environ, "STEERLAB_TUNE_HEARTBEAT": HEARTBEAT, "OMP_NUM_THREADS": "1"}
-    return subprocess.Popen([*steerlab(), "tune", str(cfg), "--trials", str(trials), "--storage", url, "--study",
-                             study, "--seed", str(seed), *options],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env)
+    argv = ["tune", str(cfg), "--trials", str(trials), "--storage", url, "--study", study, "--seed", str(seed),
+            *options]
+    command = [*steerlab(), *argv]
+    if hold:
+        command = [sys.executable, "-c", f"{HOLD}from steerlab.cli import main\nraise SystemExit(main({argv!r}))"]
+    return subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env)
 
 
 _storages = {}
@@ -237,11 +241,11 @@ def test_postgres_killed_worker_trial_is_failed_and_retried(postgres, tmp_path, 
 
     url = postgres.database()
     a_out, b_out = tmp_path / "a", tmp_path / "b"
-    a = worker(tune_config(tmp_path, tiny_recording, a_out, epochs=2), url, "s", 3, "--no-pruning", seed=0)
+    a = worker(tune_config(tmp_path, tiny_recording, a_out, epochs=2), url, "s", 3, "--no-pruning", seed=0, hold=True)
     b = worker(tune_config(tmp_path, tiny_recording, b_out, epochs=2), url, "s", 3, "--no-pruning", seed=1)
     killed = None
     try:
-        while killed is None and a.poll() is None:  # until a has trained an epoch, however busy the machine is
+        while killed is None and a.poll() is None:  # until a has trained an epoch (and holds), however busy
             time.sleep(0.1)
             mine = set(trial_folders(a_out))  # the trials worker a trains
             if not mine:

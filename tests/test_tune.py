@@ -1,6 +1,7 @@
 """steerlab tune: BOHB-style search with Optuna, shared studies, reports; bad input."""
 
 import csv
+import os
 import subprocess
 import sys
 
@@ -24,12 +25,32 @@ def run_tune(config, overrides=(), progress=False, study_name=None, pruning=3, *
 def tune_config(path, recording, out, tune=None, epochs=3, split=("0:120", "120:160")):
     cfg = {"data": str(recording), "cache": str(path / "cache"), "out": str(out),
            "split": {"train": split[0], "val": split[1]}, "model": {"name": "pilotnet"},
+           "preprocess": {"width": 64, "height": 64},  # small frames (PilotNet's layers need 61 or more): quick trials
            "train": {"epochs": epochs, "batch_size": 32, "patience": 10},
            "tune": tune or {"train.lr": {"low": 1.0e-5, "high": 0.1, "log": True},
                             "model.dropout": {"low": 0.0, "high": 0.6}}}
     file = path / f"{out.name}.yaml"
     file.write_text(yaml.safe_dump(cfg))
     return file
+
+
+# Worker processes train on one thread, as the tests do: threads of several processes that share the cores
+# only get in each other's way.
+ONE_THREAD = {**os.environ, "OMP_NUM_THREADS": "1"}
+
+# `python -c HOLD + code`: a worker whose trial stops after its first epoch until the worker is killed, so that
+# it is killed mid-trial however fast or busy the machine is.
+HOLD = """import time
+import steerlab.train.loop as loop
+_train = loop.train
+def _held(cfg, progress=False, on_epoch=None):
+    def epoch_done(epoch, metrics):
+        on_epoch(epoch, metrics)
+        while epoch == 1:
+            time.sleep(60)
+    return _train(cfg, progress, on_epoch=epoch_done)
+loop.train = _held
+"""
 
 
 def rows(out):
@@ -98,7 +119,7 @@ def test_two_workers_share_one_journal(tmp_path, tiny_recording):
     cmd = [sys.executable, "-m", "steerlab", "tune", str(cfg), "--trials", "4", "--storage", str(journal),
            "--study", "s"]
     workers = [subprocess.Popen(cmd + ["--seed", str(i)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                                text=True) for i in range(2)]
+                                text=True, env=ONE_THREAD) for i in range(2)]
     for w in workers:
         assert w.wait(timeout=300) == 0, w.stderr.read()
     study = optuna.load_study(study_name="s", storage=optuna.storages.JournalStorage(
@@ -146,17 +167,20 @@ def test_killed_worker_trial_is_failed_and_retried(tmp_path, tiny_recording, mon
     failed by the next worker's heartbeat check and retried with the same parameters."""
     import signal
     import time
+    import warnings
 
     import optuna
 
     cfg = tune_config(tmp_path, tiny_recording, tmp_path / "k", epochs=2)
     url = f"sqlite:///{tmp_path / 'study.db'}"
-    code = ("import steerlab.tune.storage as t; t.HEARTBEAT = (1, 2); from steerlab.cli import main; "
-            f"main(['tune', {str(cfg)!r}, '--trials', '2', '--storage', {url!r}, '--study', 's', '--no-pruning'])")
-    worker = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    code = HOLD + ("import steerlab.tune.storage as t; t.HEARTBEAT = (1, 2); from steerlab.cli import main; "
+                   f"main(['tune', {str(cfg)!r}, '--trials', '2', '--storage', {url!r}, '--study', 's', "
+                   "'--no-pruning'])")
+    worker = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                              env=ONE_THREAD)
     storage = optuna.storages.RDBStorage(url)
     try:
-        while worker.poll() is None:  # until the first trial has finished an epoch, however busy the machine is
+        while worker.poll() is None:  # until the first trial has finished an epoch (and holds), however busy
             time.sleep(0.1)
             try:
                 trials = optuna.load_study(study_name="s", storage=storage).trials
@@ -167,9 +191,14 @@ def test_killed_worker_trial_is_failed_and_retried(tmp_path, tiny_recording, mon
     finally:
         worker.send_signal(signal.SIGKILL)
         worker.wait()
-    killed = optuna.load_study(study_name="s", storage=storage).trials[0]
+    study = optuna.load_study(study_name="s", storage=storage)
+    killed = study.trials[0]
     assert killed.state == optuna.trial.TrialState.RUNNING
-    time.sleep(3)  # longer than the grace period
+    with warnings.catch_warnings():  # heartbeats are experimental in Optuna
+        warnings.simplefilter("ignore")
+        watch = optuna.storages.RDBStorage(url, heartbeat_interval=1, grace_period=2)
+    while killed._trial_id not in watch._get_stale_trial_ids(study._study_id):  # silent past the grace period
+        time.sleep(0.1)
     monkeypatch.setattr("steerlab.tune.storage.HEARTBEAT", (1, 2))
     run_tune(cfg, trials=2, storage=url, study_name="s", pruning=None, progress=False)
     trials = optuna.load_study(study_name="s", storage=storage).trials
@@ -182,7 +211,8 @@ def test_killed_worker_trial_is_failed_and_retried(tmp_path, tiny_recording, mon
 def test_autonomy_objective_drives_the_suite_of_the_config(tmp_path, tiny_recording):
     cfg = tune_config(tmp_path, tiny_recording, tmp_path / "drive", epochs=1)
     text = yaml.safe_load(cfg.read_text())
-    cfg.write_text(yaml.safe_dump({**text, "closed_loop": {"suite": "v1", "minutes": 0.02}}))
+    # the roads driven one after the other in this process: no worker processes to start for a second of driving
+    cfg.write_text(yaml.safe_dump({**text, "closed_loop": {"suite": "v1", "minutes": 0.02, "workers": 1}}))
     for bad in ({"suite": "v9"}, {"minutes": -1}, {"minutes": 0}):
         broken = tmp_path / "broken.yaml"
         broken.write_text(yaml.safe_dump({**text, "out": str(tmp_path / "broken"), "closed_loop": bad}))
