@@ -261,6 +261,19 @@ def test_sim_drive_world_track_with_a_tub_checkpoint(tmp_path, capsys):
     assert sum(1 for _ in iter(lambda: video.read()[0], False)) == 60
 
 
+def test_a_model_that_learned_the_throttle_drives_the_track_with_its_own(tmp_path):
+    """--throttle is the constant of a model that predicts none: a throttle model's speeds do not depend on it."""
+    ckpt = made(tmp_path, "normalized", "right", "donkey", full_lock_deg=25, throttle=True)
+    speeds = []
+    for constant in ("0.1", "0.6"):
+        out = tmp_path / constant
+        assert main(["sim", "drive", str(ckpt), "--world", "track", "--minutes", "0.02", "--throttle", constant,
+                     "--out", str(out)]) == 0
+        with open(out / "trajectory.csv") as f:
+            speeds.append([float(r["speed"]) for r in csv.DictReader(f)])
+    assert speeds[0] == speeds[1] and max(speeds[0]) > 0
+
+
 def test_sim_bench_world_track_writes_its_tables_and_reuses_drives(tmp_path, capsys):
     (tmp_path / "a").mkdir()
     ckpt = made(tmp_path / "a", "normalized", "right", "donkey", name="best.pt", full_lock_deg=25)
