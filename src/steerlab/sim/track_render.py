@@ -109,8 +109,9 @@ class TrackRenderer:
         ceiling = ~floor & (z > room.height)
         # floor and ceiling hits are points of their planes; a wall hit a point of the perimeter
         t = np.where(floor, self.t_floor, self.t_ceiling)
-        px, py = x + t * dx - room.x0, y + t * dy - room.y0
-        hx, hy = x + t_wall * dx - room.x0, y + t_wall * dy - room.y0
+        with np.errstate(invalid="ignore"):  # inf x 0 where a ray meets neither plane: such pixels are walls
+            px, py = x + t * dx - room.x0, y + t * dy - room.y0
+            hx, hy = x + t_wall * dx - room.x0, y + t_wall * dy - room.y0
         wx, wy = room.x1 - room.x0, room.y1 - room.y0
         perim = np.where(wall_x, np.where(dx > 0, wx + hy, 2 * (wx + wy) - hy), np.where(dy > 0, 2 * wx + wy - hx, hx))
         mx = np.where(floor, px * np.float32(1 / RES), np.where(ceiling, px * np.float32(1 / CEIL_RES),
