@@ -13,7 +13,8 @@ from steerlab.sim.road import EDGE, LANE_CENTER
 
 def plot_trajectory(path: str | Path, road, trajs: dict[str, Trajectory], title: str) -> None:
     """Top-down view of closed-loop drives on one road against its lane, and their lateral offsets over time."""
-    with figure(path, 1, 2, figsize=(13, 5), gridspec_kw={"width_ratios": [1, 1.4]}) as (fig, (ax, ax2)):
+    with figure(path, 1, 2, figsize=(13, 5), gridspec_kw={"width_ratios": [1, 1.4]},
+                margins=dict(left=0.06, right=0.99, bottom=0.1, top=0.9, wspace=0.16)) as (fig, (ax, ax2)):
         s_all = np.concatenate([t.s for t in trajs.values()])
         a, b = road.index(s_all.min() - 20), road.index(s_all.max() + 20) + 1
         for d, style in [(EDGE, "k-"), (-EDGE, "k-"), (0.0, "k--")]:
