@@ -207,9 +207,8 @@ def test_speed_models_need_speed(model, ch2_folder, tmp_path):
         loop.train(cfg, progress=False)
 
 
-def test_resume_after_interruption(tiny_recording, tmp_path, monkeypatch):
-    """Also with TensorBoard logging: the resumed run's events continue the first one's, epoch for epoch."""
-    cfg = _cfg(tiny_recording, tmp_path, epochs=3, tensorboard=True, split={"train": "0:100", "val": "100:140"})
+def _interrupt_the_second_epoch(monkeypatch):
+    """Training that stops with Ctrl-C when its second epoch starts; returns the real epoch function."""
     real = loop.train_one_epoch
     calls = []
 
@@ -220,6 +219,13 @@ def test_resume_after_interruption(tiny_recording, tmp_path, monkeypatch):
         return real(*a, **k)
 
     monkeypatch.setattr(loop, "train_one_epoch", interrupted)
+    return real
+
+
+def test_resume_after_interruption(tiny_recording, tmp_path, monkeypatch):
+    """Also with TensorBoard logging: the resumed run's events continue the first one's, epoch for epoch."""
+    cfg = _cfg(tiny_recording, tmp_path, epochs=3, tensorboard=True, split={"train": "0:100", "val": "100:140"})
+    real = _interrupt_the_second_epoch(monkeypatch)
     with pytest.raises(KeyboardInterrupt):
         loop.train(cfg, progress=False)
     assert [r["epoch"] for r in _log(tmp_path)] == ["1"]
@@ -354,16 +360,7 @@ def test_a_run_does_not_resume_on_changed_data(tiny_recording, tmp_path, monkeyp
     data = tmp_path / "rec"
     shutil.copytree(tiny_recording, data)
     cfg = _cfg(data, tmp_path, epochs=2)
-    real = loop.train_one_epoch
-    calls = []
-
-    def interrupted(*a, **k):
-        calls.append(1)
-        if len(calls) == 2:
-            raise KeyboardInterrupt
-        return real(*a, **k)
-
-    monkeypatch.setattr(loop, "train_one_epoch", interrupted)
+    real = _interrupt_the_second_epoch(monkeypatch)
     with pytest.raises(KeyboardInterrupt):
         loop.train(cfg, progress=False)
     log = (data / "log.csv").read_text().splitlines()

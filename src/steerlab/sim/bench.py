@@ -153,8 +153,8 @@ def run_suite(checkpoints, out: str | Path, o: SuiteOptions = SuiteOptions(), pr
               for label, ckpt in zip(labels, checkpoints) for road, seed in roads]
     summary = summarize(drives)
     out.mkdir(parents=True, exist_ok=True)
-    _write_csv(out / "suite.csv", DRIVE_FIELDS, drives)
-    _write_csv(out / "summary.csv", SUMMARY_FIELDS, summary)
+    write_csv(out / "suite.csv", DRIVE_FIELDS, drives)
+    write_csv(out / "summary.csv", SUMMARY_FIELDS, summary)
     (out / "suite.md").write_text(markdown(summary, o.suite, minutes))
     if plots:
         _plot_roads(out, drives, minutes)
@@ -203,11 +203,12 @@ def markdown(summary: list[dict], suite: str, minutes: float) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _write_csv(path: Path, fields: list[str], rows: list[dict]) -> None:
+def write_csv(path: Path, fields: list[str], rows: list[dict]) -> None:
+    """A suite's table: the `fields` of every row, an empty cell for None (a value that does not exist)."""
     with open(path, "w", newline="") as f:
         w = csv.DictWriter(f, fields)
         w.writeheader()
-        w.writerows([{k: r[k] for k in fields} for r in rows])
+        w.writerows([{k: "" if r[k] is None else r[k] for k in fields} for r in rows])
 
 
 def _plot_roads(out: Path, drives: list[dict], minutes: float) -> None:

@@ -17,7 +17,6 @@ completed, clean laps (no off-track event), best and mean clean lap time against
 
 from __future__ import annotations
 
-import csv
 import hashlib
 import json
 from dataclasses import astuple, dataclass
@@ -28,7 +27,7 @@ import numpy as np
 from steerlab.errors import SteerlabError
 from steerlab.options import AT_LEAST_1, Options, POSITIVE, option
 from steerlab.pilot import smoothing_option
-from steerlab.sim.bench import labels_for
+from steerlab.sim.bench import labels_for, write_csv
 from steerlab.sim.driving import Trajectory, autonomy
 from steerlab.sim.parallel import run_parallel, tick_reporter
 from steerlab.sim.track_world import TrackDriveOptions, calibration_option, camera_of, throttle_option
@@ -145,8 +144,8 @@ def run_track_suite(checkpoints, out: str | Path, o: TrackSuiteOptions = TrackSu
               for label, ckpt, _ in runs[1:] for style, seed in tracks]
     summary = summarize(drives)
     out.mkdir(parents=True, exist_ok=True)
-    _write_csv(out / "suite.csv", DRIVE_FIELDS, drives)
-    _write_csv(out / "summary.csv", SUMMARY_FIELDS, summary)
+    write_csv(out / "suite.csv", DRIVE_FIELDS, drives)
+    write_csv(out / "summary.csv", SUMMARY_FIELDS, summary)
     (out / "suite.md").write_text(markdown(summary, drives, o))
     if plots:
         _plot_tracks(out, drives, o)
@@ -210,13 +209,6 @@ def markdown(summary: list[dict], drives: list[dict], o: TrackSuiteOptions) -> s
                      f"{_num(d['lap_ratio'], '.2f')} | {d['off_track']} | {d['autonomy']:.1f} | "
                      f"{d['mean_speed']:.2f} |")
     return "\n".join(lines) + "\n"
-
-
-def _write_csv(path: Path, fields: list[str], rows: list[dict]) -> None:
-    with open(path, "w", newline="") as f:
-        w = csv.DictWriter(f, fields)
-        w.writeheader()
-        w.writerows([{k: "" if r[k] is None else r[k] for k in fields} for r in rows])
 
 
 def _plot_tracks(out: Path, drives: list[dict], o: TrackSuiteOptions) -> None:
