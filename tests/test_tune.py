@@ -197,7 +197,9 @@ def test_killed_worker_trial_is_failed_and_retried(tmp_path, tiny_recording, mon
     with warnings.catch_warnings():  # heartbeats are experimental in Optuna
         warnings.simplefilter("ignore")
         watch = optuna.storages.RDBStorage(url, heartbeat_interval=1, grace_period=2)
+    deadline = time.monotonic() + 120
     while killed._trial_id not in watch._get_stale_trial_ids(study._study_id):  # silent past the grace period
+        assert time.monotonic() < deadline, "the killed worker's trial never went stale"
         time.sleep(0.1)
     monkeypatch.setattr("steerlab.tune.storage.HEARTBEAT", (1, 2))
     run_tune(cfg, trials=2, storage=url, study_name="s", pruning=None, progress=False)
