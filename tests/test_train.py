@@ -305,7 +305,7 @@ def test_every_model_learns_and_streams_as_in_batch(model, pre, tiny_recording, 
 
 
 def test_a_run_of_an_earlier_version_loads_and_resumes(tiny_recording, tmp_path, monkeypatch):
-    """tests/data/run-0.1.0 is a run folder as steerlab 0.1.0 (commit 4e71608) wrote it after its first epoch of
+    """tests/fixtures/run-0.1.0 is a run folder as steerlab 0.1.0 (commit 4e71608) wrote it after its first epoch of
     two: a config.json of raw values (the learning rate as text, the car's steering ratio and side-camera offset
     written out), a last.pt without the identity of its data, checkpoints of a model whose first fully connected
     layer was sized by hand. Its checkpoint drives, and the same config continues the run with epoch 2."""
@@ -314,7 +314,7 @@ def test_a_run_of_an_earlier_version_loads_and_resumes(tiny_recording, tmp_path,
 
     from steerlab.pilot import Pilot
 
-    old = Path(__file__).parent / "data" / "run-0.1.0"
+    old = Path(__file__).parent / "fixtures" / "run-0.1.0"
     monkeypatch.chdir(tmp_path)
     shutil.copytree(old, tmp_path / "run")
     (tmp_path / "rec").symlink_to(tiny_recording)  # the recording it was trained on: the same seed, the same bytes
