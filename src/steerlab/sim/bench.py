@@ -176,19 +176,25 @@ def summarize(drives: list[dict]) -> list[dict]:
     per km over the summed distance, the mean of the drives' mean |offset|, the largest |offset|, the mean
     command gamma, and the km driven."""
     out = []
+    for label, road, ds in grouped(drives, "road_type"):
+        km = sum(d["distance_km"] for d in ds)
+        n = sum(d["interventions"] for d in ds)
+        seconds = sum(d["minutes"] * 60 for d in ds)
+        out.append({"label": label, "road_type": road, "drives": len(ds), "minutes": seconds / 60, "distance_km": km,
+                    "interventions": n, "autonomy": autonomy(n, seconds), "interventions_per_km": n / max(km, 1e-9),
+                    "mean_abs_offset_m": float(np.mean([d["mean_abs_offset_m"] for d in ds])),
+                    "max_abs_offset_m": float(max(d["max_abs_offset_m"] for d in ds)),
+                    "command_gamma_deg": float(np.mean([d["command_gamma_deg"] for d in ds]))})
+    return out
+
+
+def grouped(drives: list[dict], key: str):
+    """A suite's summary rows: per label, its drives of each value of `key` (in the order they come), then all
+    of its drives (value "all"), as (label, value, drives)."""
     for label in dict.fromkeys(d["label"] for d in drives):
         mine = [d for d in drives if d["label"] == label]
-        for road in [*dict.fromkeys(d["road_type"] for d in mine), "all"]:
-            ds = [d for d in mine if road in ("all", d["road_type"])]
-            km = sum(d["distance_km"] for d in ds)
-            n = sum(d["interventions"] for d in ds)
-            seconds = sum(d["minutes"] * 60 for d in ds)
-            out.append({"label": label, "road_type": road, "drives": len(ds), "minutes": seconds / 60, "distance_km": km,
-                        "interventions": n, "autonomy": autonomy(n, seconds), "interventions_per_km": n / max(km, 1e-9),
-                        "mean_abs_offset_m": float(np.mean([d["mean_abs_offset_m"] for d in ds])),
-                        "max_abs_offset_m": float(max(d["max_abs_offset_m"] for d in ds)),
-                        "command_gamma_deg": float(np.mean([d["command_gamma_deg"] for d in ds]))})
-    return out
+        for value in [*dict.fromkeys(d[key] for d in mine), "all"]:
+            yield label, value, [d for d in mine if value in ("all", d[key])]
 
 
 def markdown(summary: list[dict], suite: str, minutes: float) -> str:

@@ -27,7 +27,7 @@ import numpy as np
 from steerlab.errors import SteerlabError
 from steerlab.options import AT_LEAST_1, Options, POSITIVE, option
 from steerlab.pilot import smoothing_option
-from steerlab.sim.bench import labels_for, write_csv
+from steerlab.sim.bench import grouped, labels_for, write_csv
 from steerlab.sim.driving import Trajectory, autonomy
 from steerlab.sim.parallel import run_parallel, tick_reporter
 from steerlab.sim.track_world import TrackDriveOptions, calibration_option, camera_of, throttle_option
@@ -166,21 +166,18 @@ def summarize(drives: list[dict]) -> list[dict]:
     fractions included) and per km, autonomy over the summed time, the mean lap-time ratio to the expert over
     the drives with a clean lap (None without one) and the mean command gamma."""
     out = []
-    for label in dict.fromkeys(d["label"] for d in drives):
-        mine = [d for d in drives if d["label"] == label]
-        for style in [*dict.fromkeys(d["style"] for d in mine), "all"]:
-            ds = [d for d in mine if style in ("all", d["style"])]
-            n = sum(d["off_track"] for d in ds)
-            km = sum(d["distance_km"] for d in ds)
-            laps_driven = sum(d["laps_driven"] for d in ds)
-            seconds = sum(d["minutes"] * 60 for d in ds)
-            ratios = [d["lap_ratio"] for d in ds if d["lap_ratio"] is not None]
-            out.append({"label": label, "style": style, "drives": len(ds), "minutes": seconds / 60, "distance_km": km,
-                        "laps": sum(d["laps"] for d in ds), "clean_laps": sum(d["clean_laps"] for d in ds),
-                        "off_track": n, "off_track_per_lap": n / max(laps_driven, 1e-9),
-                        "off_track_per_km": n / max(km, 1e-9), "autonomy": autonomy(n, seconds),
-                        "lap_ratio": float(np.mean(ratios)) if ratios else None,
-                        "command_gamma_deg": float(np.mean([d["command_gamma_deg"] for d in ds]))})
+    for label, style, ds in grouped(drives, "style"):
+        n = sum(d["off_track"] for d in ds)
+        km = sum(d["distance_km"] for d in ds)
+        laps_driven = sum(d["laps_driven"] for d in ds)
+        seconds = sum(d["minutes"] * 60 for d in ds)
+        ratios = [d["lap_ratio"] for d in ds if d["lap_ratio"] is not None]
+        out.append({"label": label, "style": style, "drives": len(ds), "minutes": seconds / 60, "distance_km": km,
+                    "laps": sum(d["laps"] for d in ds), "clean_laps": sum(d["clean_laps"] for d in ds),
+                    "off_track": n, "off_track_per_lap": n / max(laps_driven, 1e-9),
+                    "off_track_per_km": n / max(km, 1e-9), "autonomy": autonomy(n, seconds),
+                    "lap_ratio": float(np.mean(ratios)) if ratios else None,
+                    "command_gamma_deg": float(np.mean([d["command_gamma_deg"] for d in ds]))})
     return out
 
 
