@@ -91,8 +91,11 @@ class Renderer:
         self.lateral = (-self.ray[:, None] * xc[None, :]).astype(np.float32)  # left positive, metres
         sky_v = np.clip((np.arange(self.first_row) - (self.horizon - 80)) / 80.0, 0, 1)[:, None]
         sky = np.array(SKY_TOP, np.float32) * (1 - sky_v) + np.array(SKY_HORIZON, np.float32) * sky_v
-        self.sky = np.repeat(sky[:, None, :], c.width, axis=1)
-        self.haze = np.clip(self.fwd / MAX_RANGE, 0, 1)[:, None, None] ** 1.5
+        self.sky = np.ascontiguousarray(np.repeat(sky[:, None, :], c.width, axis=1).transpose(2, 0, 1))
+        # far ground fades to haze: colour * clear + haze_light, per channel (planes: (3, rows, width))
+        haze = np.broadcast_to(np.clip(self.fwd / MAX_RANGE, 0, 1)[:, None] ** 1.5, self.lateral.shape)
+        self.clear = np.ascontiguousarray(1 - haze)
+        self.haze_light = np.stack([np.float32(h) * haze for h in HAZE])
 
     def render(self, x: float, y: float, psi: float, s_hint: float, shift: float = 0.0) -> np.ndarray:
         """BGR uint8 frame of the camera on a car at world pose (x, y, psi), moved `shift` m to the left."""
@@ -115,23 +118,28 @@ class Renderer:
         # classes: 0 grass, 1 verge, 2 asphalt, 3 marking
         cls = np.where(ad < EDGE, 2, np.where(ad < VERGE, 1, 0)).astype(np.uint8)
         edge = (ad > EDGE - LINE_WIDTH) & (ad < EDGE)
-        dash = (ad < LINE_WIDTH / 2) & (np.mod(s, 12.0) < 4.0)
+        dash = ad < LINE_WIDTH / 2
+        dash[dash] = np.mod(s[dash], 12.0) < 4.0
         cls[edge | dash] = 3
         cls[beyond] = 0
-        img = sc.palette[cls]
-        ti = ((s * 6.0).astype(np.int32) & 255, (d * 6.0).astype(np.int32) & 255)
-        light = sc.texture[ti]
+        # texture and shadow looked up by flat index (faster than indexing with two index arrays)
+        ti = (((s * 6.0).astype(np.int32) & 255) << 8) | ((d * 6.0).astype(np.int32) & 255)
+        light = sc.texture.ravel().take(ti)
         si = np.clip((s / DS).astype(np.int32), 0, len(road.s) - 1)
         dj = np.clip(((d + sc.d_max) / sc.d_res).astype(np.int32), 0, sc.shadow.shape[1] - 1)
-        light *= sc.shadow[si, dj]
-        img *= light[..., None]
-        img = img * (1 - self.haze) + np.array(HAZE, np.float32) * self.haze
+        light *= sc.shadow.ravel().take(si * sc.shadow.shape[1] + dj)
+        # colour channel by channel, each a plane (per-pixel products over a last axis of 3 are slow in NumPy)
         i0 = road.index(s_hint)
-        frame = np.empty((c.height, c.width, 3), np.float32)
-        frame[: self.first_row] = self.sky
-        frame[self.first_row:] = img
-        frame *= sc.brightness[i0] * sc.tint[i0]
-        out = np.clip(frame, 0, 255).astype(np.uint8)
+        factor = sc.brightness[i0] * sc.tint[i0]
+        planes = np.empty((3, c.height, c.width), np.float32)
+        for ch in range(3):
+            plane = sc.palette[:, ch].take(cls)
+            plane *= light
+            plane = plane * self.clear + self.haze_light[ch]
+            planes[ch, : self.first_row] = self.sky[ch]
+            planes[ch, self.first_row:] = plane
+            planes[ch] *= factor[ch]
+        out = cv2.merge(list(np.clip(planes, 0, 255).astype(np.uint8)))
         self._draw_objects(out, cx, cy, psi, s_hint)
         return out
 
