@@ -21,6 +21,7 @@ import math
 import types
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import MISSING, dataclass, field, fields
+from functools import cache
 from typing import Any, Literal, Union, get_args, get_origin, get_type_hints
 
 from steerlab.errors import SteerlabError
@@ -204,7 +205,9 @@ def value_of(kind, value, where: str, check=None, expected: str | None = None):
     return out
 
 
+@cache
 def _hints(cls) -> dict:
+    """A dataclass's field types, resolved once per class (callers only read them)."""
     return get_type_hints(cls, include_extras=False)
 
 

@@ -12,6 +12,7 @@ import argparse
 import math
 import sys
 from dataclasses import MISSING
+from functools import cache
 from pathlib import Path
 
 from steerlab.errors import SteerlabError
@@ -139,7 +140,9 @@ def print_table(metrics: dict, keys=None) -> None:
             print(f"  {k:<18} {v}")
 
 
+@cache
 def build_parser() -> argparse.ArgumentParser:
+    """The command line's parser, built once per process (a parse leaves it as it was)."""
     from steerlab.cli import data, driving, training
 
     p = Parser(prog="steerlab", description="End-to-end driving models: camera in, steering out.")

@@ -280,7 +280,8 @@ def fit(run: Run, ranks: Ranks, progress: bool, on_epoch=None) -> dict:
         return metrics
 
     step_model = wrap(model, ranks)  # on the device; in DDP with several ranks
-    opt = torch.optim.Adam(model.parameters(), lr=t.lr)
+    # fused: one kernel for all parameters; the per-tensor updates were a sixth of PilotNet's step on a CPU
+    opt = torch.optim.Adam(model.parameters(), lr=t.lr, fused=True)
     data_id = run.ds.path.name  # the compiled cache entry: its name holds the hash of the source and its labels
     start, best, since_best, history = 1, None, 0, []
     if (out / "last.pt").exists():
