@@ -22,8 +22,8 @@ from steerlab.train.config import load_config
 TRAIN_SEED = 1
 ROADS = "country,twisty,highway,twisty"  # the recipe of configs/experiment_recipe.yaml: half the time on tight curves
 # one DAgger round: the model drives a fresh twisty road (`dagger_minutes`; the expert steers a tick with
-# probability 0.5), the expert labels every frame, 2 more epochs from the trained weights (docs/RESULTS.md, the demo)
-DAGGER = {"iterations": 1, "roads": "twisty", "beta": 0.5, "epochs": 2, "suite": None}
+# probability 0.5), the expert labels every frame, 1 more epoch from the trained weights (docs/RESULTS.md, the demo)
+DAGGER = {"iterations": 1, "roads": "twisty", "beta": 0.5, "epochs": 1, "suite": None}
 
 
 @dataclass(frozen=True)
@@ -35,6 +35,8 @@ class DemoOptions(Options):
     out: str = option("runs/demo", help="output folder", path="folder")
     minutes: float = option(8.0, POSITIVE, "positive and finite",
                             help="minutes of expert driving on mixed roads to train on")
+    fps: float = option(10.0, POSITIVE, "positive and finite",
+                        help="frames per second of the recording (the DAgger round and the suite drive at 20)")
     epochs: int = option(5, AT_LEAST_1, help="epochs of the first training")
     suite_minutes: float | None = option(None, POSITIVE, "positive and finite",
                                          help="minutes on each road of the closed-loop suite (default: the suite's 3)")
@@ -45,16 +47,16 @@ class DemoOptions(Options):
 
 def run_demo(o: DemoOptions = DemoOptions(), progress: bool = True) -> Path:
     """The whole pipeline; returns the report's path."""
-    out, minutes, epochs, suite_minutes, dagger_minutes, workers = (o.out, o.minutes, o.epochs, o.suite_minutes,
-                                                                    o.dagger_minutes, o.workers)
+    out, minutes, fps, epochs, suite_minutes, dagger_minutes, workers = (
+        o.out, o.minutes, o.fps, o.epochs, o.suite_minutes, o.dagger_minutes, o.workers)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     rec_dir = out / "recording"
     stages = Stages()
     if not (rec_dir / "recording.json").exists():
         stages.start(f"[1/5] recording {minutes} min of expert driving on mixed roads (road seed {TRAIN_SEED})")
-        record(rec_dir, RecordOptions(seed=TRAIN_SEED, minutes=minutes, road=ROADS), progress=progress)
-    n = int(round(minutes * 60 * 20))
+        record(rec_dir, RecordOptions(seed=TRAIN_SEED, minutes=minutes, road=ROADS, fps=fps), progress=progress)
+    n = int(round(minutes * 60 * fps))
     split = int(n * 0.8)
     cfg = load_config(None, base={
         "data": str(rec_dir), "cache": str(out / "cache"), "out": str(out / "pilotnet"),
@@ -115,7 +117,7 @@ def _report(m: dict, rounds: list[dict], dagger_minutes: float, replay_table: st
         "## DAgger", "",
         f"Round 1: the trained model drove {dagger_minutes:g} minutes of a fresh {DAGGER['roads']} road (the "
         f"expert steering a tick with probability {DAGGER['beta']}), the expert labelled every frame it saw, and "
-        f"{DAGGER['epochs']} more epochs trained on the recording and that drive.", "",
+        f"{DAGGER['epochs']} more epoch{'s' * (DAGGER['epochs'] > 1)} trained on the recording and that drive.", "",
         "| round | recordings | rollout autonomy [%] | val RMSE [rad] |", "|---|---|---|---|",
         *[f"| {r['round']} | {r['recordings']} | {_pct(r['rollout_autonomy'])} | {float(r['val_rmse']):.4f} |"
           for r in rounds], "",
