@@ -24,11 +24,14 @@ from steerlab.data.recording import Recording
 from steerlab.data.speed import estimate_speed
 from steerlab.data.writer import RecordingWriter
 from steerlab.errors import DataError, SteerlabError
+from steerlab.options import Range
 from steerlab.sim.driving import Trajectory, autonomy, drive_loop, rollout
 from steerlab.sim.vehicle import Vehicle, VehicleState
 
 MAX_HEADING_DEG = 10.0  # beyond this the warped view shows too much of what the camera never saw
 MIN_SECONDS = 3.0       # shorter segments are not replayed
+MOUNT_HEIGHT = Range(0, 10, lo_open=True, hi_open=True, unit="m")  # the camera mounts a replay takes
+PITCH = Range(-45, 45, lo_open=True, hi_open=True, unit="degrees")
 
 
 @dataclass
