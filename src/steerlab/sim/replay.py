@@ -8,7 +8,8 @@ road: `geometry.shift_view`), asks the pilot for a command and moves by it, in t
 synthetic world uses (`sim.driving.drive_loop`). Further than the lane limit from the path (1 m for a car), or
 turned further than the warp's valid range, is an intervention: the car is put back on the path and the pilot
 forgets its past. Recordings without a speed signal get one estimated from the frames (`data.speed`).
-`replay.run_replay` (sim/replay_run.py) is the command around it."""
+`replay.run_replay` (sim/replay_run.py) is the command around it; `replay_track.py` makes of it the replay of
+small cars (the fisheye's view, the speed from the throttle, the body leaving the lane)."""
 
 from __future__ import annotations
 
