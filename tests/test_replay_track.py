@@ -177,6 +177,19 @@ def test_a_track_world_tub_carries_its_camera_and_replays(track_tub):
     assert slow[-1]["km"] < human[-1]["km"]
 
 
+def test_both_layouts_of_the_track_world_carry_the_calibrated_camera(tmp_path):
+    from steerlab.data.fisheye import load_calibration
+
+    calib = tmp_path / "calib.json"
+    calib.write_text(json.dumps({"image_size": [160, 120], "K": [[81.0, 0.0, 80.0], [0.0, 80.0, 61.0], [0, 0, 1]],
+                                 "D": [-0.02, -0.01, 0.0, 0.005]}))
+    for layout in ("tub", "steerlab"):
+        out = tmp_path / layout
+        assert main(["sim", "record", "--world", "track", "--minutes", "0.01", "--layout", layout, "--calibration",
+                     str(calib), "--out", str(out)]) == 0
+        assert Source(str(out)).open().fisheye == load_calibration(calib)
+
+
 def test_steerlab_replay_on_a_track_world_tub(track_tub, tmp_path, capsys):
     ckpt = made(tmp_path, "normalized", "right", "donkey", full_lock_deg=25, throttle=True)
     argv = ["replay", str(ckpt), "--data", str(track_tub), "--reader", "full_lock_deg=25", "--workers", "1"]

@@ -1,4 +1,5 @@
-"""The donkeycar camera as OpenCV's fisheye model: per-pixel rays, projection, and pinhole views of its frames.
+"""The donkeycar camera as OpenCV's fisheye model: per-pixel rays, projection, pinhole views of its frames, and
+its frames seen from a camera moved on a flat floor (`shift_view`, the view of replay).
 
 donkeycar's usual camera is a Raspberry Pi camera module with a 160-degree wide-angle lens, read at 160x120. A
 pinhole (`geometry.CAMERAS["donkey"]`) only approximates it: straight lines bend, the horizon bulges, and the
@@ -220,8 +221,13 @@ def distort(img: np.ndarray, cam: FisheyeCamera = DONKEY_FISHEYE, focal: float |
 
 
 @lru_cache(maxsize=8)
-def _vehicle_rays(cam: FisheyeCamera) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    return cam.vehicle_rays()
+def _floor_points(cam: FisheyeCamera) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(forward, left, up) in vehicle axes from the camera of where every pixel's ray meets the floor, or of its
+    direction for a ray at or above the horizon, and which rays meet the floor."""
+    fwd, left, up = cam.vehicle_rays()
+    below = up < 0
+    t = np.where(below, cam.mount_height / np.where(below, -up, 1.0), 1.0)
+    return t * fwd, t * left, np.where(below, -cam.mount_height, up), below
 
 
 def view_maps(cam: FisheyeCamera, shift_m: float, yaw_deg: float) -> tuple[np.ndarray, np.ndarray]:
@@ -231,12 +237,9 @@ def view_maps(cam: FisheyeCamera, shift_m: float, yaw_deg: float) -> tuple[np.nd
     (the pixel's ray, `FisheyeCamera.ray`), the flat-floor homography (where the ray meets the floor, that point
     seen from the frame's camera; a ray above the horizon only turns) and distort again (`project`), composed
     into one map for `cv2.remap` (float32, (height, width) each)."""
-    fwd, left, up = _vehicle_rays(cam)
-    below = up < 0
-    t = np.where(below, cam.mount_height / np.where(below, -up, 1.0), 1.0)  # to the floor, or a direction
+    f, left, up, below = _floor_points(cam)  # the rays of the view, met with the floor once per camera
     c, s = math.cos(math.radians(yaw_deg)), math.sin(math.radians(yaw_deg))
-    f, lft, z = t * fwd, t * left, np.where(below, -cam.mount_height, up)
-    u, v = cam.project(f * c - lft * s, f * s + lft * c + np.where(below, shift_m, 0.0), z)
+    u, v = cam.project(f * c - left * s, f * s + left * c + np.where(below, shift_m, 0.0), up)
     return u.astype(np.float32), v.astype(np.float32)
 
 
