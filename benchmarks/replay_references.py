@@ -6,6 +6,8 @@ reacts 0.1 or 0.2 s late and a driver who never steers bracket what a model's co
 
 python benchmarks/replay_references.py --data ../shared/data/donkeycar/hall --range 4012:5015 \
     --reader skip_missing=true --reader full_lock_deg=25 --speed 2
+python benchmarks/replay_references.py --data ../shared/data/donkeycar/hall --range 4012:5015 \
+    --reader skip_missing=true --reader full_lock_deg=25 --world track    # a small car's replay (replay_track.py)
 """
 
 import argparse
@@ -13,10 +15,13 @@ import argparse
 from _common import machine
 
 from steerlab.data.car import CARS
+from steerlab.data.fisheye import DONKEY_FISHEYE
 from steerlab.data.geometry import CAMERAS
 from steerlab.data.readers import Source, reader_options
 from steerlab.pilot import Controls
 from steerlab.sim.replay import Replay, replay_recording
+from steerlab.sim.replay_track import TrackReplay
+from steerlab.sim.track import LANE_WIDTH
 
 
 class Scripted:
@@ -42,15 +47,21 @@ def main() -> None:
     ap.add_argument("--range")
     ap.add_argument("--labels")
     ap.add_argument("--reader", action="append", default=[], help="reader option KEY=VALUE (repeatable)")
-    ap.add_argument("--speed", type=float, help="m/s (default: the recorded speed)")
+    ap.add_argument("--speed", type=float, help="m/s (default: the recorded speed; --world track: from the throttle)")
+    ap.add_argument("--world", choices=("road", "track"), default="road", help="the road replay (default) or the "
+                    "small cars' (fisheye, speed from the throttle, the body leaving the lane)")
+    ap.add_argument("--lane-width", type=float, default=LANE_WIDTH, help=f"m, --world track (default {LANE_WIDTH})")
     args = ap.parse_args()
     rec = Source(args.data, args.range, args.labels, reader_options(args.reader)).open()
     fps = rec.frame_rate()
-    print(f"machine: {machine()}\n\n{rec.name} {args.range or ''} at {args.speed or 'the recorded'} m/s:\n")
+    speed = args.speed or ("the recorded throttle's" if args.world == "track" else "the recorded")
+    print(f"machine: {machine()}\n\n{rec.name} {args.range or ''}, {args.world} replay, at {speed} m/s:\n")
     print("| reference | km | interventions | interventions/km | mean abs offset [m] |\n|---|---|---|---|---|")
     for label, delay in (("the human's steering", 0), (f"the human's steering 2 ticks ({2 / fps:.2f} s) late", 2),
                          (f"the human's steering 4 ticks ({4 / fps:.2f} s) late", 4), ("straight ahead (zero)", None)):
-        replay = Replay(rec, CAMERAS[rec.geometry], CARS[rec.geometry], args.speed, CARS[rec.geometry].lane_limit_m)
+        replay = (TrackReplay(rec, CAMERAS[rec.geometry], CARS[rec.geometry], args.speed, fisheye=rec.fisheye or
+                              DONKEY_FISHEYE, lane_width=args.lane_width) if args.world == "track" else
+                  Replay(rec, CAMERAS[rec.geometry], CARS[rec.geometry], args.speed, CARS[rec.geometry].lane_limit_m))
         rows, _ = replay_recording(Scripted(rec, delay), replay)
         r = next(r for r in rows if r["segment"] == "all")
         print(f"| {label} | {r['km']:.3f} | {r['interventions']} | {r['interventions_per_km']:.1f} | "

@@ -332,16 +332,35 @@ def _tune_space(space):
     return build
 
 
+def _calibration(tmp_path, calibration) -> list[str]:
+    """`--calibration calib.json` with the content `calibration` (text, or a mapping as JSON); none for None."""
+    if calibration is None:
+        return []
+    path = tmp_path / "calib.json"
+    path.write_text(calibration if isinstance(calibration, str) else json.dumps(calibration))
+    return ["--calibration", str(path)]
+
+
 def _track(command, *argv, calibration=None):
     """`sim COMMAND --world track` with an untrained donkeycar checkpoint (drive, bench) or none (record), the
     options `argv` and, given its content, a calibration file `calib.json`."""
     def build(tmp_path, stack):
         args = [] if command == "record" else [str(made(tmp_path, "normalized", "right", "donkey", full_lock_deg=25))]
-        if calibration is not None:
-            path = tmp_path / "calib.json"
-            path.write_text(calibration if isinstance(calibration, str) else json.dumps(calibration))
-            args += ["--calibration", str(path)]
+        args += _calibration(tmp_path, calibration)
         return ["sim", command, *args, "--world", "track", "--out", str(tmp_path / "out"), *argv]
+    return build
+
+
+def _tub_replay(*argv, calibration=None, records=None, metadata=None):
+    """`replay` of an untrained donkeycar checkpoint on the tiny tub (its `records` changed, and its manifest's
+    metadata replaced by `metadata`), with the options `argv` and, given its content, a calibration file."""
+    def build(tmp_path, stack):
+        folder = tub(tmp_path / "tub", records)
+        if metadata is not None:
+            tear(folder / "manifest.json", 3, json.dumps(metadata) + "\n")
+        ckpt = made(tmp_path, "normalized", "right", "donkey", full_lock_deg=25)
+        return ["replay", str(ckpt), "--data", str(folder), "--reader", "full_lock_deg=25", "--out",
+                str(tmp_path / "out"), *_calibration(tmp_path, calibration), *argv]
     return build
 
 
@@ -490,6 +509,36 @@ BAD_INPUTS = {
     "replay corrupt frame": (_corrupt_frame_replay, ".jpg: cannot decode image (corrupt or not a JPEG/PNG)"),
     "replay missing recording": (lambda t, s: ["replay", str(made(t)), "--data", str(t / "nothere"), "--out",
                                                str(t / "out")], "nothere: recording not found"),
+    # the replay of small cars (a tub: the track world's replay)
+    "replay lane width 0": (_tub_replay("--lane-width", "0"), "--lane-width must be a number in (0, 2] m, got 0"),
+    "replay lane width narrower than the car": (_tub_replay("--lane-width", "0.15"),
+                                                "--lane-width 0.15 m leaves no room for the car's 0.2 m wide body"),
+    "replay tub speed nan": (_tub_replay("--speed", "nan"), "--speed must be positive and finite, got nan"),
+    "replay speed inf": (_with("--speed", "inf", command="replay"), "--speed must be positive and finite, got inf"),
+    "replay calibration that does not parse": (_tub_replay(calibration="{not json"),
+                                               "calib.json: not a JSON calibration file"),
+    "replay calibration of another image size": (
+        _tub_replay(calibration={**CALIBRATION, "image_size": [640, 480]}),
+        "calib.json: calibrated at 640x480, but the camera takes 160x120 frames"),
+    "replay in an unknown world": (_tub_replay("--world", "moon"),
+                                   "argument --world: invalid choice: 'moon' (choose from 'road', 'track')"),
+    "replay a road recording in the track world": (_with("--world", "track", command="replay"),
+                                                   "the track replay is for the donkey camera"),
+    "replay a tub with a road option": (_tub_replay("--max-heading", "5"),
+                                        "--max-heading is an option of the road world (--world road); the track "
+                                        "world does not take it"),
+    "replay a road recording with a track option": (_with("--lane-width", "0.5", command="replay"),
+                                                    "--lane-width is an option of the track world (--world track)"),
+    "replay the throttle of a model without one": (_tub_replay("--throttle", "model"),
+                                                   "model.pt predicts no throttle: --throttle model needs a model "
+                                                   "that learned it"),
+    "replay the model's throttle at a given speed": (_tub_replay("--throttle", "model", "--speed", "2"),
+                                                     "--speed and --throttle model exclude each other"),
+    "replay a tub without throttle": (_tub_replay(records={i: {"user/throttle": None} for i in range(ROWS)}),
+                                      "tub: records no throttle to take the speed from: give one with --speed M/S"),
+    "replay a tub whose fisheye is no camera": (_tub_replay(metadata={"fisheye": {"fx": -1.0}}),
+                                                "manifest.json: the fisheye camera: a fisheye camera needs an image "
+                                                "of at least 2x2 px and positive focal lengths"),
     # i) a study's journal this worker cannot write
     "tune read-only journal": (_read_only_journal, "s.journal: the journal file is not writable (permission denied)"),
     # k) a study's storage that cannot be opened: the URL without its password, what the server or driver said

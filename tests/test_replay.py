@@ -189,19 +189,20 @@ def test_replay_without_speed_needs_one(tiny_checkpoint, twisty, tmp_path, capsy
 
 
 @needs_donkey
-def test_replay_a_donkeycar_tub(tmp_path, capsys):
-    """A tub replays with the donkeycar geometry and its full-lock angle; the speed estimated from the hall's
-    plain floor is no speed a donkeycar drives at, so it asks for --speed."""
+def test_replay_a_donkeycar_tub_as_a_road(tmp_path, capsys):
+    """With --world road a tub replays as a road car's recording (`test_replay_track.py` has its own replay)
+    with the donkeycar geometry and its full-lock angle; the speed estimated from the hall's plain floor is no
+    speed a donkeycar drives at, so it asks for --speed."""
     ckpt = made(tmp_path, "normalized", "right", "donkey", "donkey.pt", full_lock_deg=25)
     argv = ["replay", str(ckpt), "--data", str(HALL), "--reader", "full_lock_deg=25", "--range", "0:400",
-            "--workers", "1", "--out", str(tmp_path / "r")]
+            "--world", "road", "--workers", "1", "--out", str(tmp_path / "r")]
     assert main(argv) == 2
     assert "is not one this car drives at (0.3-8 m/s)" in capsys.readouterr().err
     assert main([*argv, "--speed", "2"]) == 0
     row = next(csv.DictReader(open(tmp_path / "r" / "replay.csv")))
     assert float(row["speed_mps"]) == 2.0 and row["recording"] == "hall"
-    assert main(["replay", str(ckpt), "--data", str(HALL), "--range", "0:400", "--speed", "2", "--workers", "1",
-                 "--out", str(tmp_path / "y")]) == 2
+    assert main(["replay", str(ckpt), "--data", str(HALL), "--range", "0:400", "--speed", "2", "--world", "road",
+                 "--workers", "1", "--out", str(tmp_path / "y")]) == 2
     assert "full-lock angle" in capsys.readouterr().err  # a tub without full_lock_deg has no angles
 
 

@@ -93,10 +93,14 @@ def cmd_sim_dagger(a) -> None:
 
 def cmd_replay(a) -> None:
     from steerlab.sim.replay_run import ReplayOptions, run_replay
+    from steerlab.sim.replay_track import TrackReplayOptions, world_of
 
-    o = from_args(ReplayOptions, a)
+    data = source(a)
+    a.world = a.world or world_of(data.open())
+    road = (ReplayOptions,), (TrackReplayOptions,)
+    (o,) = world_options(a, *(road if a.world == "road" else road[::-1]))
     start = time.perf_counter()
-    run_replay(a.checkpoints, source(a), a.out, o, a.video)
+    run_replay(a.checkpoints, data, a.out, o, a.video)
     print((Path(a.out) / "replay.md").read_text())
     print(f"wrote {a.out}/replay.md, replay.csv, segments.csv, replay.png, */trajectory.csv"
           + (f", {a.video}" if a.video else "") + f" in {time.perf_counter() - start:.0f} s")
@@ -123,6 +127,7 @@ def register(sub) -> None:
     from steerlab.serve import ServeOptions
     from steerlab.sim.bench import SuiteOptions
     from steerlab.sim.replay_run import ReplayOptions
+    from steerlab.sim.replay_track import TrackReplayOptions
     from steerlab.sim.track_bench import TrackSuiteOptions
     from steerlab.sim.track_world import TrackDriveOptions, TrackRecordOptions
     from steerlab.sim.world import DriveOptions, RecordOptions
@@ -171,13 +176,20 @@ def register(sub) -> None:
 
     q = sub.add_parser("replay", help="closed-loop replay on a recording: would the model keep the car on the "
                        "human's path?", epilog="example: steerlab replay runs/ch2/best.pt --data "
-                       "../shared/data/udacity-ch2 --range 1800:2400 --speed 15 --out runs/replay --video replay.mp4")
+                       "../shared/data/udacity-ch2 --range 1800:2400 --speed 15 --out runs/replay --video replay.mp4; "
+                       "steerlab replay runs/tub/best.pt --data ../shared/data/donkeycar/hall --reader "
+                       "full_lock_deg=25 --lane-width 0.9 --out runs/replay-hall")
     path_option(q, "checkpoints", kind="file", nargs="+", help="checkpoints (.pt) or exported models (.onnx) to replay")
     data_args(q, camera=False)
     path_option(q, "--out", kind="folder", default="runs/replay", help="output folder (default runs/replay)")
     path_option(q, "--video", kind="new-file", help="also write an MP4 of the warped view with the model's and the human's steering "
                    "(one per checkpoint)")
+    q.add_argument("--world", choices=WORLDS, help="road: a car's replay, the frames warped as a pinhole camera's, "
+                   "an intervention off the human's path or heading; track: a small car's, through its fisheye, the "
+                   "speed from the throttle, an intervention when the body leaves the lane (default: track for "
+                   "donkeycar tubs and the track world's recordings, road for the others)")
     add_options(q, "replay", ReplayOptions)
+    add_options(q, "replay", TrackReplayOptions, label="--world track")
     q.set_defaults(func=cmd_replay)
 
     q = sub.add_parser("serve", help="drive the Udacity simulator (socket.io server on port 4567)",

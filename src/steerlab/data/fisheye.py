@@ -1,4 +1,5 @@
-"""The donkeycar camera as OpenCV's fisheye model: per-pixel rays, projection, and pinhole views of its frames.
+"""The donkeycar camera as OpenCV's fisheye model: per-pixel rays, projection, pinhole views of its frames, and
+its frames seen from a camera moved on a flat floor (`shift_view`, the view of replay).
 
 donkeycar's usual camera is a Raspberry Pi camera module with a 160-degree wide-angle lens, read at 160x120. A
 pinhole (`geometry.CAMERAS["donkey"]`) only approximates it: straight lines bend, the horizon bulges, and the
@@ -25,7 +26,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 from functools import lru_cache
 from pathlib import Path
 
@@ -169,6 +170,17 @@ class FisheyeCamera:
 DONKEY_FISHEYE = FisheyeCamera()
 
 
+def fisheye_from(path: Path, value) -> FisheyeCamera:
+    """The fisheye camera a recording's metadata carries (its fields, as `dataclasses.asdict` writes them)."""
+    names = [f.name for f in fields(FisheyeCamera)]
+    if not isinstance(value, dict) or not set(value) <= set(names):
+        raise DataError(path, f"the fisheye camera must be a mapping of {', '.join(names)}, got {value!r}")
+    try:
+        return FisheyeCamera(**value)
+    except (SteerlabError, TypeError, ValueError) as e:
+        raise DataError(path, f"the fisheye camera: {e}") from None
+
+
 def pinhole_matrix(cam: FisheyeCamera, focal: float | None = None) -> np.ndarray:
     """K of the pinhole view `undistort` makes: same image size, centred, `focal` px (by default the donkey
     pinhole geometry's, so that the view matches `geometry.CAMERAS["donkey"]`)."""
@@ -206,6 +218,38 @@ def distort(img: np.ndarray, cam: FisheyeCamera = DONKEY_FISHEYE, focal: float |
     _check_frame(img, cam)
     _, _, dx, dy = _maps(cam, focal)
     return cv2.remap(img, dx, dy, cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT)
+
+
+@lru_cache(maxsize=8)
+def _floor_points(cam: FisheyeCamera) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(forward, left, up) in vehicle axes from the camera of where every pixel's ray meets the floor, or of its
+    direction for a ray at or above the horizon, and which rays meet the floor."""
+    fwd, left, up = cam.vehicle_rays()
+    below = up < 0
+    t = np.where(below, cam.mount_height / np.where(below, -up, 1.0), 1.0)
+    return t * fwd, t * left, np.where(below, -cam.mount_height, up), below
+
+
+def view_maps(cam: FisheyeCamera, shift_m: float, yaw_deg: float) -> tuple[np.ndarray, np.ndarray]:
+    """Where (u, v) in a frame of `cam` every pixel of the view lies that the camera moved `shift_m` to the left
+    and turned `yaw_deg` to the left sees, under the flat-floor assumption of `geometry.shift_view`: everything
+    below the horizon lies on the floor, everything above it infinitely far away. Per pixel this is undistort
+    (the pixel's ray, `FisheyeCamera.ray`), the flat-floor homography (where the ray meets the floor, that point
+    seen from the frame's camera; a ray above the horizon only turns) and distort again (`project`), composed
+    into one map for `cv2.remap` (float32, (height, width) each)."""
+    f, left, up, below = _floor_points(cam)  # the rays of the view, met with the floor once per camera
+    c, s = math.cos(math.radians(yaw_deg)), math.sin(math.radians(yaw_deg))
+    u, v = cam.project(f * c - left * s, f * s + left * c + np.where(below, shift_m, 0.0), up)
+    return u.astype(np.float32), v.astype(np.float32)
+
+
+def shift_view(img: np.ndarray, cam: FisheyeCamera, shift_m: float, yaw_deg: float = 0.0) -> np.ndarray:
+    """The fisheye frame as seen from the camera moved `shift_m` to the left and turned `yaw_deg` to the left
+    (`view_maps`: one remap, bilinear). What the frame does not show repeats its nearest border pixels, as in
+    `geometry.shift_view`."""
+    _check_frame(img, cam)
+    mx, my = view_maps(cam, float(shift_m), float(yaw_deg))
+    return cv2.remap(img, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
 
 
 def _check_frame(img: np.ndarray, cam: FisheyeCamera) -> None:

@@ -8,6 +8,7 @@ from pathlib import Path
 
 import numpy as np
 
+from steerlab.data.fisheye import fisheye_from
 from steerlab.data.recording import Recording, SteeringConvention
 from steerlab.data.rows import apply_range, check_images, check_unique, number, read_rows
 from steerlab.errors import DataError
@@ -69,4 +70,5 @@ def read_native(folder: str | Path, frame_range=None) -> Recording:
         extra={"lateral_offset": np.array(vals["lateral_offset"]), "heading_error": np.array(vals["heading_error"]),
                "curvature": np.array(vals["curvature"]), "episode": np.array(episodes)},
         geometry=meta.get("geometry", meta.get("preset", "sim")),  # "preset" in older recordings
+        fisheye=fisheye_from(meta_path, meta["fisheye"]) if "fisheye" in meta else None,
     )

@@ -6,11 +6,15 @@ import math
 import threading
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
 
 from steerlab.errors import DataError, SteerlabError
+
+if TYPE_CHECKING:
+    from steerlab.data.fisheye import FisheyeCamera
 
 KINDS = ("steering_wheel", "road_wheel", "normalized")
 
@@ -104,6 +108,7 @@ class Recording:
     speed, throttle, brake: optional float64 arrays (m/s, 0..1, 0..1); NaN-free.
     extra: further per-frame columns (e.g. the synthetic world's lateral offset and episode label).
     frame_ids: the ids a predictions file uses (CH2: the nanosecond file name; otherwise the timestamp).
+    fisheye: the fisheye camera the frames were taken with, when the recording says (the track world's do).
     """
 
     name: str
@@ -119,6 +124,7 @@ class Recording:
     extra: dict[str, np.ndarray] = field(default_factory=dict)
     geometry: str = "ch2"  # camera geometry (data/geometry.CAMERAS); the crop preset of the same name fits it
     video: "VideoFrames | None" = None  # frames decoded from one video file instead of image files
+    fisheye: "FisheyeCamera | None" = None
 
     def __post_init__(self):
         n = len(self.timestamps_ns)

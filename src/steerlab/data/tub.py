@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from steerlab.data.fisheye import fisheye_from
 from steerlab.data.rows import apply_range
 from steerlab.data.recording import Recording, SteeringConvention
 from steerlab.paths import regular_file
@@ -84,7 +85,7 @@ def _ranges(numbers: list[int]) -> str:
     return ", ".join(parts)
 
 
-def _manifest(folder: Path) -> tuple[list[str], list[str], set[int]]:
+def _manifest(folder: Path) -> tuple[list[str], list[str], set[int], dict]:
     path = folder / "manifest.json"
     lines = _json_lines(path)
     if len(lines) < len(MANIFEST_LINES):
@@ -100,7 +101,8 @@ def _manifest(folder: Path) -> tuple[list[str], list[str], set[int]]:
     if not isinstance(deleted, list) or not all(_integer(i) for i in deleted):
         raise DataError(path, f"deleted_indexes must be a list of record indexes (integers), got {deleted!r}",
                         lines[4][0])
-    return keys, catalogs["paths"], set(deleted)
+    metadata = lines[2][1] if isinstance(lines[2][1], dict) else {}
+    return keys, catalogs["paths"], set(deleted), metadata
 
 
 def _integer(value) -> bool:
@@ -128,7 +130,7 @@ def read_tub(folder: str | Path, frame_range=None, full_lock_deg: float | None =
              skip_missing: bool = False, strict: bool = False) -> Recording:
     """Read a tub. `frame_range` ("a:b" as a tuple) counts the records that remain after deletion."""
     folder = Path(folder)
-    _, catalogs, deleted = _manifest(folder)
+    _, catalogs, deleted, metadata = _manifest(folder)
     records = []  # (catalog, line, record)
     torn_at, cut_at, lost = {}, {}, 0  # torn lines and lines cut off at the end by catalog, records lost
     for name in catalogs:
@@ -200,4 +202,5 @@ def read_tub(folder: str | Path, frame_range=None, full_lock_deg: float | None =
         frame_ids=np.array([int(r["_index"]) for r in recs], dtype=np.int64),
         throttle=throttle if np.all(np.isfinite(throttle)) else None,
         extra={"session": np.array([str(r.get("_session_id", "")) for r in recs])}, geometry="donkey",
+        fisheye=fisheye_from(folder / "manifest.json", metadata["fisheye"]) if "fisheye" in metadata else None,
     )

@@ -95,15 +95,17 @@ class TubWriter:
     names them. A record added as `deleted` is written and listed in the manifest's `deleted_indexes`, as
     donkeycar's tub editor marks the stretches its owner cut out of a drive (neither donkeycar's training nor
     steerlab's reader uses them); the first record kept after a cut starts a new session, so that no frame
-    history or motion spans the cut."""
+    history or motion spans the cut. `metadata` is the manifest's user metadata (the track world writes its
+    camera there: `fisheye`, read back as `Recording.fisheye`)."""
 
-    def __init__(self, out: str | Path, full_lock_deg: float, max_len: int = 1000, start_ns: int = EPOCH_NS):
+    def __init__(self, out: str | Path, full_lock_deg: float, max_len: int = 1000, start_ns: int = EPOCH_NS,
+                 metadata: dict | None = None):
         if not 0 < full_lock_deg < 90:
             raise SteerlabError(f"full_lock_deg must lie in (0, 90) degrees, got {full_lock_deg}")
         if max_len < 1:
             raise SteerlabError(f"max_len (records per catalog) must be at least 1, got {max_len}")
         self.out, self.full_lock = Path(out), math.radians(full_lock_deg)
-        self.max_len, self.start_ns = max_len, start_ns
+        self.max_len, self.start_ns, self.metadata = max_len, start_ns, metadata or {}
         if self.out.exists() and any(self.out.iterdir()):
             raise SteerlabError(f"{self.out} exists and is not empty; choose a new output folder")
         (self.out / "images").mkdir(parents=True, exist_ok=True)
@@ -150,6 +152,6 @@ class TubWriter:
                     "last_full_id": self.sessions[-1]}
         catalogs = {"paths": paths, "current_index": len(self.records), "max_len": self.max_len,
                     "deleted_indexes": self.deleted}
-        lines = [TUB_KEYS, TUB_TYPES, {}, {"created_at": created, "sessions": sessions}, catalogs]
+        lines = [TUB_KEYS, TUB_TYPES, self.metadata, {"created_at": created, "sessions": sessions}, catalogs]
         (self.out / "manifest.json").write_text("".join(json.dumps(line) + "\n" for line in lines))
         return self.out

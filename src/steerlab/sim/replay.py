@@ -8,7 +8,8 @@ road: `geometry.shift_view`), asks the pilot for a command and moves by it, in t
 synthetic world uses (`sim.driving.drive_loop`). Further than the lane limit from the path (1 m for a car), or
 turned further than the warp's valid range, is an intervention: the car is put back on the path and the pilot
 forgets its past. Recordings without a speed signal get one estimated from the frames (`data.speed`).
-`replay.run_replay` (sim/replay_run.py) is the command around it."""
+`replay.run_replay` (sim/replay_run.py) is the command around it; `replay_track.py` makes of it the replay of
+small cars (the fisheye's view, the speed from the throttle, the body leaving the lane)."""
 
 from __future__ import annotations
 
@@ -24,11 +25,14 @@ from steerlab.data.recording import Recording
 from steerlab.data.speed import estimate_speed
 from steerlab.data.writer import RecordingWriter
 from steerlab.errors import DataError, SteerlabError
+from steerlab.options import Range
 from steerlab.sim.driving import Trajectory, autonomy, drive_loop, rollout
 from steerlab.sim.vehicle import Vehicle, VehicleState
 
 MAX_HEADING_DEG = 10.0  # beyond this the warped view shows too much of what the camera never saw
 MIN_SECONDS = 3.0       # shorter segments are not replayed
+MOUNT_HEIGHT = Range(0, 10, lo_open=True, hi_open=True, unit="m")  # the camera mounts a replay takes
+PITCH = Range(-45, 45, lo_open=True, hi_open=True, unit="degrees")
 
 
 @dataclass
@@ -62,6 +66,8 @@ class ReplayWorld:
     """One segment of a recording as a world for `drive_loop`: the car follows the human's speed tick by tick
     and sees the recorded frame at its arc length, warped to its viewpoint."""
 
+    camera_forward = 0.0  # m from the path's pose to the camera
+
     def __init__(self, rec: Recording, start: int, path: HumanPath, cam: Camera, car: Car,
                  max_heading_deg: float = MAX_HEADING_DEG):
         self.rec, self.start, self.path, self.cam, self.car = rec, start, path, cam, car
@@ -85,31 +91,44 @@ class ReplayWorld:
         p = self.path
         return (float(np.interp(s, p.s, p.x)), float(np.interp(s, p.s, p.y)), float(np.interp(s, p.s, p.psi)))
 
+    def project(self, px, py) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+        """Points (arrays) near the car on the human's path: the index of the path segment [j, j + 1] nearest to
+        each (searched near the car), where along it (0..1), and the signed distance from it (m, left positive).
+        None where the human stood still over the whole search."""
+        p = self.path
+        lo, hi = max(min(self.i, self.k) - 5, 0), min(max(self.i, self.k) + 40, len(p.s) - 1)
+        x0, y0, dx, dy = p.x[lo:hi], p.y[lo:hi], np.diff(p.x[lo:hi + 1]), np.diff(p.y[lo:hi + 1])
+        length2 = dx * dx + dy * dy
+        moves = length2 >= 1e-12
+        if not moves.any():
+            return None
+        px, py = np.asarray(px, float)[..., None], np.asarray(py, float)[..., None]
+        u = np.clip(((px - x0) * dx + (py - y0) * dy) / np.where(moves, length2, 1.0), 0.0, 1.0)
+        ex, ey = px - (x0 + u * dx), py - (y0 + u * dy)
+        best = np.argmin(np.where(moves, ex * ex + ey * ey, np.inf), axis=-1)[..., None]
+        offset = (dx * ey - dy * ex) / np.sqrt(np.where(moves, length2, 1.0))
+        return (lo + best[..., 0], *(np.take_along_axis(a, best, -1)[..., 0] for a in (u, offset)))
+
     def observe(self) -> tuple[float, float]:
         """(lateral offset from the human's path [m, left positive], heading error [rad]) of the car now."""
-        p, st = self.path, self.vehicle.state
-        lo, hi = max(min(self.i, self.k) - 5, 0), min(max(self.i, self.k) + 40, len(p.s) - 1)  # near the car
-        best = None
-        for j in range(lo, hi):
-            dx, dy = p.x[j + 1] - p.x[j], p.y[j + 1] - p.y[j]
-            length2 = dx * dx + dy * dy
-            if length2 < 1e-12:
-                continue
-            u = min(max(((st.x - p.x[j]) * dx + (st.y - p.y[j]) * dy) / length2, 0.0), 1.0)
-            ex, ey = st.x - (p.x[j] + u * dx), st.y - (p.y[j] + u * dy)
-            dist2 = ex * ex + ey * ey
-            if best is None or dist2 < best[0]:
-                best = (dist2, j, u, (dx * ey - dy * ex) / math.sqrt(length2))
-        if best is None:  # the human stood still over the whole window
+        st = self.vehicle.state
+        nearest = self.project(st.x, st.y)
+        if nearest is None:
             return 0.0, 0.0
-        _, self.i, u, offset = best
+        self.i, u, offset = int(nearest[0]), float(nearest[1]), float(nearest[2])
+        p = self.path
         self.s = p.s[self.i] + u * (p.s[self.i + 1] - p.s[self.i])
         heading = (st.psi - self._pose(self.s)[2] + math.pi) % (2 * math.pi) - math.pi
         return offset, heading
 
+    def leaves_lane(self, offset: float, heading: float, limit_m: float) -> bool:
+        """Whether the car at this (offset, heading error) is an intervention: further than `limit_m` from the
+        path, or turned further than the warp's valid range."""
+        return abs(offset) > limit_m or abs(heading) > self.max_heading
+
     def intervene(self, limit_m: float) -> tuple[bool, float, float]:
         offset, heading = self.observe()
-        if abs(offset) <= limit_m and abs(heading) <= self.max_heading:
+        if not self.leaves_lane(offset, heading, limit_m):
             return False, offset, heading
         x, y, psi = self._pose(self.s)
         self.vehicle.state = VehicleState(x, y, psi, self.vehicle.state.v)
@@ -127,13 +146,24 @@ class ReplayWorld:
         """The recorded frame at the car's arc length seen from the car: moved sideways and turned by the car's
         pose relative to the human's pose at that frame. `lateral`: seen from a camera that far to the left of
         the car's centre (a rollout's side cameras)."""
-        j, p, st = self.frame_index(), self.path, self.vehicle.state
-        dx, dy = st.x - p.x[j], st.y - p.y[j]
-        shift = -math.sin(p.psi[j]) * dx + math.cos(p.psi[j]) * dy
-        yaw = math.degrees((st.psi - p.psi[j] + math.pi) % (2 * math.pi) - math.pi)
+        j = self.frame_index()
+        shift, yaw = self.relative_view(j)
         if not lateral:
             self.view = (shift, yaw)
-        return shift_view(self.rec.load_frame(self.start + j), self.cam, shift + lateral, yaw)
+        return self.warp(self.rec.load_frame(self.start + j), shift + lateral, yaw)
+
+    def relative_view(self, j: int) -> tuple[float, float]:
+        """(m to the left, degrees turned left) of the car's camera relative to the human's at frame j; the
+        camera sits `camera_forward` ahead of the pose the path follows (0 for a road car: at it)."""
+        p, st, ahead = self.path, self.vehicle.state, self.camera_forward
+        dx = st.x + ahead * math.cos(st.psi) - (p.x[j] + ahead * math.cos(p.psi[j]))
+        dy = st.y + ahead * math.sin(st.psi) - (p.y[j] + ahead * math.sin(p.psi[j]))
+        shift = -math.sin(p.psi[j]) * dx + math.cos(p.psi[j]) * dy
+        return shift, math.degrees((st.psi - p.psi[j] + math.pi) % (2 * math.pi) - math.pi)
+
+    def warp(self, frame: np.ndarray, shift_m: float, yaw_deg: float) -> np.ndarray:
+        """A recorded frame seen from a camera moved `shift_m` to the left and turned `yaw_deg` to the left."""
+        return shift_view(frame, self.cam, shift_m, yaw_deg)
 
     def expert_steering(self) -> float:
         """The label of a visited state: the road-wheel angle (rad, positive left) that brings the car back to
@@ -226,13 +256,19 @@ class Replay:
     def limit(self) -> float:
         return self.car.lane_limit_m if self.limit_m is None else self.limit_m
 
+    def speeds(self, a: int, b: int) -> np.ndarray:
+        """The human's speed (m/s) at frames a..b - 1."""
+        return np.full(b - a, self.speed) if self.speed is not None else np.asarray(self.rec.speed[a:b], float)
+
+    def world(self, start: int, path: HumanPath) -> ReplayWorld:
+        return ReplayWorld(self.rec, start, path, self.cam, self.car, self.max_heading_deg)
+
     def worlds(self):
         """(segment index, first frame, world, ticks) for every segment to replay."""
         human = human_road_wheel(self.rec, self.car)
         for n, (a, b) in enumerate(replay_segments(self.rec, self.frames)):
-            v = np.full(b - a, self.speed) if self.speed is not None else np.asarray(self.rec.speed[a:b], float)
-            path = human_path(human[a:b], v, self.rec.timestamps_ns[a:b] / 1e9, self.car)
-            yield n, a, ReplayWorld(self.rec, a, path, self.cam, self.car, self.max_heading_deg), b - a
+            path = human_path(human[a:b], self.speeds(a, b), self.rec.timestamps_ns[a:b] / 1e9, self.car)
+            yield n, a, self.world(a, path), b - a
 
 
 def replay_recording(pilot, replay: Replay, video: str | Path | None = None, progress: bool = False,

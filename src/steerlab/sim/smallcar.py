@@ -34,6 +34,30 @@ def speed_after(v: float, throttle: float, dt: float, car: Car) -> float:
     return max(0.0, v_new)
 
 
+def steady_speed(throttle: float, dt: float, car: Car) -> float:
+    """The speed (m/s) that a throttle holds in steps of dt seconds (`speed_after(v, throttle, dt) == v`): where
+    the motor's pull towards u x `top_speed` balances rolling resistance and drag; 0 for u <= 0."""
+    m = car.motor
+    target = max(float(np.clip(throttle, -1.0, 1.0)), 0.0) * m.top_speed
+    # target + (v - target) e - (rolling + drag v^2) dt = v, with e = exp(-dt / tau): a quadratic in v
+    pull = 1 - math.exp(-dt / m.time_constant)
+    a, b, c = car.drag * dt, pull, m.rolling * dt - pull * target
+    if c >= 0:
+        return 0.0
+    return (-b + math.sqrt(b * b - 4 * a * c)) / (2 * a) if a > 0 else -c / b
+
+
+def throttle_speeds(throttle: np.ndarray, times_s: np.ndarray, car: Car) -> np.ndarray:
+    """The speed (m/s) at every frame of a drive with the recorded throttle: frame i's throttle for the time to
+    frame i + 1 (`speed_after`), from the speed the first frame's throttle holds (a recording starts mid-drive
+    as often as at standstill)."""
+    dt = np.diff(np.asarray(times_s, float))
+    v = [steady_speed(float(throttle[0]), float(np.median(dt)) if len(dt) else 0.05, car)]
+    for u, step in zip(throttle[:-1], dt):
+        v.append(speed_after(v[-1], float(u), float(step), car))
+    return np.array(v)
+
+
 def throttle_for(v: float, accel: float, car: Car) -> float:
     """The throttle in [-1, 1] that gives acceleration `accel` (m/s^2) at speed v: the inverse of
     `speed_after` over a short step (the feed-forward of a speed controller)."""

@@ -10,12 +10,14 @@ nor steerlab's reader uses them, the recover frames that follow are kept, and ea
 session of its own, so that no model's frame history spans a cut. steerlab's own layout (`layout="steerlab"`)
 keeps every frame with its episode, lateral offset, heading error and curvature (training leaves drift-outs out
 with `exclude_episodes: [drift-out]`), the steering in the tub's unit (normalized, positive right, with the
-car's full lock) and the throttle split into throttle and brake.
+car's full lock) and the throttle split into throttle and brake. Both carry the camera (`fisheye`: its K, D and
+mount, in the tub's manifest metadata or in recording.json), which replay reads.
 """
 
 from __future__ import annotations
 
 import json
+from dataclasses import asdict
 from pathlib import Path
 
 import cv2
@@ -39,11 +41,12 @@ def record_track(out: str | Path, o: TrackRecordOptions = TrackRecordOptions(), 
     """The racing expert on the track made from `o.seed` (with drift-and-recover episodes unless `o.drift` is
     false), written as a tub or a steerlab recording (see the module's docstring). Same options, same bytes."""
     check_track_seed(o.seed)
-    world = TrackWorld(o.seed, o.lane_width, o.style, o.fps, camera_of(o.calibration))
+    camera = camera_of(o.calibration)
+    world = TrackWorld(o.seed, o.lane_width, o.style, o.fps, camera)
     expert = RacerPilot(world, o.seed, DRIFT_EVERY_S if o.drift else None)
     car = world.car
     if o.layout == "tub":
-        tub = TubWriter(out, car.full_lock_deg)
+        tub = TubWriter(out, car.full_lock_deg, metadata={"fisheye": asdict(camera)})
 
         def write(t):
             tub.add(t.frame, int(round(t.index * 1e9 / o.fps)), t.model, t.throttle,
@@ -63,7 +66,7 @@ def record_track(out: str | Path, o: TrackRecordOptions = TrackRecordOptions(), 
     if o.layout == "tub":
         return tub.close()
     return writer.close({"world": "track", "seed": o.seed, "lane_width": o.lane_width, "style": o.style,
-                         "lap_m": world.track.length, "fps": o.fps, "minutes": o.minutes})
+                         "lap_m": world.track.length, "fps": o.fps, "minutes": o.minutes, "fisheye": asdict(camera)})
 
 
 def check_camera(pilot) -> None:

@@ -43,9 +43,9 @@ THROTTLE = 0.3        # the constant throttle of a pilot that gives none: about 
 DRIFT_EVERY_S = 12.0  # the racing expert's drift-and-recover episodes in a recording, on average
 
 
-def _lane_width():
-    return option(LANE_WIDTH, Range(0, 2, lo_open=True, unit="m"),
-                  help="lane width in metres: between the tape lines, or around the painted centre line")
+def lane_width_option(help: str = "lane width in metres: between the tape lines, or around the painted centre "
+                                  "line"):
+    return option(LANE_WIDTH, Range(0, 2, lo_open=True, unit="m"), help=help)
 
 
 def _style():
@@ -73,7 +73,7 @@ class TrackRecordOptions(Options):
     drift: bool = option(True, help="drift-and-recover episodes")
     layout: Literal["tub", "steerlab"] = option("tub", help="a donkeycar tub v2, or steerlab's own layout (with "
                                                 "the episode of every frame)")
-    lane_width: float = _lane_width()
+    lane_width: float = lane_width_option()
     style: Literal["taped", "centre"] = _style()
     calibration: str | None = calibration_option()
 
@@ -87,7 +87,7 @@ class TrackDriveOptions(Options):
     fps: float = option(20.0, POSITIVE, "positive and finite", help="frames per second")
     limit_m: float = option(0.0, AT_LEAST_0, help="metres the car's body may overhang the lane edge before it is "
                             "an off-track event")
-    lane_width: float = _lane_width()
+    lane_width: float = lane_width_option()
     style: Literal["taped", "centre"] = _style()
     calibration: str | None = calibration_option()
     throttle: float = throttle_option()

@@ -1,0 +1,138 @@
+"""Replay of small-car recordings (donkeycar tubs, the track world's): `steerlab replay` on a recording of the
+donkey camera, the track world's counterpart of the road replay (`replay.py`), which it extends.
+
+- **The view**: the donkey camera is a fisheye. The recorded frame is warped by `fisheye.shift_view`: undistort,
+  flat-floor homography, distort again, composed into one remap per offset and heading. The fisheye is the one
+  the recording carries (the track world writes its camera into the tub), else the 160-degree Raspberry Pi
+  camera's default (`fisheye.DONKEY_FISHEYE`); a calibration file replaces its K and D. The warp is from the
+  car's camera (`Body.camera_forward` ahead of the rear axle) relative to the human's at that frame.
+- **The speed**: the recorded throttle through the small car's throttle model (`smallcar.throttle_speeds`)
+  gives the human's speed, which the replayed car follows; or the model's learned throttle drives the replayed
+  car (`smallcar.speed_after` every tick; the human's path keeps the recorded throttle's speeds); or a
+  constant `--speed`.
+- **The criterion**: the human is taken to have driven along the centre of a lane `lane_width` wide; a corner
+  of the car's body (`Car.body`) outside it is an intervention, as an off-track event in the track world. No
+  heading limit: a fisheye sees about 120 degrees across, and a body that turns far leaves the lane anyway.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import Literal
+
+import numpy as np
+
+from steerlab.data.car import CARS
+from steerlab.data.fisheye import DONKEY_FISHEYE, FisheyeCamera, load_calibration, shift_view
+from steerlab.data.geometry import CAMERAS
+from steerlab.data.recording import Recording
+from steerlab.errors import DataError, SteerlabError
+from steerlab.options import AT_LEAST_1, Options, POSITIVE, option
+from steerlab.pilot import smoothing_option
+from steerlab.sim.replay import MOUNT_HEIGHT, PITCH, HumanPath, Replay, ReplayWorld
+from steerlab.sim.smallcar import SmallCar, throttle_speeds
+from steerlab.sim.track import LANE_WIDTH
+from steerlab.sim.track_world import lane_width_option
+
+def world_of(rec: Recording) -> str:
+    """The replay a recording gets unless told: track for the donkey camera (tubs), road for the others."""
+    return "track" if rec.geometry == "donkey" else "road"
+
+
+@dataclass(frozen=True)
+class TrackReplayOptions(Options):
+    """`steerlab replay --world track`'s options (the world of donkeycar tubs)."""
+
+    speed: float | None = option(None, POSITIVE, "positive and finite", help="a constant speed in m/s (default: "
+                                 "from the throttle through the small car's throttle model)")
+    throttle: Literal["recorded", "model"] = option("recorded", help="track: the throttle that sets the replayed "
+                                                    "car's speed, the recorded one or the model's learned one")
+    lane_width: float = lane_width_option("track: lane width in metres around the human's path (taken as the "
+                                          "lane's centre); the car's body leaving it is an intervention")
+    calibration: str | None = option(None, path="file", help="track: fisheye calibration of the recording's camera "
+                                     "(JSON or YAML: image size 160x120, K, D; default: the one the recording "
+                                     "carries, else a 160-degree Raspberry Pi camera)")
+    mount_height: float | None = option(None, MOUNT_HEIGHT, help="camera height above the floor, m (default: the "
+                                        "fisheye's, 0.15)")
+    pitch: float | None = option(None, PITCH, help="camera pitch, degrees down (default: the fisheye's, 20)")
+    workers: int = option(2, AT_LEAST_1, help="checkpoints replayed in parallel")
+    smoothing: float | None = smoothing_option()
+
+
+class TrackReplayWorld(ReplayWorld):
+    """One segment of a small-car recording as a world (see the module's docstring): the road replay's world
+    with the fisheye's view, the body's lane criterion and, with `learned_throttle`, the pilot's throttle."""
+
+    def __init__(self, replay: TrackReplay, start: int, path: HumanPath):
+        super().__init__(replay.rec, start, path, replay.cam, replay.car)
+        self.fisheye, self.lane_width, self.learned_throttle = replay.fisheye, replay.lane_width, replay.learned_throttle
+        self.smallcar = SmallCar(self.vehicle.state, replay.car)
+        self.vehicle = self.smallcar.vehicle
+        self.camera_forward = replay.car.body.camera_forward
+
+    def overhang(self) -> float:
+        """How far (m) the body's farthest corner lies outside the lane (negative while all are inside)."""
+        nearest = self.project(*self.smallcar.corners())
+        return -math.inf if nearest is None else float(np.max(np.abs(nearest[2]))) - self.lane_width / 2
+
+    def leaves_lane(self, offset: float, heading: float, limit_m: float) -> bool:
+        """Whether the body overhangs the lane edge by more than `limit_m`."""
+        return self.overhang() > limit_m
+
+    def warp(self, frame: np.ndarray, shift_m: float, yaw_deg: float) -> np.ndarray:
+        return shift_view(frame, self.fisheye, shift_m, yaw_deg)
+
+    def step(self, road_wheel: float, throttle: float | None = None) -> None:
+        """One frame at the human's speed or, with `learned_throttle`, at the speed the pilot's throttle gives."""
+        if not self.learned_throttle:
+            return super().step(road_wheel, throttle)
+        if throttle is None:
+            raise SteerlabError("the pilot gives no throttle; replaying with the model's throttle needs a model "
+                                "that learned it")
+        self.smallcar.step(road_wheel, throttle, float(self.path.t[self.k + 1] - self.path.t[self.k]))
+        self.k += 1
+
+
+@dataclass(frozen=True)
+class TrackReplay(Replay):
+    """A small-car recording as worlds to drive: the `Replay` with its fisheye, the lane width and whether the
+    model's throttle drives (`learned_throttle`). `speed` None: from the recorded throttle."""
+
+    fisheye: FisheyeCamera = DONKEY_FISHEYE
+    lane_width: float = LANE_WIDTH
+    learned_throttle: bool = False
+
+    @property
+    def limit(self) -> float:
+        return 0.0  # no part of the body may overhang the lane edge
+
+    def speeds(self, a: int, b: int) -> np.ndarray:
+        if self.speed is not None:
+            return np.full(b - a, self.speed)
+        return throttle_speeds(self.rec.throttle[a:b], self.rec.timestamps_ns[a:b] / 1e9, self.car)
+
+    def world(self, start: int, path: HumanPath) -> TrackReplayWorld:
+        return TrackReplayWorld(self, start, path)
+
+
+def track_replay(rec: Recording, o: TrackReplayOptions) -> tuple[dict, str]:
+    """The arguments of `TrackReplay` for `rec` (its fisheye, with the options' calibration and mount) and
+    where the speed comes from; a one-line error for what cannot be replayed so."""
+    car = CARS["donkey"]
+    if o.lane_width <= car.body.width:
+        raise SteerlabError(f"--lane-width {o.lane_width:g} m leaves no room for the car's {car.body.width:g} m wide "
+                            "body")
+    if o.speed is not None and o.throttle == "model":
+        raise SteerlabError("--speed and --throttle model exclude each other: the model's throttle sets the speed")
+    if o.speed is None and rec.throttle is None:
+        raise DataError(rec.source, "records no throttle to take the speed from: give one with --speed M/S")
+    fisheye = rec.fisheye or DONKEY_FISHEYE
+    if o.calibration is not None:
+        fisheye = load_calibration(o.calibration, fisheye)
+    mount = {"mount_height": o.mount_height, "pitch_deg": o.pitch}
+    fisheye = replace(fisheye, **{k: v for k, v in mount.items() if v is not None})
+    source = ("given (--speed)" if o.speed is not None else
+              "the model's throttle" if o.throttle == "model" else "the recorded throttle")
+    return {"cam": CAMERAS["donkey"], "car": car, "speed": o.speed, "fisheye": fisheye, "lane_width": o.lane_width,
+            "learned_throttle": o.throttle == "model"}, source
