@@ -44,20 +44,25 @@ $(VENV)/.made: $(REBUILD)
 	$(PYTHON) -m venv $(VENV)
 	touch $@
 
-$(VENV)/.runtime: pyproject.toml constraints.txt $(REBUILD) | $(VENV)/.made
+# steerlab with $(1) ("." or ".[test]") installed in one pip run, then the modules $(2) imported once (which also
+# writes their bytecode); .venv/.installing marks an install that has not finished.
+define install
 	touch $(VENV)/.installing
 	$(INSTALL) --upgrade pip
-	$(INSTALL) -e .
-	$(BIN)/python -c 'import steerlab.cli, torch, cv2, numpy, matplotlib, yaml, tqdm'
+	$(INSTALL) -e '$(1)'
+	$(BIN)/python -W ignore -c 'import $(2)'
 	rm $(VENV)/.installing
+endef
+RUNTIME := steerlab.cli, torch, cv2, numpy, matplotlib, yaml, tqdm
+TESTING := pytest, xdist, optuna, sklearn, psycopg, onnx, onnxruntime, rosbags, socketio, eventlet
+
+$(VENV)/.runtime: pyproject.toml constraints.txt $(REBUILD) | $(VENV)/.made
+	$(call install,.,$(RUNTIME))
 	touch $@
 
-$(VENV)/.test: $(VENV)/.runtime
-	touch $(VENV)/.installing
-	$(INSTALL) -e '.[test]'
-	$(BIN)/python -W ignore -c 'import pytest, xdist, optuna, sklearn, psycopg, onnx, onnxruntime, rosbags, socketio, eventlet'
-	rm $(VENV)/.installing
-	touch $@
+$(VENV)/.test: pyproject.toml constraints.txt $(REBUILD) | $(VENV)/.made  # the test set holds the runtime
+	$(call install,.[test],$(RUNTIME), $(TESTING))
+	touch $(VENV)/.runtime $@
 
 install: $(VENV)/.runtime
 
