@@ -137,7 +137,7 @@ def register(sub) -> None:
     q = sub.add_parser("export", help="export a checkpoint to one self-contained ONNX file for ONNX Runtime",
                        epilog="example: steerlab export runs/demo/pilotnet/best.pt --out model.onnx; int8, calibrated "
                               "on the training frames: steerlab export runs/demo/pilotnet/best.pt --out "
-                              "model-int8.onnx --int8 --calib runs/demo/recording --calib-range 0:7680")
+                              "model-int8.onnx --int8 --calib runs/demo/recording --calib-range 0:3840")
     path_option(q, "checkpoint", kind="file", help="checkpoint (.pt)")
     path_option(q, "--out", kind="new-file", required=True, help="ONNX file to write (.onnx); it carries its preprocessing and statistics")
     q.add_argument("--int8", action="store_true", help="quantize to int8 (ONNX Runtime static quantization, "
