@@ -1,9 +1,15 @@
 """The one parallel runner of closed-loop work: drives of the suite, replays of checkpoints, rollouts. Jobs run in
-spawned worker processes with one torch thread each, with one progress bar over the ticks of all of them."""
+worker processes with one torch thread each, with one progress bar over the ticks of all of them.
+
+Workers are forked from a server process (multiprocessing's "forkserver") that imported torch and the job's module
+once, when this process first needed workers: a pool starts in milliseconds instead of seconds of imports, and no
+process that already runs torch threads is ever forked. Each worker takes the caller's current environment. Where
+there is no forkserver, workers are spawned afresh."""
 
 from __future__ import annotations
 
 import multiprocessing as mp
+import os
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
 from tqdm import tqdm
@@ -11,12 +17,22 @@ from tqdm import tqdm
 _ticks = None  # in a worker: the queue through which it reports progress
 
 
-def _init_worker(queue) -> None:
+def _init_worker(queue, environ: dict) -> None:
     global _ticks
     import torch
 
+    os.environ.clear()  # the caller's, not the one the server started with
+    os.environ.update(environ)
     torch.set_num_threads(1)
     _ticks = queue
+
+
+def _context(fn):
+    if "forkserver" not in mp.get_all_start_methods():
+        return mp.get_context("spawn")
+    ctx = mp.get_context("forkserver")
+    ctx.set_forkserver_preload(["torch", fn.__module__])  # used when this process's server starts
+    return ctx
 
 
 def tick_reporter():
@@ -25,7 +41,7 @@ def tick_reporter():
 
 
 def run_parallel(fn, jobs: list[tuple], workers: int, ticks_per_job: int, progress: bool, desc: str) -> list:
-    """`fn(*job)` for every job, in `workers` spawned processes with one torch thread each (in this process when
+    """`fn(*job)` for every job, in `workers` worker processes with one torch thread each (in this process when
     workers <= 1 or there is one job). `ticks_per_job`: the frames a job drives (its minutes times the frame rate
     of its world or recording), for the progress bar. Results in job order."""
     results = [None] * len(jobs)
@@ -35,9 +51,9 @@ def run_parallel(fn, jobs: list[tuple], workers: int, ticks_per_job: int, progre
                 results[i] = fn(*job)
                 bar.update(ticks_per_job)
             return results
-        ctx = mp.get_context("spawn")  # no fork of a process that already runs torch threads
+        ctx = _context(fn)
         queue = ctx.Queue()
-        with ProcessPoolExecutor(min(workers, len(jobs)), ctx, _init_worker, (queue,)) as pool:
+        with ProcessPoolExecutor(min(workers, len(jobs)), ctx, _init_worker, (queue, dict(os.environ))) as pool:
             futures = {pool.submit(fn, *job): i for i, job in enumerate(jobs)}
             pending = set(futures)
             while pending:
