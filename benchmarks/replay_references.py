@@ -8,9 +8,19 @@ python benchmarks/replay_references.py --data ../shared/data/donkeycar/hall --ra
     --reader skip_missing=true --reader full_lock_deg=25 --speed 2
 python benchmarks/replay_references.py --data ../shared/data/donkeycar/hall --range 4012:5015 \
     --reader skip_missing=true --reader full_lock_deg=25 --world track    # a small car's replay (replay_track.py)
+
+With `--checkpoint` (repeatable) trained models drive beside the references. With `--world track --camera-variants`
+every driver is replayed again through cameras that differ from the nominal one by -20 % and +20 % in the fisheye's
+focal lengths, its distortion coefficients, its height and its pitch, and the drivers' order by interventions in
+each is compared with the nominal camera's (Spearman's rank correlation): how much the ranking depends on a camera
+that a real tub does not describe.
 """
 
 import argparse
+from dataclasses import replace
+
+import numpy as np
+from scipy.stats import spearmanr
 
 from _common import machine
 
@@ -18,7 +28,7 @@ from steerlab.data.car import CARS
 from steerlab.data.fisheye import DONKEY_FISHEYE
 from steerlab.data.geometry import CAMERAS
 from steerlab.data.readers import Source, reader_options
-from steerlab.pilot import Controls
+from steerlab.pilot import Controls, Pilot
 from steerlab.sim.replay import Replay, replay_recording
 from steerlab.sim.replay_track import TrackReplay
 from steerlab.sim.track import LANE_WIDTH
@@ -51,22 +61,48 @@ def main() -> None:
     ap.add_argument("--world", choices=("road", "track"), default="road", help="the road replay (default) or the "
                     "small cars' (fisheye, speed from the throttle, the body leaving the lane)")
     ap.add_argument("--lane-width", type=float, default=LANE_WIDTH, help=f"m, --world track (default {LANE_WIDTH})")
+    ap.add_argument("--checkpoint", action="append", default=[], help="a trained model to drive as well (repeatable)")
+    ap.add_argument("--camera-variants", action="store_true", help="--world track: also through cameras +-20 %% "
+                    "in focal length, distortion, height and pitch, and how the drivers' ranking changes")
     args = ap.parse_args()
     rec = Source(args.data, args.range, args.labels, reader_options(args.reader)).open()
     fps = rec.frame_rate()
     speed = args.speed or ("the recorded throttle's" if args.world == "track" else "the recorded")
+    drivers = [("the human's steering", lambda: Scripted(rec, 0)),
+               *[(f"the human's steering {k} ticks ({k / fps:.2f} s) late", lambda k=k: Scripted(rec, k))
+                 for k in (2, 4)],
+               ("straight ahead (zero)", lambda: Scripted(rec, None)),
+               *[(path, lambda path=path: Pilot(path)) for path in args.checkpoint]]
+    nominal = rec.fisheye or DONKEY_FISHEYE
+    cameras = [("nominal", nominal)]
+    if args.camera_variants and args.world == "track":
+        for name, change in (("focal", lambda c, f: {"fx": c.fx * f, "fy": c.fy * f}),
+                             ("distortion", lambda c, f: {"d": tuple(v * f for v in c.d)}),
+                             ("height", lambda c, f: {"mount_height": c.mount_height * f}),
+                             ("pitch", lambda c, f: {"pitch_deg": c.pitch_deg * f})):
+            cameras += [(f"{name} {f - 1:+.0%}", replace(nominal, **change(nominal, f))) for f in (0.8, 1.2)]
     print(f"machine: {machine()}\n\n{rec.name} {args.range or ''}, {args.world} replay, at {speed} m/s:\n")
-    print("| reference | km | interventions | interventions/km | mean abs offset [m] |\n|---|---|---|---|---|")
-    for label, delay in (("the human's steering", 0), (f"the human's steering 2 ticks ({2 / fps:.2f} s) late", 2),
-                         (f"the human's steering 4 ticks ({4 / fps:.2f} s) late", 4), ("straight ahead (zero)", None)):
-        replay = (TrackReplay(rec, CAMERAS[rec.geometry], CARS[rec.geometry], args.speed, fisheye=rec.fisheye or
-                              DONKEY_FISHEYE, lane_width=args.lane_width) if args.world == "track" else
-                  Replay(rec, CAMERAS[rec.geometry], CARS[rec.geometry], args.speed, CARS[rec.geometry].lane_limit_m))
-        rows, _ = replay_recording(Scripted(rec, delay), replay)
-        r = next(r for r in rows if r["segment"] == "all")
-        print(f"| {label} | {r['km']:.3f} | {r['interventions']} | {r['interventions_per_km']:.1f} | "
-              f"{r['mean_offset_m']:.3f} |")
-
+    counts = {}
+    for camera, fisheye in cameras:
+        print(f"{camera} camera:\n\n| driver | km | interventions | interventions/km | mean abs offset [m] |"
+              "\n|---|---|---|---|---|")
+        cam, car = CAMERAS[rec.geometry], CARS[rec.geometry]
+        for label, make in drivers:
+            replay = (TrackReplay(rec, cam, car, args.speed, fisheye=fisheye, lane_width=args.lane_width)
+                      if args.world == "track" else Replay(rec, cam, car, args.speed, car.lane_limit_m))
+            rows, _ = replay_recording(make(), replay)
+            r = next(r for r in rows if r["segment"] == "all")
+            counts.setdefault(camera, []).append(r["interventions"])
+            print(f"| {label} | {r['km']:.3f} | {r['interventions']} | {r['interventions_per_km']:.1f} | "
+                  f"{r['mean_offset_m']:.3f} |", flush=True)
+        print()
+    if len(cameras) > 1:
+        base = np.array(counts["nominal"])
+        print("| camera | interventions, driver by driver (the order above) | Spearman with the nominal ranking |\n"
+              "|---|---|---|")
+        for camera, values in counts.items():
+            rho = spearmanr(base, values).statistic
+            print(f"| {camera} | {' / '.join(map(str, values))} | {rho:.3f} |")
 
 if __name__ == "__main__":
     main()
