@@ -35,6 +35,7 @@ from steerlab.sim.smallcar import SmallCar, throttle_speeds
 from steerlab.sim.track import LANE_WIDTH
 from steerlab.sim.track_world import lane_width_option
 
+
 def world_of(rec: Recording) -> str:
     """The replay a recording gets unless told: track for the donkey camera (tubs), road for the others."""
     return "track" if rec.geometry == "donkey" else "road"
