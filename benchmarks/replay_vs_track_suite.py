@@ -202,7 +202,8 @@ def replay(ckpts: list[Path], recs: dict, out: Path, workers: int, mode: str) ->
             missing = [c for c, label, s in zip(ckpts, labels, speeds) if s == speed and label not in done()]
             if missing:
                 t0 = time.time()
-                run_replay(missing, Source(str(folder), reader=LOCK), where / str(len(list(where.glob("*/replay.csv")))),
+                batch = where / str(len(list(where.glob("*/replay.csv"))))
+                run_replay(missing, Source(str(folder), reader=LOCK), batch,
                            TrackReplayOptions(lane_width=lane, workers=workers, **speed), progress=False)
                 print(f"replayed {len(missing)} checkpoints on {style}-{seed} ({speed or 'recorded throttle'}) in "
                       f"{time.time() - t0:.0f} s", flush=True)
@@ -228,7 +229,8 @@ def per_style(labels: list[str], drives: list[dict], rows: list[dict]) -> list[s
                  for r in rows if r["checkpoint"] in labels and kind in ("all", r["style"])]
         t, p = np.array(pairs).T
         c = correlations(t, p)
-        lines.append(f"| {kind} | {len(pairs)} | {c['spearman']:.3f} | {c['r2']:.3f} | {t.mean():.2f} | {p.mean():.2f} |")
+        lines.append(f"| {kind} | {len(pairs)} | {c['spearman']:.3f} | {c['r2']:.3f} | {t.mean():.2f} | "
+                     f"{p.mean():.2f} |")
     return lines
 
 
@@ -290,7 +292,8 @@ def main() -> None:
               "replay_interventions": rep[label]["interventions"], "replay_laps": rep[label]["laps"],
               "replay_interventions_per_lap": rep[label]["per_lap"], "replay_km": rep[label]["km"]}
              for label in labels]
-    corr = correlations([r["true_off_track_per_lap"] for r in table], [r["replay_interventions_per_lap"] for r in table])
+    corr = correlations([r["true_off_track_per_lap"] for r in table],
+                        [r["replay_interventions_per_lap"] for r in table])
     name = "results" if a.speed == "model" else f"results-{a.speed}"
     with open(out / f"{name}.csv", "w", newline="") as f:
         w = csv.DictWriter(f, list(table[0]))
