@@ -301,3 +301,18 @@ def test_sim_bench_world_track_writes_its_tables_and_reuses_drives(tmp_path, cap
     assert (out / "a" / "centre-9451" / "drive.json").stat().st_mtime_ns == stamp
     assert main([*argv, "--throttle", "0.4"]) == 0  # another throttle: driven anew
     assert (out / "a" / "centre-9451" / "drive.json").stat().st_mtime_ns != stamp
+
+
+def test_the_suites_tracks_are_recorded_only_for_evaluation(tmp_path):
+    from steerlab.sim.track import Track
+    from steerlab.sim.track_bench import TRACK_SUITES
+    from steerlab.sim.track_run import record_track
+    from steerlab.sim.track_world import TrackRecordOptions
+
+    o = TrackRecordOptions(seed=9401, minutes=0.01, drift=False, layout="steerlab",
+                           lane_width=TRACK_SUITES["t1"]["lane_width"])
+    with pytest.raises(SteerlabError, match="reserved for the track suite"):
+        record_track(tmp_path / "refused", o, progress=False)
+    meta = json.loads((record_track(tmp_path / "eval", o, progress=False, suite_tracks_ok=True)
+                       / "recording.json").read_text())
+    assert meta["seed"] == 9401 and meta["lap_m"] == pytest.approx(Track(9401, o.lane_width, "taped").length)

@@ -37,10 +37,16 @@ def _ticks(minutes: float, fps: float) -> int:
     return int(round(minutes * 60 * fps))
 
 
-def record_track(out: str | Path, o: TrackRecordOptions = TrackRecordOptions(), progress: bool = True) -> Path:
+def record_track(out: str | Path, o: TrackRecordOptions = TrackRecordOptions(), progress: bool = True, *,
+                 suite_tracks_ok: bool = False) -> Path:
     """The racing expert on the track made from `o.seed` (with drift-and-recover episodes unless `o.drift` is
-    false), written as a tub or a steerlab recording (see the module's docstring). Same options, same bytes."""
-    check_track_seed(o.seed)
+    false), written as a tub or a steerlab recording (see the module's docstring). Same options, same bytes.
+
+    `suite_tracks_ok=True` is for evaluation recordings only (replay against the track suite; not in the CLI,
+    never for training data): it allows the track suite's reserved seeds, so that the recording shows the
+    suite's own track (give the suite's lane width and style)."""
+    if not suite_tracks_ok:
+        check_track_seed(o.seed)
     camera = camera_of(o.calibration)
     world = TrackWorld(o.seed, o.lane_width, o.style, o.fps, camera)
     expert = RacerPilot(world, o.seed, DRIFT_EVERY_S if o.drift else None)

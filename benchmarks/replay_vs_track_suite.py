@@ -1,0 +1,328 @@
+"""Does replay of small-car recordings predict true closed-loop racing in the track world?
+
+python benchmarks/replay_vs_track_suite.py --out runs/replay-track-truth [--minutes 0.5] [--workers 1]
+
+The track world's counterpart of `replay_vs_closed_loop.py` (roads). The script
+1. records the racing expert (no drift episodes) as a donkeycar tub on every track of the track suite t1 for
+   `--minutes` each (`track_run.record_track(..., suite_tracks_ok=True)`: the suite's own track, lane width and
+   style);
+2. trains small models on the track-world tubs of `configs/track_pilotnet.yaml` (`--tubs`: the racing expert on
+   tracks 1-4, 3 minutes each) on few frames and for few epochs, keeping a snapshot after chosen epochs, plus
+   the zero and train-mean baselines and any `--extra` checkpoints: at least 20 checkpoints of very different
+   quality;
+3. drives every checkpoint on the suite for `--minutes` per track (the truth: `track_bench.run_track_suite`,
+   through the donkeycar part, the model's learned throttle) and replays it on the expert's recordings of those
+   tracks (`replay_run.run_replay` with `TrackReplayOptions`, the suite's lane width; the speed as in the
+   suite: the model's learned throttle, else the speed of the suite's constant throttle);
+4. reports per checkpoint off-track events per lap (truth: events over the laps driven; replay: interventions
+   over the laps the recordings cover), summed over the tracks, and the Spearman rank correlation and R^2
+   (squared Pearson: a straight-line fit) of replay against truth, in `results.md`, `results.csv` and
+   `results.png` (a scatter plot); with `--speed recorded` the replay at the recorded throttle's speed instead of
+   the speed the suite drives at, in `results-recorded.*`.
+
+Everything already done in `--out` is reused (recordings, snapshots, suite drives, replays per recording), so
+an interrupted run continues where it stopped.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import shutil
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import torch
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _common import ROOT, machine  # noqa: E402
+from replay_vs_closed_loop import correlations  # noqa: E402
+
+from steerlab.data.car import CARS  # noqa: E402
+from steerlab.sim.track_bench import TRACK_SUITES  # noqa: E402
+
+SUITE = "t1"
+BASE_TRAIN = {"batch_size": 32, "lr": 3e-4, "patience": 99, "loss": "mae"}
+VAL = "3000:3538"  # the validation block of configs/track_pilotnet.yaml (the end of tub 1)
+# name -> (model section, extra tubs (indices into --tubs; tub 1 is index 0), training frames of tub 1, kept epochs)
+VARIANTS = {
+    "pilotnet-100": ({"name": "pilotnet"}, [], "0:100", [1, 4]),
+    "pilotnet-300": ({"name": "pilotnet"}, [], "0:300", [1, 2, 4]),
+    "pilotnet-1000": ({"name": "pilotnet"}, [], "0:1000", [1, 2, 4]),
+    "pilotnet-3000": ({"name": "pilotnet"}, [], "0:3000", [1, 3]),
+    "cg23-300": ({"name": "cg23"}, [], "0:300", [1, 3]),
+    "cg23-1000": ({"name": "cg23"}, [], "0:1000", [1, 2, 4]),
+    "pilotnet-4tubs": ({"name": "pilotnet"}, [1, 2, 3], "0:3000", [1, 2, 3, 5]),
+    "cg23-4tubs": ({"name": "cg23"}, [1, 2, 3], "0:3000", [1, 3]),
+}
+BASELINES = ["zero", "train-mean"]
+SPEEDS = {"model": "the model's throttle where it learned one, else the speed the suite's constant throttle holds",
+          "recorded": "the recorded throttle's"}
+LOCK = {"full_lock_deg": str(CARS["donkey"].full_lock_deg)}  # the track world's tubs: normalized of the car's lock
+
+
+def suite_tracks() -> list[tuple[str, int]]:
+    return [(style, seed) for style, seeds in TRACK_SUITES[SUITE]["tracks"].items() for seed in seeds]
+
+
+def record_expert(out: Path, minutes: float) -> dict[tuple[str, int], Path]:
+    """The racing expert on every suite track, as a tub: the suite's own track (seed, lane width, style)."""
+    from steerlab.sim.track_run import record_track
+    from steerlab.sim.track_world import TrackRecordOptions
+
+    recs = {}
+    for style, seed in suite_tracks():
+        folder = out / "expert" / f"{style}-{seed}"
+        stamp = folder / "minutes.json"
+        if not (stamp.exists() and json.loads(stamp.read_text())["minutes"] == minutes):
+            shutil.rmtree(folder, ignore_errors=True)
+            shutil.rmtree(out / "replay" / folder.name, ignore_errors=True)  # replays of the old recording
+            t0 = time.time()
+            record_track(folder, TrackRecordOptions(seed=seed, minutes=minutes, drift=False, style=style,
+                                                    lane_width=TRACK_SUITES[SUITE]["lane_width"]),
+                         progress=False, suite_tracks_ok=True)
+            stamp.write_text(json.dumps({"minutes": minutes}))
+            print(f"recorded the expert on {style}-{seed} ({minutes:g} min) in {time.time() - t0:.0f} s", flush=True)
+        recs[(style, seed)] = folder
+    return recs
+
+
+def _config(tubs: list[Path], extra: list[int], frames: str, out: Path, run: Path, model: dict, train: dict):
+    """The training config (a `TrainConfig`) of one run on the tubs."""
+    from steerlab.train.config import load_config
+
+    return load_config(None, base={"data": str(tubs[0]), "extra_data": [str(tubs[i]) for i in extra], "reader": LOCK,
+                                   "cache": str(out / "cache"), "out": str(run),
+                                   "preprocess": {"preset": "donkey", "color": "gray"},
+                                   "split": {"train": frames, "val": VAL}, "model": model,
+                                   "train": {**BASE_TRAIN, **train}})
+
+
+def checkpoints(out: Path, tubs: list[Path], extra: list[Path]) -> list[Path]:
+    """Train every variant (one run each, the weights after each kept epoch copied to `out/checkpoints/`), the
+    baselines, and copy the `extra` checkpoints in; anything already there is reused."""
+    from steerlab.train.loop import train
+
+    ckpts = out / "checkpoints"
+    ckpts.mkdir(parents=True, exist_ok=True)
+    result = []
+    for name in BASELINES:
+        target = ckpts / f"{name}.pt"
+        if not target.exists():
+            run = out / "runs" / name
+            train(_config(tubs, [], "0:1000", out, run, {"name": name}, {"epochs": 1}), progress=False)
+            shutil.copy(run / "best.pt", target)
+        result.append(target)
+    for name, (model, more, frames, keep) in VARIANTS.items():
+        targets = {e: ckpts / f"{name}-e{e}.pt" for e in keep}
+        if not all(t.exists() for t in targets.values()):
+            run = out / "runs" / name
+            t0 = time.time()
+
+            def on_epoch(epoch, metrics, run=run, targets=targets, name=name, t0=t0):
+                print(f"  {name} epoch {epoch}: val rmse {metrics['rmse']:.4f} ({time.time() - t0:.0f} s)", flush=True)
+                if epoch in targets:
+                    shutil.copy(run / "last.pt", targets[epoch])
+
+            train(_config(tubs, more, frames, out, run, model, {"epochs": max(keep)}), progress=False,
+                  on_epoch=on_epoch)
+            if not targets[max(keep)].exists():  # the run had already finished its epochs before it was stopped
+                shutil.copy(run / "last.pt", targets[max(keep)])
+            missing = [str(t) for t in targets.values() if not t.exists()]
+            if missing:
+                sys.exit(f"{name}: the snapshots {', '.join(missing)} are missing; delete {run} to train it again")
+            print(f"trained {name} ({max(keep)} epochs) in {time.time() - t0:.0f} s", flush=True)
+        result += list(targets.values())
+    for c in extra:
+        target = ckpts / f"{c.parent.name}-{c.stem}.pt"
+        if not target.exists():
+            shutil.copy(c, target)
+        result.append(target)
+    return result
+
+
+def true_suite(ckpts: list[Path], out: Path, minutes: float, workers: int) -> tuple[dict[str, dict], list[dict]]:
+    """The track suite for every checkpoint; per checkpoint off-track events over the laps driven, all tracks."""
+    from steerlab.sim.track_bench import TrackSuiteOptions, run_track_suite
+
+    t0 = time.time()
+    run_track_suite(ckpts, out / "suite", TrackSuiteOptions(SUITE, minutes, workers=workers), progress=False,
+                    plots=False)
+    print(f"track suite {SUITE} ({minutes:g} min per track) for {len(ckpts)} checkpoints in {time.time() - t0:.0f} s",
+          flush=True)
+    drives = list(csv.DictReader(open(out / "suite" / "suite.csv")))
+    total = {}
+    for label in dict.fromkeys(d["label"] for d in drives):
+        mine = [d for d in drives if d["label"] == label]
+        n, laps = sum(int(d["off_track"]) for d in mine), sum(float(d["laps_driven"]) for d in mine)
+        total[label] = {"off_track": n, "laps": laps, "per_lap": n / max(laps, 1e-9),
+                        "km": sum(float(d["distance_km"]) for d in mine)}
+    return total, drives
+
+
+def speed_options(ckpts: list[Path], mode: str) -> list:
+    """The `TrackReplayOptions` speed settings of each checkpoint: `recorded`, the recorded throttle's speed
+    for all; `model`, as the suite drives them: the model's own throttle when it learned one, else the speed
+    that the suite's constant throttle holds."""
+    from steerlab.pilot import Pilot
+    from steerlab.sim.smallcar import steady_speed
+    from steerlab.sim.track_bench import FPS
+    from steerlab.sim.track_world import THROTTLE
+
+    if mode == "recorded":
+        return [{}] * len(ckpts)
+    constant = {"speed": round(steady_speed(THROTTLE, 1.0 / FPS, CARS["donkey"]), 4)}
+    return [{"throttle": "model"} if "throttle" in Pilot(c).targets else constant for c in ckpts]
+
+
+def replay(ckpts: list[Path], recs: dict, out: Path, workers: int, mode: str) -> tuple[dict[str, dict], list[dict]]:
+    """Every checkpoint on every expert recording (the speed as `speed_options(mode)`, the suite's lane width);
+    per checkpoint interventions over the laps the replayed car covers, summed over the tracks."""
+    from steerlab.data.readers import Source
+    from steerlab.sim.bench import labels_for
+    from steerlab.sim.replay_run import run_replay
+    from steerlab.sim.replay_track import TrackReplayOptions
+    from steerlab.sim.track import Track
+
+    labels = labels_for(ckpts)
+    lane = TRACK_SUITES[SUITE]["lane_width"]
+    speeds = speed_options(ckpts, mode)
+    rows = []
+    for (style, seed), folder in recs.items():
+        where = out / "replay" / folder.name / mode  # one sub-folder per batch of checkpoints replayed together
+        lap_m = Track(seed, lane, style).length
+
+        def done():
+            return {r["checkpoint"]: r for f in sorted(where.glob("*/replay.csv")) for r in csv.DictReader(open(f))}
+
+        for speed in map(json.loads, dict.fromkeys(json.dumps(s, sort_keys=True) for s in speeds)):
+            missing = [c for c, label, s in zip(ckpts, labels, speeds) if s == speed and label not in done()]
+            if missing:
+                t0 = time.time()
+                batch = where / str(len(list(where.glob("*/replay.csv"))))
+                run_replay(missing, Source(str(folder), reader=LOCK), batch,
+                           TrackReplayOptions(lane_width=lane, workers=workers, **speed), progress=False)
+                print(f"replayed {len(missing)} checkpoints on {style}-{seed} ({speed or 'recorded throttle'}) in "
+                      f"{time.time() - t0:.0f} s", flush=True)
+        have = done()
+        rows += [{**have[label], "style": style, "seed": seed, "laps": float(have[label]["km"]) * 1000 / lap_m}
+                 for label in labels]
+    total = {}
+    for label in labels:
+        mine = [r for r in rows if r["checkpoint"] == label]
+        n, laps = sum(int(r["interventions"]) for r in mine), sum(r["laps"] for r in mine)
+        total[label] = {"interventions": n, "laps": laps, "per_lap": n / max(laps, 1e-9),
+                        "km": sum(float(r["km"]) for r in mine)}
+    return total, rows
+
+
+def per_style(labels: list[str], drives: list[dict], rows: list[dict]) -> list[str]:
+    """Spearman and R^2 of replay against truth (events per lap) per checkpoint and track, by track style."""
+    truth = {(d["label"], int(d["seed"])): float(d["off_track_per_lap"]) for d in drives}
+    lines = ["| tracks | pairs (checkpoint x track) | Spearman | R^2 | true off track / lap (mean) | "
+             "replay interventions / lap (mean) |", "|---|---|---|---|---|---|"]
+    for kind in [*TRACK_SUITES[SUITE]["tracks"], "all"]:
+        pairs = [(truth[(r["checkpoint"], int(r["seed"]))], int(r["interventions"]) / max(r["laps"], 1e-9))
+                 for r in rows if r["checkpoint"] in labels and kind in ("all", r["style"])]
+        t, p = np.array(pairs).T
+        c = correlations(t, p)
+        lines.append(f"| {kind} | {len(pairs)} | {c['spearman']:.3f} | {c['r2']:.3f} | {t.mean():.2f} | "
+                     f"{p.mean():.2f} |")
+    return lines
+
+
+def scatter(path: Path, table: list[dict], corr: dict, minutes: float) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 6), dpi=100)
+    t = np.array([r["true_off_track_per_lap"] for r in table])
+    p = np.array([r["replay_interventions_per_lap"] for r in table])
+    ax.scatter(t, p, s=25)
+    for r, x, y in zip(table, t, p):
+        ax.annotate(r["checkpoint"], (x, y), fontsize=6, alpha=0.8, xytext=(2, 2), textcoords="offset points")
+    slope, icept = np.polyfit(t, p, 1) if np.ptp(t) > 0 else (0.0, float(p.mean()))
+    xs = np.array([t.min(), t.max()])
+    ax.plot(xs, slope * xs + icept, "k:", lw=0.8, label=f"fit: replay = {slope:.2f} x truth + {icept:.2f}")
+    ax.set_title(f"Spearman {corr['spearman']:.2f}, R$^2$ {corr['r2']:.2f} ({corr['n']} checkpoints)")
+    ax.set_xlabel(f"true closed loop (track suite {SUITE}, {minutes:g} min per track): off-track events / lap")
+    ax.set_ylabel("replay of the expert's recordings: interventions / lap")
+    ax.legend(loc="upper left", fontsize=8)
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--out", default="runs/replay-track-truth")
+    p.add_argument("--minutes", type=float, default=0.5, help="minutes per suite track, for the truth and the "
+                   "recordings")
+    p.add_argument("--workers", type=int, default=1)
+    p.add_argument("--tubs", nargs="+", default=[str(ROOT / "runs" / "track" / f"tub-{k}") for k in range(1, 5)],
+                   help="the track-world tubs of configs/track_pilotnet.yaml (tub 1 first)")
+    p.add_argument("--speed", choices=["model", "recorded"], default="model",
+                   help="replay speed: model = as the suite drives (the learned throttle, else the suite's constant "
+                   "throttle's speed); recorded = the recorded throttle's")
+    p.add_argument("--extra", nargs="*", default=[], help="more checkpoints of the donkey camera to include")
+    a = p.parse_args()
+    torch.set_num_threads(1)
+    out = Path(a.out)
+    out.mkdir(parents=True, exist_ok=True)
+    t_start, cpu_start = time.time(), time.process_time()
+    print(f"machine: {machine()}; workers {a.workers}", flush=True)
+
+    recs = record_expert(out, a.minutes)
+    ckpts = checkpoints(out, [Path(t) for t in a.tubs], [Path(c) for c in a.extra])
+    print(f"{len(ckpts)} checkpoints", flush=True)
+    truth, drives = true_suite(ckpts, out, a.minutes, a.workers)
+    rep, rows = replay(ckpts, recs, out, a.workers, a.speed)
+
+    from steerlab.sim.bench import labels_for
+
+    labels = labels_for(ckpts)
+    table = [{"checkpoint": label, "true_off_track": truth[label]["off_track"], "true_laps": truth[label]["laps"],
+              "true_off_track_per_lap": truth[label]["per_lap"], "true_km": truth[label]["km"],
+              "replay_interventions": rep[label]["interventions"], "replay_laps": rep[label]["laps"],
+              "replay_interventions_per_lap": rep[label]["per_lap"], "replay_km": rep[label]["km"]}
+             for label in labels]
+    corr = correlations([r["true_off_track_per_lap"] for r in table],
+                        [r["replay_interventions_per_lap"] for r in table])
+    name = "results" if a.speed == "model" else f"results-{a.speed}"
+    with open(out / f"{name}.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, list(table[0]))
+        w.writeheader()
+        w.writerows([{k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in r.items()} for r in table])
+    trained = [r for r in table if r["checkpoint"] not in BASELINES]
+    sub = correlations([r["true_off_track_per_lap"] for r in trained],
+                       [r["replay_interventions_per_lap"] for r in trained])
+    lines = [f"Replay vs. true closed loop in the track world: {len(table)} checkpoints; truth = track suite {SUITE} "
+             f"({a.minutes:g} min on each of its {len(recs)} tracks, the donkeycar part, the model's throttle): "
+             "off-track events over the laps driven; replay = the same checkpoints on the racing expert's recordings "
+             f"of those tracks (no drift episodes, the suite's lane width; speed: {SPEEDS[a.speed]}): interventions "
+             "over the laps the replayed car covers; both summed over the tracks.", "",
+             "| checkpoints | Spearman (replay vs. true, per lap) | R^2 (squared Pearson) | n |", "|---|---|---|---|",
+             f"| all | {corr['spearman']:.3f} | {corr['r2']:.3f} | {corr['n']} |",
+             f"| trained (no zero, train-mean) | {sub['spearman']:.3f} | {sub['r2']:.3f} | {sub['n']} |", "",
+             "| checkpoint | true off track | true laps | true off track / lap | replay interventions | replay laps | "
+             "replay interventions / lap |", "|---" * 7 + "|"]
+    for r in table:
+        lines.append(f"| {r['checkpoint']} | {r['true_off_track']} | {r['true_laps']:.2f} | "
+                     f"{r['true_off_track_per_lap']:.2f} | {r['replay_interventions']} | {r['replay_laps']:.2f} | "
+                     f"{r['replay_interventions_per_lap']:.2f} |")
+    lines += ["", "Per track style (one point per checkpoint and track):", "", *per_style(labels, drives, rows)]
+    (out / f"{name}.md").write_text("\n".join(lines) + "\n")
+    print("\n".join(lines), flush=True)
+    scatter(out / f"{name}.png", table, corr, a.minutes)
+    print(f"\nwrote {out / name}.md, .csv and .png; wall "
+          f"{time.time() - t_start:.0f} s, main-process CPU {time.process_time() - cpu_start:.0f} s", flush=True)
+
+
+if __name__ == "__main__":
+    main()
