@@ -56,6 +56,14 @@ def tub(folder, records=None):
     return folder
 
 
+def _renamed(catalog, key, other):
+    """The first record of a tub catalog with `key` named `other` (as long: the manifest's line lengths hold)."""
+    lines = catalog.read_text().splitlines(keepends=True)
+    lines[0] = lines[0].replace(f'"{key}"', f'"{other}"')
+    catalog.write_text("".join(lines))
+    return catalog.parent
+
+
 def tear(path, line, text):
     """Replace line `line` (1-based) of a text file by `text` (no line end added when it is the last line)."""
     lines = path.read_text().splitlines(keepends=True)
@@ -571,6 +579,9 @@ BAD_INPUTS = {
                                        "deleted_indexes must be a list of record indexes (integers), got 5"),
     "tub _index of text": (_compile(lambda t: tub(t / "tub", {2: {"_index": "two"}})),
                            "catalog_0.catalog, row 3: _index is 'two'; an integer is expected"),
+    "tub record with a misnamed column": (
+        _compile(lambda t: _renamed(tub(t / "tub") / "catalog_0.catalog", "user/angle", "user/angel")),
+        "catalog_0.catalog, row 1: a record needs the keys _index, _timestamp_ms, cam/image_array, user/angle"),
     "train model.seq_len=0": (_train("model.name=lstm", "model.seq_len=0"),
                               "model.seq_len must be an integer of at least 1, got 0"),
     "train model.seq_len=ten": (_train("model.name=lstm", "model.seq_len=ten"),
