@@ -103,8 +103,10 @@ def plot_rounds(path: str | Path, rows: list[dict]) -> None:
         ax.legend(lines[0] + extra[0], lines[1] + extra[1], fontsize=8, loc="lower right")
 
 
-def plot_offsets(path: Path, trajs: dict[str, Trajectory], limit_m: float, title: str) -> None:
-    """The lateral offset of every checkpoint along the route (km driven), interventions marked."""
+def plot_offsets(path: Path, trajs: dict[str, Trajectory], limit_m: float, title: str,
+                 limit_label: str = "intervention limit") -> None:
+    """The lateral offset of every checkpoint along the route (km driven), interventions marked, and the offset
+    limit (+-`limit_m`, named in the legend by `limit_label`)."""
     with figure(path, figsize=(12, 4)) as (fig, ax):
         for (label, t), color in zip(trajs.items(), COLORS * 5):
             dt = np.diff(t.time_s, prepend=t.time_s[0])
@@ -114,7 +116,8 @@ def plot_offsets(path: Path, trajs: dict[str, Trajectory], limit_m: float, title
             pre = np.flatnonzero(hits) - 1  # where the car was just before it was put back
             ax.plot(km[hits], t.offset[np.clip(pre, 0, None)], "x", color=color, ms=7)
         for d in (-limit_m, limit_m):
-            ax.axhline(d, color="tab:red", ls=":", lw=0.8)
+            label = f"{limit_label} (+-{limit_m:.2g} m)" if d > 0 else None
+            ax.axhline(d, color="tab:red", ls=":", lw=0.8, label=label)
         ax.set_xlabel("distance along the route [km]")
         ax.set_ylabel("offset from the human's path [m] (left +)")
         ax.grid(alpha=0.3)

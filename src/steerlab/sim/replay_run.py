@@ -103,6 +103,7 @@ def run_replay(checkpoints, source: Source, out: str | Path, o: ReplayOptions | 
     if track:
         kind = TrackReplay
         limit = o.lane_width / 2 - car.body.width / 2  # the offset at which the body meets a lane edge, straight on
+        limit_label = "the body at the lane edge when parallel to the path (turned: sooner)"
         criterion = f"the car's body leaves the {o.lane_width:g} m lane around the human's path"
         camera = {"fisheye": asdict(replay["fisheye"]), "lane_width_m": o.lane_width}
     else:
@@ -110,6 +111,7 @@ def run_replay(checkpoints, source: Source, out: str | Path, o: ReplayOptions | 
         speed, speed_source = replay_speed(rec, cam, car, o.speed)
         replay = {"cam": cam, "car": car, "speed": speed, "limit_m": o.limit, "max_heading_deg": o.max_heading}
         kind, limit = Replay, car.lane_limit_m if o.limit is None else o.limit
+        limit_label = "intervention limit"
         criterion = (f"the car is more than {limit:g} m off the human's path or turned more than {o.max_heading:g} "
                      "deg from it")
         camera = {"camera": asdict(cam), "limit_m": limit}
@@ -132,7 +134,7 @@ def run_replay(checkpoints, source: Source, out: str | Path, o: ReplayOptions | 
     (out / "replay.json").write_text(json.dumps({"data": source.data, "range": source.range, **camera,
                                                  "car": asdict(car), "smoothing": o.smoothing, "rows": rows}, indent=1))
     plot_offsets(out / "replay.png", {n: Trajectory.read(out / n / "trajectory.csv") for n in names}, limit,
-                 f"replay on {rec.name}")
+                 f"replay on {rec.name}", limit_label)
     return whole
 
 
