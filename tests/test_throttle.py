@@ -121,6 +121,35 @@ def test_a_tub_of_constant_throttle_gets_no_throttle_output(tmp_path, capsys):
     assert SteerlabPilot(tmp_path / "run" / "best.pt").throttle == 0.3  # the constant default
 
 
+def test_pretraining_with_and_without_a_throttle_output_carries_the_steering(tmp_path, capsys):
+    """train.init across tubs that differ in the throttle: the pretrained steering is kept; a throttle row is
+    dropped for a tub of constant throttle, and added fresh for one that varies it."""
+    from steerlab.checkpoint import load_checkpoint
+
+    varying = write_tub(tmp_path / "varying", lambda i: 0.2 + 0.5 * (i // 10 % 2), n=40)
+    constant = write_tub(tmp_path / "constant", lambda i: 0.3, n=40)
+
+    def run(tub, name, **train):
+        cfg = load_config(None, base={"data": str(tub), "cache": str(tmp_path / "cache"), "out": str(tmp_path / name),
+                                      "model": {"name": "cg23"}, "split": {"train": "0:30", "val": "30:40"},
+                                      "preprocess": {"width": 100, "height": 33},
+                                      "train": {"epochs": 1, "batch_size": 16, "lr": 1e-12, **train}})
+        loop.train(cfg, progress=False)  # Adam's steps of about lr: the weights stay as they start
+        return load_checkpoint(tmp_path / name / "best.pt")["state_dict"]
+
+    with_throttle = run(varying, "pre")
+    last = next(k for k, w in with_throttle.items() if w.shape[0] == 2 and k.endswith("weight"))
+    capsys.readouterr()
+    without = run(constant, "fine", init=str(tmp_path / "pre" / "best.pt"))
+    assert "pre/best.pt: train.init with its throttle output dropped" in capsys.readouterr().out
+    same = lambda a, b: torch.allclose(a.float(), b.float(), rtol=0, atol=1e-9)  # noqa: E731
+    assert without[last].shape == (1, *with_throttle[last].shape[1:]) and same(without[last][0], with_throttle[last][0])
+    assert all(same(w, with_throttle[k]) for k, w in without.items() if w.shape == with_throttle[k].shape)
+    again = run(varying, "back", init=str(tmp_path / "fine" / "best.pt"))
+    assert "fine/best.pt: train.init with a new throttle output" in capsys.readouterr().out
+    assert again[last].shape[0] == 2 and same(again[last][0], without[last][0])
+
+
 def test_the_tub_default_learns_the_throttle_only_with_a_model_that_can(tmp_path):
     tub = write_tub(tmp_path / "tub", lambda i: 0.3, n=2)
     base = {"data": str(tub)}

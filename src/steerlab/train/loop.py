@@ -199,6 +199,28 @@ def throttle_learned(cfg: TrainConfig, ds: CompiledDataset, say: bool) -> bool:
     return False
 
 
+def _but_throttle(model_cfg: dict) -> dict:
+    return {k: v for k, v in model_cfg.items() if k != "throttle"}
+
+
+def _with_throttle_row(init: dict, own: dict, where, say: bool) -> dict:
+    """`init`'s weights for a model that differs from it only in the throttle (the second value of the last
+    layer): a pretrained throttle row is dropped where the recording's throttle is constant, and a model that
+    learns the throttle keeps its own fresh row where the pretrained one had none (said once)."""
+    out, change = dict(init), None
+    for key, w in init.items():
+        mine = own[key]
+        if w.shape != mine.shape:
+            if w.shape[1:] != mine.shape[1:] or {w.shape[0], mine.shape[0]} != {1, 2}:
+                raise SteerlabError(f"{where}: train.init's {key} has the shape {tuple(w.shape)}, the model's "
+                                    f"{tuple(mine.shape)}")
+            out[key] = w[:1] if mine.shape[0] == 1 else torch.cat([w, mine[1:]])
+            change = "its throttle output dropped" if mine.shape[0] == 1 else "a new throttle output"
+    if say and change:
+        print(f"{where}: train.init with {change}")
+    return out
+
+
 def build(cfg: TrainConfig, ranks: Ranks, progress: bool, init: dict | None, teacher: dict | None) -> Run:
     """Compile the data (rank 0 first, the other ranks then read the cache), pick the usable frames of the
     split, gather the training sources and make the model and the epoch sampler."""
@@ -217,7 +239,7 @@ def build(cfg: TrainConfig, ranks: Ranks, progress: bool, init: dict | None, tea
             raise SteerlabError(f"{t.init}: train.init was trained on the {init['geometry']!r} camera geometry "
                                 f"and {ds.meta['source']} has the {ds.meta['geometry']!r} geometry: pretrain on "
                                 "recordings of the same camera (steerlab sim record --geometry)")
-        if init["model"] != cfg.model.name or init["model_cfg"] != model_cfg:
+        if init["model"] != cfg.model.name or _but_throttle(init["model_cfg"]) != _but_throttle(model_cfg):
             raise SteerlabError(f"{t.init}: train.init must be a checkpoint of the same model and options "
                                 f"({cfg.model.name}, {model_cfg}); it holds {init['model']}, {init['model_cfg']}")
     train_idx, val_idx = make_split(cfg.split, len(ds), ds.labels.get("session"))
@@ -228,7 +250,7 @@ def build(cfg: TrainConfig, ranks: Ranks, progress: bool, init: dict | None, tea
     torch.manual_seed(t.seed)
     model = create_model(cfg.model.name, **model_cfg)
     if init:
-        model.load_state_dict(init["state_dict"])
+        model.load_state_dict(_with_throttle_row(init["state_dict"], model.state_dict(), t.init, ranks.main))
     if (model.targets or model.speed_history) and "speed" not in ds.labels:
         raise SteerlabError(f"model {cfg.model.name!r} needs a recording with speed; {ds.meta['source']} has none")
     data = FrameBatches(sources, stats, model.speed_history, t.rotation_deg, t.brightness, model.learns_throttle)
