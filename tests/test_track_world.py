@@ -19,7 +19,7 @@ from steerlab.errors import SteerlabError
 from steerlab.pilot import Controls
 from steerlab.sim.driving import drive_loop
 from steerlab.sim.part import PartPilot, donkey_pilot
-from steerlab.sim.smallcar import speed_after
+from steerlab.sim.smallcar import speed_after, steady_speed
 from steerlab.sim.track_world import Laps, RacerPilot, TrackWorld
 from steerlab.sim.vehicle import VehicleState
 from steerlab.sim.world import World
@@ -272,6 +272,12 @@ def test_a_model_that_learned_the_throttle_drives_the_track_with_its_own(tmp_pat
         with open(out / "trajectory.csv") as f:
             speeds.append([float(r["speed"]) for r in csv.DictReader(f)])
     assert speeds[0] == speeds[1] and max(speeds[0]) > 0
+    out = tmp_path / "capped"  # --max-throttle caps the learned throttle: no faster than that throttle holds
+    assert main(["sim", "drive", str(ckpt), "--world", "track", "--minutes", "0.02", "--max-throttle", "0.05",
+                 "--out", str(out)]) == 0
+    with open(out / "trajectory.csv") as f:
+        capped = [float(r["speed"]) for r in csv.DictReader(f)]
+    assert max(capped) <= steady_speed(0.05, 1 / 20, CARS["donkey"]) + 1e-4 < max(speeds[0])
 
 
 def test_sim_bench_world_track_writes_its_tables_and_reuses_drives(tmp_path, capsys):

@@ -52,7 +52,7 @@ def cmd_sim_drive(a) -> None:
     video = f", {a.video}" if a.video else ""
     if a.world == "track":
         o, w = world_options(a, (TrackDriveOptions, DriveWith), (DriveOptions,))
-        r = drive_track(donkey_pilot(a.checkpoint, o.throttle, w.smoothing), a.out, o, video=a.video)
+        r = drive_track(donkey_pilot(a.checkpoint, o.throttle, w.smoothing, o.max_throttle), a.out, o, video=a.video)
         print_table(r)
         print(f"wrote {a.out}/trajectory.csv, track.png, frames.png, drive.json{video}")
         return

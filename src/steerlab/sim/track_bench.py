@@ -6,7 +6,7 @@ The tracks of a suite version never change (seed, lane width and style), and the
 expert (no drift episodes, from the car's state, without a camera): its lap times are the reference a model's
 are put against. Drives run in parallel worker processes (`run_parallel`); a finished drive is kept in its folder
 and reused when the suite runs again with the same cache key: the checkpoint's content hash, suite version,
-minutes, smoothing, the constant throttle and the camera (`TrackSuiteOptions.key`); the expert's drives with the
+minutes, smoothing, the constant throttle, the learned throttle's cap and the camera (`TrackSuiteOptions.key`); the expert's drives with the
 same suite version and minutes.
 
 Per drive (`suite.csv`) and per checkpoint and style and over all tracks (`summary.csv`, `suite.md`): laps
@@ -30,7 +30,8 @@ from steerlab.pilot import smoothing_option
 from steerlab.sim.bench import grouped, labels_for, write_csv
 from steerlab.sim.driving import Trajectory, autonomy
 from steerlab.sim.parallel import run_parallel, tick_reporter
-from steerlab.sim.track_world import TrackDriveOptions, calibration_option, camera_of, throttle_option
+from steerlab.sim.track_world import (TrackDriveOptions, calibration_option, camera_of, max_throttle_option,
+                                      throttle_option)
 
 TRACK_SUITES = {
     # 8 tracks of 2 minutes, 0.9 m lanes: six taped, two with a painted centre line (28-54 m laps; the expert
@@ -59,6 +60,7 @@ class TrackSuiteOptions(Options):
     smoothing: float | None = smoothing_option()
     styles: str | None = option(None, help="comma list of the suite's track styles to drive (default: all)")
     throttle: float = throttle_option()
+    max_throttle: float = max_throttle_option()
     calibration: str | None = calibration_option()
 
     @property
@@ -77,16 +79,18 @@ class TrackSuiteOptions(Options):
 
     def drive_options(self, style: str, seed: int) -> TrackDriveOptions:
         return TrackDriveOptions(seed, self.track_minutes, FPS, 0.0, TRACK_SUITES[self.suite]["lane_width"], style,
-                                 self.calibration, self.throttle)
+                                 self.calibration, self.throttle, self.max_throttle)
 
     def key(self, checkpoint: Path) -> dict:
         """Everything that changes a drive's result besides its track: the checkpoint's content, the suite
-        version, minutes, smoothing, the constant throttle and the camera's calibration (its K and D)."""
+        version, minutes, smoothing, the constant throttle, the learned throttle's cap and the camera's calibration
+        (its K and D)."""
         with open(checkpoint, "rb") as f:
             digest = hashlib.file_digest(f, "sha256").hexdigest()
         camera = None if self.calibration is None else list(astuple(camera_of(self.calibration)))
         key = {"checkpoint_sha256": digest, "suite": self.suite, "minutes": self.track_minutes,
-               "smoothing": self.smoothing, "throttle": self.throttle, "camera": camera}
+               "smoothing": self.smoothing, "throttle": self.throttle, "max_throttle": self.max_throttle,
+               "camera": camera}
         return json.loads(json.dumps(key))  # as drive.json gives it back
 
 
@@ -98,7 +102,7 @@ def _job(checkpoint: str | None, o: TrackSuiteOptions, style: str, seed: int, ou
     d = o.drive_options(style, seed)
     if checkpoint is None:
         return drive_expert(out, d, on_tick=tick_reporter(), meta={"cache_key": key})
-    return drive_track(donkey_pilot(checkpoint, o.throttle, o.smoothing), out, d, progress=False,
+    return drive_track(donkey_pilot(checkpoint, o.throttle, o.smoothing, o.max_throttle), out, d, progress=False,
                        on_tick=tick_reporter(), plot=False, meta={"cache_key": key})
 
 

@@ -63,6 +63,12 @@ def throttle_option():
     return option(THROTTLE, UNIT, help="the constant throttle of a model that predicts none")
 
 
+def max_throttle_option():
+    """The option of every track command that drives a model: the cap of a learned throttle. A simulated car
+    cannot break, so it races uncapped; on a real car the part's own default (0.5) caps it."""
+    return option(1.0, UNIT, help="the cap of a model's learned throttle (the donkeycar part's max_throttle)")
+
+
 @dataclass(frozen=True)
 class TrackRecordOptions(Options):
     """`steerlab sim record --world track`: the racing expert on the track made from `seed`."""
@@ -91,6 +97,7 @@ class TrackDriveOptions(Options):
     style: Literal["taped", "centre"] = _style()
     calibration: str | None = calibration_option()
     throttle: float = throttle_option()
+    max_throttle: float = max_throttle_option()
 
 
 def camera_of(calibration: str | None) -> FisheyeCamera:
