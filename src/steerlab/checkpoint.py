@@ -3,9 +3,10 @@ preprocessing config, normalisation statistics, the steering convention and the 
 
 A checkpoint holds tensors and plain values only (dicts, lists, text, numbers), so it is read with
 `torch.load(weights_only=True)`: reading a checkpoint never runs code from it. It carries the sha256 of its
-weights and the sha256 of everything else it stores, both checked when it is read, so a damaged file is refused
-instead of predicting nonsense. Every
-checkpoint is read through `load_checkpoint`."""
+weights and the sha256 of everything else it stores, and its file is sealed with the sha256 of all its bytes, so a
+damaged file is refused instead of predicting nonsense: a file whose seal holds is intact; where it does not (or
+in a file written before seals), the two inner hashes name what is damaged. Every checkpoint is read through
+`load_checkpoint`."""
 
 from __future__ import annotations
 
@@ -154,14 +155,16 @@ def load_checkpoint(path: str | Path) -> dict:
         raise SteerlabError(f"{path}: not a readable checkpoint ({e.__class__.__name__})") from None
     if not isinstance(ckpt, dict) or ckpt.get("format") != FORMAT or not isinstance(ckpt.get("state_dict"), dict):
         raise SteerlabError(f"{path}: not a steerlab checkpoint")
-    # checkpoints written before the hashes existed have none, or the weights' only
-    if "sha256" in ckpt and weights_hash(ckpt["state_dict"]) != ckpt["sha256"]:
-        raise SteerlabError(f"{path}: the weights do not match the checkpoint's sha256: the file is damaged")
-    if "content_sha256" in ckpt and content_hash(ckpt) != ckpt["content_sha256"]:
-        raise SteerlabError(f"{path}: the checkpoint's settings (statistics, preprocessing, convention, training "
-                            "state) do not match its sha256: the file is damaged")
-    if _seal_intact(data) is False:
-        raise SteerlabError(f"{path}: the file's bytes do not match the sha256 stored with them: the file is damaged")
+    seal = _seal_intact(data)
+    if not seal:  # damaged, or written before seals: the inner hashes (of earlier files: none, or the weights' only)
+        if "sha256" in ckpt and weights_hash(ckpt["state_dict"]) != ckpt["sha256"]:
+            raise SteerlabError(f"{path}: the weights do not match the checkpoint's sha256: the file is damaged")
+        if "content_sha256" in ckpt and content_hash(ckpt) != ckpt["content_sha256"]:
+            raise SteerlabError(f"{path}: the checkpoint's settings (statistics, preprocessing, convention, "
+                                "training state) do not match its sha256: the file is damaged")
+        if seal is False:
+            raise SteerlabError(f"{path}: the file's bytes do not match the sha256 stored with them: the file is "
+                                "damaged")
     if "preset" in ckpt:  # the camera geometry's earlier name
         ckpt.setdefault("geometry", ckpt.pop("preset"))
     return ckpt

@@ -175,3 +175,15 @@ class ModelSpec:
 
     def build(self, pre: PreprocessConfig) -> SteeringModel:
         return create_model(self.name, **self.arguments(pre))
+
+    def check(self, pre: PreprocessConfig) -> None:
+        """Refuse options the model does not take or an input too small for its layers (`create_model`'s
+        errors); a configuration checked once in a process is not built again."""
+        arguments = self.arguments(pre)
+        key = repr((self.name, sorted(arguments.items())))
+        if key not in _CHECKED:
+            create_model(self.name, **arguments)
+            _CHECKED.add(key)
+
+
+_CHECKED: set[str] = set()  # ModelSpec.check's configurations that passed

@@ -25,6 +25,7 @@ def plot_trajectory(path: str | Path, road, trajs: dict[str, Trajectory], title:
             ax.plot(t.x, t.y, color=color, lw=1.0, label=label)
             ax2.plot(t.time_s, t.offset, color=color, lw=0.8, label=label)
         ax.set_aspect("equal")
+        ax.locator_params(nbins=5)  # a map's ticks: few (matplotlib's ticks are most of a plot's drawing time)
         ax.set_xlabel("x [m]")
         ax.set_ylabel("y [m]")
         ax.legend(fontsize=7)
@@ -32,6 +33,7 @@ def plot_trajectory(path: str | Path, road, trajs: dict[str, Trajectory], title:
             ax2.axhline(limit, color="tab:red", ls=":", lw=0.8)
         ax2.set_xlabel("time [s]")
         ax2.set_ylabel("offset from lane centre [m] (left +)")
+        ax2.locator_params(axis="y", nbins=5)
         ax2.grid(alpha=0.3)
         fig.suptitle(title)
 

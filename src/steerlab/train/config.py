@@ -114,7 +114,7 @@ class TrainConfig(Options):
             able = ", ".join(m for m in list_models() if learns_throttle(m))
             raise SteerlabError(f"train.throttle_weight: model {self.model.name!r} does not learn a throttle; "
                                 f"these do: {able}")
-        self.model.build(self.preprocessing())  # the input fits the model's layers
+        self.model.check(self.preprocessing())  # the input fits the model's layers
 
     def preprocessing(self, geometry: str | None = None) -> PreprocessConfig:
         """The preprocessing of this config's model on a recording of the camera `geometry`."""
