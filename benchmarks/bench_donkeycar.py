@@ -15,9 +15,10 @@ settings are its defaults for a tub (`TUB_DEFAULTS` in train/config.py: batch 32
 throttle learned with weight 0.5 where the model can), only the model is named; multimodal-lstm is the tub
 default.
 
-Each steerlab model is also replayed in closed loop on the held-out block (`steerlab replay`: the recorded
-frames warped to the simulated car's view, at an assumed REPLAY_SPEED, with an assumed full-lock angle of
-FULL_LOCK_DEG so that the tub's normalized steering becomes a wheel angle; lane limit 0.3 m).
+Each steerlab model is also replayed in closed loop on the held-out block with the small cars' replay (`steerlab
+replay --world track`: the fisheye frames warped to the car's view, the speed from the recorded throttle, an
+assumed full-lock angle of FULL_LOCK_DEG so that the tub's normalized steering becomes a wheel angle; an
+intervention where the car's body leaves a 0.9 m lane around the human's path).
 
 donkeycar is never a dependency of steerlab: it lives in its own virtual environment ($DONKEY_VENV, default
 runs/donkeycar-venv, made on first use with `pip install donkeycar[pc]`) and `_donkey_eval.py` runs there.
@@ -43,7 +44,8 @@ from _common import ROOT, SHARED, machine
 
 from steerlab.data.readers import Source
 from steerlab.evaluate.offline import evaluate
-from steerlab.sim.replay_run import ReplayOptions, run_replay
+from steerlab.sim.replay_run import run_replay
+from steerlab.sim.replay_track import TrackReplayOptions
 from steerlab.train.config import load_config
 from steerlab.train.loop import train
 
@@ -55,7 +57,6 @@ STEERLAB_MODELS = ["pilotnet", "cg23", "multimodal-lstm", "train-mean"]
 DONKEY_MODELS = ["linear"]
 FULL_LOCK_DEG = 25.0  # assumed: the tubs do not record it
 READER = {"skip_missing": True, "full_lock_deg": FULL_LOCK_DEG}
-REPLAY_SPEED = 2.0    # m/s, assumed: the tubs record no speed, and the frames' flow cannot tell it on a plain floor
 
 
 def blocks(n: int) -> tuple[int, int]:
@@ -156,7 +157,7 @@ def run_steerlab(tub: Path, n: int, epochs: int, work: Path, models: list[str], 
                 seconds += time.time() - t
             ckpt, held_out = run_dir / "best.pt", Source(str(tub), f"{b}:{n}", reader=READER)
             m = evaluate(ckpt, held_out, run_dir / "test", progress=False)
-            r = run_replay([ckpt], held_out, run_dir / "replay", ReplayOptions(speed=REPLAY_SPEED, workers=1),
+            r = run_replay([ckpt], held_out, run_dir / "replay", TrackReplayOptions(workers=1),
                            progress=False)[0]
             results[key] = {"mae": m["mae"], "train_s": seconds, "interventions_per_km": r["interventions_per_km"],
                             "interventions": r["interventions"], "autonomy": r["autonomy"], "km": r["km"],
@@ -212,7 +213,7 @@ def main() -> None:
         return
     python = None if args.skip_donkey else donkey_python()
     os.environ.setdefault("STEERLAB_CACHE", str(OUT / "cache"))
-    lines = [f"machine: {machine()}", "", f"replay: held-out block at an assumed {REPLAY_SPEED} m/s, full lock "
+    lines = [f"machine: {machine()}", "", f"replay: held-out block as a small car (--world track), full lock "
              f"{FULL_LOCK_DEG} deg", "", "| tub | model | trainer | runs | held-out steering MAE [-1, 1] | vs "
              "donkeycar linear | held-out throttle MAE | train time [s] | replay: interventions |",
              "|---|---|---|---|---|---|---|---|---|"]

@@ -646,6 +646,8 @@ BAD_INPUTS = {
     "track drive a road checkpoint": (lambda t, s: ["sim", "drive", str(made(t)), "--world", "track"],
                                       "model.pt: model 'pilotnet' was trained on the 'sim' camera; the track world "
                                       "renders the donkeycar camera"),
+    "track drive with a throttle cap above 1": (_track("drive", "--max-throttle", "1.5"),
+                                                "--max-throttle must be a number in [0, 1], got 1.5"),
     "road drive with a track option": (lambda t, s: ["sim", "drive", str(made(t)), "--throttle", "0.5"],
                                        "--throttle is an option of the track world (--world track)"),
     "compile labels from a pipe": (_fifo_labels, "fifo.csv: not a regular file (a pipe or a device?), where a label "

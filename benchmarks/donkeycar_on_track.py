@@ -1,0 +1,131 @@
+"""donkeycar's linear model and steerlab's tub default, trained on the same track-world tubs, raced on the track
+suite.
+
+The tubs: the racing expert on tracks 1-4 for 3 minutes each (`steerlab sim record --world track`; recorded here
+where they are missing). steerlab's tub default is trained on them with `configs/track_default.yaml` (or give
+`--checkpoint`); donkeycar's linear model with donkeycar's own trainer (`donkey train --type linear`, its default
+config: a random 80/20 split, early stopping), in donkeycar's own environment ($DONKEY_VENV, made on first use as
+`bench_donkeycar.py` makes it). Both race the track suite (`steerlab sim bench --world track`: 8 unseen tracks)
+through a donkeycar part: steerlab's own `SteerlabPilot`, and donkeycar's `KerasLinear` run in its environment
+behind a pipe (`_donkey_part.py`). Both drive with their learned throttle, capped at `--max-throttle` (1: uncapped,
+as donkeycar drives its pilot with `AI_THROTTLE_MULT` 1; 0.5: `SteerlabPilot`'s default on a real car). The
+tables: laps, clean laps, lap time against the expert's, off-track events.
+
+python benchmarks/donkeycar_on_track.py [--checkpoint runs/track/default/best.pt] [--max-throttle 1] [--minutes 2]
+    [--workers 1]
+Finished drives are kept in runs/donkeycar-track/suite-max<cap> and reused.
+"""
+
+import argparse
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from _common import ROOT, track_tubs
+from bench_donkeycar import donkey_python
+
+from steerlab.data.car import CARS
+from steerlab.sim.bench import labels_for, write_csv
+from steerlab.sim.part import PartPilot
+from steerlab.sim.track_bench import (DRIVE_FIELDS, EXPERT, SUMMARY_FIELDS, TrackSuiteOptions, drive_row, markdown,
+                                      run_track_suite, summarize)
+from steerlab.sim.track_run import drive_track
+from steerlab.train.config import load_config
+from steerlab.train.loop import train
+
+OUT = ROOT / "runs" / "donkeycar-track"
+LABEL = "donkeycar-linear"
+
+
+class DonkeycarPart:
+    """donkeycar's own pilot part for `model`, run in donkeycar's environment: `run(img_arr)` sends the frame
+    down a pipe and returns the part's (angle, throttle)."""
+
+    def __init__(self, python: Path, car: Path, model: Path, log: Path, max_throttle: float):
+        self.log, self.max_throttle = log, max_throttle
+        self.process = subprocess.Popen([str(python), str(Path(__file__).with_name("_donkey_part.py")),
+                                         str(car / "config.py"), str(model), "linear"], cwd=car,
+                                        stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=open(log, "wb"))
+        if self.process.stdout.readline() != b"ready\n":
+            raise RuntimeError(f"donkeycar's part did not start; see {log}")
+
+    def run(self, img_arr: np.ndarray):
+        self.process.stdin.write(np.ascontiguousarray(img_arr, np.uint8).tobytes())
+        self.process.stdin.flush()
+        answer = self.process.stdout.read(16)
+        if len(answer) != 16:
+            raise RuntimeError(f"donkeycar's part stopped; see {self.log}")
+        angle, throttle = (float(v) for v in np.frombuffer(answer, np.float64))
+        return angle, float(np.clip(throttle, -self.max_throttle, self.max_throttle))
+
+    def close(self) -> None:
+        self.process.stdin.close()
+        self.process.wait()
+
+
+def donkey_model(python: Path, tubs: list[Path]) -> tuple[Path, Path]:
+    """donkeycar's linear model trained by `donkey train` on `tubs` (once); its car folder and model file."""
+    car, model = OUT / "car", OUT / "linear.h5"
+    if not car.exists():
+        subprocess.run([str(python.parent / "donkey"), "createcar", "--path", str(car)], check=True,
+                       stdout=subprocess.DEVNULL)
+        with open(car / "myconfig.py", "a") as f:
+            f.write("\nSHOW_PLOT = False\nCREATE_TF_LITE = False\nSAVE_MODEL_AS_H5 = True\n")
+    if not model.exists():
+        print("training donkeycar's linear model (donkey train)", flush=True)
+        with open(OUT / "train-linear.log", "w") as log:
+            subprocess.run([str(python.parent / "donkey"), "train", "--tub", ",".join(map(str, tubs)), "--model",
+                            str(model), "--type", "linear", "--framework", "tensorflow"], cwd=car, check=True,
+                           stdout=log, stderr=subprocess.STDOUT)
+    return car, model
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--checkpoint", help="steerlab's model (default: configs/track_default.yaml trained into "
+                    "runs/track/default)")
+    ap.add_argument("--minutes", type=float, default=None, help="minutes per track (default: the suite's, 2)")
+    ap.add_argument("--workers", type=int, default=1, help="tracks steerlab drives in parallel")
+    ap.add_argument("--max-throttle", type=float, default=1.0, help="the cap of both models' learned throttle")
+    args = ap.parse_args()
+    tubs = track_tubs()
+    python = donkey_python()
+    OUT.mkdir(parents=True, exist_ok=True)
+    car, model = donkey_model(python, tubs)
+    checkpoint = Path(args.checkpoint) if args.checkpoint else ROOT / "runs" / "track" / "default" / "best.pt"
+    if not checkpoint.exists():
+        train(load_config(ROOT / "configs" / "track_default.yaml", [f"out={checkpoint.parent}"]), progress=False)
+    o = TrackSuiteOptions(minutes=args.minutes, workers=args.workers, max_throttle=args.max_throttle)
+    suite = OUT / f"suite-max{args.max_throttle:g}"
+    run_track_suite([checkpoint], suite, o)  # steerlab's drives and the expert's
+    label = labels_for([checkpoint])[0]
+    full_lock = CARS["donkey"].full_lock_deg
+    drives = []
+    for style, seed in o.drives():
+        folder = suite / LABEL / f"{style}-{seed}"
+        if not (folder / "drive.json").exists():
+            part = DonkeycarPart(python, car, model, OUT / "part.log", args.max_throttle)
+            try:
+                drive_track(PartPilot(part, full_lock, name=LABEL, source=str(model)), folder,
+                            o.drive_options(style, seed), progress=False)
+            finally:
+                part.close()
+            print(f"  {LABEL} drove {style}-{seed}", flush=True)
+        expert = json.loads((suite / EXPERT / f"{style}-{seed}" / "drive.json").read_text())
+        for name, ckpt in ((label, checkpoint), (LABEL, model)):
+            r = json.loads((suite / name / f"{style}-{seed}" / "drive.json").read_text())
+            drives.append(drive_row(r, expert, name, str(ckpt), style, seed))
+    drives.sort(key=lambda d: d["label"] != label)
+    summary = summarize(drives)
+    write_csv(suite / "both.csv", DRIVE_FIELDS, drives)
+    write_csv(suite / "both-summary.csv", SUMMARY_FIELDS, summary)
+    table = markdown(summary, drives, o)
+    (suite / "both.md").write_text(table)
+    print(table)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

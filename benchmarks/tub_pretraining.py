@@ -1,0 +1,117 @@
+"""Sim-to-real for donkeycar tubs: the tub default pretrained in the track world, then trained on a real tub,
+against the same training on the tub alone and against donkeycar's own linear model, on both shared tubs.
+
+Pretraining: the tub default trained for 3 epochs on the track world's four expert tubs
+(`configs/track_default.yaml train.epochs=3`; the tubs are recorded first where they are missing). On each real tub and seed, the recipe of
+`configs/donkey_best.yaml` (the tub defaults, the epochs chosen on each tub's selection block: hall 25,
+taped-track 12, keeping the last epoch) is trained twice: from scratch and from the pretrained checkpoint
+(`train.init`; taped-track's constant throttle drops the throttle output). donkeycar's linear model is trained
+with its own trainer on the same first 80 % (`run_donkey` of `bench_donkeycar.py`, in donkeycar's own
+environment). Everyone is scored on the held-out last 20 %: the steering MAE in degrees of the servo's +-25 deg
+and the throttle MAE (open loop), and the interventions of the small cars' replay (`steerlab replay --world
+track`: the body leaving a 0.9 m lane around the human's path, the speed from the recorded throttle).
+
+python benchmarks/tub_pretraining.py [--seeds 3] [--skip-donkey] [--tubs hall,taped-track]
+Every finished run is kept in runs/tub-pretraining/<tub>/results.json and reused by a later run.
+"""
+
+import argparse
+import json
+
+import numpy as np
+
+from _common import ROOT, machine, track_tubs
+from bench_donkeycar import FULL_LOCK_DEG, READER, TUBS, blocks, donkey_python, run_donkey, spread
+
+from steerlab.data.readers import Source
+from steerlab.evaluate.offline import evaluate
+from steerlab.sim.replay_run import run_replay
+from steerlab.sim.replay_track import TrackReplayOptions
+from steerlab.train.config import load_config
+from steerlab.train.loop import train
+
+OUT = ROOT / "runs" / "tub-pretraining"
+EPOCHS = {"hall": 25, "taped-track": 12}  # configs/donkey_best.yaml, and its note for taped-track
+ARMS = {"alone": "tub default, the tub alone", "pretrained": "tub default, pretrained in the track world"}
+
+
+def pretrained():
+    """The tub default pretrained on the track world's expert tubs (made once)."""
+    ckpt = OUT / "pretrain" / "best.pt"
+    if not ckpt.exists():
+        tubs = track_tubs()
+        train(load_config(ROOT / "configs" / "track_default.yaml", [
+            "train.epochs=3", f"data={tubs[0]}", f"extra_data=[{', '.join(map(str, tubs[1:]))}]",
+            f"cache={OUT / 'cache'}", f"out={OUT / 'pretrain'}"]), progress=False)
+    return ckpt
+
+
+def run_arm(name: str, arm: str, seed: int, n: int, results: dict) -> None:
+    key = f"steerlab {arm} {seed}"
+    if "mae" in results.get(key, {}):
+        return
+    tub, b = TUBS / name, blocks(n)[1]
+    run = OUT / name / f"{arm}-{seed}"
+    init = [f"train.init={pretrained()}"] if arm == "pretrained" else []
+    train(load_config(ROOT / "configs" / "donkey_best.yaml", [
+        f"data={tub}", f"split.train=0:{b}", f"split.val={b}:{n}", f"train.epochs={EPOCHS[name]}",
+        f"train.seed={seed}", f"cache={OUT / 'cache'}", f"out={run}", *init]), progress=False)
+    held_out = Source(str(tub), f"{b}:{n}", reader=READER)
+    m = evaluate(run / "best.pt", held_out, run / "test", progress=False)
+    r = run_replay([run / "best.pt"], held_out, run / "replay", TrackReplayOptions(workers=1), progress=False)[0]
+    results[key] = {"mae": m["mae"], "mae_deg": m["mae"] * FULL_LOCK_DEG,
+                    "interventions": r["interventions"], "km": r["km"],
+                    **({"throttle_mae": m["throttle_mae"]} if "throttle_mae" in m else {})}
+    print(f"  {name} {arm} seed {seed}: MAE {results[key]['mae_deg']:.2f} deg, replay {r['interventions']} "
+          "interventions", flush=True)
+
+
+def rows(name: str, results: dict) -> list[str]:
+    groups: dict[str, list[dict]] = {}
+    for key, r in results.items():
+        groups.setdefault(key.rsplit(" ", 1)[0], []).append(r)
+    linear = [r["mae"] for r in groups.get("donkeycar linear", [])]
+    out = []
+    for label, runs in sorted(groups.items()):
+        arm = label.split(" ", 1)[1]
+        mae = [r["mae"] for r in runs]
+        ratio = f"{np.mean(mae) / np.mean(linear):.2f}x" if linear else "-"
+        out.append(f"| {name} | {ARMS.get(arm, 'donkeycar ' + arm)} | {len(runs)} | "
+                   f"{spread([FULL_LOCK_DEG * v for v in mae], 2)} | {ratio} | "
+                   f"{spread([r['throttle_mae'] for r in runs if 'throttle_mae' in r])} | "
+                   f"{spread([r['interventions'] for r in runs if 'interventions' in r], 1)} |")
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--seeds", type=int, default=3, help="runs of every arm")
+    ap.add_argument("--skip-donkey", action="store_true", help="steerlab's arms only")
+    ap.add_argument("--tubs", default="hall,taped-track", help="the shared tubs to run on")
+    args = ap.parse_args()
+    if not (TUBS / "hall" / "manifest.json").exists():
+        print(f"skipped: {TUBS} not found")
+        return
+    python = None if args.skip_donkey else donkey_python()
+    lines = [f"machine: {machine()}", "", "| tub | model | runs | held-out steering MAE [deg] | vs donkeycar linear | "
+             "held-out throttle MAE | replay: interventions |", "|---|---|---|---|---|---|---|"]
+    for name in args.tubs.split(","):
+        rec = Source(str(TUBS / name), reader=READER).open()
+        n, work = len(rec), OUT / name
+        work.mkdir(parents=True, exist_ok=True)
+        file = work / "results.json"
+        results = json.loads(file.read_text()) if file.exists() else {}
+        for seed in range(args.seeds):
+            for arm in ARMS:
+                run_arm(name, arm, seed, n, results)
+                file.write_text(json.dumps(results, indent=1))
+        if python:
+            run_donkey(python, TUBS / name, rec, blocks(n)[1], n, work, ["linear"], args.seeds, results)
+        lines += rows(name, results)
+    table = "\n".join(lines) + "\n"
+    (OUT / "table.md").write_text(table)
+    print(table)
+
+
+if __name__ == "__main__":
+    main()
