@@ -9,7 +9,8 @@ config: a random 80/20 split, early stopping), in donkeycar's own environment ($
 through a donkeycar part: steerlab's own `SteerlabPilot`, and donkeycar's `KerasLinear` run in its environment
 behind a pipe (`_donkey_part.py`). Both drive with their learned throttle, capped at `--max-throttle` (1: uncapped,
 as donkeycar drives its pilot with `AI_THROTTLE_MULT` 1; 0.5: `SteerlabPilot`'s default on a real car). The
-tables: laps, clean laps, lap time against the expert's, off-track events.
+tables (suite-max<cap>/both.md) and plots (suite-max<cap>/tracks/*.png): laps, clean laps, lap time against the
+expert's, off-track events.
 
 python benchmarks/donkeycar_on_track.py [--checkpoint runs/track/default/best.pt] [--max-throttle 1] [--minutes 2]
     [--workers 1]
@@ -31,7 +32,7 @@ from steerlab.data.car import CARS
 from steerlab.sim.bench import labels_for, write_csv
 from steerlab.sim.part import PartPilot
 from steerlab.sim.track_bench import (DRIVE_FIELDS, EXPERT, SUMMARY_FIELDS, TrackSuiteOptions, drive_row, markdown,
-                                      run_track_suite, summarize)
+                                      plot_tracks, run_track_suite, summarize)
 from steerlab.sim.track_run import drive_track
 from steerlab.train.config import load_config
 from steerlab.train.loop import train
@@ -100,7 +101,7 @@ def main() -> None:
         train(load_config(ROOT / "configs" / "track_default.yaml", [f"out={checkpoint.parent}"]), progress=False)
     o = TrackSuiteOptions(minutes=args.minutes, workers=args.workers, max_throttle=args.max_throttle)
     suite = OUT / f"suite-max{args.max_throttle:g}"
-    run_track_suite([checkpoint], suite, o)  # steerlab's drives and the expert's
+    run_track_suite([checkpoint], suite, o, plots=False)  # steerlab's drives and the expert's
     label = labels_for([checkpoint])[0]
     full_lock = CARS["donkey"].full_lock_deg
     drives = []
@@ -124,6 +125,7 @@ def main() -> None:
     write_csv(suite / "both-summary.csv", SUMMARY_FIELDS, summary)
     table = markdown(summary, drives, o)
     (suite / "both.md").write_text(table)
+    plot_tracks(suite, drives, o)  # tracks/<style>-<seed>.png with both models' lines
     print(table)
 
 

@@ -152,7 +152,7 @@ def run_track_suite(checkpoints, out: str | Path, o: TrackSuiteOptions = TrackSu
     write_csv(out / "summary.csv", SUMMARY_FIELDS, summary)
     (out / "suite.md").write_text(markdown(summary, drives, o))
     if plots:
-        _plot_tracks(out, drives, o)
+        plot_tracks(out, drives, o)
     return summary
 
 
@@ -212,7 +212,7 @@ def markdown(summary: list[dict], drives: list[dict], o: TrackSuiteOptions) -> s
     return "\n".join(lines) + "\n"
 
 
-def _plot_tracks(out: Path, drives: list[dict], o: TrackSuiteOptions) -> None:
+def plot_tracks(out: Path, drives: list[dict], o: TrackSuiteOptions) -> None:
     """One figure per track: the expert's and every checkpoint's line, off-track events marked."""
     from steerlab.sim.plots import plot_track
     from steerlab.sim.track import Track
@@ -223,7 +223,7 @@ def _plot_tracks(out: Path, drives: list[dict], o: TrackSuiteOptions) -> None:
         trajs = {EXPERT: Trajectory.read(out / EXPERT / name / "trajectory.csv")}
         for d in drives:
             if (d["style"], d["seed"]) == (style, seed):
-                trajs[f"{d['label']}: {d['clean_laps']}/{d['laps']} clean laps,"] = Trajectory.read(
+                trajs[f"{d['label']}: {d['clean_laps']}/{d['laps']} clean laps"] = Trajectory.read(
                     out / d["label"] / name / "trajectory.csv")
         plot_track(out / "tracks" / f"{name}.png", Track(seed, TRACK_SUITES[o.suite]["lane_width"], style), trajs,
                    f"{style} track {seed}")
