@@ -62,7 +62,7 @@ class PartPilot:
             reset()
 
 
-def donkey_pilot(checkpoint: str | Path, throttle: float, smoothing: float | None = None, max_throttle: float = 1.0,
+def donkey_pilot(checkpoint: str | Path, throttle: float, smoothing: float | None = None, max_throttle: float = 0.5,
                  car: Car = CARS["donkey"]) -> PartPilot:
     """steerlab's donkeycar part on `checkpoint` driving `car`: its full lock turns the angles of models trained
     on angles into servo commands, `throttle` is the part's constant throttle for models that predict none (a

@@ -64,9 +64,10 @@ def throttle_option():
 
 
 def max_throttle_option():
-    """The option of every track command that drives a model: the cap of a learned throttle. A simulated car
-    cannot break, so it races uncapped; on a real car the part's own default (0.5) caps it."""
-    return option(1.0, UNIT, help="the cap of a model's learned throttle (the donkeycar part's max_throttle)")
+    """The option of every track command that drives a model: the cap of a learned throttle, by default the
+    donkeycar part's own (0.5, about 2.4 m/s), as on a real car; 1 races uncapped."""
+    return option(0.5, UNIT, help="the cap of a model's learned throttle (the donkeycar part's max_throttle; 1: "
+                  "uncapped)")
 
 
 @dataclass(frozen=True)
