@@ -72,6 +72,14 @@ def donkey_python() -> Path:
     return python
 
 
+def donkey_or_skip(skip_donkey: bool) -> Path | None:
+    """donkeycar's python (None with --skip-donkey); ends the benchmark when the shared tubs are absent."""
+    if not (TUBS / "hall" / "manifest.json").exists():
+        print(f"skipped: {TUBS} not found")
+        sys.exit(0)
+    return None if skip_donkey else donkey_python()
+
+
 def training_tub(tub: Path, keep: set[int], out: Path) -> Path:
     """The tub as donkeycar reads it, with every record outside `keep` (record `_index` values) marked deleted.
     donkeycar's reader counts deleted indexes by record position in the catalogs, which is the `_index` only in a
@@ -208,10 +216,7 @@ def main() -> None:
                     f"default {','.join(DONKEY_MODELS)})")
     ap.add_argument("--tubs", default="hall,taped-track", help="the shared tubs to run on")
     args = ap.parse_args()
-    if not (TUBS / "hall" / "manifest.json").exists():
-        print(f"skipped: {TUBS} not found")
-        return
-    python = None if args.skip_donkey else donkey_python()
+    python = donkey_or_skip(args.skip_donkey)
     os.environ.setdefault("STEERLAB_CACHE", str(OUT / "cache"))
     lines = [f"machine: {machine()}", "", f"replay: held-out block as a small car (--world track), full lock "
              f"{FULL_LOCK_DEG} deg", "", "| tub | model | trainer | runs | held-out steering MAE [-1, 1] | vs "

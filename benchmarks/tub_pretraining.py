@@ -21,7 +21,7 @@ import json
 import numpy as np
 
 from _common import ROOT, machine, track_tubs
-from bench_donkeycar import FULL_LOCK_DEG, READER, TUBS, blocks, donkey_python, run_donkey, spread
+from bench_donkeycar import FULL_LOCK_DEG, READER, TUBS, blocks, donkey_or_skip, run_donkey, spread
 
 from steerlab.data.readers import Source
 from steerlab.evaluate.offline import evaluate
@@ -89,10 +89,7 @@ def main() -> None:
     ap.add_argument("--skip-donkey", action="store_true", help="steerlab's arms only")
     ap.add_argument("--tubs", default="hall,taped-track", help="the shared tubs to run on")
     args = ap.parse_args()
-    if not (TUBS / "hall" / "manifest.json").exists():
-        print(f"skipped: {TUBS} not found")
-        return
-    python = None if args.skip_donkey else donkey_python()
+    python = donkey_or_skip(args.skip_donkey)
     lines = [f"machine: {machine()}", "", "| tub | model | runs | held-out steering MAE [deg] | vs donkeycar linear | "
              "held-out throttle MAE | replay: interventions |", "|---|---|---|---|---|---|---|"]
     for name in args.tubs.split(","):
