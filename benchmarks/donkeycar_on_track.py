@@ -92,12 +92,14 @@ def main() -> None:
     ap.add_argument("--workers", type=int, default=1, help="tracks steerlab drives in parallel")
     ap.add_argument("--max-throttle", type=float, default=1.0, help="the cap of both models' learned throttle")
     args = ap.parse_args()
+    if args.checkpoint and not Path(args.checkpoint).is_file():
+        sys.exit(f"error: {args.checkpoint}: checkpoint not found")
     tubs = track_tubs()
     python = donkey_python()
     OUT.mkdir(parents=True, exist_ok=True)
     car, model = donkey_model(python, tubs)
-    checkpoint = Path(args.checkpoint) if args.checkpoint else ROOT / "runs" / "track" / "default" / "best.pt"
-    if not checkpoint.exists():
+    checkpoint = Path(args.checkpoint or ROOT / "runs" / "track" / "default" / "best.pt")
+    if not checkpoint.exists():  # the default: trained once
         train(load_config(ROOT / "configs" / "track_default.yaml", [f"out={checkpoint.parent}"]), progress=False)
     o = TrackSuiteOptions(minutes=args.minutes, workers=args.workers, max_throttle=args.max_throttle)
     suite = OUT / f"suite-max{args.max_throttle:g}"
@@ -130,4 +132,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    main()
