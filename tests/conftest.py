@@ -101,11 +101,7 @@ def made(tmp_path, kind="road_wheel", positive="right", geometry="sim", name="mo
 
 
 def resaved(path, ckpt) -> None:
-    """A checkpoint edited on purpose (its statistics or convention changed by a test), saved with its content
-    hash made again, as steerlab would save it."""
-    import torch
+    """A checkpoint edited on purpose (its statistics or convention changed by a test), saved as steerlab saves it."""
+    from steerlab.checkpoint import save_payload
 
-    from steerlab.checkpoint import content_hash
-
-    ckpt["content_sha256"] = content_hash(ckpt)
-    torch.save(ckpt, path)
+    save_payload(path, ckpt)

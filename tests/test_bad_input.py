@@ -6,10 +6,12 @@ import argparse
 import contextlib
 import json
 import os
+import shutil
 import subprocess
 import sys
 import threading
 import time
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -107,13 +109,25 @@ def _dagger_of_another_config(tmp_path, stack):
     return ["sim", "dagger", str(cfg)]
 
 
-def _flipped(tmp_path, stack):
-    best = trained(tmp_path)
-    data = bytearray(best.read_bytes())
+def _flip(path: Path) -> Path:
+    """16 bytes in the middle of the file inverted."""
+    data = bytearray(path.read_bytes())
     for i in range(len(data) // 2, len(data) // 2 + 16):
         data[i] ^= 0xFF
-    best.write_bytes(bytes(data))
+    path.write_bytes(bytes(data))
+    return path
+
+
+def _flipped(tmp_path, stack):
+    best = _flip(trained(tmp_path))
     return ["evaluate", str(best), "--data", str(tmp_path / "sim"), "--out", str(tmp_path / "eval")]
+
+
+def _flipped_before_seals(tmp_path, stack):
+    """A checkpoint of steerlab 0.1.0 (no seal; the sha256 of its weights inside) with damaged weights."""
+    old = tmp_path / "old.pt"
+    shutil.copy(Path(__file__).parent / "fixtures" / "run-0.1.0" / "best.pt", old)
+    return ["evaluate", str(_flip(old)), "--data", str(sim_log(tmp_path / "sim")), "--out", str(tmp_path / "eval")]
 
 
 class _Code:
@@ -267,11 +281,33 @@ def _tune_storage(storage, heartbeat=None):
 
 
 def _stats_changed(tmp_path, stack):
-    """One stored value changed in the checkpoint (the first channel's mean, as a flipped bit would)."""
+    """One stored value changed in a sealed checkpoint (the first channel's mean, as a flipped bit would): its bytes
+    no longer match the sha256 sealed with them."""
+    import io
+
     import torch
+
+    from steerlab.checkpoint import SEAL
+
+    best = trained(tmp_path)
+    seal = best.read_bytes()[-2 - len(SEAL) - 64:]  # the zip comment: its length, the seal and the digest
+    ckpt = torch.load(best, weights_only=True)
+    ckpt["stats"]["mean"][0] = 4.52
+    buffer = io.BytesIO()
+    torch.save(ckpt, buffer)
+    best.write_bytes(buffer.getvalue()[:-2] + seal)
+    return ["evaluate", str(best), "--data", str(tmp_path / "sim"), "--out", str(tmp_path / "eval")]
+
+
+def _stats_changed_before_seals(tmp_path, stack):
+    """The same in a checkpoint as steerlab wrote it before seals: no seal, the sha256 of its contents inside."""
+    import torch
+
+    from steerlab.checkpoint import content_hash
 
     best = trained(tmp_path)
     ckpt = torch.load(best, weights_only=True)
+    ckpt["content_sha256"] = content_hash(ckpt)
     ckpt["stats"]["mean"][0] = 4.52
     torch.save(ckpt, best)
     return ["evaluate", str(best), "--data", str(tmp_path / "sim"), "--out", str(tmp_path / "eval")]
@@ -455,7 +491,9 @@ BAD_INPUTS = {
     # e) a second run into the same out folder
     "train out in use": (_locked, f"run is in use by another steerlab train run (pid {os.getpid()})"),
     # f) checkpoints: damaged, or holding code
-    "checkpoint flipped bytes": (_flipped, "best.pt: the weights do not match the checkpoint's sha256"),
+    "checkpoint flipped bytes": (_flipped, "best.pt: the file's bytes do not match the sha256 stored with them"),
+    "checkpoint of 0.1.0 flipped bytes": (_flipped_before_seals, "old.pt: the weights do not match the checkpoint's "
+                                                                 "sha256: the file is damaged"),
     "checkpoint with code": (_code_in_checkpoint, "evil.pt: the checkpoint holds objects other than tensors and "
                                                   "plain values (posix.system)"),
     "onnx flipped bytes": (_flipped_onnx, "m.onnx: the model does not match the sha256 in its metadata: the file "
@@ -602,9 +640,11 @@ BAD_INPUTS = {
                                        ("cache/",)),
     "compile a CH2 frame of 1x1": (_ch2_with_odd_frame((1, 1)), ".jpg: the frame is 1x1; the recording's frames",
                                    ("cache/",)),
-    "checkpoint with its statistics changed": (_stats_changed, "best.pt: the checkpoint's settings (statistics, "
-                                                               "preprocessing, convention, training state) do not "
-                                                               "match its sha256"),
+    "checkpoint with its statistics changed": (_stats_changed, "best.pt: the file's bytes do not match the sha256 "
+                                                               "stored with them: the file is damaged"),
+    "checkpoint before seals with its statistics changed": (
+        _stats_changed_before_seals, "best.pt: the checkpoint's settings (statistics, preprocessing, convention, "
+                                     "training state) do not match its sha256"),
     # o) messages that name the file, the option that exists and the fix
     "evaluate a CH2 checkpoint on a tub": (
         lambda t, s: ["evaluate", str(made(t, "steering_wheel", "left", "ch2")), "--data", str(tub(t / "tub")),
@@ -789,18 +829,20 @@ def test_compile_removes_leftovers_of_killed_compiles_and_compiles_an_entry_once
     assert not left.exists() and alive.exists()
 
 
-def test_checkpoints_load_without_pickled_code_and_carry_a_hash(tmp_path):
+def test_checkpoints_load_without_pickled_code_and_are_sealed(tmp_path):
+    import hashlib
+
     import torch
 
-    from steerlab.checkpoint import load_checkpoint, weights_hash
+    from steerlab.checkpoint import SEAL, load_checkpoint
 
     best = trained(tmp_path)
     raw = torch.load(best, weights_only=True)  # tensors and plain values only
-    assert raw["sha256"] == weights_hash(raw["state_dict"])
     assert torch.load(tmp_path / "run" / "last.pt", weights_only=True)["epoch"] == 1
-    del raw["sha256"], raw["content_sha256"]  # a checkpoint written before the hashes existed still loads
-    torch.save(raw, tmp_path / "old.pt")
-    assert load_checkpoint(tmp_path / "old.pt")["model"] == "pilotnet"
+    data = best.read_bytes()  # the zip's comment: the seal, then the sha256 of every byte before the digest
+    assert data[-64 - len(SEAL):-64] == SEAL and data[-64:] == hashlib.sha256(data[:-64]).hexdigest().encode()
+    torch.save(raw, tmp_path / "plain.pt")  # as torch.save alone writes it (no seal): still loads
+    assert load_checkpoint(tmp_path / "plain.pt")["model"] == "pilotnet"
 
 
 # ---------------------------------------------------------------- generated sweeps: every option, every path

@@ -2,11 +2,10 @@
 preprocessing config, normalisation statistics, the steering convention and the metrics it reached.
 
 A checkpoint holds tensors and plain values only (dicts, lists, text, numbers), so it is read with
-`torch.load(weights_only=True)`: reading a checkpoint never runs code from it. It carries the sha256 of its
-weights and the sha256 of everything else it stores, and its file is sealed with the sha256 of all its bytes, so a
-damaged file is refused instead of predicting nonsense: a file whose seal holds is intact; where it does not (or
-in a file written before seals), the two inner hashes name what is damaged. Every checkpoint is read through
-`load_checkpoint`."""
+`torch.load(weights_only=True)`: reading a checkpoint never runs code from it. Its file is sealed with the
+sha256 of all its bytes, so a damaged file is refused instead of predicting nonsense. Files written before seals
+carry inner hashes instead (of the weights, and of everything else stored), which are checked where they are.
+Every checkpoint is read through `load_checkpoint`."""
 
 from __future__ import annotations
 
@@ -85,35 +84,36 @@ def _plain(value):
 
 def save_checkpoint(path: str | Path, model, model_cfg: dict, pre: PreprocessConfig, stats: dict,
                     convention: SteeringConvention, metrics: dict, **extra) -> None:
-    state = model.state_dict()
-    payload = _plain({
-        "format": FORMAT, "model": model.registry_name, "model_cfg": model_cfg, "state_dict": state,
-        "sha256": weights_hash(state), "preprocess": pre.as_dict(), "stats": stats,
-        "convention": convention.as_dict(), "metrics": metrics, **extra,
-    })
-    payload["content_sha256"] = content_hash(payload)
-    path = Path(path)
-    tmp = path.with_name(f"{path.name}.tmp-{os.getpid()}-{secrets.token_hex(4)}")  # unique: never shared
-    try:
-        buffer = io.BytesIO()
-        torch.save(payload, buffer)
-        tmp.write_bytes(_sealed(buffer.getvalue()))
-        tmp.replace(path)  # never leave a half-written checkpoint
-    finally:
-        tmp.unlink(missing_ok=True)
+    save_payload(path, {"format": FORMAT, "model": model.registry_name, "model_cfg": model_cfg,
+                        "state_dict": model.state_dict(), "preprocess": pre.as_dict(), "stats": stats,
+                        "convention": convention.as_dict(), "metrics": metrics, **extra})
 
 
 SEAL = b"steerlab-sha256:"  # the zip comment of a checkpoint: this, then the hex sha256 of every byte before it
 EOCD = b"PK\x05\x06"  # the zip's end-of-central-directory record (22 bytes and its comment close the file)
 
 
-def _sealed(data: bytes) -> bytes:
-    """The zip file `data` (what torch.save writes) with the sha256 of all its bytes as its comment, so that every
-    stored byte is covered: also the zip's own headers and padding, which reading does not check."""
+def save_payload(path: str | Path, payload: dict) -> None:
+    """A checkpoint's contents written to `path` as torch.save writes them, sealed: the zip's comment is the sha256
+    of all the bytes before it, so that every stored byte is covered (also the zip's own headers and padding, which
+    reading does not check). Written to a temporary file first: never a half-written checkpoint."""
+    buffer = io.BytesIO()
+    torch.save(_plain(payload), buffer)
+    data = buffer.getbuffer()  # no copies of the bytes: a checkpoint with its optimiser state is tens of MB
     if data[-22:-18] != EOCD or data[-2:] != b"\0\0":
         raise SteerlabError("checkpoint: torch.save wrote an unexpected file layout (no plain zip end record)")
-    head = data[:-2] + (len(SEAL) + 64).to_bytes(2, "little") + SEAL
-    return head + hashlib.sha256(head).hexdigest().encode()
+    comment = (len(SEAL) + 64).to_bytes(2, "little") + SEAL
+    digest = hashlib.sha256(data[:-2])
+    digest.update(comment)
+    path = Path(path)
+    tmp = path.with_name(f"{path.name}.tmp-{os.getpid()}-{secrets.token_hex(4)}")  # unique: never shared
+    try:
+        with open(tmp, "wb") as f:
+            f.write(data[:-2])
+            f.write(comment + digest.hexdigest().encode())
+        tmp.replace(path)
+    finally:
+        tmp.unlink(missing_ok=True)
 
 
 def _seal_intact(data: bytes) -> bool | None:
@@ -128,7 +128,7 @@ def _seal_intact(data: bytes) -> bool | None:
         return None
     if comment != size or len(data) != at + 22 + size or data[at + 22: at + 22 + len(SEAL)] != SEAL:
         return False
-    return hashlib.sha256(data[:-64]).hexdigest().encode() == data[-64:]
+    return hashlib.sha256(memoryview(data)[:-64]).hexdigest().encode() == data[-64:]
 
 
 def load_checkpoint(path: str | Path) -> dict:
@@ -156,7 +156,7 @@ def load_checkpoint(path: str | Path) -> dict:
     if not isinstance(ckpt, dict) or ckpt.get("format") != FORMAT or not isinstance(ckpt.get("state_dict"), dict):
         raise SteerlabError(f"{path}: not a steerlab checkpoint")
     seal = _seal_intact(data)
-    if not seal:  # damaged, or written before seals: the inner hashes (of earlier files: none, or the weights' only)
+    if not seal:  # damaged, or written before seals: those carry inner hashes (the earliest: the weights' or none)
         if "sha256" in ckpt and weights_hash(ckpt["state_dict"]) != ckpt["sha256"]:
             raise SteerlabError(f"{path}: the weights do not match the checkpoint's sha256: the file is damaged")
         if "content_sha256" in ckpt and content_hash(ckpt) != ckpt["content_sha256"]:
