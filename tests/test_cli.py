@@ -27,6 +27,18 @@ def test_every_subcommand_has_help_with_an_example(capsys):
         assert not argv or "example: steerlab " + " ".join(argv) in out.replace("\n", " "), argv
 
 
+def test_the_command_line_starts_without_torch_or_matplotlib():
+    """`steerlab --help`, and any command before it does its work, builds the parser from the options alone: torch
+    and matplotlib (a second of the start between them) are imported by the commands that use them."""
+    import subprocess
+    import sys
+
+    code = ("import sys; from steerlab.cli import build_parser; build_parser(); "
+            "print(sorted(m for m in ('torch', 'matplotlib') if m in sys.modules))")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0 and run.stdout.strip() == "[]", run.stdout + run.stderr
+
+
 def test_a_wrong_option_value_is_one_line_naming_the_flag(capsys):
     assert main(["sim", "bench", "x.pt", "--workers", "two"]) == 2
     err = capsys.readouterr().err
@@ -102,12 +114,12 @@ closed_loop: {{suite: v1, minutes: 0.01, workers: 1, roads: twisty}}
 replay: {{}}
 models:
   - {{model: {{name: zero}}}}
-  - {{model: {{name: pilotnet-flow}}, label: flow}}
+  - {{model: {{name: pilotnet-flow}}, label: flow, preprocess: {{width: 128, height: 64}}}}
   - {{model: {{name: multitask-speed}}}}
 """)
     assert main(["experiment", str(cfg), "--seeds", "2"]) == 0
     text = (tmp_path / "exp" / "table.md").read_text()
-    assert "| zero | image (gray) | 1@200x66 |" in text and "| flow | image+flow (gray) | 3@200x66 |" in text
+    assert "| zero | image (gray) | 1@200x66 |" in text and "| flow | image+flow (gray) | 3@128x64 |" in text
     assert (tmp_path / "exp" / "flow" / "seed1" / "best.pt").exists()
     assert (tmp_path / "exp" / "predictions.png").exists()
     assert (tmp_path / "exp" / "flow" / "seed1" / "suite" / "roads" / "twisty-9301.png").exists()

@@ -10,14 +10,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from steerlab.dagger import run_dagger
-from steerlab.evaluate.offline import evaluate
-from steerlab.sim.bench import SuiteOptions, run_suite
-from steerlab.data.readers import Source
-from steerlab.sim.replay_run import ReplayOptions, run_replay
-from steerlab.sim.world import RecordOptions, record
 from steerlab.options import AT_LEAST_1, Options, POSITIVE, option
-from steerlab.train.config import load_config
 
 TRAIN_SEED = 1
 ROADS = "country,twisty,highway,twisty"  # the recipe of configs/experiment_recipe.yaml: half the time on tight curves
@@ -47,6 +40,15 @@ class DemoOptions(Options):
 
 def run_demo(o: DemoOptions = DemoOptions(), progress: bool = True) -> Path:
     """The whole pipeline; returns the report's path."""
+    # its stages are imported here, not with the options above, which `steerlab --help` reads
+    from steerlab.dagger import run_dagger
+    from steerlab.data.readers import Source
+    from steerlab.evaluate.offline import evaluate
+    from steerlab.sim.bench import SuiteOptions, run_suite
+    from steerlab.sim.replay_run import ReplayOptions, run_replay
+    from steerlab.sim.world import RecordOptions, record
+    from steerlab.train.config import load_config
+
     out, minutes, fps, epochs, suite_minutes, dagger_minutes, workers = (
         o.out, o.minutes, o.fps, o.epochs, o.suite_minutes, o.dagger_minutes, o.workers)
     out = Path(out)

@@ -18,7 +18,6 @@ from steerlab.options import AT_LEAST_1, Options, POSITIVE, option
 from steerlab.sim.bench import labels_for
 from steerlab.sim.driving import Trajectory
 from steerlab.sim.parallel import run_parallel, tick_reporter
-from steerlab.sim.plots import plot_offsets
 from steerlab.sim.replay import MAX_HEADING_DEG, MOUNT_HEIGHT, PITCH, Replay, human_road_wheel, replay_recording, replay_segments, \
     replay_speed
 from steerlab.sim.replay_track import TrackReplay, TrackReplayOptions, track_replay, world_of
@@ -133,6 +132,8 @@ def run_replay(checkpoints, source: Source, out: str | Path, o: ReplayOptions | 
     (out / "replay.md").write_text(markdown(whole, criterion, o.smoothing))
     (out / "replay.json").write_text(json.dumps({"data": source.data, "range": source.range, **camera,
                                                  "car": asdict(car), "smoothing": o.smoothing, "rows": rows}, indent=1))
+    from steerlab.sim.plots import plot_offsets  # matplotlib: imported where it draws, not with the options
+
     plot_offsets(out / "replay.png", {n: Trajectory.read(out / n / "trajectory.csv") for n in names}, limit,
                  f"replay on {rec.name}", limit_label)
     return whole

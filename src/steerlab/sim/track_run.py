@@ -27,7 +27,6 @@ from steerlab.data.recording import SteeringConvention
 from steerlab.data.writer import RecordingWriter, TubWriter
 from steerlab.errors import SteerlabError
 from steerlab.sim.driving import Trajectory, check_steers, drive_loop
-from steerlab.sim.plots import plot_track
 from steerlab.sim.track_world import (DRIFT_EVERY_S, RacerPilot, TrackDriveOptions, TrackRecordOptions, TrackWorld,
                                       camera_of, check_track_seed)
 from steerlab.video import DriveVideo
@@ -134,6 +133,8 @@ def drive_track(pilot, out: str | Path | None, o: TrackDriveOptions = TrackDrive
         out.mkdir(parents=True, exist_ok=True)
         t.write(out / "trajectory.csv")
         if plot:
+            from steerlab.sim.plots import plot_track  # matplotlib: imported where it draws
+
             plot_track(out / "track.png", world.track, {pilot.name: t}, title(result))
         rows = [np.hstack(strip[k:k + 4]) for k in range(0, len(strip) - 3, 4)] or [np.hstack(strip)]
         cv2.imwrite(str(out / "frames.png"), np.vstack(rows))

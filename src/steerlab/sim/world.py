@@ -21,7 +21,6 @@ from steerlab.errors import SteerlabError, warn
 from steerlab.options import Options, POSITIVE, option
 from steerlab.sim.driver import ExpertDriver, cruise, pure_pursuit
 from steerlab.sim.driving import check_steers, drive_loop, rollout
-from steerlab.sim.plots import plot_trajectory
 from steerlab.sim.render import Renderer
 from steerlab.sim.road import LANE_CENTER, ROAD_TYPES, Road
 from steerlab.sim.vehicle import Vehicle, VehicleState
@@ -265,6 +264,8 @@ def drive(pilot, out: str | Path | None, o: DriveOptions = DriveOptions(), video
         out.mkdir(parents=True, exist_ok=True)
         t.write(out / "trajectory.csv")
         if plot:
+            from steerlab.sim.plots import plot_trajectory  # matplotlib: imported where it draws
+
             plot_trajectory(out / "path.png", world.road, {pilot.name: t},
                             f"{pilot.name} on {o.road} road {o.seed}: autonomy {result['autonomy']:.1f} %, "
                             f"{interventions} interventions, mean |offset| {result['mean_abs_offset_m']:.2f} m")
