@@ -1,8 +1,9 @@
 """A study's reports, in its output folder: `trials.csv` (Optuna's `trials_dataframe`), `summary.md` (trial
 states; epochs trained against the finished trials' full budget: what pruning saved), `best.yaml` (a training
 config `steerlab train` runs as it is), and Optuna's own plots: `history.png` and, over the completed trials,
-`importance.md` / `importance.png` (fANOVA importance, percent) and `slice.png` (the objective against each
-parameter, paper 000 Fig. 4's view); for two objectives the Pareto front (`pareto.md`, `pareto.png`)."""
+`importance.md` / `importance.png` (fANOVA importance, percent, from `IMPORTANCE_TRIALS` trials on) and
+`slice.png` (the objective against each parameter, paper 000 Fig. 4's view); for two objectives the Pareto front
+(`pareto.md`, `pareto.png`)."""
 
 from __future__ import annotations
 
@@ -17,6 +18,10 @@ from steerlab.options import as_dict
 from steerlab.train.config import TrainConfig
 from steerlab.tune.space import with_params
 from steerlab.tune.storage import optuna
+
+
+# fANOVA's random forest over fewer completed trials (of different parameters) than this gives noise, not importance
+IMPORTANCE_TRIALS = 10
 
 
 def short(v) -> str:
@@ -88,17 +93,23 @@ def write_reports(study, out: Path, cfg: TrainConfig) -> bool:
         else:
             best = study.best_trial
             _save(vis.plot_optimization_history(study), out / "history.png")
-            varied = len({t.values[0] for t in complete}) > 1 and len({repr(t.params) for t in complete}) > 1
-            if varied and params:  # fANOVA needs trials that differ (a rerun with the same --seed repeats them)
-                fanova = optuna().importance.FanovaImportanceEvaluator(seed=0)
-                importance = optuna().importance.get_param_importances(study, evaluator=fanova, normalize=True)
-                total = sum(importance.values()) or 1.0
-                rows = [f"| {k} | {100 * v / total:.1f} |" for k, v in importance.items()]
-                (out / "importance.md").write_text(
-                    f"fANOVA importance over {len(complete)} completed trials (percent of the explained variance "
-                    "of the objective):\n\n| hyperparameter | importance [%] |\n|---|---|\n" + "\n".join(rows) + "\n")
-                _save(vis.plot_param_importances(study, evaluator=fanova), out / "importance.png")
+            distinct = len({repr(t.params) for t in complete})  # a rerun with the same --seed repeats them
+            if params and distinct > 1 and len({t.values[0] for t in complete}) > 1:
                 _save(vis.plot_slice(study), out / "slice.png")
+                if distinct < IMPORTANCE_TRIALS:
+                    (out / "importance.md").write_text(
+                        f"fANOVA importance: {distinct} completed trials of different parameters; it takes at least "
+                        f"{IMPORTANCE_TRIALS} for the importance to be more than noise, so none is given.\n")
+                else:
+                    fanova = optuna().importance.FanovaImportanceEvaluator(seed=0)
+                    importance = optuna().importance.get_param_importances(study, evaluator=fanova, normalize=True)
+                    total = sum(importance.values()) or 1.0
+                    rows = [f"| {k} | {100 * v / total:.1f} |" for k, v in importance.items()]
+                    (out / "importance.md").write_text(
+                        f"fANOVA importance over {len(complete)} completed trials (percent of the explained "
+                        "variance of the objective):\n\n| hyperparameter | importance [%] |\n|---|---|\n"
+                        + "\n".join(rows) + "\n")
+                    _save(vis.plot_param_importances(study, evaluator=fanova), out / "importance.png")
     best_cfg = replace(with_params(cfg, best.params), out=str(out / "best"))
     (out / "best.yaml").write_text(
         f"# best trial {best.number} of study {study.study_name}: {', '.join(f'{v:.5g}' for v in best.values)}\n"
