@@ -44,24 +44,26 @@ $(VENV)/.made: $(REBUILD)
 	$(PYTHON) -m venv $(VENV)
 	touch $@
 
-# steerlab with $(1) ("." or ".[test]") installed in one pip run, then the modules $(2) imported once (which also
-# writes their bytecode); .venv/.installing marks an install that has not finished.
+# steerlab with $(1) ("." or ".[test]") installed in one pip run, then the modules $(2) and $(3) imported once, the
+# two lists side by side (which also writes their bytecode); .venv/.installing marks an install that has not finished.
 define install
 	touch $(VENV)/.installing
 	$(INSTALL) --upgrade pip
 	$(INSTALL) -e '$(1)'
-	$(BIN)/python -W ignore -c 'import $(2)'
+	$(BIN)/python -W ignore -c 'import $(2)' & pid=$$!; $(BIN)/python -W ignore -c 'import $(3)' && wait $$pid
 	rm $(VENV)/.installing
 endef
-RUNTIME := steerlab.cli, torch, cv2, numpy, matplotlib, yaml, tqdm
-TESTING := pytest, xdist, optuna, sklearn, psycopg, onnx, onnxruntime, rosbags, socketio, eventlet
+RUNTIME := torch, matplotlib# torch takes as long as the rest together
+RUNTIME_REST := steerlab.cli, cv2, numpy, yaml, tqdm
+TESTING := $(RUNTIME), pytest, xdist
+TESTING_REST := $(RUNTIME_REST), optuna, sklearn, psycopg, onnx, onnxruntime, rosbags, socketio, eventlet
 
 $(VENV)/.runtime: pyproject.toml constraints.txt $(REBUILD) | $(VENV)/.made
-	$(call install,.,$(RUNTIME))
+	$(call install,.,$(RUNTIME),$(RUNTIME_REST))
 	touch $@
 
 $(VENV)/.test: pyproject.toml constraints.txt $(REBUILD) | $(VENV)/.made  # the test set holds the runtime
-	$(call install,.[test],$(RUNTIME), $(TESTING))
+	$(call install,.[test],$(TESTING),$(TESTING_REST))
 	touch $(VENV)/.runtime $@
 
 install: $(VENV)/.runtime
