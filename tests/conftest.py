@@ -37,14 +37,33 @@ def ch2_folder(tmp_path):
     return tmp_path
 
 
+def once_per_session(tmp_path_factory, name: str, make) -> Path:
+    """The folder `name`, filled by `make(folder)` once per test session however many worker processes run it: the
+    first worker to ask makes it in the folder of the whole session, the others wait for it and read it."""
+    import fcntl
+    import shutil
+
+    root = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        root = root.parent  # above every worker's own folder
+    folder = root / name
+    with open(root / f"{name}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not (folder / ".made").exists():
+            shutil.rmtree(folder, ignore_errors=True)
+            folder.mkdir()
+            make(folder)
+            (folder / ".made").touch()
+    return folder
+
+
 @pytest.fixture(scope="session")
 def tiny_recording(tmp_path_factory):
     """A short synthetic recording with all three cameras (shared by several tests)."""
     from steerlab.sim.world import RecordOptions, record
 
-    out = tmp_path_factory.mktemp("rec") / "rec"
-    record(out, RecordOptions(seed=3, minutes=0.25), progress=False)
-    return out
+    return once_per_session(tmp_path_factory, "rec",
+                            lambda f: record(f / "rec", RecordOptions(seed=3, minutes=0.25), progress=False)) / "rec"
 
 
 @pytest.fixture(scope="session")
@@ -53,11 +72,12 @@ def tiny_checkpoint(tiny_recording, tmp_path_factory):
     from steerlab.train.config import load_config
     from steerlab.train.loop import train
 
-    out = tmp_path_factory.mktemp("ckpt") / "run"
-    train(load_config(None, base={"data": str(tiny_recording), "cache": str(out.parent / "cache"), "out": str(out),
-                                  "split": {"train": "0:240", "val": "240:300"},
-                                  "train": {"epochs": 1, "batch_size": 32}}), progress=False)
-    return out / "best.pt"
+    def make(folder):
+        train(load_config(None, base={"data": str(tiny_recording), "cache": str(folder / "cache"),
+                                      "out": str(folder / "run"), "split": {"train": "0:240", "val": "240:300"},
+                                      "train": {"epochs": 1, "batch_size": 32}}), progress=False)
+
+    return once_per_session(tmp_path_factory, "ckpt", make) / "run" / "best.pt"
 
 
 @pytest.fixture
