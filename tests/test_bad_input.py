@@ -454,6 +454,9 @@ BAD_INPUTS = {
     ]},
     "sim dagger into another config's folder": (_dagger_of_another_config,
                                                 "run holds a DAgger run with another config; choose a new out"),
+    "sim dagger with a suite road type that does not exist": (
+        lambda t, s: ["sim", "dagger", str(config(t, sim_log(t / "sim"))), "dagger.suite_roads=twisty,mountain"],
+        "suite v1 has no mountain roads; it has country, highway, twisty"),
     # smoothness in the loss needs windows of consecutive frames
     "train smoothness of a single-frame model": (_train("train.smoothness=1", "model.name=pilotnet"),
                                                  "train.smoothness needs a recurrent model"),

@@ -174,13 +174,13 @@ def test_dagger_aggregates_rollouts(tiny_recording, tmp_path):
         "split": {"train": "0:120", "val": "240:300"}, "model": {"name": "pilotnet", "dropout": 0.0},
         "train": {"epochs": 1, "batch_size": 32, "side_cameras": True},
         "dagger": {"iterations": 1, "minutes": 0.02, "roads": "country,twisty", "epochs": 1, "suite_minutes": 0.01,
-                   "workers": 1}})
+                   "suite_roads": "twisty", "workers": 1}})
     final = run_dagger(cfg, progress=False)
     assert final.exists()
     with open(tmp_path / "dagger" / "dagger.csv") as f:
         rows = list(csv.DictReader(f))
     assert [r["round"] for r in rows] == ["0", "1"] and rows[1]["recordings"] == "3"
-    assert float(rows[1]["beta"]) == 0.5 and rows[1]["autonomy_twisty"] != ""
+    assert float(rows[1]["beta"]) == 0.5 and rows[1]["autonomy_twisty"] != "" and rows[1]["autonomy_country"] == ""
     assert (tmp_path / "dagger" / "dagger.png").exists()
     # a second run into the folder may resume the same config (other workers allowed), not another one
     from steerlab.dagger import _claim
@@ -204,7 +204,7 @@ def test_dagger_aggregates_rollouts(tiny_recording, tmp_path):
     run = tmp_path / "dagger"
     drives = sorted((run / "round1" / "suite").rglob("drive.json"))
     stamps = [d.stat().st_mtime_ns for d in drives]
-    same = SuiteOptions("v1", 0.01, 1)
+    same = SuiteOptions("v1", 0.01, 1, roads="twisty")
     assert suite_checkpoint(run, cfg, same) == run / "round1" / "best.pt"
     metrics = closed_loop_metrics(suite_checkpoint(run, cfg, same), same, False)
     assert [d.stat().st_mtime_ns for d in drives] == stamps and not (run / "suite").exists()

@@ -54,6 +54,7 @@ class DaggerOptions(Options):
     suite: str | None = option("v1", lambda v: v in SUITES, " or ".join(SUITES),
                                help="closed-loop suite after every round (null: none)")
     suite_minutes: float | None = option(None, POSITIVE, "positive and finite", help="minutes per suite road")
+    suite_roads: str | None = option(None, help="comma list of the suite's road types to drive (default: all)")
     workers: int = option(2, AT_LEAST_1, help="parallel rollouts and suite drives")
     world: Literal["synthetic", "replay"] = option("synthetic", help="where the rollouts drive: fresh roads, or "
                                                    "the config's recording in replay")
@@ -62,6 +63,11 @@ class DaggerOptions(Options):
 
 def dagger_options(cfg: TrainConfig) -> DaggerOptions:
     return parse(DaggerOptions, cfg.dagger or {}, "dagger")
+
+
+def round_suite(o: DaggerOptions) -> SuiteOptions | None:
+    """The closed-loop suite every round drives (None: none)."""
+    return SuiteOptions(o.suite, o.suite_minutes, o.workers, roads=o.suite_roads) if o.suite else None
 
 
 def _rollout_job(checkpoint: str, out: str, seed: int, minutes: float, road: str, beta: float) -> dict:
@@ -76,6 +82,9 @@ def run_dagger(cfg: TrainConfig, progress: bool = True) -> Path:
     from steerlab.train.loop import train
 
     o = dagger_options(cfg)
+    suite = None if o.world == "replay" else round_suite(o)
+    if suite:
+        suite.drives()  # its road types checked before anything is written
     out = folder_to_write(cfg.out, "output folder (out)")
     car = car_of(main_recording(cfg).geometry)
     cfg = cfg.for_car(car)
@@ -123,9 +132,8 @@ def run_dagger(cfg: TrainConfig, progress: bool = True) -> Path:
         metrics = json.loads((run / "metrics.json").read_text())
         if replay:
             closed = replay.evaluate(run / "best.pt", run / "replay", progress)
-        elif o.suite:
-            summary = run_suite([run / "best.pt"], run / "suite", SuiteOptions(o.suite, o.suite_minutes, o.workers),
-                                progress=progress)
+        elif suite:
+            summary = run_suite([run / "best.pt"], run / "suite", suite, progress=progress)
             closed = {f"autonomy_{s['road_type']}": s["autonomy"] for s in summary}
             closed["interventions_per_km"] = next(s for s in summary if s["road_type"] == "all")["interventions_per_km"]
         else:

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from steerlab.dagger import dagger_options, run_dagger
+from steerlab.dagger import dagger_options, round_suite, run_dagger
 from steerlab.data.labels import COMMANDS, speed_targets
 from steerlab.data.preprocess import PreprocessConfig
 from steerlab.data.recording import SteeringConvention
@@ -237,8 +237,8 @@ def suite_checkpoint(run: Path, cfg: TrainConfig, closed: SuiteOptions) -> Path:
     best = run / "best.pt"
     if cfg.dagger is None:
         return best
-    o = dagger_options(cfg)
-    if o.suite != closed.suite or SuiteOptions(o.suite, o.suite_minutes).road_minutes != closed.road_minutes:
+    rounds = round_suite(dagger_options(cfg))
+    if rounds is None or rounds.suite != closed.suite or rounds.road_minutes != closed.road_minutes:
         return best
     last = max(run.glob("round*/best.pt"), key=lambda p: int(p.parent.name.removeprefix("round")))
     return last if filecmp.cmp(last, best, shallow=False) else best
