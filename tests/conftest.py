@@ -25,6 +25,15 @@ def write_jpeg(path: Path, value: int = 128, size=(160, 320)) -> None:
     cv2.imwrite(str(path), img)
 
 
+def flip_bytes(path: Path) -> Path:
+    """The file with 16 bytes in its middle inverted (in a model's weights), as damage would."""
+    data = bytearray(path.read_bytes())
+    for i in range(len(data) // 2, len(data) // 2 + 16):
+        data[i] ^= 0xFF
+    path.write_bytes(bytes(data))
+    return path
+
+
 @pytest.fixture
 def ch2_folder(tmp_path):
     """A tiny CH2-layout folder: 6 frames of 640x480, answer-file labels."""

@@ -17,7 +17,7 @@ import cv2
 import numpy as np
 import pytest
 
-from conftest import made, write_jpeg
+from conftest import flip_bytes, made, write_jpeg
 from steerlab.cli import main
 from steerlab.errors import SteerlabError
 
@@ -109,17 +109,8 @@ def _dagger_of_another_config(tmp_path, stack):
     return ["sim", "dagger", str(cfg)]
 
 
-def _flip(path: Path) -> Path:
-    """16 bytes in the middle of the file inverted."""
-    data = bytearray(path.read_bytes())
-    for i in range(len(data) // 2, len(data) // 2 + 16):
-        data[i] ^= 0xFF
-    path.write_bytes(bytes(data))
-    return path
-
-
 def _flipped(tmp_path, stack):
-    best = _flip(trained(tmp_path))
+    best = flip_bytes(trained(tmp_path))
     return ["evaluate", str(best), "--data", str(tmp_path / "sim"), "--out", str(tmp_path / "eval")]
 
 
@@ -127,7 +118,7 @@ def _flipped_before_seals(tmp_path, stack):
     """A checkpoint of steerlab 0.1.0 (no seal; the sha256 of its weights inside) with damaged weights."""
     old = tmp_path / "old.pt"
     shutil.copy(Path(__file__).parent / "fixtures" / "run-0.1.0" / "best.pt", old)
-    return ["evaluate", str(_flip(old)), "--data", str(sim_log(tmp_path / "sim")), "--out", str(tmp_path / "eval")]
+    return ["evaluate", str(flip_bytes(old)), "--data", str(sim_log(tmp_path / "sim")), "--out", str(tmp_path / "eval")]
 
 
 class _Code:
@@ -199,11 +190,7 @@ def _with(*argv, command="sim bench"):
 def _flipped_onnx(tmp_path, stack):
     from steerlab.export import export_onnx
 
-    onnx = export_onnx(made(tmp_path), tmp_path / "m.onnx")
-    data = bytearray(onnx.read_bytes())
-    for i in range(len(data) // 2, len(data) // 2 + 16):
-        data[i] ^= 0xFF
-    onnx.write_bytes(bytes(data))
+    onnx = flip_bytes(export_onnx(made(tmp_path), tmp_path / "m.onnx"))
     return ["evaluate", str(onnx), "--data", str(sim_log(tmp_path / "sim")), "--out", str(tmp_path / "eval")]
 
 

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 import torch
 
-from conftest import CH2, SIM, made, resaved
+from conftest import CH2, SIM, flip_bytes, made, resaved
 from steerlab.checkpoint import save_checkpoint
 from steerlab.data.readers import open_recording
 from steerlab.data.recording import SteeringConvention
@@ -137,10 +137,7 @@ def test_onnx_is_self_contained_and_checks_its_hash_on_load(tmp_path):
     frame = frames(1)[0]
     assert Pilot(copied).step(frame).steering == pytest.approx(Pilot(onnx_path).step(frame).steering, abs=1e-6)
     good = onnx_path.read_bytes()
-    data = bytearray(good)
-    for i in range(len(data) // 2, len(data) // 2 + 16):  # flipped bytes in the middle: in the weights
-        data[i] ^= 0xFF
-    onnx_path.write_bytes(bytes(data))
+    flip_bytes(onnx_path)
     with pytest.raises(SteerlabError, match=r"m.onnx: the model does not match the sha256 in its metadata: the "
                                             r"file is damaged or was changed after export"):
         Pilot(onnx_path)

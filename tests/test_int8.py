@@ -4,6 +4,7 @@ import numpy as np
 import onnx
 import pytest
 
+from conftest import flip_bytes
 from steerlab.cli import main
 from steerlab.data.readers import open_recording
 from steerlab.errors import SteerlabError
@@ -32,10 +33,7 @@ def test_int8_export_drives_like_fp32(tmp_path, tiny_checkpoint, tiny_recording)
     error = np.abs(steering[:, 0] - steering[:, 1])
     assert error.max() < 2e-3  # radians; about 4e-4 measured
 
-    data = bytearray(int8.read_bytes())
-    for i in range(len(data) // 2, len(data) // 2 + 16):  # flipped bytes in the weights
-        data[i] ^= 0xFF
-    int8.write_bytes(bytes(data))
+    flip_bytes(int8)
     with pytest.raises(SteerlabError, match=r"m-int8.onnx: the model does not match the sha256 in its metadata"):
         Pilot(int8)
 
