@@ -443,7 +443,13 @@ BAD_INPUTS = {
                                                 "run holds a DAgger run with another config; choose a new out"),
     "sim dagger with a suite road type that does not exist": (
         lambda t, s: ["sim", "dagger", str(config(t, sim_log(t / "sim"))), "dagger.suite_roads=twisty,mountain"],
-        "suite v1 has no mountain roads; it has country, highway, twisty"),
+        "dagger.suite_roads: suite v1 has no mountain roads; it has country, highway, twisty"),
+    "an override whose value is not YAML": (_train("train.lr=,"), "override 'train.lr=,': the value is not valid YAML "
+                                                               "(expected the node content, but found ','); quote "
+                                                               "it: train.lr='\",\"'"),
+    "sim dagger with no suite road type": (
+        lambda t, s: ["sim", "dagger", str(config(t, sim_log(t / "sim"))), 'dagger.suite_roads=","'],
+        "dagger.suite_roads: no road to drive: choose road types of suite v1 (country, highway, twisty)"),
     # smoothness in the loss needs windows of consecutive frames
     "train smoothness of a single-frame model": (_train("train.smoothness=1", "model.name=pilotnet"),
                                                  "train.smoothness needs a recurrent model"),

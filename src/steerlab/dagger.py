@@ -83,8 +83,11 @@ def run_dagger(cfg: TrainConfig, progress: bool = True) -> Path:
 
     o = dagger_options(cfg)
     suite = None if o.world == "replay" else round_suite(o)
-    if suite:
-        suite.drives()  # its road types checked before anything is written
+    if suite:  # its road types checked before anything is written
+        try:
+            suite.drives()
+        except SteerlabError as e:
+            raise SteerlabError(f"dagger.suite_roads: {e}") from None
     out = folder_to_write(cfg.out, "output folder (out)")
     car = car_of(main_recording(cfg).geometry)
     cfg = cfg.for_car(car)

@@ -165,7 +165,14 @@ def apply_override(cfg: dict, text: str) -> None:
         if not isinstance(node, dict):
             raise SteerlabError(f"override {text!r}: {p!r} is not a section")
     # a frame range such as 0:1800 stays text (YAML 1.1 would read it as a base-60 number)
-    node[parts[-1]] = value if re.fullmatch(r"\s*\d*:\d*\s*", value) else yaml.safe_load(value)
+    if re.fullmatch(r"\s*\d*:\d*\s*", value):
+        node[parts[-1]] = value
+        return
+    try:
+        node[parts[-1]] = yaml.safe_load(value)
+    except yaml.YAMLError as e:
+        raise SteerlabError(f"override {text!r}: the value is not valid YAML ({getattr(e, 'problem', None) or e}); "
+                            f"quote it: {key}='\"{value}\"'") from None
 
 
 def read_yaml(path: str | Path, what: str = "sections (data, split, model, train, ...)") -> dict:

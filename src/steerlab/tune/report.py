@@ -29,10 +29,12 @@ def short(v) -> str:
 
 
 def _save(axes, path: Path) -> None:
-    """An Optuna matplotlib plot (Axes, or an array of them) written to `path` and closed."""
+    """An Optuna matplotlib plot (Axes, or an array of them) written to `path` and closed. A plot with a colour
+    bar (the slice plot) keeps Optuna's own layout: `tight_layout` would draw the bar over the last panel."""
     fig = (axes.flat[0] if hasattr(axes, "flat") else axes).figure
-    fig.set_size_inches(max(6.5, fig.get_size_inches()[0]), 4)
-    fig.tight_layout()
+    if not any(a.get_label() == "<colorbar>" for a in fig.axes):
+        fig.set_size_inches(max(6.5, fig.get_size_inches()[0]), 4)
+        fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
