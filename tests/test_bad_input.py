@@ -490,6 +490,9 @@ BAD_INPUTS = {
     "checkpoint flipped bytes": (_flipped, "best.pt: the file's bytes do not match the sha256 stored with them"),
     "checkpoint of 0.1.0 flipped bytes": (_flipped_before_seals, "old.pt: the weights do not match the checkpoint's "
                                                                  "sha256: the file is damaged"),
+    "checkpoint that is a text file": (lambda t, s: (t / "notes.pt").write_text("not a zip\n") and
+                                       ["export", str(t / "notes.pt"), "--out", str(t / "m.onnx")],
+                                       "notes.pt: not a readable checkpoint (not the zip file torch.save writes)"),
     "checkpoint with code": (_code_in_checkpoint, "evil.pt: the checkpoint holds objects other than tensors and "
                                                   "plain values (posix.system)"),
     "onnx flipped bytes": (_flipped_onnx, "m.onnx: the model does not match the sha256 in its metadata: the file "
@@ -651,9 +654,8 @@ BAD_INPUTS = {
                       "--calib", str(tub(t / "tub"))],
         "the recording's camera geometry (donkey) is not the model's (ch2)"),
     "train with an .onnx teacher": (_teacher(_exported), "m.onnx: train.teacher: an .onnx file cannot be a teacher"),
-    "train with a plain pickle as teacher": (_teacher(_pickled), "plain.pt: the checkpoint holds objects other than "
-                                                                 "tensors and plain values (unknown objects): not a "
-                                                                 "steerlab checkpoint"),
+    "train with a plain pickle as teacher": (_teacher(_pickled), "plain.pt: not a readable checkpoint (not the zip "
+                                                                 "file torch.save writes)"),
     "tune a range the option does not take": (_tune_space({"model.dropout": {"low": 0.5, "high": 3.0}}),
                                               "tune: model.dropout takes a number in [0, 1), and the range or "
                                               "choices give 3.0"),

@@ -137,6 +137,8 @@ def load_checkpoint(path: str | Path) -> dict:
         raise SteerlabError(f"{path}: an exported .onnx model, not a steerlab checkpoint (.pt): name the checkpoint "
                             "it was exported from")
     data = path.read_bytes()
+    if not data.startswith(b"PK\x03\x04"):  # what torch.save writes, and so every checkpoint: a zip file
+        raise SteerlabError(f"{path}: not a readable checkpoint (not the zip file torch.save writes)")
     try:
         with warnings.catch_warnings():  # a plain pickle's protocol: refused below, not worth a warning
             warnings.simplefilter("ignore")
