@@ -122,7 +122,9 @@ models:
     assert "| zero | image (gray) | 1@200x66 |" in text and "| flow | image+flow (gray) | 3@128x64 |" in text
     assert (tmp_path / "exp" / "flow" / "seed1" / "best.pt").exists()
     assert (tmp_path / "exp" / "predictions.png").exists()
-    assert (tmp_path / "exp" / "flow" / "seed1" / "suite" / "roads" / "twisty-9301.png").exists()
+    # one figure per road with every model's seed-0 drive on it; the runs' own suites draw none
+    assert sorted(p.name for p in (tmp_path / "exp" / "roads").iterdir()) == [f"twisty-930{k}.png" for k in (1, 2, 3)]
+    assert not list((tmp_path / "exp").glob("*/seed*/suite/roads"))
     assert ("| autonomy [%] | country / highway / twisty [%] | interventions/km | command gamma [deg] | "
             "worst seed: country / highway / twisty [%] |") in text
     assert "holding the current speed" in text

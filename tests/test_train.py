@@ -284,20 +284,20 @@ def test_every_model_learns_and_streams_as_in_batch(model, pre, tiny_recording, 
     # frame models on frames smaller than 200x66 (quicker, same paths); recurrent models keep their size, where
     # two epochs of 5 windows lower the loss
     small = {} if "width" in cls.inputs or cls.recurrent else {"width": 128, "height": 64}
-    cfg = _cfg(tiny_recording, tmp_path, epochs=2, batch_size=5, split={"train": "0:100", "val": "100:140"},
+    cfg = _cfg(tiny_recording, tmp_path, epochs=2, batch_size=5, split={"train": "0:60", "val": "60:80"},
                model={"name": model, **({"dropout": 0.0} if cls.trainable else {})},
-               preprocess={**small, **pre})  # recurrent: 5 windows of 10 frames
+               preprocess={**small, **pre})  # recurrent: 3 windows of 10 frames
     loop.train(cfg, progress=False)
     if cls.trainable:
         rows = _log(tmp_path)
         assert float(rows[-1]["train_loss"]) < float(rows[0]["train_loss"])
-    evaluate(tmp_path / "run" / "best.pt", Source(str(tiny_recording), "0:140"), tmp_path / "eval", progress=False)
+    evaluate(tmp_path / "run" / "best.pt", Source(str(tiny_recording), "0:80"), tmp_path / "eval", progress=False)
     with open(tmp_path / "eval" / "predictions.csv") as f:
         streamed = list(csv.DictReader(f))
     ckpt = load_checkpoint(tmp_path / "run" / "best.pt")
     net = model_from_checkpoint(ckpt)[0]
     ds = sources.prepare_dataset(cfg, progress=False)
-    batch = loop.predict(net, FrameBatches([(ds, ds.steering)], ckpt["stats"], net.speed_history), np.arange(140),
+    batch = loop.predict(net, FrameBatches([(ds, ds.steering)], ckpt["stats"], net.speed_history), np.arange(80),
                          batch_size=64)
     np.testing.assert_allclose([float(r["steering_angle"]) for r in streamed], batch["steering"], atol=1e-4)
     for k in set(batch) - {"steering"}:

@@ -1,8 +1,8 @@
 """`steerlab experiment`: train several models, several seeds each, on identical splits, and tabulate them in
 the form of paper 000 Table I (model, input, input shape, MSE mean +- std, gamma, target gamma) and of paper
 002 Tables I-II (steering MAE, speed MAE, speed-command accuracy), optionally with closed-loop columns (every
-run drives the closed-loop suite: autonomy per road type, interventions per km, command gamma) and the
-streaming latency of every model. With closed-loop columns the experiment also plots open-loop error against
+run drives the closed-loop suite: autonomy per road type, interventions per km, command gamma, and one figure
+per road with every model's seed-0 drive on it) and the streaming latency of every model. With closed-loop columns the experiment also plots open-loop error against
 autonomy and says how well each open-loop metric ranks the models' driving and which ranks it best; when the
 validation frames hold drift-and-recover episodes it plots them in the form of paper 000 Fig. 6."""
 
@@ -30,7 +30,7 @@ from steerlab.evaluate.scoring import read_steering_csv
 from steerlab.paths import folder_to_write
 from steerlab.options import Options, POSITIVE, as_dict, option, parse
 from steerlab.pilot import Pilot
-from steerlab.sim.bench import SuiteOptions, closed_loop_metrics
+from steerlab.sim.bench import SuiteOptions, closed_loop_metrics, plot_roads
 from steerlab.split_replay import SplitReplay
 from steerlab.train.config import TrainConfig, parse_config, read_yaml
 from steerlab.train.loop import train
@@ -130,7 +130,7 @@ def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: boo
     interrupted experiment continues where it stopped."""
     exp = load_experiment(path, overrides)
     out = folder_to_write(exp.out, "output folder (out)")
-    rows, preds = [], {}
+    rows, preds, drives = [], {}, []
     labels = frames = deg = split_replay = cfg = None
     for entry in exp.entries:
         runs = []
@@ -151,8 +151,10 @@ def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: boo
             # the run's own metrics win; those from its predictions fill in metrics added since it was trained
             run = {**_smoothed(run_dir, labels, deg), **json.loads(done.read_text()), "train_s": _train_seconds(run_dir)}
             if exp.closed_loop:
-                run.update(closed_loop_metrics(suite_checkpoint(run_dir, cfg, exp.closed_loop), exp.closed_loop,
-                                               progress))
+                checkpoint = suite_checkpoint(run_dir, cfg, exp.closed_loop)
+                run.update(closed_loop_metrics(checkpoint, exp.closed_loop, progress, plots=False))
+                if seed == 0:
+                    drives += _suite_drives(checkpoint.parent / "suite", entry.name)
             if exp.replay is not None:
                 split_replay = split_replay or SplitReplay(cfg, exp.replay.speed)
                 run.update(split_replay.evaluate(run_dir / "best.pt", run_dir / "replay", progress))
@@ -163,7 +165,17 @@ def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: boo
                          _latency(out / entry.name / "seed0", frames)))
         preds[entry.name] = read_steering_csv(out / entry.name / "seed0" / "val_predictions.csv")
     _write(out, rows, preds, cfg, seeds, _speed_references(labels, next(iter(preds.values()))[0]))
+    if drives:
+        plot_roads(out / "roads", drives, exp.closed_loop.road_minutes)
     return out / "table.md"
+
+
+def _suite_drives(suite: Path, label: str) -> list[dict]:
+    """A run's drives on the suite (the rows of its suite.csv), labelled with the experiment's entry, each with
+    the folder of its trajectory."""
+    with open(suite / "suite.csv") as f:
+        return [{**d, "label": label, "folder": suite / d["label"] / f"{d['road_type']}-{d['seed']}"}
+                for d in csv.DictReader(f)]
 
 
 def _speed_references(labels: dict, val_ids: np.ndarray) -> str:
@@ -271,8 +283,9 @@ def _write(out: Path, rows: list[dict], preds: dict, cfg: TrainConfig, seeds: in
         w.writerows(rows)
     closed = not np.isnan(rows[0]["autonomy_mean"])
     worst = closed and seeds > 1
-    lines = [f"{seeds} seed(s) per model (mean +- std over seeds); validation split {as_dict(cfg.split)}; plot: "
-             "predictions.png (seed 0).", "", "Paper 000 Table I form:", "",
+    lines = [f"{seeds} seed(s) per model (mean +- std over seeds); validation split {as_dict(cfg.split)}; plots: "
+             "predictions.png (seed 0)" + (", roads/*.png (every model's seed-0 drive on each road of the suite)"
+                                           if closed else "") + ".", "", "Paper 000 Table I form:", "",
              "| model | input | input shape | MSE | gamma [deg] | target gamma [deg] | RMSE | RMSE smoothed "
              f"a={SMOOTHING_ALPHA} | gamma smoothed [deg] | best epoch | train time [s] | latency p50 / p99 [ms] |"
              + (" autonomy [%] | country / highway / twisty [%] | interventions/km | command gamma [deg] |"

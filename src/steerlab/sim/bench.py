@@ -157,7 +157,8 @@ def run_suite(checkpoints, out: str | Path, o: SuiteOptions = SuiteOptions(), pr
     write_csv(out / "summary.csv", SUMMARY_FIELDS, summary)
     (out / "suite.md").write_text(markdown(summary, o.suite, minutes))
     if plots:
-        _plot_roads(out, drives, minutes)
+        plot_roads(out / "roads", [{**d, "folder": out / d["label"] / f"{d['road_type']}-{d['seed']}"} for d in drives],
+                   minutes)
     return summary
 
 
@@ -217,14 +218,13 @@ def write_csv(path: Path, fields: list[str], rows: list[dict]) -> None:
         w.writerows([{k: "" if r[k] is None else r[k] for k in fields} for r in rows])
 
 
-def _plot_roads(out: Path, drives: list[dict], minutes: float) -> None:
-    """One figure per road: every checkpoint's path and lateral offset over time."""
+def plot_roads(out: Path, drives: list[dict], minutes: float) -> None:
+    """One figure per road in `out`: the path and lateral offset over time of every drive on it (a suite's rows,
+    each with the `folder` of its trajectory.csv), labelled with the drive's label and autonomy."""
     from steerlab.sim.plots import plot_trajectory
 
-    (out / "roads").mkdir(exist_ok=True)
-    for road, seed in dict.fromkeys((d["road_type"], d["seed"]) for d in drives):
-        trajs = {f"{d['label']} ({d['autonomy']:.0f} %)": Trajectory.read(
-                     out / d["label"] / f"{road}-{seed}" / "trajectory.csv")
-                 for d in drives if (d["road_type"], d["seed"]) == (road, seed)}
-        plot_trajectory(out / "roads" / f"{road}-{seed}.png", make_road(seed, road, minutes * 60), trajs,
-                        f"{road} road {seed}")
+    out.mkdir(parents=True, exist_ok=True)
+    for road, seed in dict.fromkeys((d["road_type"], int(d["seed"])) for d in drives):
+        trajs = {f"{d['label']} ({float(d['autonomy']):.0f} %)": Trajectory.read(Path(d["folder"]) / "trajectory.csv")
+                 for d in drives if (d["road_type"], int(d["seed"])) == (road, seed)}
+        plot_trajectory(out / f"{road}-{seed}.png", make_road(seed, road, minutes * 60), trajs, f"{road} road {seed}")
