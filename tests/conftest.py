@@ -1,5 +1,8 @@
 import math
+import multiprocessing as mp
 import os
+import subprocess
+import sys
 from pathlib import Path
 
 import cv2
@@ -44,6 +47,72 @@ def ch2_folder(tmp_path):
     lines = ["frame_id,steering_angle,public"] + [f"{fid},{0.01 * i},{i % 2}" for i, fid in enumerate(ids)]
     (tmp_path / "labels.csv").write_text("\n".join(lines) + "\n")
     return tmp_path
+
+
+# Command-line worker processes of the tests (tuning workers, as on several machines) are forked from a server process
+# that imported torch, its compiler module (which torch.optim imports) and steerlab once, as the closed-loop workers
+# are (steerlab/sim/parallel.py): each is a process of its own that runs `steerlab.cli.main(argv)`, without paying
+# about 4 s of imports. The server starts with the session, in every process that runs tests, so that it is the one
+# the closed-loop workers fork from too.
+PRELOAD = ["torch", "torch._dynamo", "optuna", "steerlab.cli", "steerlab.train.loop", "steerlab.tune.run",
+           "steerlab.sim.bench"]
+
+
+def pytest_configure(config):
+    if hasattr(config, "workerinput") or not getattr(config.option, "numprocesses", None):  # not xdist's controller
+        from multiprocessing import forkserver
+
+        mp.get_context("forkserver").set_forkserver_preload(PRELOAD)
+        forkserver.ensure_running()
+
+
+def _run_cli(argv: list[str], env: dict, cwd: str, stderr: str, prelude: str) -> None:
+    """In a forked worker: the caller's environment and folder, stderr into a file, `prelude` run first."""
+    import torch
+
+    os.environ.clear()
+    os.environ.update(env)
+    os.chdir(cwd)
+    torch.set_num_threads(int(env.get("OMP_NUM_THREADS", "1")))
+    with open(os.devnull, "w") as null, open(stderr, "w") as err:
+        os.dup2(null.fileno(), 1)
+        os.dup2(err.fileno(), 2)
+    exec(prelude, {})
+    from steerlab.cli import main
+
+    sys.exit(main(argv))
+
+
+class CliProcess:
+    """`steerlab ARGV` in a process of its own (see PRELOAD), with what the tests use of a `subprocess.Popen`:
+    poll, wait, send_signal, returncode, and `errors()`, what it wrote to stderr."""
+
+    def __init__(self, argv: list[str], stderr: Path, env: dict | None = None, prelude: str = ""):
+        self.stderr_path = stderr
+        self.process = mp.get_context("forkserver").Process(
+            target=_run_cli, args=(list(argv), dict(os.environ if env is None else env), os.getcwd(), str(stderr),
+                                   prelude))
+        self.process.start()
+
+    @property
+    def returncode(self) -> int | None:
+        return self.process.exitcode
+
+    def poll(self) -> int | None:
+        return self.process.exitcode
+
+    def wait(self, timeout: float | None = None) -> int:
+        self.process.join(timeout)
+        if self.process.exitcode is None:
+            raise subprocess.TimeoutExpired(["steerlab"], timeout)
+        return self.process.exitcode
+
+    def send_signal(self, sig: int) -> None:
+        if self.process.exitcode is None:
+            os.kill(self.process.pid, sig)
+
+    def errors(self) -> str:
+        return self.stderr_path.read_text() if self.stderr_path.exists() else ""
 
 
 def once_per_session(tmp_path_factory, name: str, make) -> Path:

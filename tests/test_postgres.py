@@ -12,7 +12,6 @@ import signal
 import socket
 import stat
 import subprocess
-import sys
 import tarfile
 import tempfile
 import time
@@ -20,6 +19,7 @@ from pathlib import Path
 
 import pytest
 
+from conftest import CliProcess
 from test_tune import HOLD, rows, run_tune, tune_config
 
 HEARTBEAT = "1,3"  # STEERLAB_TUNE_HEARTBEAT: beat every second, fail a trial silent for 3 s
@@ -173,21 +173,13 @@ def test_the_server_gets_a_folder_its_user_can_enter(tmp_path, monkeypatch):
     assert folder.parent == Path("/tmp")
 
 
-def steerlab() -> list[str]:
-    """The installed `steerlab` command (what a user runs), else `python -m steerlab`."""
-    exe = Path(sys.executable).with_name("steerlab")
-    return [str(exe)] if exe.exists() else [sys.executable, "-m", "steerlab"]
-
-
 def worker(cfg, url, study, trials, *options, seed=0, hold=False):
-    """A `steerlab tune` worker; `hold`: one whose trial stops after its first epoch until it is killed."""
+    """A `steerlab tune` worker process (conftest.CliProcess); `hold`: one whose trial stops after its first epoch
+    until it is killed."""
     env = {**os.environ, "STEERLAB_TUNE_HEARTBEAT": HEARTBEAT, "OMP_NUM_THREADS": "1"}
     argv = ["tune", str(cfg), "--trials", str(trials), "--storage", url, "--study", study, "--seed", str(seed),
             *options]
-    command = [*steerlab(), *argv]
-    if hold:
-        command = [sys.executable, "-c", f"{HOLD}from steerlab.cli import main\nraise SystemExit(main({argv!r}))"]
-    return subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=env)
+    return CliProcess(argv, Path(cfg).with_suffix(".err"), env, prelude=HOLD if hold else "")
 
 
 _storages = {}
@@ -221,7 +213,7 @@ def test_postgres_two_workers_share_one_study(postgres, tmp_path, tiny_recording
     workers = [worker(tune_config(tmp_path, tiny_recording, out, epochs=1), url, "shared", 3, seed=i)
                for i, out in enumerate(outs)]
     for w in workers:
-        assert w.wait(timeout=120) == 0, w.stderr.read()
+        assert w.wait(timeout=120) == 0, w.errors()
     study = load(url, "shared")
     done = [t for t in study.trials if t.state in (TrialState.COMPLETE, TrialState.PRUNED)]
     assert len(done) == 3  # --trials counts the study's finished trials, over all workers
@@ -263,8 +255,8 @@ def test_postgres_killed_worker_trial_is_failed_and_retried(postgres, tmp_path, 
         if a.poll() is None:
             a.send_signal(signal.SIGKILL)
         a.wait()
-        assert b.wait(timeout=120) == 0, b.stderr.read()
-    assert killed is not None and a.returncode == -signal.SIGKILL, f"worker a never trained an epoch: {a.stderr.read()}"
+        assert b.wait(timeout=120) == 0, b.errors()
+    assert killed is not None and a.returncode == -signal.SIGKILL, f"worker a never trained an epoch: {a.errors()}"
     study = load(url, "s")
     trials = study.trials
     assert trials[killed.number].state == TrialState.FAIL  # failed by b's heartbeat check

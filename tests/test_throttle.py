@@ -10,7 +10,6 @@ import numpy as np
 import pytest
 import torch
 
-from conftest import made
 from steerlab.data.writer import TubWriter
 from steerlab.donkey import SteerlabPilot
 from steerlab.errors import SteerlabError

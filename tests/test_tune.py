@@ -8,6 +8,7 @@ import sys
 import pytest
 import yaml
 
+from conftest import CliProcess
 from steerlab.cli import flag
 from steerlab.errors import SteerlabError
 from steerlab.options import parse
@@ -38,8 +39,8 @@ def tune_config(path, recording, out, tune=None, epochs=3, split=("0:120", "120:
 # only get in each other's way.
 ONE_THREAD = {**os.environ, "OMP_NUM_THREADS": "1"}
 
-# `python -c HOLD + code`: a worker whose trial stops after its first epoch until the worker is killed, so that
-# it is killed mid-trial however fast or busy the machine is.
+# The prelude of a worker (conftest.CliProcess) whose trial stops after its first epoch until the worker is killed,
+# so that it is killed mid-trial however fast or busy the machine is.
 HOLD = """import time
 import steerlab.train.loop as loop
 _train = loop.train
@@ -143,12 +144,10 @@ def test_two_workers_share_one_journal(tmp_path, tiny_recording):
 
     cfg = tune_config(tmp_path, tiny_recording, tmp_path / "shared", epochs=1)
     journal = tmp_path / "study.journal"
-    cmd = [sys.executable, "-m", "steerlab", "tune", str(cfg), "--trials", "4", "--storage", str(journal),
-           "--study", "s"]
-    workers = [subprocess.Popen(cmd + ["--seed", str(i)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                                text=True, env=ONE_THREAD) for i in range(2)]
+    argv = ["tune", str(cfg), "--trials", "4", "--storage", str(journal), "--study", "s"]
+    workers = [CliProcess(argv + ["--seed", str(i)], tmp_path / f"worker{i}.err", ONE_THREAD) for i in range(2)]
     for w in workers:
-        assert w.wait(timeout=300) == 0, w.stderr.read()
+        assert w.wait(timeout=300) == 0, w.errors()
     study = optuna.load_study(study_name="s", storage=optuna.storages.JournalStorage(
         optuna.storages.journal.JournalFileBackend(str(journal))))
     done = [t for t in study.trials if t.state in (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED)]
@@ -200,12 +199,10 @@ def test_killed_worker_trial_is_failed_and_retried(tmp_path, tiny_recording, mon
 
     cfg = tune_config(tmp_path, tiny_recording, tmp_path / "k", epochs=2)
     url = f"sqlite:///{tmp_path / 'study.db'}"
-    code = HOLD + ("import steerlab.tune.storage as t; t.HEARTBEAT = (1, 2); from steerlab.cli import main; "
-                   f"main(['tune', {str(cfg)!r}, '--trials', '2', '--storage', {url!r}, '--study', 's', "
-                   "'--no-pruning'])")
-    worker = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                              env=ONE_THREAD)
-    storage = optuna.storages.RDBStorage(url)
+    storage = optuna.storages.RDBStorage(url)  # the database made before the worker opens it too
+    worker = CliProcess(["tune", str(cfg), "--trials", "2", "--storage", url, "--study", "s", "--no-pruning"],
+                        tmp_path / "worker.err", ONE_THREAD,
+                        prelude=HOLD + "import steerlab.tune.storage as t\nt.HEARTBEAT = (1, 2)\n")
     try:
         while worker.poll() is None:  # until the first trial has finished an epoch (and holds), however busy
             time.sleep(0.1)
@@ -218,6 +215,7 @@ def test_killed_worker_trial_is_failed_and_retried(tmp_path, tiny_recording, mon
     finally:
         worker.send_signal(signal.SIGKILL)
         worker.wait()
+    assert worker.returncode == -signal.SIGKILL, f"the worker ended before it was killed: {worker.errors()}"
     study = optuna.load_study(study_name="s", storage=storage)
     killed = study.trials[0]
     assert killed.state == optuna.trial.TrialState.RUNNING
