@@ -322,3 +322,31 @@ def test_the_suites_tracks_are_recorded_only_for_evaluation(tmp_path):
     meta = json.loads((record_track(tmp_path / "eval", o, progress=False, suite_tracks_ok=True)
                        / "recording.json").read_text())
     assert meta["seed"] == 9401 and meta["lap_m"] == pytest.approx(Track(9401, o.lane_width, "taped").length)
+
+
+def test_a_track_rollout_labels_every_visited_frame_with_the_experts_steering_and_throttle(tmp_path):
+    """DAgger's data collection in the track world: whoever drives a tick (the model with beta 0, the expert with
+    beta 1), every visited frame is written to a tub labelled with the expert's steering and throttle in that state
+    (the stateless `expert_controls`), and the car moves by the driver's commands: driving the same commands again
+    visits the same states."""
+    from steerlab.data.fisheye import DONKEY_FISHEYE
+    from steerlab.sim.track_run import track_rollout
+
+    results = {}
+    for beta in (0.0, 1.0):
+        out = tmp_path / f"beta-{beta:g}"
+        results[beta] = track_rollout(Scripted(0.08, throttle=0.5), out, 7, 0.05, "centre", beta)
+        world, labels = TrackWorld(7, style="centre", camera=None), []
+        for _ in range(60):
+            world.intervene(0.0)
+            labels.append(world.expert_controls())
+            world.step(*(labels[-1] if beta else (0.08, 0.5)))
+        wheel, throttle = np.array(labels).T
+        rec = open_recording(out)
+        assert len(rec) == 60 and rec.geometry == "donkey" and rec.fisheye == DONKEY_FISHEYE
+        np.testing.assert_allclose(rec.steering, np.clip(-wheel / DONKEY.full_lock, -1, 1), atol=1e-9)
+        np.testing.assert_allclose(rec.throttle, np.clip(throttle, -1, 1), atol=1e-9)
+        assert np.ptp(rec.throttle) > 0.1 and np.ptp(rec.steering) > 0.05  # not the model's constant commands
+    assert results[0.0]["off_track"] > 0 == results[1.0]["off_track"]  # the model circles off; the expert races on
+    assert results[0.0]["seed"] == 7 and results[0.0]["style"] == "centre"
+
