@@ -444,6 +444,14 @@ BAD_INPUTS = {
     "sim dagger with a suite road type that does not exist": (
         lambda t, s: ["sim", "dagger", str(config(t, sim_log(t / "sim"))), "dagger.suite_roads=twisty,mountain"],
         "dagger.suite_roads: suite v1 has no mountain roads; it has country, highway, twisty"),
+    "sim dagger in the track world on a road recording": (
+        lambda t, s: ["sim", "dagger", str(config(t, sim_log(t / "sim"))), "dagger.world=track", "dagger.suite=t1"],
+        "dagger.world: track renders the donkeycar camera, and"),
+    "sim dagger in the track world with a road suite": (
+        lambda t, s: ["sim", "dagger", str(config(t, tub(t / "tub"))), "dagger.world=track"],
+        "dagger.suite: v1 is a road suite; world track drives a track suite (t1) or none (null)"),
+    "sim dagger on roads with a tub": (lambda t, s: ["sim", "dagger", str(config(t, tub(t / "tub")))],
+                                       "holds 'donkey' frames: choose world track"),
     "an override whose value is not YAML": (_train("train.lr=,"), "override 'train.lr=,': the value is not valid YAML "
                                                                "(expected the node content, but found ','); quote "
                                                                "it: train.lr='\",\"'"),

@@ -124,7 +124,7 @@ def test_streaming_state_is_carried_across_replay_steps(tiny_checkpoint, twisty)
     path = human_path(wheel, twisty.speed, twisty.timestamps_ns / 1e9, CH2_CAR)
     world = ReplayWorld(twisty, 0, path, CAMERAS["sim"], CH2_CAR)
     traj = drive_loop(world, Pilot(tiny_checkpoint, smoothing=0.2), 100, 1.0, 20.0,
-                      choose=lambda t: wheel[t.index], progress=False)
+                      choose=lambda t: (wheel[t.index], t.throttle), progress=False)
     plain = Pilot(tiny_checkpoint, smoothing=0.2)
     expected = [plain.step(twisty.load_frame(i), twisty.speed[i]).steering for i in range(100)]
     np.testing.assert_allclose(traj.command, expected, atol=1e-6)

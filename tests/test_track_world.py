@@ -322,3 +322,68 @@ def test_the_suites_tracks_are_recorded_only_for_evaluation(tmp_path):
     meta = json.loads((record_track(tmp_path / "eval", o, progress=False, suite_tracks_ok=True)
                        / "recording.json").read_text())
     assert meta["seed"] == 9401 and meta["lap_m"] == pytest.approx(Track(9401, o.lane_width, "taped").length)
+
+
+def test_a_track_rollout_labels_every_visited_frame_with_the_experts_steering_and_throttle(tmp_path):
+    """DAgger's data collection in the track world: whoever drives a tick (the model with beta 0, the expert with
+    beta 1), every visited frame is written to a tub labelled with the expert's steering and throttle in that state
+    (the stateless `expert_controls`), and the car moves by the driver's commands: driving the same commands again
+    visits the same states."""
+    from steerlab.data.fisheye import DONKEY_FISHEYE
+    from steerlab.sim.track_run import track_rollout
+
+    results = {}
+    for beta in (0.0, 1.0):
+        out = tmp_path / f"beta-{beta:g}"
+        results[beta] = track_rollout(Scripted(0.08, throttle=0.5), out, 7, 0.05, "centre", beta)
+        world, labels = TrackWorld(7, style="centre", camera=None), []
+        for _ in range(60):
+            world.intervene(0.0)
+            labels.append(world.expert_controls())
+            world.step(*(labels[-1] if beta else (0.08, 0.5)))
+        wheel, throttle = np.array(labels).T
+        rec = open_recording(out)
+        assert len(rec) == 60 and rec.geometry == "donkey" and rec.fisheye == DONKEY_FISHEYE
+        np.testing.assert_allclose(rec.steering, np.clip(-wheel / DONKEY.full_lock, -1, 1), atol=1e-9)
+        np.testing.assert_allclose(rec.throttle, np.clip(throttle, -1, 1), atol=1e-9)
+        assert np.ptp(rec.throttle) > 0.1 and np.ptp(rec.steering) > 0.05  # not the model's constant commands
+    assert results[0.0]["off_track"] > 0 == results[1.0]["off_track"]  # the model circles off; the expert races on
+    assert results[0.0]["seed"] == 7 and results[0.0]["style"] == "centre"
+
+
+def test_dagger_in_the_track_world(tmp_path):
+    """One DAgger round on a tiny tub: the model, through the donkeycar part, races a fresh track of each style
+    with the expert labelling, the rollouts are tubs of the expert's labels added to round 1's training data,
+    and every round drives the track suite into dagger.csv's track columns."""
+    from steerlab.dagger import run_dagger
+    from steerlab.sim.track_run import record_track
+    from steerlab.sim.track_world import TrackRecordOptions
+    from steerlab.train.config import load_config, parse_config
+    from steerlab.train.sources import prepare_dataset, training_sources
+
+    record_track(tmp_path / "tub", TrackRecordOptions(seed=1, minutes=0.1, drift=False), progress=False)
+    out = tmp_path / "dagger"
+    cfg = load_config(None, base={
+        "data": str(tmp_path / "tub"), "cache": str(tmp_path / "cache"), "out": str(out),
+        "preprocess": {"preset": "donkey", "color": "gray"}, "model": {"name": "pilotnet"},
+        "split": {"train": "0:100", "val": "100:120"}, "train": {"epochs": 1, "batch_size": 16, "throttle_weight": 0.5},
+        "dagger": {"world": "track", "iterations": 1, "minutes": 0.05, "epochs": 1, "suite": "t1",
+                   "suite_minutes": 0.01, "suite_roads": "centre", "workers": 1}})
+    assert run_dagger(cfg, progress=False) == out / "best.pt"
+    with open(out / "dagger.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert [r["round"] for r in rows] == ["0", "1"] and rows[1]["recordings"] == "3" and float(rows[1]["beta"]) == 0.5
+    assert all(r["off_track_per_lap"] != "" and r["autonomy_all"] == "" for r in rows)
+    assert {"clean_laps_pct", "lap_ratio"} <= set(rows[0]) and rows[1]["rollout_autonomy"] != ""
+    for r in (0, 1):  # the suite of every round: the centre-line tracks
+        with open(out / f"round{r}" / "suite" / "suite.csv") as f:
+            assert [d["seed"] for d in csv.DictReader(f)] == ["9451", "9452"]
+    rollouts = [out / "round1" / "rollouts" / "taped-5100", out / "round1" / "rollouts" / "centre-5101"]
+    for folder in rollouts:  # 0.05 minutes shared by the two styles, labelled with the expert's throttle too
+        rec = open_recording(folder)
+        assert len(rec) == 30 and rec.throttle is not None and np.ptp(rec.throttle) > 0
+    round0, round1 = (parse_config(json.loads((out / f"round{r}" / "config.json").read_text())) for r in (0, 1))
+    assert round1.extra_data == tuple(str(p) for p in rollouts) and round1.train.init == str(out / "round0" / "best.pt")
+    ds = prepare_dataset(round1, progress=False)
+    trained_on = [len(training_sources(c, ds, np.arange(100), progress=False)[1]) for c in (round0, round1)]
+    assert trained_on == [100, 160]

@@ -1,15 +1,21 @@
-"""DAgger (`steerlab sim dagger CONFIG`), in the synthetic world or in replay on the config's own recording.
+"""DAgger (`steerlab sim dagger CONFIG`), in the synthetic world, in replay on the config's own recording or in
+the track world.
 
 Round 0 trains the model on the config's data. Every later round rolls the current model out (with
-probability beta per tick the expert steers instead: beta = `beta` x `beta_decay`^(round - 1)), lets the
+probability beta per tick the expert drives instead: beta = `beta` x `beta_decay`^(round - 1)), lets the
 expert label every visited frame, adds those recordings to the training data (`extra_data`) and trains again,
 starting from the previous round's weights. `world: synthetic` rolls out on fresh procedural roads (the
 expert: pure pursuit of the lane centre, `world.world_rollout`) and drives the closed-loop suite after every round
 (unless `suite` is null); `world: replay` rolls out in closed-loop replay over the training frames of the
 config's recording (the expert: the human's steering plus pure pursuit's way back to the path,
-`replay.rollout_recording`) and replays the validation frames after every round. `dagger.csv` and
-`dagger.png` show autonomy against the round. Every step is kept on disk and reused, so an interrupted run
-continues where it stopped. The final round's `best.pt`,
+`replay.rollout_recording`) and replays the validation frames after every round; `world: track` (a config of
+donkeycar tubs, the track world's camera) races the model, with its learned throttle capped as the track suite
+caps it, on fresh tracks of both styles (taped and centre line) seen through the recording's fisheye (the expert,
+steering and throttle: pure pursuit of the lane centre and the feed-forward throttle to the track's speed
+profile, `track_run.track_rollout`), records the rollouts as tubs and drives the track suite (`suite: t1`; its
+tables, without the figures of the tracks) after every round. `dagger.csv` and `dagger.png` show autonomy (the
+track world: clean laps, lap time over the expert's, off-track events per lap) against the round. Every step is
+kept on disk and reused, so an interrupted run continues where it stopped. The final round's `best.pt`,
 `log.csv`, `val_predictions.csv` and `metrics.json` are copied to the output folder.
 """
 
@@ -23,12 +29,15 @@ from pathlib import Path
 from typing import Literal
 
 from steerlab.data.car import car_of
+from steerlab.data.fisheye import DONKEY_FISHEYE
 from steerlab.paths import folder_to_write
 from steerlab.options import AT_LEAST_0, AT_LEAST_1, Options, POSITIVE, UNIT, as_dict, option, parse
 from steerlab.errors import SteerlabError
 from steerlab.sim.bench import SUITES, SuiteOptions, run_suite
 from steerlab.sim.parallel import run_parallel, tick_reporter
-from steerlab.sim.world import ROADS, road_types
+from steerlab.sim.track import STYLES
+from steerlab.sim.track_bench import TRACK_SUITES, TrackSuiteOptions, run_track_suite
+from steerlab.sim.world import ROAD_CAMERAS, ROADS, road_types
 from steerlab.split_replay import SplitReplay
 from steerlab.train.config import TrainConfig, parse_config
 from steerlab.train.sources import main_recording
@@ -44,20 +53,25 @@ class DaggerOptions(Options):
     """A config's `dagger:` section."""
 
     iterations: int = option(3, AT_LEAST_0, help="rounds of rollout + retraining after the first training")
-    minutes: float = option(4.0, POSITIVE, help="minutes of rollouts per round, shared by the road types")
+    minutes: float = option(4.0, POSITIVE, help="minutes of rollouts per round, shared by the road types (the "
+                            "track world: by the track styles)")
     roads: str = option("mixed", _roads, ROADS, help="road types of the rollouts")
-    seeds_from: int = option(5000, help="round r drives road seeds seeds_from + 100 r + k")
-    beta: float = option(0.5, UNIT, help="probability that the expert steers a tick, in round 1")
+    seeds_from: int = option(5000, help="round r drives road (or track) seeds seeds_from + 100 r + k")
+    beta: float = option(0.5, UNIT, help="probability that the expert drives a tick, in round 1")
     beta_decay: float = option(0.5, UNIT, help="beta is multiplied by this every round")
     epochs: int = option(4, AT_LEAST_1, help="epochs of every retraining (round 0 uses train.epochs)")
     warm_start: bool = option(True, help="retrain from the previous round's weights (else from scratch)")
-    suite: str | None = option("v1", lambda v: v in SUITES, " or ".join(SUITES),
-                               help="closed-loop suite after every round (null: none)")
-    suite_minutes: float | None = option(None, POSITIVE, "positive and finite", help="minutes per suite road")
-    suite_roads: str | None = option(None, help="comma list of the suite's road types to drive (default: all)")
+    suite: str | None = option("v1", lambda v: v in SUITES or v in TRACK_SUITES, " or ".join([*SUITES, *TRACK_SUITES]),
+                               help="closed-loop suite after every round: a road suite (v1) for world synthetic, a "
+                               "track suite (t1) for world track (null: none)")
+    suite_minutes: float | None = option(None, POSITIVE, "positive and finite",
+                                         help="minutes per suite road or track")
+    suite_roads: str | None = option(None, help="comma list of the suite's road types (the track world: track "
+                                     "styles) to drive (default: all)")
     workers: int = option(2, AT_LEAST_1, help="parallel rollouts and suite drives")
-    world: Literal["synthetic", "replay"] = option("synthetic", help="where the rollouts drive: fresh roads, or "
-                                                   "the config's recording in replay")
+    world: Literal["synthetic", "replay", "track"] = option(
+        "synthetic", help="where the rollouts drive: fresh roads, the config's recording in replay, or fresh tracks "
+        "of the track world (a config of donkeycar tubs)")
     speed: float | None = option(None, POSITIVE, help="replay: m/s for a recording without speed")
 
 
@@ -65,9 +79,31 @@ def dagger_options(cfg: TrainConfig) -> DaggerOptions:
     return parse(DaggerOptions, cfg.dagger or {}, "dagger")
 
 
-def round_suite(o: DaggerOptions) -> SuiteOptions | None:
-    """The closed-loop suite every round drives (None: none)."""
-    return SuiteOptions(o.suite, o.suite_minutes, o.workers, roads=o.suite_roads) if o.suite else None
+def round_suite(o: DaggerOptions) -> SuiteOptions | TrackSuiteOptions | None:
+    """The closed-loop suite every round drives (None: none): a road suite, or in the track world a track
+    suite."""
+    if not o.suite:
+        return None
+    track = o.world == "track"
+    if track != (o.suite in TRACK_SUITES):
+        want = f"a track suite ({', '.join(TRACK_SUITES)})" if track else f"a road suite ({', '.join(SUITES)})"
+        raise SteerlabError(f"dagger.suite: {o.suite} is a {'road' if track else 'track'} suite; world {o.world} "
+                            f"drives {want} or none (null)")
+    if track:
+        return TrackSuiteOptions(o.suite, o.suite_minutes, o.workers, styles=o.suite_roads)
+    return SuiteOptions(o.suite, o.suite_minutes, o.workers, roads=o.suite_roads)
+
+
+def _check_world(o: DaggerOptions, rec) -> None:
+    """The rollouts' world must render the camera of the config's recording."""
+    if o.world == "track" and rec.geometry != "donkey":
+        raise SteerlabError(f"dagger.world: track renders the donkeycar camera, and {rec.source} holds "
+                            f"{rec.geometry!r} frames: train on tubs of the track world (steerlab sim record --world "
+                            "track), or choose world synthetic or replay")
+    if o.world == "synthetic" and rec.geometry not in ROAD_CAMERAS:
+        raise SteerlabError(f"dagger.world: synthetic renders the {' or '.join(ROAD_CAMERAS)} camera, and "
+                            f"{rec.source} holds {rec.geometry!r} frames: choose world "
+                            f"{'track' if rec.geometry == 'donkey' else 'replay'}")
 
 
 def _rollout_job(checkpoint: str, out: str, seed: int, minutes: float, road: str, beta: float) -> dict:
@@ -77,11 +113,25 @@ def _rollout_job(checkpoint: str, out: str, seed: int, minutes: float, road: str
     return world_rollout(Pilot(checkpoint), out, seed, minutes, road, beta, on_tick=tick_reporter())
 
 
+def _track_rollout_job(checkpoint: str, out: str, seed: int, minutes: float, style: str, beta: float,
+                       camera) -> dict:
+    """A rollout in the track world: the model drives through the donkeycar part as in the track suite (its
+    default throttle, cap of the learned throttle and smoothing)."""
+    from steerlab.sim.part import donkey_pilot
+    from steerlab.sim.track_run import track_rollout
+
+    d = TrackSuiteOptions()
+    pilot = donkey_pilot(checkpoint, d.throttle, d.smoothing, d.max_throttle)
+    return track_rollout(pilot, out, seed, minutes, style, beta, camera, on_tick=tick_reporter())
+
+
 def run_dagger(cfg: TrainConfig, progress: bool = True) -> Path:
     """Run DAgger as configured (a training config with a `dagger` section); returns the final checkpoint."""
     from steerlab.train.loop import train
 
     o = dagger_options(cfg)
+    rec = main_recording(cfg)
+    _check_world(o, rec)
     suite = None if o.world == "replay" else round_suite(o)
     if suite:  # its road types checked before anything is written
         try:
@@ -89,11 +139,13 @@ def run_dagger(cfg: TrainConfig, progress: bool = True) -> Path:
         except SteerlabError as e:
             raise SteerlabError(f"dagger.suite_roads: {e}") from None
     out = folder_to_write(cfg.out, "output folder (out)")
-    car = car_of(main_recording(cfg).geometry)
+    car = car_of(rec.geometry)
     cfg = cfg.for_car(car)
     _claim(out, cfg, o, car)
     base = replace(cfg, dagger=None)
-    types = road_types(o.roads)
+    track = o.world == "track"
+    kinds = STYLES if track else road_types(o.roads)  # one rollout of each per round
+    camera = (rec.fisheye or DONKEY_FISHEYE,) if track else ()  # the track world renders the recording's fisheye
     replay = SplitReplay(cfg, o.speed) if o.world == "replay" else None
     rows, extra = _read_log(out), list(cfg.extra_data)
     for r in range(o.iterations + 1):
@@ -111,17 +163,18 @@ def run_dagger(cfg: TrainConfig, progress: bool = True) -> Path:
                                                   o.seeds_from + 100 * r, progress)
         elif r > 0:
             jobs = []
-            for k, road in enumerate(types):
-                folder = run / "rollouts" / f"{road}-{o.seeds_from + 100 * r + k}"
+            for k, kind in enumerate(kinds):
+                folder = run / "rollouts" / f"{kind}-{o.seeds_from + 100 * r + k}"
                 extra.append(str(folder))
-                if not (folder / "recording.json").exists():
+                if not (folder / ("manifest.json" if track else "recording.json")).exists():
                     shutil.rmtree(folder, ignore_errors=True)  # an interrupted rollout starts again
                     jobs.append((str(out / f"round{r - 1}" / "best.pt"), str(folder), o.seeds_from + 100 * r + k,
-                                 o.minutes / len(types), road, beta))
+                                 o.minutes / len(kinds), kind, beta, *camera))
             if progress and jobs:
-                print(f"== DAgger round {r}: rolling out round {r - 1}'s model on {len(jobs)} road(s), beta {beta:.3f}")
-            rollout_metrics = run_parallel(_rollout_job, jobs, o.workers, int(round(o.minutes / len(types) * 60 * 20)),
-                                           progress, "rollouts")
+                print(f"== DAgger round {r}: rolling out round {r - 1}'s model on {len(jobs)} "
+                      f"{'track' if track else 'road'}(s), beta {beta:.3f}")
+            rollout_metrics = run_parallel(_track_rollout_job if track else _rollout_job, jobs, o.workers,
+                                           int(round(o.minutes / len(kinds) * 60 * 20)), progress, "rollouts")
         round_cfg = replace(base, out=str(run), extra_data=tuple(extra))
         if r > 0:
             round_cfg = replace(round_cfg, train=replace(round_cfg.train, epochs=o.epochs,
@@ -135,6 +188,9 @@ def run_dagger(cfg: TrainConfig, progress: bool = True) -> Path:
         metrics = json.loads((run / "metrics.json").read_text())
         if replay:
             closed = replay.evaluate(run / "best.pt", run / "replay", progress)
+        elif track and suite:
+            closed = _track_columns(run_track_suite([run / "best.pt"], run / "suite", suite, progress=progress,
+                                                    plots=False))  # the tables; `sim bench` draws the tracks
         elif suite:
             summary = run_suite([run / "best.pt"], run / "suite", suite, progress=progress)
             closed = {f"autonomy_{s['road_type']}": s["autonomy"] for s in summary}
@@ -177,7 +233,16 @@ def _claim(out: Path, cfg: TrainConfig, o: DaggerOptions, car) -> None:
 
 
 FIELDS = ["round", "beta", "recordings", "rollout_autonomy", "val_rmse", "autonomy_country", "autonomy_highway",
-          "autonomy_twisty", "autonomy_all", "interventions_per_km", "replay_autonomy", "replay_interventions_per_km"]
+          "autonomy_twisty", "autonomy_all", "interventions_per_km", "replay_autonomy", "replay_interventions_per_km",
+          "clean_laps_pct", "lap_ratio", "off_track_per_lap"]  # the last three: the track suite's
+
+
+def _track_columns(summary: list[dict]) -> dict:
+    """The track suite over all its tracks: clean laps in % of the laps completed (empty without a lap), the mean
+    clean lap time over the expert's (empty without a clean lap) and off-track events per lap driven."""
+    a = next(s for s in summary if s["style"] == "all")
+    return {"clean_laps_pct": 100 * a["clean_laps"] / a["laps"] if a["laps"] else "",
+            "lap_ratio": "" if a["lap_ratio"] is None else a["lap_ratio"], "off_track_per_lap": a["off_track_per_lap"]}
 
 
 def _log_row(r, beta, extra, rollout_metrics, metrics, closed: dict) -> dict:

@@ -169,8 +169,10 @@ def register(sub) -> None:
     q.set_defaults(func=cmd_sim_bench)
 
     q = sim.add_parser("dagger", help="DAgger: train, roll the model out, let the expert label, aggregate, retrain",
-                       epilog="example: steerlab sim dagger configs/dagger_pilotnet.yaml dagger.iterations=2")
-    path_option(q, "config", kind="file", help="training config with a 'dagger' section (see configs/dagger_pilotnet.yaml)")
+                       epilog="example: steerlab sim dagger configs/dagger_pilotnet.yaml dagger.iterations=2; in the "
+                              "track world: steerlab sim dagger configs/track_dagger.yaml")
+    path_option(q, "config", kind="file", help="training config with a 'dagger' section (see "
+                "configs/dagger_pilotnet.yaml; dagger.world: synthetic, replay or track)")
     q.add_argument("overrides", nargs="*", help="section.key=value overrides, e.g. dagger.minutes=2")
     q.set_defaults(func=cmd_sim_dagger)
 

@@ -8,7 +8,7 @@ arc length), `expert_steering()`, `step(road_wheel, throttle=None)`, `steering_r
 the `TrackWorld` and the replay of a recording (`sim.replay.ReplayWorld`). Each tick the car is put back if it
 left the lane (an intervention, after which the pilot forgets its past; what leaving the lane means, and what
 `limit_m` measures, is the world's), the camera frame is taken, the pilot answers, and the car moves by the
-model's command (or, for DAgger, by whatever `choose` picks) and, where the pilot gives one, its throttle: a
+model's command and, where the pilot gives one, its throttle (or, for DAgger, by whatever `choose` picks): a
 world whose speed comes from the throttle (the track world) drives by it, the others follow their own speed
 profile or recording and ignore it."""
 
@@ -130,10 +130,10 @@ def autonomy(interventions: int, elapsed_s: float) -> float:
 def drive_loop(world, pilot, ticks: int, limit_m: float, fps: float, choose=None, on_step=None, desc: str = "drive",
                progress: bool = True, on_tick=None) -> Trajectory:
     """Drive `pilot` in `world` for `ticks` frames (or until `world.done`). The pilot's steering (in
-    `pilot.convention`) becomes a road-wheel angle through `world.steering_ratio`; `choose(tick)` returns the
-    road-wheel angle to apply instead (DAgger's mix of model and expert); the pilot's throttle (`Controls.throttle`,
-    None for a pilot that gives none) goes to `world.step` with it. `on_step(tick)` sees every tick (recording,
-    video); `on_tick(k)` is called every 100 ticks (progress of a suite)."""
+    `pilot.convention`) becomes a road-wheel angle through `world.steering_ratio`; the pilot's throttle
+    (`Controls.throttle`, None for a pilot that gives none) goes to `world.step` with it; `choose(tick)` returns
+    the (road-wheel angle, throttle) to apply instead (DAgger's mix of model and expert). `on_step(tick)` sees
+    every tick (recording, video); `on_tick(k)` is called every 100 ticks (progress of a suite)."""
     rows = []
     for i in tqdm(range(ticks), desc=desc, unit="tick", disable=None if progress else True):
         if world.done:
@@ -150,7 +150,7 @@ def drive_loop(world, pilot, ticks: int, limit_m: float, fps: float, choose=None
         if on_step:
             on_step(tick)
         rows.append((i / fps, st.x, st.y, world.s, offset, command, st.v, heading, float(put_back)))
-        world.step(tick.model if choose is None else choose(tick), controls.throttle)
+        world.step(*((tick.model, controls.throttle) if choose is None else choose(tick)))
         if on_tick and (i + 1) % 100 == 0:
             on_tick(100)
     a = np.array(rows, dtype=float).reshape(-1, 9).T
@@ -159,10 +159,12 @@ def drive_loop(world, pilot, ticks: int, limit_m: float, fps: float, choose=None
 
 def rollout(pilot, worlds, writer, convention, beta: float, rng: np.random.Generator, limit_m: float, fps: float,
             on_tick=None, desc: str = "rollout", progress: bool = False) -> Trajectory:
-    """DAgger's data collection in any world: drive `pilot` through each (world, ticks) of `worlds` while, with
-    probability `beta` each tick, the expert steers instead, and record every visited frame with `writer` —
-    the centre camera, and the side views the writer has cameras for (the world rendered from a camera the
-    car's `side_camera_offset_m` to either side) — labelled with the expert's steering in `convention`."""
+    """DAgger's data collection in the road world and in replay: drive `pilot` through each (world, ticks) of
+    `worlds` while, with probability `beta` each tick, the expert steers instead, and record every visited frame
+    with `writer` — the centre camera, and the side views the writer has cameras for (the world rendered from a
+    camera the car's `side_camera_offset_m` to either side) — labelled with the expert's steering in
+    `convention`. (The track world's, which labels the throttle too and writes a tub, is
+    `track_run.track_rollout`.)"""
     trajs = []
     for world, ticks in worlds:
         sides = {c: off for c, off in (("left", world.car.side_camera_offset_m),
@@ -176,7 +178,8 @@ def rollout(pilot, worlds, writer, convention, beta: float, rng: np.random.Gener
                                 "episode": "rollout"})
 
         trajs.append(drive_loop(world, pilot, ticks, limit_m, fps, on_step=on_step, desc=desc, progress=progress,
-                                choose=lambda t: t.expert if rng.random() < beta else t.model, on_tick=on_tick))
+                                choose=lambda t: (t.expert if rng.random() < beta else t.model, t.throttle),
+                                on_tick=on_tick))
     out = trajs[0]
     for t in trajs[1:]:
         out = out.concat(t)

@@ -74,12 +74,12 @@ def _closed(xy: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
 
 
 def plot_rounds(path: str | Path, rows: list[dict]) -> None:
-    """DAgger: closed-loop autonomy per road type, or in replay (and the validation RMSE) against the round;
-    the validation RMSE alone when the rounds were not driven (`suite: null`)."""
+    """DAgger: closed-loop autonomy per road type, or in replay, or the track suite's clean laps (and the
+    validation RMSE) against the round; the validation RMSE alone when the rounds were not driven (`suite: null`)."""
     with figure(path, figsize=(7, 4)) as (fig, ax):
         rounds = [int(r["round"]) for r in rows]
         rmse = [float(r["val_rmse"]) for r in rows]
-        if not any(r.get(k, "") != "" for r in rows for k in ("autonomy_all", "replay_autonomy")):
+        if not any(r.get(k, "") != "" for r in rows for k in ("autonomy_all", "replay_autonomy", "clean_laps_pct")):
             ax.plot(rounds, rmse, "kx:")
             ax.set_xlabel("DAgger round")
             ax.set_ylabel("validation RMSE [the recording's steering unit]")
@@ -88,13 +88,14 @@ def plot_rounds(path: str | Path, rows: list[dict]) -> None:
             return
         for key, style, label in [("autonomy_country", "o-", "country"), ("autonomy_highway", "s-", "highway"),
                                   ("autonomy_twisty", "^-", "twisty"), ("autonomy_all", "k.--", "all"),
-                                  ("replay_autonomy", "kD-", "replay")]:
+                                  ("replay_autonomy", "kD-", "replay"),
+                                  ("clean_laps_pct", "g*-", "clean laps of the track suite")]:
             values = [float(r[key]) if r.get(key, "") != "" else np.nan for r in rows]
             if not np.all(np.isnan(values)):
                 ax.plot(rounds, values, style, label=label)
         ax.set_xlabel("DAgger round")
-        ax.set_ylabel("closed-loop autonomy [%]")
-        ax.set_ylim(top=101)  # autonomy is at most 100 %
+        ax.set_ylabel("closed-loop autonomy or clean laps [%]")
+        ax.set_ylim(top=101)  # at most 100 %
         ax.set_xticks(rounds)
         ax.grid(alpha=0.3)
         ax2 = ax.twinx()

@@ -1,5 +1,6 @@
-"""Recording the racing expert in the track world (`steerlab sim record --world track`) and letting a model drive
-it (`steerlab sim drive --world track`), both through `driving.drive_loop`.
+"""Recording the racing expert in the track world (`steerlab sim record --world track`), letting a model drive it
+(`steerlab sim drive --world track`) and rolling a model out with the expert labelling every visited frame (DAgger,
+`dagger: {world: track}`), all through `driving.drive_loop`.
 
 A recording is a donkeycar tub v2 by default, what a donkeycar owner's own driving gives: `user/angle` (the
 servo command: the expert's road-wheel angle over the car's full lock, positive right) and `user/throttle` (the
@@ -23,6 +24,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from steerlab.data.fisheye import DONKEY_FISHEYE, FisheyeCamera
 from steerlab.data.recording import SteeringConvention
 from steerlab.data.writer import RecordingWriter, TubWriter
 from steerlab.errors import SteerlabError
@@ -155,6 +157,32 @@ def drive_expert(out: str | Path, o: TrackDriveOptions, on_tick=None, meta: dict
     t.write(out / "trajectory.csv")
     (out / "drive.json").write_text(json.dumps({**result, **(meta or {})}, indent=1))
     return result
+
+
+def track_rollout(pilot, out: str | Path, seed: int, minutes: float, style: str = "taped", beta: float = 0.0,
+                  camera: FisheyeCamera = DONKEY_FISHEYE, fps: float = 20.0, on_tick=None) -> dict:
+    """DAgger's data collection in the track world: `pilot` races the track made from `seed` (`style`, the default
+    lane width) for `minutes`, seen through `camera`, with off-track events as in `drive_track`, while with
+    probability `beta` each tick the expert drives instead, steering and throttle. Every visited frame is written
+    to a tub in `out` labelled with the expert's steering and throttle in its state (`TrackWorld.expert_controls`:
+    the expert without lag, noise or drift episodes). Returns the drive's `track_result`."""
+    check_track_seed(seed)
+    check_camera(pilot)
+    world = TrackWorld(seed, style=style, fps=fps, camera=camera)
+    check_steers(pilot, world.car)
+    tub = TubWriter(out, world.car.full_lock_deg, metadata={"fisheye": asdict(camera)})
+    rng = np.random.default_rng([seed, 9])
+    expert = {}
+
+    def label(t):
+        expert["controls"] = world.expert_controls()
+        tub.add(t.frame, int(round(t.index * 1e9 / fps)), *expert["controls"])
+
+    t = drive_loop(world, pilot, _ticks(minutes, fps), 0.0, fps, on_step=label, desc=f"rollout track {seed}",
+                   progress=False, on_tick=on_tick,
+                   choose=lambda t: expert["controls"] if rng.random() < beta else (t.model, t.throttle))
+    tub.close()
+    return track_result(pilot.name, TrackDriveOptions(seed, minutes, fps, style=style), t, world)
 
 
 def title(r: dict) -> str:

@@ -32,7 +32,7 @@ from steerlab.data.recording import SteeringConvention
 from steerlab.errors import SteerlabError
 from steerlab.options import AT_LEAST_0, Options, POSITIVE, Range, UNIT, option
 from steerlab.pilot import Controls
-from steerlab.sim.racer import Racer, pursuit
+from steerlab.sim.racer import Racer, expert_controls, pursuit
 from steerlab.sim.smallcar import SmallCar
 from steerlab.sim.track import LANE_WIDTH, Track
 from steerlab.sim.track_render import TrackRenderer
@@ -203,6 +203,11 @@ class TrackWorld:
     def expert_steering(self) -> float:
         """The expert's road-wheel angle (rad, positive left) in this state: pure pursuit of the lane centre."""
         return pursuit(self.track, self.state, self.s, 0.0, self.car.wheelbase)
+
+    def expert_controls(self) -> tuple[float, float]:
+        """The expert's (road-wheel angle, throttle) in this state, without lag, noise or memory
+        (`racer.expert_controls`): the labels of DAgger's rollouts."""
+        return expert_controls(self.track, self.state, self.s, self.car)
 
     def step(self, road_wheel: float, throttle: float | None = None) -> None:
         """Apply a road-wheel angle and a throttle in [-1, 1] (None: the world's constant one) for one frame,
