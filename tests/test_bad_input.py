@@ -450,6 +450,10 @@ BAD_INPUTS = {
     "sim dagger in the track world with a road suite": (
         lambda t, s: ["sim", "dagger", str(config(t, tub(t / "tub"))), "dagger.world=track"],
         "dagger.suite: v1 is a road suite; world track drives a track suite (t1) or none (null)"),
+    "sim dagger in the track world with a track style that does not exist": (
+        lambda t, s: ["sim", "dagger", str(config(t, tub(t / "tub"))), "dagger.world=track", "dagger.suite=t1",
+                      "dagger.suite_roads=gravel"],
+        "dagger.suite_roads: suite t1 has no gravel tracks; choose styles of taped, centre"),
     "sim dagger on roads with a tub": (lambda t, s: ["sim", "dagger", str(config(t, tub(t / "tub")))],
                                        "holds 'donkey' frames: choose world track"),
     "an override whose value is not YAML": (_train("train.lr=,"), "override 'train.lr=,': the value is not valid YAML "
