@@ -100,10 +100,11 @@ def plot_rounds(path: str | Path, rows: list[dict]) -> None:
         ax.grid(alpha=0.3)
         ax2 = ax.twinx()
         ax2.plot(rounds, rmse, color="0.6", ls=":", marker="x", label="val RMSE")
-        ax2.set_ylabel("validation RMSE [the recording's steering unit]", color="0.4")
+        ax2.set_ylabel("validation RMSE [steering unit]", color="0.4")
         lines = ax.get_legend_handles_labels()
         extra = ax2.get_legend_handles_labels()
-        ax.legend(lines[0] + extra[0], lines[1] + extra[1], fontsize=8, loc="lower right")
+        ax.legend(lines[0] + extra[0], lines[1] + extra[1], fontsize=8, loc="upper center", ncol=3,
+                  bbox_to_anchor=(0.5, -0.15))  # below the axes: over none of the lines, near 100 % or near 0
 
 
 def plot_offsets(path: Path, trajs: dict[str, Trajectory], limit_m: float, title: str,
