@@ -327,6 +327,19 @@ def test_rendered_frames_are_deterministic_and_differ_between_tracks(renderers, 
     assert all((a != b).any() for a, b in zip(masks, masks[1:]) if a.any() or b.any())
 
 
+def test_track_worlds_of_one_track_share_its_renderer(renderers, tracks):
+    """A renderer is built once per track and camera in a process (the suite and DAgger drive a track many
+    times); it renders what a renderer of its own renders."""
+    from steerlab.sim.track_world import TrackWorld
+
+    a, b = TrackWorld(1), TrackWorld(1)
+    assert a.renderer is b.renderer and a.track is a.renderer.track
+    assert TrackWorld(1, style="centre").renderer is not a.renderer
+    assert TrackWorld(1, camera=replace(DONKEY_FISHEYE, pitch_deg=10.0)).renderer is not a.renderer
+    pose = [float(v) for v in tracks[1].pose(2.0)]
+    assert a.renderer.render(*pose, 2.0).tobytes() == renderers[1].render(*pose, 2.0).tobytes()
+
+
 def test_lane_lines_appear_where_the_camera_projects_them(renderers, tracks):
     cam = DONKEY_FISHEYE
     for seed, r in renderers.items():
