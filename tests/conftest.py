@@ -50,12 +50,13 @@ def ch2_folder(tmp_path):
 
 
 # Command-line worker processes of the tests (tuning workers, as on several machines) are forked from a server process
-# that imported torch, its compiler module (which torch.optim imports) and steerlab once, as the closed-loop workers
+# that imported torch, its compiler module (which torch.optim imports), steerlab and the database layer of Optuna's
+# storages (SQLAlchemy and alembic) once, as the closed-loop workers
 # are (steerlab/sim/parallel.py): each is a process of its own that runs `steerlab.cli.main(argv)`, without paying
 # about 4 s of imports. The server starts with the session, in every process that runs tests, so that it is the one
 # the closed-loop workers fork from too.
 PRELOAD = ["torch", "torch._dynamo", "optuna", "steerlab.cli", "steerlab.train.loop", "steerlab.tune.run",
-           "steerlab.sim.bench"]
+           "steerlab.sim.bench", "sqlalchemy.orm", "alembic.context"]
 
 
 def pytest_configure(config):

@@ -107,7 +107,7 @@ def test_experiment_table(tiny_recording, tmp_path, capsys):
     cfg.write_text(f"""
 data: {tiny_recording}
 cache: {tmp_path / 'cache'}
-split: {{train: "0:220", val: "220:300"}}
+split: {{train: "0:80", val: "80:160"}}
 train: {{epochs: 1, batch_size: 16}}
 out: {tmp_path / 'exp'}
 closed_loop: {{suite: v1, minutes: 0.01, workers: 1, roads: twisty}}

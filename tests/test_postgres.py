@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 
 from conftest import CliProcess
-from test_tune import HOLD, rows, run_tune, tune_config
+from test_tune import Hold, rows, run_tune, tune_config
 
 HEARTBEAT = "1,3"  # STEERLAB_TUNE_HEARTBEAT: beat every second, fail a trial silent for 3 s
 
@@ -173,13 +173,13 @@ def test_the_server_gets_a_folder_its_user_can_enter(tmp_path, monkeypatch):
     assert folder.parent == Path("/tmp")
 
 
-def worker(cfg, url, study, trials, *options, seed=0, hold=False):
-    """A `steerlab tune` worker process (conftest.CliProcess); `hold`: one whose trial stops after its first epoch
-    until it is killed."""
+def worker(cfg, url, study, trials, *options, seed=0, hold=None):
+    """A `steerlab tune` worker process (conftest.CliProcess); `hold` (a test_tune.Hold): one whose trial stops
+    after its first epoch until it is killed."""
     env = {**os.environ, "STEERLAB_TUNE_HEARTBEAT": HEARTBEAT, "OMP_NUM_THREADS": "1"}
     argv = ["tune", str(cfg), "--trials", str(trials), "--storage", url, "--study", study, "--seed", str(seed),
             *options]
-    return CliProcess(argv, Path(cfg).with_suffix(".err"), env, prelude=HOLD if hold else "")
+    return CliProcess(argv, Path(cfg).with_suffix(".err"), env, prelude=hold.prelude if hold else "")
 
 
 _storages = {}
@@ -233,30 +233,22 @@ def test_postgres_killed_worker_trial_is_failed_and_retried(postgres, tmp_path, 
 
     url = postgres.database()
     a_out, b_out = tmp_path / "a", tmp_path / "b"
-    a = worker(tune_config(tmp_path, tiny_recording, a_out, epochs=2), url, "s", 3, "--no-pruning", seed=0, hold=True)
+    hold = Hold(tmp_path)
+    a = worker(tune_config(tmp_path, tiny_recording, a_out, epochs=2), url, "s", 3, "--no-pruning", seed=0, hold=hold)
     b = worker(tune_config(tmp_path, tiny_recording, b_out, epochs=2), url, "s", 3, "--no-pruning", seed=1)
     killed = None
     try:
-        while killed is None and a.poll() is None:  # until a has trained an epoch (and holds), however busy
-            time.sleep(0.1)
-            mine = set(trial_folders(a_out))  # the trials worker a trains
-            if not mine:
-                continue
-            try:
-                trials = load(url, "s").trials
-            except KeyError:  # not created yet
-                continue
-            for t in trials:
-                if t.number in mine and t.state == TrialState.RUNNING and t.user_attrs.get("epochs_run", 0) >= 1:
-                    a.send_signal(signal.SIGKILL)  # after its first epoch, one to go
-                    killed = t
-                    break
+        if hold.wait(a):  # until a has trained an epoch (and holds), however busy
+            [number] = trial_folders(a_out)  # the trial worker a trains
+            killed = load(url, "s").trials[number]
+            a.send_signal(signal.SIGKILL)  # after its first epoch, one to go
     finally:
         if a.poll() is None:
             a.send_signal(signal.SIGKILL)
         a.wait()
         assert b.wait(timeout=120) == 0, b.errors()
     assert killed is not None and a.returncode == -signal.SIGKILL, f"worker a never trained an epoch: {a.errors()}"
+    assert killed.state == TrialState.RUNNING and killed.user_attrs["epochs_run"] == 1
     study = load(url, "s")
     trials = study.trials
     assert trials[killed.number].state == TrialState.FAIL  # failed by b's heartbeat check

@@ -138,7 +138,7 @@ def test_speed_estimated_from_the_frames(twisty):
 def test_replay_command_writes_its_report(tiny_checkpoint, twisty, tmp_path, capsys):
     out = tmp_path / "replay"
     assert main(["replay", str(tiny_checkpoint), str(tiny_checkpoint.parent / "last.pt"), "--data", str(twisty.source),
-                 "--range", "0:100", "--out", str(out), "--video", str(tmp_path / "r.mp4"), "--workers", "1"]) == 0
+                 "--range", "0:70", "--out", str(out), "--video", str(tmp_path / "r.mp4"), "--workers", "1"]) == 0
     printed = capsys.readouterr().out
     assert "| checkpoint | recording | km |" in printed and "(recorded)" in printed
     rows = list(csv.DictReader(open(out / "replay.csv")))
@@ -152,14 +152,14 @@ def test_replay_command_writes_its_report(tiny_checkpoint, twisty, tmp_path, cap
     for label in ("best", "last"):
         assert (tmp_path / f"r-{label}.mp4").exists()
     traj = Trajectory.read(out / "best" / "trajectory.csv")
-    assert len(traj) == 99 and traj.interventions == int(rows[0]["interventions"])
+    assert len(traj) == 69 and traj.interventions == int(rows[0]["interventions"])
     assert traj.frame[0] == 0 and (traj.segment == 0).all()
-    assert main(["replay", str(tiny_checkpoint), "--data", str(twisty.source), "--range", "0:100", "--speed", "9",
+    assert main(["replay", str(tiny_checkpoint), "--data", str(twisty.source), "--range", "0:70", "--speed", "9",
                  "--out", str(tmp_path / "given"), "--workers", "1"]) == 0
     given = next(csv.DictReader(open(tmp_path / "given" / "replay.csv")))
     assert given["speed_source"] == "given (--speed)" and float(given["speed_mps"]) == pytest.approx(9.0)
     # --smoothing smooths the commands as when driving: the first tick is the same command, the second the mix
-    assert main(["replay", str(tiny_checkpoint), "--data", str(twisty.source), "--range", "0:100", "--smoothing",
+    assert main(["replay", str(tiny_checkpoint), "--data", str(twisty.source), "--range", "0:70", "--smoothing",
                  "0.2", "--out", str(tmp_path / "smooth"), "--workers", "1"]) == 0
     smooth = Trajectory.read(next((tmp_path / "smooth").glob("*/trajectory.csv"))).command
     assert smooth[0] == pytest.approx(traj.command[0], abs=1e-4)
@@ -175,7 +175,7 @@ def test_replay_without_speed_needs_one(tiny_checkpoint, twisty, tmp_path, capsy
     assert "none.pt: checkpoint not found" in capsys.readouterr().err
     flat = tmp_path / "flat"
     (flat / "center").mkdir(parents=True)
-    ids = [1_000_000_000 + i * 50_000_000 for i in range(100)]
+    ids = [1_000_000_000 + i * 50_000_000 for i in range(70)]
     for fid in ids:
         cv2.imwrite(str(flat / "center" / f"{fid}.jpg"), np.full((480, 640, 3), 90, np.uint8))
     (flat / "labels.csv").write_text("frame_id,steering_angle,public\n" + "".join(f"{f},0.0,1\n" for f in ids))
@@ -185,7 +185,7 @@ def test_replay_without_speed_needs_one(tiny_checkpoint, twisty, tmp_path, capsy
     assert "cannot estimate the speed" in capsys.readouterr().err and not (tmp_path / "x").exists()
     assert main([*argv, "--speed", "10", "--out", str(tmp_path / "given")]) == 0
     row = next(csv.DictReader(open(tmp_path / "given" / "replay.csv")))
-    assert row["speed_source"] == "given (--speed)" and float(row["km"]) == pytest.approx(10 * 99 * 0.05 / 1000)
+    assert row["speed_source"] == "given (--speed)" and float(row["km"]) == pytest.approx(10 * 69 * 0.05 / 1000)
 
 
 @needs_donkey
@@ -194,14 +194,14 @@ def test_replay_a_donkeycar_tub_as_a_road(tmp_path, capsys):
     with the donkeycar geometry and its full-lock angle; the speed estimated from the hall's plain floor is no
     speed a donkeycar drives at, so it asks for --speed."""
     ckpt = made(tmp_path, "normalized", "right", "donkey", "donkey.pt", full_lock_deg=25)
-    argv = ["replay", str(ckpt), "--data", str(HALL), "--reader", "full_lock_deg=25", "--range", "0:400",
+    argv = ["replay", str(ckpt), "--data", str(HALL), "--reader", "full_lock_deg=25", "--range", "0:200",
             "--world", "road", "--workers", "1", "--out", str(tmp_path / "r")]
     assert main(argv) == 2
     assert "is not one this car drives at (0.3-8 m/s)" in capsys.readouterr().err
     assert main([*argv, "--speed", "2"]) == 0
     row = next(csv.DictReader(open(tmp_path / "r" / "replay.csv")))
     assert float(row["speed_mps"]) == 2.0 and row["recording"] == "hall"
-    assert main(["replay", str(ckpt), "--data", str(HALL), "--range", "0:400", "--speed", "2", "--world", "road",
+    assert main(["replay", str(ckpt), "--data", str(HALL), "--range", "0:200", "--speed", "2", "--world", "road",
                  "--workers", "1", "--out", str(tmp_path / "y")]) == 2
     assert "full-lock angle" in capsys.readouterr().err  # a tub without full_lock_deg has no angles
 
@@ -214,24 +214,24 @@ def test_dagger_in_replay(twisty, tmp_path):
 
     cfg = load_config(None, base={
         "data": str(twisty.source), "cache": str(tmp_path / "cache"), "out": str(tmp_path / "dagger"),
-        "split": {"train": "0:100", "val": "100:200"}, "train": {"epochs": 1, "batch_size": 32},
+        "split": {"train": "0:70", "val": "70:140"}, "train": {"epochs": 1, "batch_size": 32},
         "dagger": {"world": "replay", "iterations": 1, "beta": 0.0, "epochs": 1, "workers": 1}})
     run_dagger(cfg, progress=False)
     rows = list(csv.DictReader(open(tmp_path / "dagger" / "dagger.csv")))
     assert [r["round"] for r in rows] == ["0", "1"] and all(r["replay_interventions_per_km"] != "" for r in rows)
     assert rows[0]["autonomy_all"] == "" and rows[1]["recordings"] == "2"
     rollout = open_recording(tmp_path / "dagger" / "round1" / "rollouts" / "replay")
-    assert rollout.convention == twisty.convention and rollout.geometry == "sim" and len(rollout) == 99
+    assert rollout.convention == twisty.convention and rollout.geometry == "sim" and len(rollout) == 69
     assert set(rollout.extra["episode"]) == {"rollout"}
-    np.testing.assert_array_equal(rollout.timestamps_ns, twisty.timestamps_ns[:99])
+    np.testing.assert_array_equal(rollout.timestamps_ns, twisty.timestamps_ns[:69])
     # off the path, the label steers back towards it: left of the human's steering when the car is right of it
-    human = twisty.steering[:99]
+    human = twisty.steering[:69]
     off = np.abs(rollout.extra["lateral_offset"]) > 0.2
     assert off.any()
     back = np.sign(rollout.steering[off] - human[off]) == -np.sign(rollout.extra["lateral_offset"][off])
     assert back.mean() > 0.9
     replayed = list(csv.DictReader(open(tmp_path / "dagger" / "round1" / "replay" / "replay.csv")))
-    assert float(replayed[0]["km"]) == pytest.approx(np.sum(twisty.speed[100:199]) * 0.05 / 1000, rel=0.05)
+    assert float(replayed[0]["km"]) == pytest.approx(np.sum(twisty.speed[70:139]) * 0.05 / 1000, rel=0.05)
 
 
 def test_record_suite_roads_only_when_asked(tmp_path):

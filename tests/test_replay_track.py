@@ -134,9 +134,9 @@ def test_speed_from_a_constant_throttle_approaches_the_small_cars_steady_state()
 
 @pytest.fixture(scope="module")
 def track_tub(tmp_path_factory):
-    """6 s of the racing expert (no drift episodes) in the track world, as a tub."""
+    """3.6 s of the racing expert (no drift episodes) in the track world, as a tub."""
     out = tmp_path_factory.mktemp("track") / "tub"
-    assert main(["sim", "record", "--world", "track", "--seed", "5", "--minutes", "0.1", "--no-drift",
+    assert main(["sim", "record", "--world", "track", "--seed", "5", "--minutes", "0.06", "--no-drift",
                  "--out", str(out)]) == 0
     return out
 

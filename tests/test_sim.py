@@ -26,9 +26,9 @@ def _digest(folder):
 
 
 def test_same_seed_same_bytes(tmp_path):
-    a = record(tmp_path / "a", RecordOptions(seed=7, minutes=0.05), progress=False)
-    b = record(tmp_path / "b", RecordOptions(seed=7, minutes=0.05), progress=False)
-    c = record(tmp_path / "c", RecordOptions(seed=8, minutes=0.05), progress=False)
+    a = record(tmp_path / "a", RecordOptions(seed=7, minutes=0.025), progress=False)
+    b = record(tmp_path / "b", RecordOptions(seed=7, minutes=0.025), progress=False)
+    c = record(tmp_path / "c", RecordOptions(seed=8, minutes=0.025), progress=False)
     assert _digest(a) == _digest(b) != _digest(c)
 
 
@@ -107,8 +107,8 @@ def test_speed_commands_have_all_classes(tmp_path, blank_frames):
 
 
 def test_udacity_sim_layout_round_trip(tmp_path):
-    out = record(tmp_path / "u", RecordOptions(seed=4, minutes=0.05, layout="udacity-sim"), progress=False)
-    native = record(tmp_path / "n", RecordOptions(seed=4, minutes=0.05), progress=False)
+    out = record(tmp_path / "u", RecordOptions(seed=4, minutes=0.025, layout="udacity-sim"), progress=False)
+    native = record(tmp_path / "n", RecordOptions(seed=4, minutes=0.025), progress=False)
     a, b = open_recording(out / "driving_log.csv"), open_recording(native)
     assert a.cameras == ["center", "left", "right"] and len(a) == len(b)
     road_a = a.convention.to_road_wheel_left(a.steering, 14.8)
@@ -130,8 +130,9 @@ def test_bad_inputs_give_clear_errors(tmp_path, capsys):
 
 def test_tiny_demo_end_to_end(tmp_path, capsys):
     out = tmp_path / "demo"
-    assert main(["demo", "--out", str(out), "--minutes", "0.3", "--epochs", "1", "--suite-minutes", "0.01",
-                 "--dagger-minutes", "0.02", "--workers", "1"]) == 0
+    # 81 frames at 5 fps: the held-out fifth (frames 64:81) lasts the 3 s that the closed-loop replay needs
+    assert main(["demo", "--out", str(out), "--minutes", "0.27", "--fps", "5", "--epochs", "1",
+                 "--suite-minutes", "0.01", "--dagger-minutes", "0.02", "--workers", "1"]) == 0
     printed = capsys.readouterr().out
     assert "| pilotnet | twisty | 3 |" in printed and "report:" in printed  # the suite's table, at the end
     text = (out / "report.md").read_text()

@@ -206,26 +206,26 @@ def test_the_steerlab_part_as_pilot_gives_what_the_part_gives(tmp_path):
 
 def test_sim_record_world_track_writes_a_tub_both_readers_read(tmp_path, donkeycar_tub_or_none):
     tub = tmp_path / "tub"
-    assert main(["sim", "record", "--world", "track", "--seed", "4", "--minutes", "0.3", "--out", str(tub)]) == 0
+    assert main(["sim", "record", "--world", "track", "--seed", "27", "--minutes", "0.1", "--out", str(tub)]) == 0
     lines = (tub / "manifest.json").read_text().splitlines()
     deleted = json.loads(lines[4])["deleted_indexes"]
     records = [json.loads(line) for line in (tub / "catalog_0.catalog").read_text().splitlines()]
-    assert len(records) == 360 and 0 < len(deleted) < 60  # the drift-outs (one here), marked deleted
+    assert len(records) == 120 and 0 < len(deleted) < 60  # the drift-outs (one here), marked deleted
     rec = open_recording(tub)
-    assert len(rec) == 360 - len(deleted) and rec.geometry == "donkey" and rec.convention.kind == "normalized"
+    assert len(rec) == 120 - len(deleted) and rec.geometry == "donkey" and rec.convention.kind == "normalized"
     kept = [r for r in records if r["_index"] not in deleted]
     np.testing.assert_array_equal(rec.steering, [r["user/angle"] for r in kept])
     assert np.abs(rec.steering).max() <= 1 and rec.throttle.max() > 0.3
     # every stretch kept after a cut is a session (a segment) of its own
-    cuts = sum(1 for i in deleted if i + 1 not in deleted and i + 1 < 360)
+    cuts = sum(1 for i in deleted if i + 1 not in deleted and i + 1 < 120)
     assert len(rec.segments()) == cuts + 1 == len(json.loads(lines[3])["sessions"]["all_full_ids"])
     # steerlab's own layout of the same drive keeps the drift-outs with their episode, in the same unit
     native = tmp_path / "native"
-    assert main(["sim", "record", "--world", "track", "--seed", "4", "--minutes", "0.3", "--layout", "steerlab",
+    assert main(["sim", "record", "--world", "track", "--seed", "27", "--minutes", "0.1", "--layout", "steerlab",
                  "--out", str(native)]) == 0
     full = open_recording(native)
     episodes = full.extra["episode"]
-    assert len(full) == 360 and set(episodes) == {"normal", "drift-out", "recover"}
+    assert len(full) == 120 and set(episodes) == {"normal", "drift-out", "recover"}
     assert list(np.flatnonzero(episodes == "drift-out")) == deleted
     np.testing.assert_allclose(full.steering[episodes != "drift-out"], rec.steering, atol=1e-6)
     assert full.convention.full_lock == pytest.approx(math.radians(25))
@@ -246,19 +246,19 @@ def donkeycar_tub_or_none(request):
 def test_sim_drive_world_track_with_a_tub_checkpoint(tmp_path, capsys):
     ckpt = made(tmp_path, "normalized", "right", "donkey", full_lock_deg=25)
     out = tmp_path / "drive"
-    assert main(["sim", "drive", str(ckpt), "--world", "track", "--minutes", "0.05", "--throttle", "0.4",
+    assert main(["sim", "drive", str(ckpt), "--world", "track", "--minutes", "0.025", "--throttle", "0.4",
                  "--out", str(out), "--video", str(out / "drive.mp4")]) == 0
     assert "off_track" in capsys.readouterr().out
     result = json.loads((out / "drive.json").read_text())
     with open(out / "trajectory.csv") as f:
         rows = list(csv.DictReader(f))
-    assert len(rows) == 60 and result["label"] == "pilotnet" and result["style"] == "taped"
+    assert len(rows) == 30 and result["label"] == "pilotnet" and result["style"] == "taped"
     assert result["off_track"] == sum(int(r["intervention"]) for r in rows)
-    assert result["autonomy"] == pytest.approx((1 - result["off_track"] * 6 / 3.0) * 100)
+    assert result["autonomy"] == pytest.approx((1 - result["off_track"] * 6 / 1.5) * 100)
     assert float(rows[-1]["speed"]) > 1.0  # throttle 0.4 for a steering model
     assert (out / "track.png").exists() and (out / "frames.png").exists()
     video = cv2.VideoCapture(str(out / "drive.mp4"))
-    assert sum(1 for _ in iter(lambda: video.read()[0], False)) == 60
+    assert sum(1 for _ in iter(lambda: video.read()[0], False)) == 30
 
 
 def test_a_model_that_learned_the_throttle_drives_the_track_with_its_own(tmp_path):
@@ -361,12 +361,12 @@ def test_dagger_in_the_track_world(tmp_path):
     from steerlab.train.config import load_config, parse_config
     from steerlab.train.sources import prepare_dataset, training_sources
 
-    record_track(tmp_path / "tub", TrackRecordOptions(seed=1, minutes=0.1, drift=False), progress=False)
+    record_track(tmp_path / "tub", TrackRecordOptions(seed=1, minutes=0.05, drift=False), progress=False)
     out = tmp_path / "dagger"
     cfg = load_config(None, base={
         "data": str(tmp_path / "tub"), "cache": str(tmp_path / "cache"), "out": str(out),
         "preprocess": {"preset": "donkey", "color": "gray"}, "model": {"name": "pilotnet"},
-        "split": {"train": "0:100", "val": "100:120"}, "train": {"epochs": 1, "batch_size": 16, "throttle_weight": 0.5},
+        "split": {"train": "0:40", "val": "40:60"}, "train": {"epochs": 1, "batch_size": 16, "throttle_weight": 0.5},
         "dagger": {"world": "track", "iterations": 1, "minutes": 0.05, "epochs": 1, "suite": "t1",
                    "suite_minutes": 0.01, "suite_roads": "centre", "workers": 1}})
     assert run_dagger(cfg, progress=False) == out / "best.pt"
@@ -385,5 +385,5 @@ def test_dagger_in_the_track_world(tmp_path):
     round0, round1 = (parse_config(json.loads((out / f"round{r}" / "config.json").read_text())) for r in (0, 1))
     assert round1.extra_data == tuple(str(p) for p in rollouts) and round1.train.init == str(out / "round0" / "best.pt")
     ds = prepare_dataset(round1, progress=False)
-    trained_on = [len(training_sources(c, ds, np.arange(100), progress=False)[1]) for c in (round0, round1)]
-    assert trained_on == [100, 160]
+    trained_on = [len(training_sources(c, ds, np.arange(40), progress=False)[1]) for c in (round0, round1)]
+    assert trained_on == [40, 100]
