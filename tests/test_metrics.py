@@ -175,6 +175,14 @@ def test_drift_episodes_and_rank_correlation():
     # ties share their mean rank: y ranks 0.5, 0.5, 2.5, 2.5 against 0, 1, 2, 3 -> 4 / (2 sqrt(5))
     assert rank_correlation([1, 2, 3, 4], [100, 100, 101, 101]) == pytest.approx(2 / np.sqrt(5))
     assert rank_correlation([4, 3, 2, 1], [100, 100, 101, 101]) == pytest.approx(-2 / np.sqrt(5))
+    # three ties, unsorted: y ranks 3, 3, 3, 1, 5 against 3, 1, 2, 5, 4 -> -2 / sqrt(10 * 8)
+    assert rank_correlation([3, 1, 2, 5, 4], [2, 2, 2, 1, 3]) == pytest.approx(-1 / (2 * np.sqrt(5)))
+    from scipy.stats import spearmanr  # scipy comes with the test set (scikit-learn's)
+
+    rng = np.random.default_rng(0)
+    for _ in range(20):  # many ties, as autonomy at 100 % gives
+        x, y = rng.integers(0, 4, 12), rng.integers(0, 3, 12)
+        assert rank_correlation(x, y) == pytest.approx(spearmanr(x, y).statistic, abs=1e-12)
     assert np.isnan(rank_correlation([1, 2, 3], [100, 100, 100]))  # every model drives equally well
     assert np.isnan(rank_correlation([1, 2], [1, 2]))
 

@@ -113,11 +113,18 @@ def plot_open_vs_closed(path: str | Path, tables: dict[str, list[dict]], metric:
 
 
 def rank_correlation(x, y) -> float:
-    """Spearman's rank correlation (`scipy.stats.spearmanr`: tied values share their mean rank, and many models
-    drive at 100 %). NaN for fewer than three points or when x or y takes a single value."""
-    from scipy.stats import spearmanr
-
+    """Spearman's rank correlation: the Pearson correlation of the values' ranks, tied values sharing their mean
+    rank (many models drive at 100 %). NaN for fewer than three points or when x or y takes a single value."""
     x, y = np.asarray(x, float), np.asarray(y, float)
     if len(x) < 3 or np.ptp(x) == 0 or np.ptp(y) == 0:
         return float("nan")
-    return float(spearmanr(x, y).statistic)
+    return float(np.corrcoef(_mean_ranks(x), _mean_ranks(y))[0, 1])
+
+
+def _mean_ranks(v: np.ndarray) -> np.ndarray:
+    """The ranks of `v` (1 for the smallest), tied values sharing the mean of their ranks."""
+    order = np.argsort(v, kind="stable")
+    _, first, count = np.unique(v[order], return_index=True, return_counts=True)
+    ranks = np.empty(len(v))
+    ranks[order] = np.repeat(first + (count + 1) / 2, count)
+    return ranks
