@@ -185,6 +185,7 @@ def test_drift_episodes_and_rank_correlation():
         assert rank_correlation(x, y) == pytest.approx(spearmanr(x, y).statistic, abs=1e-12)
     assert np.isnan(rank_correlation([1, 2, 3], [100, 100, 100]))  # every model drives equally well
     assert np.isnan(rank_correlation([1, 2], [1, 2]))
+    assert np.isnan(rank_correlation([1, 2, np.nan], [1, 2, 3]))  # a metric that one run lacks
 
 
 def test_metrics_in_normalized_units():

@@ -114,9 +114,10 @@ def plot_open_vs_closed(path: str | Path, tables: dict[str, list[dict]], metric:
 
 def rank_correlation(x, y) -> float:
     """Spearman's rank correlation: the Pearson correlation of the values' ranks, tied values sharing their mean
-    rank (many models drive at 100 %). NaN for fewer than three points or when x or y takes a single value."""
+    rank (many models drive at 100 %). NaN for fewer than three points, when x or y takes a single value, or when
+    either holds a NaN (a metric that some runs lack)."""
     x, y = np.asarray(x, float), np.asarray(y, float)
-    if len(x) < 3 or np.ptp(x) == 0 or np.ptp(y) == 0:
+    if len(x) < 3 or not (np.ptp(x) > 0 and np.ptp(y) > 0):  # ptp is NaN with a NaN
         return float("nan")
     return float(np.corrcoef(_mean_ranks(x), _mean_ranks(y))[0, 1])
 
