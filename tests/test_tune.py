@@ -139,6 +139,29 @@ def test_importance_names_the_parameter_the_objective_depends_on(tmp_path, tiny_
     assert (tmp_path / "twelve" / "importance.png").stat().st_size > 0
 
 
+def test_reports_leave_out_surplus_trials_and_trials_not_yet_claimed(tmp_path, tiny_recording):
+    """A worker's reports, written while another worker has just created a trial (RUNNING, no "worker" yet: it may
+    still turn out to be surplus), list the study's own trials only; once claimed, the trial is listed as running."""
+    import optuna
+
+    from steerlab.tune.report import write_reports
+
+    cfg = load_config(tune_config(tmp_path, tiny_recording, tmp_path / "x"))
+    space = {"train.lr": optuna.distributions.FloatDistribution(1e-5, 0.1, log=True)}
+    study = optuna.create_study()
+    study.add_trial(optuna.trial.create_trial(params={"train.lr": 1e-3}, distributions=space, value=0.1,
+                                              user_attrs={"epochs_run": 3, "worker": {"pid": 1}}))
+    surplus = study.ask()
+    study.set_user_attr(f"surplus_{surplus.number}", True)
+    study.tell(surplus, state=optuna.trial.TrialState.FAIL)
+    unclaimed = study.ask()
+    assert write_reports(study, tmp_path / "a", cfg)
+    assert [r["number"] for r in rows(tmp_path / "a")] == ["0"]
+    unclaimed.set_user_attr("worker", {"pid": 2})
+    assert write_reports(study, tmp_path / "b", cfg)
+    assert [(r["number"], r["state"]) for r in rows(tmp_path / "b")] == [("0", "complete"), ("2", "running")]
+
+
 def test_rerun_reproduces_the_trials(tmp_path, tiny_recording):
     from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
 

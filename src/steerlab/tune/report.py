@@ -75,7 +75,13 @@ def write_reports(study, out: Path, cfg: TrainConfig) -> bool:
     TrialState = optuna().trial.TrialState
     vis = optuna().visualization.matplotlib
     out.mkdir(parents=True, exist_ok=True)
-    trials = [t for t in study.get_trials(deepcopy=False) if not study.user_attrs.get(f"surplus_{t.number}")]
+    # the study's own trials: not the surplus ones, nor one that another worker has just created and not yet
+    # claimed (it has no "worker" yet), which may still turn out to be surplus
+    # (read after the trials: a worker marks a trial surplus before it fails it)
+    trials = study.get_trials(deepcopy=False)
+    surplus = {k for k in study.user_attrs if k.startswith("surplus_")}
+    trials = [t for t in trials if f"surplus_{t.number}" not in surplus
+              and (t.state != TrialState.RUNNING or "worker" in t.user_attrs)]
     _trials_csv(study, trials, out / "trials.csv")
     complete = [t for t in trials if t.state == TrialState.COMPLETE]
     finished = [t for t in trials if t.state in (TrialState.COMPLETE, TrialState.PRUNED)]
