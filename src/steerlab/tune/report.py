@@ -76,8 +76,8 @@ def write_reports(study, out: Path, cfg: TrainConfig) -> bool:
     vis = optuna().visualization.matplotlib
     out.mkdir(parents=True, exist_ok=True)
     # the study's own trials: not the surplus ones, nor one that another worker has just created and not yet
-    # claimed (it has no "worker" yet), which may still turn out to be surplus
-    # (read after the trials: a worker marks a trial surplus before it fails it)
+    # claimed (it has no "worker" yet), which may still turn out to be surplus. The attributes are read after the
+    # trials: a worker marks a trial surplus before it fails it.
     trials = study.get_trials(deepcopy=False)
     surplus = {k for k in study.user_attrs if k.startswith("surplus_")}
     trials = [t for t in trials if f"surplus_{t.number}" not in surplus
