@@ -124,8 +124,6 @@ def rank_correlation(x, y) -> float:
 
 def _mean_ranks(v: np.ndarray) -> np.ndarray:
     """The ranks of `v` (1 for the smallest), tied values sharing the mean of their ranks."""
-    order = np.argsort(v, kind="stable")
-    _, first, count = np.unique(v[order], return_index=True, return_counts=True)
-    ranks = np.empty(len(v))
-    ranks[order] = np.repeat(first + (count + 1) / 2, count)
-    return ranks
+    _, value_of, count = np.unique(v, return_inverse=True, return_counts=True)
+    below = np.cumsum(count) - count  # how many values are smaller than each distinct value
+    return (below + (count + 1) / 2)[value_of]
