@@ -356,8 +356,8 @@ def _pickled(tmp_path):
 
 
 def _tune_space(space):
-    def build(tmp_path, stack):
-        cfg = config(tmp_path, sim_log(tmp_path / "sim"))
+    def build(tmp_path, stack, rows=None):
+        cfg = config(tmp_path, sim_log(tmp_path / "sim", rows))
         cfg.write_text(cfg.read_text() + f"tune: {json.dumps(space)}\n")
         return ["tune", str(cfg), "--trials", "1", "--storage", str(tmp_path / "s.journal")]
     return build
@@ -597,6 +597,10 @@ BAD_INPUTS = {
                                                 "manifest.json: the fisheye camera: a fisheye camera needs an image "
                                                 "of at least 2x2 px and positive focal lengths"),
     # i) a study's journal this worker cannot write
+    # bad data stops the study at its first trial, naming the file and row (not "no complete trial" after many)
+    "tune on a driving log with a bad row": (
+        lambda t, s: _tune_space({"train.lr": {"low": 1.0e-5, "high": 0.1, "log": True}})(t, s, rows={3: "x,0.5,0,10"}),
+        "driving_log.csv, row 4: ", ("run/", "cache/", "s.journal")),
     "tune read-only journal": (_read_only_journal, "s.journal: the journal file is not writable (permission denied)"),
     # k) a study's storage that cannot be opened: the URL without its password, what the server or driver said
     "tune unreachable postgres": (_tune_storage("postgresql://tuner:secret@127.0.0.1:1/steerlab"),

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from steerlab.errors import SteerlabError, warn
+from steerlab.errors import DataError, SteerlabError, warn
 from steerlab.locks import pid_alive, waiting_lock
 from steerlab.paths import folder_to_write
 from steerlab.options import as_dict
@@ -112,6 +112,8 @@ def run_tune(cfg: TrainConfig, o: TuneOptions, progress: bool = True) -> Path:
 
         try:
             best = train(run_cfg, progress=False, on_epoch=on_epoch)
+        except DataError:  # bad data is bad for every trial: the study stops, saying where (the trial: failed)
+            raise
         except SteerlabError as e:  # the trial's training failed (diverged, say): a failed trial, the study goes on
             trial.set_user_attr("error", str(e))
             failures.append(trial.number)
