@@ -253,6 +253,17 @@ def _corrupt_frame_replay(tmp_path, stack):
     return [*argv, "--speed", "10"]
 
 
+def _corrupt_frame(command):
+    """`steerlab COMMAND` of a config whose driving log has one frame that is no image."""
+    def build(tmp_path, stack):
+        cfg = config(tmp_path, sim_log(tmp_path / "sim"))
+        sorted((tmp_path / "sim" / "IMG").glob("*.jpg"))[3].write_text("garbage")
+        if command == "experiment":
+            cfg.write_text(cfg.read_text() + "models:\n  - {model: {name: pilotnet}}\n")
+        return [command, str(cfg)]
+    return build
+
+
 def _tune_storage(storage, heartbeat=None):
     """`steerlab tune` of a one-parameter space into `storage` (a URL), with STEERLAB_TUNE_HEARTBEAT set if given."""
     def build(tmp_path, stack):
@@ -564,6 +575,10 @@ BAD_INPUTS = {
     "replay speed -3": (_with("--speed", "-3", command="replay"), "--speed must be positive and finite, got -3"),
     "replay no speed to estimate": (_flat_ch2_replay, "cannot estimate the speed from the frames"),
     "replay corrupt frame": (_corrupt_frame_replay, ".jpg: cannot decode image (corrupt or not a JPEG/PNG)"),
+    "train corrupt frame": (_corrupt_frame("train"), "_300.jpg: cannot decode image (corrupt or not a JPEG/PNG)",
+                            ("run/", "cache/")),  # the run's config, written before the data is compiled
+    "experiment corrupt frame": (_corrupt_frame("experiment"),
+                                 "_300.jpg: cannot decode image (corrupt or not a JPEG/PNG)", ("run/", "cache/")),
     "replay missing recording": (lambda t, s: ["replay", str(made(t)), "--data", str(t / "nothere"), "--out",
                                                str(t / "out")], "nothere: recording not found"),
     # the replay of small cars (a tub: the track world's replay)
