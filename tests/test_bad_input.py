@@ -253,6 +253,16 @@ def _corrupt_frame_replay(tmp_path, stack):
     return [*argv, "--speed", "10"]
 
 
+def _renamed_column(tmp_path):
+    """A steerlab recording whose log.csv calls its steering column 'steer'."""
+    from steerlab.sim.world import RecordOptions, record
+
+    out = record(tmp_path / "rec", RecordOptions(minutes=0.005, side_cameras=False), progress=False)
+    log = out / "log.csv"
+    log.write_text(log.read_text().replace(",steering,", ",steer,", 1))
+    return out
+
+
 def _corrupt_frame(command):
     """`steerlab COMMAND` of a config whose driving log has one frame that is no image."""
     def build(tmp_path, stack):
@@ -668,6 +678,8 @@ BAD_INPUTS = {
                                                       "640x480 (frame 3)", ("cache/",)),
     "compile a CH2 frame of 400x480": (_ch2_with_odd_frame((480, 400)), "the frame is 400x480; the recording's",
                                        ("cache/",)),
+    "compile a recording whose log names a column otherwise": (
+        _compile(_renamed_column), "log.csv, row 1: header lacks columns ['steering']; expected frame,timestamp_ns,"),
     "compile a CH2 frame of 1x1": (_ch2_with_odd_frame((1, 1)), ".jpg: the frame is 1x1; the recording's frames",
                                    ("cache/",)),
     "checkpoint with its statistics changed": (_stats_changed, "best.pt: the file's bytes do not match the sha256 "
