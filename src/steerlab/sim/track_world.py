@@ -146,8 +146,8 @@ class Laps:
 
 @lru_cache(maxsize=4)
 def renderer_of(seed: int, lane_width: float, style: str, camera: FisheyeCamera) -> TrackRenderer:
-    """The renderer of a track, built once per process for the last few tracks (about 0.3 s and 21 MB each): the
-    track suite, DAgger and replay drive a track many times. A renderer does not change as it renders."""
+    """The renderer of a track, built once per process for the last few tracks (0.2-0.5 s and up to 22 MB each):
+    the track suite, DAgger and replay drive a track many times. A renderer does not change as it renders."""
     return TrackRenderer(Track(seed, lane_width, style), camera)
 
 
