@@ -44,8 +44,8 @@ from _common import ROOT, SHARED, machine
 
 from steerlab.data.readers import Source
 from steerlab.evaluate.offline import evaluate
-from steerlab.sim.replay_run import run_replay
-from steerlab.sim.replay_track import TrackReplayOptions
+from steerlab.sim.replay.run import run_replay
+from steerlab.sim.replay.track import TrackReplayOptions
 from steerlab.train.config import load_config
 from steerlab.train.loop import train
 

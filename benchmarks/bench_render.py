@@ -11,8 +11,8 @@ import time  # noqa: E402
 
 import cv2  # noqa: E402
 
-from steerlab.sim.render import Renderer  # noqa: E402
-from steerlab.sim.road import Road  # noqa: E402
+from steerlab.sim.road.render import Renderer  # noqa: E402
+from steerlab.sim.road.road import Road  # noqa: E402
 
 cv2.setNumThreads(1)
 

@@ -17,7 +17,7 @@ from bench_pilot import checkpoint
 
 from steerlab.data.readers import Source
 from steerlab.evaluate.offline import evaluate
-from steerlab.sim.replay_run import ReplayOptions, run_replay
+from steerlab.sim.replay.run import ReplayOptions, run_replay
 
 LABELS, RANGE = CH2 / "CH2_final_evaluation.csv", "1800:2400"
 SOURCE, WARM = Source(str(CH2), RANGE, str(LABELS)), Source(str(CH2), "1800:1820", str(LABELS))

@@ -17,7 +17,8 @@ from _common import SHARED
 from steerlab.data.geometry import CAMERAS
 from steerlab.data.readers import open_recording
 from steerlab.data.speed import estimate_speed
-from steerlab.sim.world import RecordOptions, record
+from steerlab.sim.road.run import record
+from steerlab.sim.road.world import RecordOptions
 
 
 def main() -> None:

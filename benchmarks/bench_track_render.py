@@ -13,10 +13,10 @@ import time  # noqa: E402
 import cv2  # noqa: E402
 import numpy as np  # noqa: E402
 
-from steerlab.sim.render import Renderer  # noqa: E402
-from steerlab.sim.road import Road  # noqa: E402
-from steerlab.sim.track import Track  # noqa: E402
-from steerlab.sim.track_render import TrackRenderer  # noqa: E402
+from steerlab.sim.road.render import Renderer  # noqa: E402
+from steerlab.sim.road.road import Road  # noqa: E402
+from steerlab.sim.track.track import Track  # noqa: E402
+from steerlab.sim.track.render import TrackRenderer  # noqa: E402
 
 cv2.setNumThreads(1)
 FRAMES = 1000

@@ -29,11 +29,11 @@ from _common import ROOT, track_tubs
 from bench_donkeycar import donkey_python
 
 from steerlab.data.car import CARS
-from steerlab.sim.bench import labels_for, write_csv
-from steerlab.sim.part import PartPilot
-from steerlab.sim.track_bench import (DRIVE_FIELDS, EXPERT, SUMMARY_FIELDS, TrackSuiteOptions, drive_row, markdown,
+from steerlab.sim.road.suite import labels_for, write_csv
+from steerlab.sim.core.part import PartPilot
+from steerlab.sim.track.suite import (DRIVE_FIELDS, EXPERT, SUMMARY_FIELDS, TrackSuiteOptions, drive_row, markdown,
                                       plot_tracks, run_track_suite, summarize)
-from steerlab.sim.track_run import drive_track
+from steerlab.sim.track.run import drive_track
 from steerlab.train.config import load_config
 from steerlab.train.loop import train
 

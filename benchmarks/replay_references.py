@@ -29,9 +29,9 @@ from steerlab.data.fisheye import DONKEY_FISHEYE
 from steerlab.data.geometry import CAMERAS
 from steerlab.data.readers import Source, reader_options
 from steerlab.pilot import Controls, Pilot
-from steerlab.sim.replay import Replay, replay_recording
-from steerlab.sim.replay_track import TrackReplay
-from steerlab.sim.track import LANE_WIDTH
+from steerlab.sim.replay.world import Replay, replay_recording
+from steerlab.sim.replay.track import TrackReplay
+from steerlab.sim.track.track import LANE_WIDTH
 
 
 class Scripted:

@@ -37,7 +37,7 @@ import torch
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _common import machine  # noqa: E402
 
-from steerlab.sim.bench import SUITES  # noqa: E402
+from steerlab.sim.road.suite import SUITES  # noqa: E402
 
 TRAIN_DATA = {"seed": 3, "minutes": 4.0, "road": "country,twisty,highway,twisty"}
 BASE_TRAIN = {"epochs": 1, "batch_size": 32, "lr": 3e-4, "patience": 99, "min_speed": 4.0}
@@ -69,7 +69,8 @@ def suite_roads(suite: str = "v1") -> list[tuple[str, int]]:
 
 def record_expert(out: Path, minutes: float) -> dict[tuple[str, int], Path]:
     """The expert on every suite road: the suite's own road (same seed, type and length as `drive` makes it)."""
-    from steerlab.sim.world import RecordOptions, record
+    from steerlab.sim.road.run import record
+    from steerlab.sim.road.world import RecordOptions
 
     recs = {}
     for road, seed in suite_roads():
@@ -86,7 +87,8 @@ def record_expert(out: Path, minutes: float) -> dict[tuple[str, int], Path]:
 
 
 def training_data(out: Path) -> Path:
-    from steerlab.sim.world import RecordOptions, record
+    from steerlab.sim.road.run import record
+    from steerlab.sim.road.world import RecordOptions
 
     folder = out / "train-data"
     if not (folder / "recording.json").exists():
@@ -148,7 +150,7 @@ def checkpoints(out: Path, data: Path) -> list[Path]:
 
 
 def true_closed_loop(ckpts: list[Path], out: Path, minutes: float, workers: int) -> dict[str, dict]:
-    from steerlab.sim.bench import SuiteOptions, run_suite
+    from steerlab.sim.road.suite import SuiteOptions, run_suite
 
     t0 = time.time()
     summary = run_suite(ckpts, out / "suite", SuiteOptions("v1", minutes, workers=workers), progress=False)
@@ -159,9 +161,9 @@ def true_closed_loop(ckpts: list[Path], out: Path, minutes: float, workers: int)
 def replay(ckpts: list[Path], recs: dict, out: Path, workers: int) -> tuple[dict[str, dict], list[dict]]:
     """Every checkpoint on every expert recording (recorded speed); per checkpoint the sums over recordings."""
     from steerlab.data.readers import Source
-    from steerlab.sim.bench import labels_for
-    from steerlab.sim.driving import autonomy
-    from steerlab.sim.replay_run import ReplayOptions, run_replay
+    from steerlab.sim.road.suite import labels_for
+    from steerlab.sim.core.driving import autonomy
+    from steerlab.sim.replay.run import ReplayOptions, run_replay
 
     labels = labels_for(ckpts)
     rows = []
@@ -256,8 +258,8 @@ def warp_error(out: Path) -> list[str]:
     import cv2
 
     from steerlab.data.geometry import CAMERAS, shift_view
-    from steerlab.sim.render import Renderer
-    from steerlab.sim.road import LANE_CENTER, Road
+    from steerlab.sim.road.render import Renderer
+    from steerlab.sim.road.road import LANE_CENTER, Road
 
     roads = [Road(3, "country", 3000), Road(5, "twisty", 3000)]
     positions = [150.0, 400.0, 650.0, 900.0]
@@ -327,7 +329,7 @@ def main() -> None:
     truth = true_closed_loop(ckpts, out, a.minutes, a.workers)
     rep, rows = replay(ckpts, recs, out, a.workers)
 
-    from steerlab.sim.bench import labels_for
+    from steerlab.sim.road.suite import labels_for
 
     labels = labels_for(ckpts)
     table = [{"checkpoint": label, "true_autonomy": truth[label]["autonomy"], "replay_autonomy": rep[label]["autonomy"],

@@ -42,7 +42,7 @@ from _common import ROOT, machine  # noqa: E402
 from replay_vs_closed_loop import correlations  # noqa: E402
 
 from steerlab.data.car import CARS  # noqa: E402
-from steerlab.sim.track_bench import TRACK_SUITES  # noqa: E402
+from steerlab.sim.track.suite import TRACK_SUITES  # noqa: E402
 
 SUITE = "t1"
 BASE_TRAIN = {"batch_size": 32, "lr": 3e-4, "patience": 99, "loss": "mae"}
@@ -70,8 +70,8 @@ def suite_tracks() -> list[tuple[str, int]]:
 
 def record_expert(out: Path, minutes: float) -> dict[tuple[str, int], Path]:
     """The racing expert on every suite track, as a tub: the suite's own track (seed, lane width, style)."""
-    from steerlab.sim.track_run import record_track
-    from steerlab.sim.track_world import TrackRecordOptions
+    from steerlab.sim.track.run import record_track
+    from steerlab.sim.track.world import TrackRecordOptions
 
     recs = {}
     for style, seed in suite_tracks():
@@ -146,7 +146,7 @@ def checkpoints(out: Path, tubs: list[Path], extra: list[Path]) -> list[Path]:
 
 def true_suite(ckpts: list[Path], out: Path, minutes: float, workers: int) -> tuple[dict[str, dict], list[dict]]:
     """The track suite for every checkpoint; per checkpoint off-track events over the laps driven, all tracks."""
-    from steerlab.sim.track_bench import TrackSuiteOptions, run_track_suite
+    from steerlab.sim.track.suite import TrackSuiteOptions, run_track_suite
 
     t0 = time.time()
     run_track_suite(ckpts, out / "suite", TrackSuiteOptions(SUITE, minutes, workers=workers), progress=False,
@@ -168,9 +168,9 @@ def speed_options(ckpts: list[Path], mode: str) -> list:
     for all; `model`, as the suite drives them: the model's own throttle when it learned one, else the speed
     that the suite's constant throttle holds."""
     from steerlab.pilot import Pilot
-    from steerlab.sim.smallcar import steady_speed
-    from steerlab.sim.track_bench import FPS
-    from steerlab.sim.track_world import THROTTLE
+    from steerlab.sim.track.smallcar import steady_speed
+    from steerlab.sim.track.suite import FPS
+    from steerlab.sim.track.world import THROTTLE
 
     if mode == "recorded":
         return [{}] * len(ckpts)
@@ -182,10 +182,10 @@ def replay(ckpts: list[Path], recs: dict, out: Path, workers: int, mode: str) ->
     """Every checkpoint on every expert recording (the speed as `speed_options(mode)`, the suite's lane width);
     per checkpoint interventions over the laps the replayed car covers, summed over the tracks."""
     from steerlab.data.readers import Source
-    from steerlab.sim.bench import labels_for
-    from steerlab.sim.replay_run import run_replay
-    from steerlab.sim.replay_track import TrackReplayOptions
-    from steerlab.sim.track import Track
+    from steerlab.sim.road.suite import labels_for
+    from steerlab.sim.replay.run import run_replay
+    from steerlab.sim.replay.track import TrackReplayOptions
+    from steerlab.sim.track.track import Track
 
     labels = labels_for(ckpts)
     lane = TRACK_SUITES[SUITE]["lane_width"]
@@ -284,7 +284,7 @@ def main() -> None:
     truth, drives = true_suite(ckpts, out, a.minutes, a.workers)
     rep, rows = replay(ckpts, recs, out, a.workers, a.speed)
 
-    from steerlab.sim.bench import labels_for
+    from steerlab.sim.road.suite import labels_for
 
     labels = labels_for(ckpts)
     table = [{"checkpoint": label, "true_off_track": truth[label]["off_track"], "true_laps": truth[label]["laps"],

@@ -18,8 +18,8 @@ from steerlab.data.geometry import camera, shift_view
 from steerlab.data.preprocess import PreprocessConfig, crop_resize
 from steerlab.data.readers import open_recording
 from steerlab.evaluate.plots import plot_open_vs_closed
-from steerlab.sim.render import Renderer
-from steerlab.sim.road import LANE_CENTER, Road
+from steerlab.sim.road.render import Renderer
+from steerlab.sim.road.road import LANE_CENTER, Road
 
 HERE = Path(__file__).resolve().parent
 DATA = HERE.parents[1] / "shared" / "data"

@@ -56,7 +56,7 @@ def ch2_folder(tmp_path):
 # about 4 s of imports. The server starts with the session, in every process that runs tests, so that it is the one
 # the closed-loop workers fork from too.
 PRELOAD = ["torch", "torch._dynamo", "optuna", "steerlab.cli", "steerlab.train.loop", "steerlab.tune.run",
-           "steerlab.sim.bench", "sqlalchemy.orm", "alembic.context"]
+           "steerlab.sim.road.suite", "sqlalchemy.orm", "alembic.context"]
 
 
 def pytest_configure(config):
@@ -146,7 +146,8 @@ def once_per_session(tmp_path_factory, name: str, make) -> Path:
 @pytest.fixture(scope="session")
 def tiny_recording(tmp_path_factory):
     """A short synthetic recording with all three cameras (shared by several tests)."""
-    from steerlab.sim.world import RecordOptions, record
+    from steerlab.sim.road.run import record
+    from steerlab.sim.road.world import RecordOptions
 
     return once_per_session(tmp_path_factory, "rec",
                             lambda f: record(f / "rec", RecordOptions(seed=3, minutes=0.25), progress=False)) / "rec"

@@ -255,7 +255,8 @@ def _corrupt_frame_replay(tmp_path, stack):
 
 def _renamed_column(tmp_path):
     """A steerlab recording whose log.csv calls its steering column 'steer'."""
-    from steerlab.sim.world import RecordOptions, record
+    from steerlab.sim.road.run import record
+    from steerlab.sim.road.world import RecordOptions
 
     out = record(tmp_path / "rec", RecordOptions(minutes=0.005, side_cameras=False), progress=False)
     log = out / "log.csv"
@@ -467,14 +468,21 @@ BAD_INPUTS = {
         "dagger.suite_roads: suite v1 has no mountain roads; it has country, highway, twisty"),
     "sim dagger in the track world on a road recording": (
         lambda t, s: ["sim", "dagger", str(config(t, sim_log(t / "sim"))), "dagger.world=track", "dagger.suite=t1"],
-        "dagger.world: track renders the donkeycar camera, and"),
+        "dagger.world: track renders the donkey camera, and"),
     "sim dagger in the track world with a road suite": (
         lambda t, s: ["sim", "dagger", str(config(t, tub(t / "tub"))), "dagger.world=track"],
         "dagger.suite: v1 is a road suite; world track drives a track suite (t1) or none (null)"),
     "sim dagger in the track world with a track style that does not exist": (
         lambda t, s: ["sim", "dagger", str(config(t, tub(t / "tub"))), "dagger.world=track", "dagger.suite=t1",
-                      "dagger.suite_roads=gravel"],
-        "dagger.suite_roads: suite t1 has no gravel tracks; choose styles of taped, centre"),
+                      "dagger.suite_styles=gravel"],
+        "dagger.suite_styles: suite t1 has no gravel tracks; choose styles of taped, centre"),
+    "sim dagger in the track world with an option of the road world": (
+        lambda t, s: ["sim", "dagger", str(config(t, tub(t / "tub"))), "dagger.world=track", "dagger.suite=t1",
+                      "dagger.suite_roads=taped"],
+        "dagger.suite_roads is an option of dagger.world road; dagger.world track does not take it"),
+    "sim dagger in replay with a suite": (
+        lambda t, s: ["sim", "dagger", str(config(t, sim_log(t / "sim"))), "dagger.world=replay", "dagger.suite=v1"],
+        "dagger.suite is an option of dagger.world road and track; dagger.world replay does not take it"),
     "sim dagger on roads with a tub": (lambda t, s: ["sim", "dagger", str(config(t, tub(t / "tub")))],
                                        "holds 'donkey' frames: choose world track"),
     "an override whose value is not YAML": (_train("train.lr=,"), "override 'train.lr=,': the value is not valid YAML "
@@ -895,7 +903,7 @@ def _numeric_options():
     from steerlab.models import list_models
     from steerlab.models.registry import OPTION_CHECKS, model_option_types
     from steerlab.options import optional, options_of
-    from steerlab.sim.bench import SuiteOptions
+    from steerlab.sim.road.suite import SuiteOptions
     from steerlab.train.config import TrainConfig
 
     out = []
@@ -933,7 +941,7 @@ def test_every_numeric_config_option_is_range_checked(key, kind, check, expected
     """From the schema, no hand-picked list: out of range, of the wrong type, and at the boundary."""
     from steerlab.dagger import dagger_options
     from steerlab.errors import SteerlabError
-    from steerlab.sim.bench import suite_options
+    from steerlab.sim.road.suite import suite_options
     from steerlab.train.config import load_config
 
     key, _, model = key.partition("@")

@@ -16,11 +16,12 @@ from steerlab.data.readers import Source, open_recording
 from steerlab.data.recording import SteeringConvention
 from steerlab.errors import SteerlabError
 from steerlab.pilot import Controls
-from steerlab.sim.bench import SUITES, summarize
-from steerlab.sim.render import Renderer
-from steerlab.sim.road import LANE_CENTER, Road
-from steerlab.sim.driving import Trajectory
-from steerlab.sim.world import DriveOptions, RecordOptions, World, drive, record, world_rollout
+from steerlab.sim.core.driving import Trajectory
+from steerlab.sim.road.render import Renderer
+from steerlab.sim.road.road import LANE_CENTER, Road
+from steerlab.sim.road.run import drive, record, rollout
+from steerlab.sim.road.suite import SUITES, SuiteDrive, summarize
+from steerlab.sim.road.world import DriveOptions, RecordOptions, World
 
 
 def frame_count(path) -> int:
@@ -34,7 +35,7 @@ def frame_count(path) -> int:
 class ConstantPilot:
     """A stand-in for the Pilot that always steers the same (steering-wheel angle, positive left)."""
 
-    name, geometry, convention = "constant", "sim", SteeringConvention("steering_wheel", "left")
+    name, geometry, source, convention = "constant", "sim", "constant", SteeringConvention("steering_wheel", "left")
 
     def __init__(self, steering: float):
         self.steering = steering
@@ -57,24 +58,24 @@ def test_drive_metrics_hand_computed():
     hits[[10, 500]] = True
     zeros = np.zeros(n)
     m = Trajectory(zeros, zeros, zeros, zeros, offset, command, np.full(n, 20.0), zeros, hits).metrics(dt)
-    assert m["autonomy"] == pytest.approx((1 - 2 * 6 / 60) * 100)  # 80 %
-    assert m["distance_km"] == pytest.approx(1.2)
-    assert m["interventions_per_km"] == pytest.approx(2 / 1.2)
-    assert m["mean_abs_offset_m"] == pytest.approx((1199 * 0.3 + 0.9) / 1200)
-    assert m["max_abs_offset_m"] == pytest.approx(0.9)
-    assert m["command_gamma_deg"] == pytest.approx(np.degrees(0.02))
+    assert m.autonomy == pytest.approx((1 - 2 * 6 / 60) * 100)  # 80 %
+    assert m.distance_km == pytest.approx(1.2)
+    assert m.interventions_per_km == pytest.approx(2 / 1.2)
+    assert m.mean_abs_offset_m == pytest.approx((1199 * 0.3 + 0.9) / 1200)
+    assert m.max_abs_offset_m == pytest.approx(0.9)
+    assert m.command_gamma_deg == pytest.approx(np.degrees(0.02))
     # a road type's autonomy counts the interventions over the summed time of its drives
-    drives = [{"label": "a", "road_type": "twisty", "minutes": 1.0, **m},
-              {"label": "a", "road_type": "twisty", "minutes": 1.0, **{**m, "interventions": 0}}]
+    drives = [SuiteDrive("a", "a.pt", "twisty", 9301, 1.0, **vars(m)),
+              SuiteDrive("a", "a.pt", "twisty", 9302, 1.0, **{**vars(m), "interventions": 0})]
     twisty, overall = summarize(drives)
-    assert twisty["autonomy"] == pytest.approx(90.0) and twisty["distance_km"] == pytest.approx(2.4)
-    assert twisty["interventions_per_km"] == pytest.approx(2 / 2.4) and overall["road_type"] == "all"
+    assert twisty.autonomy == pytest.approx(90.0) and twisty.distance_km == pytest.approx(2.4)
+    assert twisty.interventions_per_km == pytest.approx(2 / 2.4) and overall.road_type == "all"
 
 
 def test_suite_roads_are_never_recorded(tmp_path):
     seeds = [s for seeds in SUITES["v1"]["roads"].values() for s in seeds]
     assert len(seeds) == 11 and len(SUITES["v1"]["roads"]["twisty"]) >= 3
-    with pytest.raises(SteerlabError, match="reserved for the closed-loop benchmark"):
+    with pytest.raises(SteerlabError, match="reserved for the road suites"):
         record(tmp_path / "r", RecordOptions(seed=seeds[0], minutes=0.01), progress=False)
 
 
@@ -141,9 +142,9 @@ def test_rollout_labels_are_the_experts(tmp_path):
     """A pilot that always steers left drifts off; every frame it visits is labelled with what the expert
     would steer in that state, which an independent replay of the same world reproduces."""
     pilot = ConstantPilot(0.15)
-    out = world_rollout(pilot, tmp_path / "r", seed=21, minutes=0.1, road="country", beta=0.0)
+    out = rollout(pilot, tmp_path / "r", seed=21, minutes=0.1, road="country", beta=0.0)
     rec = open_recording(tmp_path / "r")
-    assert len(rec) == 120 and rec.cameras == ["center", "left", "right"] and out["interventions"] > 0
+    assert len(rec) == 120 and rec.cameras == ["center", "left", "right"] and out.interventions > 0
     world = World(21, "country", "sim", 120 / 20)
     ratio = world.car.steering_ratio
     labels, resets = [], 0
@@ -155,7 +156,7 @@ def test_rollout_labels_are_the_experts(tmp_path):
         labels.append(world.expert_steering() * ratio)  # steering-wheel angle, positive left
         world.step(0.15 / ratio)
     np.testing.assert_allclose(rec.steering, labels, atol=1e-5)
-    assert resets == out["interventions"]
+    assert resets == out.interventions
     drifted = np.abs(rec.extra["lateral_offset"]) > 0.5
     assert drifted.any() and (rec.steering[drifted] < 0).all()  # steering back to the right
     assert set(rec.extra["episode"]) == {"rollout"}
@@ -164,7 +165,7 @@ def test_rollout_labels_are_the_experts(tmp_path):
 def test_dagger_aggregates_rollouts(tiny_recording, tmp_path):
     from steerlab.dagger import run_dagger
     from steerlab.train.config import load_config
-    from steerlab.sim.bench import SuiteOptions
+    from steerlab.sim.road.suite import SuiteOptions
     from steerlab.train.batches import FrameBatches
     from steerlab.train.config import parse_config
     from steerlab.train.sources import prepare_dataset, training_sources
@@ -199,7 +200,7 @@ def test_dagger_aggregates_rollouts(tiny_recording, tmp_path):
     claim(tmp_path / "fresh", minutes=0.2)
     # an experiment's closed-loop column reuses the last round's drives of the same suite, and drives anew otherwise
     from steerlab.experiment import suite_checkpoint
-    from steerlab.sim.bench import closed_loop_metrics
+    from steerlab.sim.road.suite import closed_loop_metrics
 
     run = tmp_path / "dagger"
     drives = sorted((run / "round1" / "suite").rglob("drive.json"))
@@ -275,7 +276,7 @@ def test_drive_and_evaluate_videos(tiny_checkpoint, tiny_recording, tmp_path):
 
     r = drive(Pilot(tiny_checkpoint), tmp_path / "d", DriveOptions(seed=101, minutes=0.025), video=tmp_path / "d.mp4",
               progress=False)
-    assert frame_count(tmp_path / "d.mp4") == 30 and r["distance_km"] > 0
+    assert frame_count(tmp_path / "d.mp4") == 30 and r.distance_km > 0
     evaluate(tiny_checkpoint, Source(str(tiny_recording), "0:20"), tmp_path / "e", video=tmp_path / "e.mp4",
              progress=False)
     assert frame_count(tmp_path / "e.mp4") == 20

@@ -9,7 +9,7 @@ import yaml
 from steerlab.experiment import load_experiment
 from steerlab.dagger import dagger_options
 from steerlab.options import as_dict
-from steerlab.sim.bench import suite_options
+from steerlab.sim.road.suite import suite_options
 from steerlab.train.config import load_config
 
 CONFIGS = sorted((Path(__file__).parent.parent / "configs").glob("*.yaml"))

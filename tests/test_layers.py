@@ -114,6 +114,53 @@ def test_recording_layouts_sit_below_the_dispatcher():
     assert not back, f"these data modules import data/readers.py: {back}"
 
 
+# sim/ by world: the shared core, the worlds side by side, replay (which replays each world's recordings), and the
+# registry of worlds on top; a room imports only from its own level and the levels below
+SIM_LEVELS = [["core"], ["road", "track"], ["replay"], ["worlds"]]
+
+
+def sim_level(module: str) -> int:
+    room = module.split(".")[1]
+    return next(i for i, rooms in enumerate(SIM_LEVELS) if room in rooms)
+
+
+def sim_violations(graph: dict[str, set[str]]) -> list[str]:
+    """The imports between sim's rooms that run up, or from one world into another."""
+    wrong = []
+    for module, deps in graph.items():
+        if not module.startswith("sim.") or module == "sim":
+            continue
+        for dep in deps:
+            if not dep.startswith("sim.") or dep.split(".")[1] == module.split(".")[1]:
+                continue
+            if sim_level(dep) > sim_level(module):
+                wrong.append(f"{module} imports {dep}, a room above it")
+            elif sim_level(dep) == sim_level(module):
+                wrong.append(f"{module} imports {dep}: the worlds stand side by side")
+    return wrong
+
+
+def test_sim_rooms_import_down_and_the_worlds_not_each_other():
+    wrong = sim_violations(modules())
+    assert not wrong, "\n".join(wrong)
+    assert sim_violations({"sim.track.world": {"sim.road.world"}, "sim.core.driving": {"sim.replay.run"},
+                           "sim.replay.run": {"sim.core.driving", "sim.track.world"}}) == [
+        "sim.track.world imports sim.road.world: the worlds stand side by side",
+        "sim.core.driving imports sim.replay.run, a room above it"]
+    assert {p.name for p in (PACKAGE / "sim").iterdir() if p.is_dir() and p.name != "__pycache__"} == \
+        {room for rooms in SIM_LEVELS for room in rooms if room != "worlds"}
+
+
+def test_every_world_is_a_folder_with_the_same_modules():
+    """What a world provides, by its modules: a third world is a third folder with these, and an entry in the
+    registry (sim/worlds.py)."""
+    from steerlab.sim.worlds import WORLDS
+
+    for name in WORLDS:
+        have = {p.stem for p in (PACKAGE / "sim" / name).glob("*.py")}
+        assert {"world", "run", "suite", "render", "expert", "plots"} <= have, (name, sorted(have))
+
+
 def test_no_source_file_is_over_400_lines():
     long = {p.relative_to(PACKAGE).as_posix(): n for p in PACKAGE.rglob("*.py")
             if (n := len(p.read_text().splitlines())) > 400}

@@ -15,10 +15,11 @@ from steerlab.data.geometry import CAMERAS
 from steerlab.data.readers import open_recording
 from steerlab.data.speed import estimate_speed
 from steerlab.pilot import Controls, Pilot
-from steerlab.sim.driving import Trajectory, drive_loop
-from steerlab.sim.replay import Replay, ReplayWorld, human_path, replay_recording
-from steerlab.sim.replay_run import RESULT_FIELDS
-from steerlab.sim.world import RecordOptions
+from steerlab.sim.core.driving import Trajectory, drive_loop
+from steerlab.sim.replay.path import human_path
+from steerlab.sim.replay.run import RESULT_FIELDS, replay_recording
+from steerlab.sim.replay.world import Replay, ReplayWorld
+from steerlab.sim.road.world import RecordOptions
 
 HALL = SHARED / "donkeycar" / "hall"
 needs_donkey = pytest.mark.skipif(not (HALL / "manifest.json").exists(), reason="../shared/data absent")
@@ -27,7 +28,7 @@ needs_donkey = pytest.mark.skipif(not (HALL / "manifest.json").exists(), reason=
 @pytest.fixture(scope="module")
 def twisty(tmp_path_factory):
     """15 s of the expert on a twisty road, centre camera only, no drift episodes."""
-    from steerlab.sim.world import record
+    from steerlab.sim.road.run import record
 
     out = tmp_path_factory.mktemp("twisty") / "rec"
     record(out, RecordOptions(seed=11, minutes=0.25, road="twisty", drift=False, side_cameras=False), progress=False)
@@ -37,7 +38,7 @@ def twisty(tmp_path_factory):
 class Scripted:
     """A stand-in for the Pilot: answers tick k with `steering(k)` and counts its resets."""
 
-    name, geometry = "scripted", "sim"
+    name, geometry, source = "scripted", "sim", "scripted"
 
     def __init__(self, rec, steering):
         self.convention, self.steering, self.k, self.resets = rec.convention, steering, 0, 0
@@ -64,13 +65,13 @@ def test_human_path_of_a_circle():
 
 def test_replaying_the_human_scores_100_and_zero_steering_does_not(twisty):
     human = Scripted(twisty, lambda k: twisty.steering[k])
-    rows, traj = replay_recording(human, Replay(twisty, CAMERAS["sim"], CARS["sim"]))
+    rows, traj = replay_recording(human, Replay(CAMERAS["sim"], CARS["sim"]), twisty)
     whole = rows[-1]
     assert whole["segment"] == "all" and whole["interventions"] == 0 and whole["autonomy"] == 100.0
     assert whole["max_offset_m"] < 1e-9 and len(traj) == len(twisty) - 1
     np.testing.assert_allclose(whole["km"], np.sum(twisty.speed[:-1]) * 0.05 / 1000, rtol=1e-6)
     zero = Scripted(twisty, lambda k: 0.0)
-    rows, traj = replay_recording(zero, Replay(twisty, CAMERAS["sim"], CARS["sim"]))
+    rows, traj = replay_recording(zero, Replay(CAMERAS["sim"], CARS["sim"]), twisty)
     assert rows[-1]["interventions"] >= 1 and rows[-1]["autonomy"] < 100
     assert zero.resets == 1 + rows[-1]["interventions"]  # the pilot forgets its past at the start and at every intervention
     assert rows[-1]["interventions_per_km"] == pytest.approx(rows[-1]["interventions"] / rows[-1]["km"])
@@ -102,12 +103,12 @@ def test_replay_world_matches_the_renderer_and_labels_point_back(twisty):
 def test_a_rollouts_side_cameras_look_like_the_recorded_ones(tiny_recording, tmp_path):
     """A rollout in replay of a recording with side cameras records them too, warped from the centre frame to
     0.508 m either side: on the path they match the recorded side cameras far better than the centre frame."""
-    from steerlab.sim.replay import rollout_recording
+    from steerlab.sim.replay.run import rollout_recording
 
     rec = open_recording(tiny_recording)
     out = tmp_path / "rollout"
-    rollout_recording(Scripted(rec, lambda k: 0.0), Replay(rec, CAMERAS["sim"], CARS["sim"], frames=np.arange(100)),
-                      out, beta=1.0, seed=0)
+    rollout_recording(Scripted(rec, lambda k: 0.0), Replay(CAMERAS["sim"], CARS["sim"]), rec, np.arange(100), out,
+                      beta=1.0, seed=0)
     rollout = open_recording(out)
     assert rollout.cameras == ["center", "left", "right"]
     for k in (20, 60):  # the expert drives (beta 1): on the human's path
@@ -238,7 +239,8 @@ def test_record_suite_roads_only_when_asked(tmp_path):
     """record refuses the suite's reserved seeds unless asked for an evaluation recording, which then shows
     the suite's own road: as long as `drive` makes it, so the same frames."""
     from steerlab.errors import SteerlabError
-    from steerlab.sim.world import World, record
+    from steerlab.sim.road.run import record
+    from steerlab.sim.road.world import World
 
     with pytest.raises(SteerlabError, match="reserved"):
         record(tmp_path / "refused", RecordOptions(seed=9101, minutes=0.01), progress=False)

@@ -15,10 +15,11 @@ from steerlab.data.fisheye import DONKEY_FISHEYE, FisheyeCamera, shift_view, vie
 from steerlab.data.geometry import CAMERAS
 from steerlab.data.readers import Source
 from steerlab.pilot import Controls
-from steerlab.sim.replay import human_path, replay_recording
-from steerlab.sim.replay_track import TrackReplay
-from steerlab.sim.smallcar import speed_after, steady_speed, throttle_speeds
-from steerlab.sim.vehicle import VehicleState
+from steerlab.sim.replay.path import human_path
+from steerlab.sim.replay.run import replay_recording
+from steerlab.sim.replay.track import TrackReplay
+from steerlab.sim.track.smallcar import speed_after, steady_speed, throttle_speeds
+from steerlab.sim.core.vehicle import VehicleState
 
 DONKEY = CARS["donkey"]
 TUBS = SHARED / "donkeycar"
@@ -51,7 +52,7 @@ class Scripted:
     """A pilot that answers tick k with the recorded steering of frame k - delay (None: straight ahead) and,
     given, a constant throttle."""
 
-    name, geometry = "scripted", "donkey"
+    name, geometry, source = "scripted", "donkey", "scripted"
 
     def __init__(self, rec, delay=0, throttle=None):
         self.rec, self.delay, self.throttle, self.k, self.convention = rec, delay, throttle, 0, rec.convention
@@ -102,8 +103,8 @@ def test_the_warp_shows_the_floor_as_the_track_renderer_does_from_there():
     """The track world's frame warped to a pose 8 cm to the left and 4 degrees left of it looks, on the floor,
     like the frame rendered there, far more than the frame that is not warped (the sensor's noise and the lens's
     vignette, which stay where they are in the image, left out)."""
-    from steerlab.sim.track import Track
-    from steerlab.sim.track_render import TrackRenderer
+    from steerlab.sim.track.track import Track
+    from steerlab.sim.track.render import TrackRenderer
 
     track = Track(5)
     renderer = TrackRenderer(track)
@@ -149,9 +150,9 @@ def test_the_body_leaving_the_lane_is_an_intervention_and_a_turn_alone_is_not(tr
     """On a straight path in a 0.9 m lane, the 0.2 m wide body leaves it when the rear axle is more than
     0.45 - 0.1 = 0.35 m off; turned 20 degrees (twice the road's heading limit) 0.2 m off, its front corner is at
     0.2 + 0.35 sin 20 + 0.1 cos 20 = 0.41 m: inside."""
-    replay = TrackReplay(open_tub(track_tub), CAMERAS["donkey"], DONKEY)
+    replay = TrackReplay(CAMERAS["donkey"], DONKEY)
     t = np.arange(60) * 0.05
-    world = replay.world(0, human_path(np.zeros(60), np.full(60, 2.0), t, DONKEY))
+    world = replay.world(open_tub(track_tub), 0, human_path(np.zeros(60), np.full(60, 2.0), t, DONKEY))
     for y, psi, leaves in ((0.34, 0.0, False), (0.36, 0.0, True), (-0.36, 0.0, True), (0.2, 20.0, False),
                            (0.2, 35.0, True)):
         world.vehicle.state = VehicleState(1.0, y, math.radians(psi), 2.0)
@@ -163,16 +164,16 @@ def test_the_body_leaving_the_lane_is_an_intervention_and_a_turn_alone_is_not(tr
 def test_a_track_world_tub_carries_its_camera_and_replays(track_tub):
     rec = open_tub(track_tub)
     assert rec.fisheye == DONKEY_FISHEYE and rec.throttle is not None
-    human, _ = replay_recording(Scripted(rec), TrackReplay(rec, CAMERAS["donkey"], DONKEY, fisheye=rec.fisheye))
+    human, _ = replay_recording(Scripted(rec), TrackReplay(CAMERAS["donkey"], DONKEY, fisheye=rec.fisheye), rec)
     assert human[-1]["interventions"] == 0 and human[-1]["max_offset_m"] < 1e-9
     # the speed is the recorded throttle's through the car's throttle model
     expected = throttle_speeds(rec.throttle, rec.timestamps_ns / 1e9, DONKEY)
     assert human[-1]["km"] * 1000 == pytest.approx(np.sum(expected[:-1]) / rec.frame_rate(), rel=1e-6)
-    straight, _ = replay_recording(Scripted(rec, None), TrackReplay(rec, CAMERAS["donkey"], DONKEY))
+    straight, _ = replay_recording(Scripted(rec, None), TrackReplay(CAMERAS["donkey"], DONKEY), rec)
     assert straight[-1]["interventions"] >= 1
     # with the model's throttle the car goes as fast as the pilot's throttle takes it
     slow, traj = replay_recording(Scripted(rec, throttle=0.2),
-                                  TrackReplay(rec, CAMERAS["donkey"], DONKEY, learned_throttle=True))
+                                  TrackReplay(CAMERAS["donkey"], DONKEY, learned_throttle=True), rec)
     assert traj.speed[-1] == pytest.approx(steady_speed(0.2, 0.05, DONKEY), rel=0.02)
     assert slow[-1]["km"] < human[-1]["km"]
 
@@ -216,7 +217,7 @@ def test_the_shared_real_tubs_replay_the_humans_steering_without_intervention(tu
     needs no intervention, driving straight does."""
     rec = Source(str(TUBS / tub), frames, None, {"full_lock_deg": "25", "skip_missing": "true"}).open()
     assert rec.fisheye is None and rec.throttle is not None
-    human, _ = replay_recording(Scripted(rec), TrackReplay(rec, CAMERAS["donkey"], DONKEY))
-    straight, _ = replay_recording(Scripted(rec, None), TrackReplay(rec, CAMERAS["donkey"], DONKEY))
+    human, _ = replay_recording(Scripted(rec), TrackReplay(CAMERAS["donkey"], DONKEY), rec)
+    straight, _ = replay_recording(Scripted(rec, None), TrackReplay(CAMERAS["donkey"], DONKEY), rec)
     assert human[-1]["interventions"] == 0 and straight[-1]["interventions"] >= 1
     assert 0.3 < human[-1]["speed_mps"] < 5.0

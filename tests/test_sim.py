@@ -9,11 +9,12 @@ from steerlab.data.car import CH2_CAR
 from steerlab.data.labels import speed_commands
 from steerlab.data.readers import open_recording
 from steerlab.errors import SteerlabError
-from steerlab.sim.render import Renderer
-from steerlab.sim.road import EDGE, LANE_CENTER, LINE_WIDTH, Road
-from steerlab.sim.vehicle import Vehicle, VehicleState
-from steerlab.sim.driving import autonomy
-from steerlab.sim.world import RecordOptions, record
+from steerlab.sim.road.render import Renderer
+from steerlab.sim.road.road import EDGE, LANE_CENTER, LINE_WIDTH, Road
+from steerlab.sim.core.vehicle import Vehicle, VehicleState
+from steerlab.sim.core.driving import autonomy
+from steerlab.sim.road.run import record
+from steerlab.sim.road.world import RecordOptions
 
 
 def _digest(folder):
@@ -86,7 +87,7 @@ def test_vehicle_follows_hand_computed_arc():
 @pytest.fixture
 def blank_frames(monkeypatch):
     """Recordings whose frames are blank: for tests of the expert's driving, which the frames do not change."""
-    from steerlab.sim.world import World
+    from steerlab.sim.road.world import World
 
     monkeypatch.setattr(World, "render", lambda self, shift=0.0: np.zeros((160, 320, 3), np.uint8))
 

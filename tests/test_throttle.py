@@ -18,8 +18,8 @@ from steerlab.models.registry import learns_throttle
 from steerlab.train import loop
 from steerlab.train.config import load_config
 
-THROTTLE_MODELS = {"pilotnet", "pilotnet-diff", "pilotnet-flow", "cnn3d", "cg23", "lstm", "multimodal-lstm",
-                   "flow-lstm"}
+THROTTLE_MODELS = {"donkey-linear", "pilotnet", "pilotnet-diff", "pilotnet-flow", "cnn3d", "cg23", "lstm",
+                   "multimodal-lstm", "flow-lstm"}
 
 
 def test_models_with_a_throttle_output():
@@ -155,5 +155,5 @@ def test_the_tub_default_learns_the_throttle_only_with_a_model_that_can(tmp_path
     assert load_config(None, base=base).train.throttle_weight == 0.5
     assert load_config(None, base={**base, "model": {"name": "two-stream-flow"}}).train.throttle_weight == 0.0
     with pytest.raises(SteerlabError, match=r"train.throttle_weight: model 'two-stream-flow' does not learn a "
-                                            r"throttle; these do: cg23, cnn3d, flow-lstm, lstm"):
+                                            r"throttle; these do: cg23, cnn3d, donkey-linear, flow-lstm"):
         load_config(None, base={**base, "model": {"name": "two-stream-flow"}}, overrides=["train.throttle_weight=1"])

@@ -118,7 +118,7 @@ def test_load_calibration_bad_input(tmp_path, name, content, message):
 
 # --- closed tracks -----------------------------------------------------------------------------------------------
 
-from steerlab.sim.track import Track  # noqa: E402
+from steerlab.sim.track.track import Track  # noqa: E402
 
 SEEDS = (0, 1, 2, 3, 4)
 
@@ -201,8 +201,8 @@ def test_speed_profile_respects_its_limits(tracks):
 # --- the small car -----------------------------------------------------------------------------------------------
 
 from steerlab.data.car import CARS  # noqa: E402
-from steerlab.sim.smallcar import SmallCar, speed_after, throttle_for  # noqa: E402
-from steerlab.sim.vehicle import VehicleState  # noqa: E402
+from steerlab.sim.track.smallcar import SmallCar, speed_after, throttle_for  # noqa: E402
+from steerlab.sim.core.vehicle import VehicleState  # noqa: E402
 
 
 def test_small_car_throttle_lag_and_braking():
@@ -249,7 +249,7 @@ def test_small_car_turns_on_its_kinematic_circle():
 
 # --- the racing expert -------------------------------------------------------------------------------------------
 
-from steerlab.sim.racer import Racer, expert_controls  # noqa: E402
+from steerlab.sim.track.expert import Racer, expert_controls  # noqa: E402
 
 
 def race(track, laps, drift_every_s, seed=0, dt=0.05):
@@ -293,7 +293,7 @@ def test_expert_drifts_and_recovers_without_leaving_the_lane(tracks):
 
 # --- the renderer ------------------------------------------------------------------------------------------------
 
-from steerlab.sim.track_render import TrackRenderer  # noqa: E402
+from steerlab.sim.track.render import TrackRenderer  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -330,7 +330,7 @@ def test_rendered_frames_are_deterministic_and_differ_between_tracks(renderers, 
 def test_track_worlds_of_one_track_share_its_renderer(renderers, tracks):
     """A renderer is built once per track and camera in a process (the suite and DAgger drive a track many
     times); it renders what a renderer of its own renders."""
-    from steerlab.sim.track_world import TrackWorld
+    from steerlab.sim.track.world import TrackWorld
 
     a, b = TrackWorld(1), TrackWorld(1)
     assert a.renderer is b.renderer and a.track is a.renderer.track

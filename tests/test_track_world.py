@@ -17,12 +17,12 @@ from steerlab.data.readers import open_recording
 from steerlab.data.recording import SteeringConvention
 from steerlab.errors import SteerlabError
 from steerlab.pilot import Controls
-from steerlab.sim.driving import drive_loop
-from steerlab.sim.part import PartPilot, donkey_pilot
-from steerlab.sim.smallcar import speed_after, steady_speed
-from steerlab.sim.track_world import Laps, RacerPilot, TrackWorld
-from steerlab.sim.vehicle import VehicleState
-from steerlab.sim.world import World
+from steerlab.sim.core.driving import drive_loop
+from steerlab.sim.core.part import PartPilot, donkey_pilot
+from steerlab.sim.track.smallcar import speed_after, steady_speed
+from steerlab.sim.track.world import Laps, RacerPilot, TrackWorld
+from steerlab.sim.core.vehicle import VehicleState
+from steerlab.sim.road.world import World
 
 DONKEY = CARS["donkey"]
 IDEAL = replace(DONKEY, drag=0.0, motor=replace(DONKEY.motor, rolling=0.0))  # the first-order throttle model alone
@@ -310,16 +310,16 @@ def test_sim_bench_world_track_writes_its_tables_and_reuses_drives(tmp_path, cap
 
 
 def test_the_suites_tracks_are_recorded_only_for_evaluation(tmp_path):
-    from steerlab.sim.track import Track
-    from steerlab.sim.track_bench import TRACK_SUITES
-    from steerlab.sim.track_run import record_track
-    from steerlab.sim.track_world import TrackRecordOptions
+    from steerlab.sim.track.track import Track
+    from steerlab.sim.track.suite import TRACK_SUITES
+    from steerlab.sim.track.run import record
+    from steerlab.sim.track.world import TrackRecordOptions
 
     o = TrackRecordOptions(seed=9401, minutes=0.01, drift=False, layout="steerlab",
                            lane_width=TRACK_SUITES["t1"]["lane_width"])
-    with pytest.raises(SteerlabError, match="reserved for the track suite"):
-        record_track(tmp_path / "refused", o, progress=False)
-    meta = json.loads((record_track(tmp_path / "eval", o, progress=False, suite_tracks_ok=True)
+    with pytest.raises(SteerlabError, match="reserved for the track suites"):
+        record(tmp_path / "refused", o, progress=False)
+    meta = json.loads((record(tmp_path / "eval", o, progress=False, suite_tracks_ok=True)
                        / "recording.json").read_text())
     assert meta["seed"] == 9401 and meta["lap_m"] == pytest.approx(Track(9401, o.lane_width, "taped").length)
 
@@ -330,12 +330,12 @@ def test_a_track_rollout_labels_every_visited_frame_with_the_experts_steering_an
     (the stateless `expert_controls`), and the car moves by the driver's commands: driving the same commands again
     visits the same states."""
     from steerlab.data.fisheye import DONKEY_FISHEYE
-    from steerlab.sim.track_run import track_rollout
+    from steerlab.sim.track.run import rollout
 
     results = {}
     for beta in (0.0, 1.0):
         out = tmp_path / f"beta-{beta:g}"
-        results[beta] = track_rollout(Scripted(0.08, throttle=0.5), out, 7, 0.05, "centre", beta)
+        results[beta] = rollout(Scripted(0.08, throttle=0.5), out, 7, 0.05, "centre", beta)
         world, labels = TrackWorld(7, style="centre", camera=None), []
         for _ in range(60):
             world.intervene(0.0)
@@ -347,8 +347,8 @@ def test_a_track_rollout_labels_every_visited_frame_with_the_experts_steering_an
         np.testing.assert_allclose(rec.steering, np.clip(-wheel / DONKEY.full_lock, -1, 1), atol=1e-9)
         np.testing.assert_allclose(rec.throttle, np.clip(throttle, -1, 1), atol=1e-9)
         assert np.ptp(rec.throttle) > 0.1 and np.ptp(rec.steering) > 0.05  # not the model's constant commands
-    assert results[0.0]["off_track"] > 0 == results[1.0]["off_track"]  # the model circles off; the expert races on
-    assert results[0.0]["seed"] == 7 and results[0.0]["style"] == "centre"
+    assert results[0.0].off_track > 0 == results[1.0].off_track  # the model circles off; the expert races on
+    assert results[0.0].seed == 7 and results[0.0].style == "centre"
 
 
 def test_dagger_in_the_track_world(tmp_path):
@@ -356,19 +356,19 @@ def test_dagger_in_the_track_world(tmp_path):
     with the expert labelling, the rollouts are tubs of the expert's labels added to round 1's training data,
     and every round drives the track suite into dagger.csv's track columns."""
     from steerlab.dagger import run_dagger
-    from steerlab.sim.track_run import record_track
-    from steerlab.sim.track_world import TrackRecordOptions
+    from steerlab.sim.track.run import record
+    from steerlab.sim.track.world import TrackRecordOptions
     from steerlab.train.config import load_config, parse_config
     from steerlab.train.sources import prepare_dataset, training_sources
 
-    record_track(tmp_path / "tub", TrackRecordOptions(seed=1, minutes=0.05, drift=False), progress=False)
+    record(tmp_path / "tub", TrackRecordOptions(seed=1, minutes=0.05, drift=False), progress=False)
     out = tmp_path / "dagger"
     cfg = load_config(None, base={
         "data": str(tmp_path / "tub"), "cache": str(tmp_path / "cache"), "out": str(out),
         "preprocess": {"preset": "donkey", "color": "gray"}, "model": {"name": "pilotnet"},
         "split": {"train": "0:40", "val": "40:60"}, "train": {"epochs": 1, "batch_size": 16, "throttle_weight": 0.5},
         "dagger": {"world": "track", "iterations": 1, "minutes": 0.05, "epochs": 1, "suite": "t1",
-                   "suite_minutes": 0.01, "suite_roads": "centre", "workers": 1}})
+                   "suite_minutes": 0.01, "suite_styles": "centre", "workers": 1}})
     assert run_dagger(cfg, progress=False) == out / "best.pt"
     with open(out / "dagger.csv") as f:
         rows = list(csv.DictReader(f))

@@ -13,7 +13,7 @@ from steerlab.data.readers import Source, open_recording
 from steerlab.errors import SteerlabError
 from steerlab.evaluate.offline import evaluate
 from steerlab.models import list_models, model_class
-from steerlab.sim.world import RecordOptions
+from steerlab.sim.road.world import RecordOptions
 from steerlab.train import loop, sources
 from steerlab.train.batches import EpochSampler, FrameBatches, balance_weights, loader
 from steerlab.train.config import TrainOptions, load_config, parse_config
@@ -117,7 +117,7 @@ def test_side_cameras_and_episode_filter(tiny_recording, tmp_path):
 def test_an_extra_recording_without_side_cameras_adds_its_centre_frames(tiny_recording, tmp_path):
     """A DAgger rollout in replay records only the view the car saw: with side cameras on, the main recording
     gives three streams and such an extra recording one; a main recording without side cameras is an error."""
-    from steerlab.sim.world import record
+    from steerlab.sim.road.run import record
 
     centre_only = record(tmp_path / "centre", RecordOptions(seed=4, minutes=0.02, side_cameras=False), progress=False)
     cfg = _cfg(tiny_recording, tmp_path, side_cameras=True, extra=[str(centre_only)]).for_car(CH2_CAR)

@@ -1,22 +1,22 @@
-"""DAgger (`steerlab sim dagger CONFIG`), in the synthetic world, in replay on the config's own recording or in
-the track world.
+"""DAgger (`steerlab sim dagger CONFIG`), in the road world, in replay on the config's own recording or in the
+track world.
 
 Round 0 trains the model on the config's data. Every later round rolls the current model out (with
 probability beta per tick the expert drives instead: beta = `beta` x `beta_decay`^(round - 1)), lets the
 expert label every visited frame, adds those recordings to the training data (`extra_data`) and trains again,
-starting from the previous round's weights. `world: synthetic` rolls out on fresh procedural roads (the
-expert: pure pursuit of the lane centre, `world.world_rollout`) and drives the closed-loop suite after every round
-(unless `suite` is null); `world: replay` rolls out in closed-loop replay over the training frames of the
-config's recording (the expert: the human's steering plus pure pursuit's way back to the path,
-`replay.rollout_recording`) and replays the validation frames after every round; `world: track` (a config of
+starting from the previous round's weights. `world: road` rolls out on fresh procedural roads (the expert: pure
+pursuit of the lane centre, `road.run.rollout`) and drives the closed-loop suite after every round (unless
+`suite` is null); `world: replay` rolls out in closed-loop replay over the training frames of the config's
+recording (the expert: the human's steering plus pure pursuit's way back to the path,
+`replay.run.rollout_recording`) and replays the validation frames after every round; `world: track` (a config of
 donkeycar tubs, the track world's camera) races the model, with its learned throttle capped as the track suite
 caps it, on fresh tracks of both styles (taped and centre line) seen through the recording's fisheye (the expert,
 steering and throttle: pure pursuit of the lane centre and the feed-forward throttle to the track's speed
-profile, `track_run.track_rollout`), records the rollouts as tubs and drives the track suite (`suite: t1`; its
-tables, without the figures of the tracks) after every round. `dagger.csv` and `dagger.png` show autonomy (the
-track world: clean laps, lap time over the expert's, off-track events per lap) against the round. Every step is
-kept on disk and reused, so an interrupted run continues where it stopped. The final round's `best.pt`,
-`log.csv`, `val_predictions.csv` and `metrics.json` are copied to the output folder.
+profile, `track.run.rollout`), records the rollouts as tubs and drives the track suite (`suite: t1`; its tables,
+without the figures of the tracks) after every round. The worlds are `sim.worlds.WORLDS`' entries. `dagger.csv`
+and `dagger.png` show autonomy (the track world: clean laps, lap time over the expert's, off-track events per
+lap) against the round. Every step is kept on disk and reused, so an interrupted run continues where it stopped.
+The final round's `best.pt`, `log.csv`, `val_predictions.csv` and `metrics.json` are copied to the output folder.
 """
 
 from __future__ import annotations
@@ -29,18 +29,17 @@ from pathlib import Path
 from typing import Literal
 
 from steerlab.data.car import car_of
-from steerlab.data.fisheye import DONKEY_FISHEYE
-from steerlab.paths import folder_to_write
-from steerlab.options import AT_LEAST_0, AT_LEAST_1, Options, POSITIVE, UNIT, as_dict, option, parse
 from steerlab.errors import SteerlabError
-from steerlab.sim.bench import SUITES, SuiteOptions, run_suite
-from steerlab.sim.parallel import run_parallel, tick_reporter
-from steerlab.sim.track import STYLES
-from steerlab.sim.track_bench import TRACK_SUITES, TrackSuiteOptions, run_track_suite
-from steerlab.sim.world import ROAD_CAMERAS, ROADS, road_types
+from steerlab.options import AT_LEAST_0, AT_LEAST_1, Options, POSITIVE, UNIT, as_dict, option, parse
+from steerlab.paths import folder_to_write
+from steerlab.sim.core.parallel import run_parallel
+from steerlab.sim.road.world import ROADS, road_types
+from steerlab.sim.worlds import WORLDS, suite_world, track_styles
 from steerlab.split_replay import SplitReplay
 from steerlab.train.config import TrainConfig, parse_config
 from steerlab.train.sources import main_recording
+
+ALL_SUITES = [v for w in WORLDS.values() for v in w.suites]
 
 
 def _roads(road: str) -> bool:
@@ -48,81 +47,90 @@ def _roads(road: str) -> bool:
     return True
 
 
+def _styles(styles: str) -> bool:
+    track_styles(styles)
+    return True
+
+
 @dataclass(frozen=True)
 class DaggerOptions(Options):
     """A config's `dagger:` section."""
 
+    world: Literal["road", "replay", "track"] = option(
+        "road", help="where the rollouts drive: fresh roads of the road world, the config's recording in replay, or "
+        "fresh tracks of the track world (a config of donkeycar tubs)")
     iterations: int = option(3, AT_LEAST_0, help="rounds of rollout + retraining after the first training")
     minutes: float = option(4.0, POSITIVE, help="minutes of rollouts per round, shared by the road types (the "
                             "track world: by the track styles)")
-    roads: str = option("mixed", _roads, ROADS, help="road types of the rollouts")
     seeds_from: int = option(5000, help="round r drives road (or track) seeds seeds_from + 100 r + k")
     beta: float = option(0.5, UNIT, help="probability that the expert drives a tick, in round 1")
     beta_decay: float = option(0.5, UNIT, help="beta is multiplied by this every round")
     epochs: int = option(4, AT_LEAST_1, help="epochs of every retraining (round 0 uses train.epochs)")
     warm_start: bool = option(True, help="retrain from the previous round's weights (else from scratch)")
-    suite: str | None = option("v1", lambda v: v in SUITES or v in TRACK_SUITES, " or ".join([*SUITES, *TRACK_SUITES]),
-                               help="closed-loop suite after every round: a road suite (v1) for world synthetic, a "
-                               "track suite (t1) for world track (null: none)")
+    suite: str | None = option("v1", lambda v: v in ALL_SUITES, " or ".join(ALL_SUITES),
+                               help="closed-loop suite after every round: a road suite (v1) for world road, a track "
+                               "suite (t1) for world track (null: none)")
     suite_minutes: float | None = option(None, POSITIVE, "positive and finite",
                                          help="minutes per suite road or track")
-    suite_roads: str | None = option(None, help="comma list of the suite's road types (the track world: track "
-                                     "styles) to drive (default: all)")
     workers: int = option(2, AT_LEAST_1, help="parallel rollouts and suite drives")
-    world: Literal["synthetic", "replay", "track"] = option(
-        "synthetic", help="where the rollouts drive: fresh roads, the config's recording in replay, or fresh tracks "
-        "of the track world (a config of donkeycar tubs)")
+    roads: str = option("mixed", _roads, ROADS, help="road world: road types of the rollouts")
+    suite_roads: str | None = option(None, help="road world: comma list of the suite's road types to drive "
+                                     "(default: all)")
+    styles: str | None = option(None, _styles, "taped, centre or a comma list of them",
+                                help="track world: track styles of the rollouts (default: both)")
+    suite_styles: str | None = option(None, help="track world: comma list of the suite's track styles to drive "
+                                      "(default: all)")
     speed: float | None = option(None, POSITIVE, help="replay: m/s for a recording without speed")
 
 
+# the options that belong to some worlds only: given for another, they are refused
+OWN = {"roads": ("road",), "suite_roads": ("road",), "styles": ("track",), "suite_styles": ("track",),
+       "suite": ("road", "track"), "suite_minutes": ("road", "track"), "speed": ("replay",)}
+
+
 def dagger_options(cfg: TrainConfig) -> DaggerOptions:
-    return parse(DaggerOptions, cfg.dagger or {}, "dagger")
+    """The `dagger:` section, its world named as the CLI names it (`synthetic`, the road world's earlier name, is
+    read as `road` with a notice), without the options of another world."""
+    raw = _renamed(cfg.dagger, notice=True)
+    o = parse(DaggerOptions, raw, "dagger")
+    for key in sorted(set(raw) & set(OWN)):
+        if o.world not in OWN[key]:
+            raise SteerlabError(f"dagger.{key} is an option of dagger.world {' and '.join(OWN[key])}; dagger.world "
+                                f"{o.world} does not take it")
+    return o
 
 
-def round_suite(o: DaggerOptions) -> SuiteOptions | TrackSuiteOptions | None:
-    """The closed-loop suite every round drives (None: none): a road suite, or in the track world a track
-    suite."""
-    if not o.suite:
+def _renamed(section: dict | None, notice: bool = False) -> dict:
+    """A `dagger:` section with the road world's earlier name, `synthetic`, read as `road`."""
+    raw = dict(section or {})
+    if raw.get("world") == "synthetic":
+        if notice:
+            print("notice: dagger.world: synthetic is the road world's earlier name; read as road")
+        raw["world"] = "road"
+    return raw
+
+
+def round_suite(o: DaggerOptions):
+    """The closed-loop suite's options every round drives (None: none): a suite of the rollouts' world."""
+    if not o.suite or o.world == "replay":
         return None
-    track = o.world == "track"
-    if track != (o.suite in TRACK_SUITES):
-        want = f"a track suite ({', '.join(TRACK_SUITES)})" if track else f"a road suite ({', '.join(SUITES)})"
-        raise SteerlabError(f"dagger.suite: {o.suite} is a {'road' if track else 'track'} suite; world {o.world} "
-                            f"drives {want} or none (null)")
-    if track:
-        return TrackSuiteOptions(o.suite, o.suite_minutes, o.workers, styles=o.suite_roads)
-    return SuiteOptions(o.suite, o.suite_minutes, o.workers, roads=o.suite_roads)
+    world = WORLDS[o.world]
+    if o.suite not in world.suites:
+        raise SteerlabError(f"dagger.suite: {o.suite} is a {suite_world(o.suite).name} suite; world {o.world} "
+                            f"drives a {o.world} suite ({', '.join(world.suites)}) or none (null)")
+    return world.suite_options(suite=o.suite, minutes=o.suite_minutes, workers=o.workers,
+                               **{world.kinds: getattr(o, f"suite_{world.kinds}")})
 
 
 def _check_world(o: DaggerOptions, rec) -> None:
     """The rollouts' world must render the camera of the config's recording."""
-    if o.world == "track" and rec.geometry != "donkey":
-        raise SteerlabError(f"dagger.world: track renders the donkeycar camera, and {rec.source} holds "
-                            f"{rec.geometry!r} frames: train on tubs of the track world (steerlab sim record --world "
-                            "track), or choose world synthetic or replay")
-    if o.world == "synthetic" and rec.geometry not in ROAD_CAMERAS:
-        raise SteerlabError(f"dagger.world: synthetic renders the {' or '.join(ROAD_CAMERAS)} camera, and "
-                            f"{rec.source} holds {rec.geometry!r} frames: choose world "
-                            f"{'track' if rec.geometry == 'donkey' else 'replay'}")
-
-
-def _rollout_job(checkpoint: str, out: str, seed: int, minutes: float, road: str, beta: float) -> dict:
-    from steerlab.pilot import Pilot
-    from steerlab.sim.world import world_rollout
-
-    return world_rollout(Pilot(checkpoint), out, seed, minutes, road, beta, on_tick=tick_reporter())
-
-
-def _track_rollout_job(checkpoint: str, out: str, seed: int, minutes: float, style: str, beta: float,
-                       camera) -> dict:
-    """A rollout in the track world: the model drives through the donkeycar part as in the track suite (its
-    default throttle, cap of the learned throttle and smoothing)."""
-    from steerlab.sim.part import donkey_pilot
-    from steerlab.sim.track_run import track_rollout
-
-    d = TrackSuiteOptions()
-    pilot = donkey_pilot(checkpoint, d.throttle, d.smoothing, d.max_throttle)
-    return track_rollout(pilot, out, seed, minutes, style, beta, camera, on_tick=tick_reporter())
+    if o.world == "replay" or rec.geometry in WORLDS[o.world].cameras:
+        return
+    other = next((w.name for w in WORLDS.values() if rec.geometry in w.cameras), "replay")
+    raise SteerlabError(f"dagger.world: {o.world} renders the {' or '.join(WORLDS[o.world].cameras)} camera, and "
+                        f"{rec.source} holds {rec.geometry!r} frames: choose world {other}"
+                        + (" (train on tubs of the track world: steerlab sim record --world track)"
+                           if o.world == "track" else ""))
 
 
 def run_dagger(cfg: TrainConfig, progress: bool = True) -> Path:
@@ -132,49 +140,50 @@ def run_dagger(cfg: TrainConfig, progress: bool = True) -> Path:
     o = dagger_options(cfg)
     rec = main_recording(cfg)
     _check_world(o, rec)
-    suite = None if o.world == "replay" else round_suite(o)
-    if suite:  # its road types checked before anything is written
+    world = None if o.world == "replay" else WORLDS[o.world]
+    suite = round_suite(o)
+    kinds = world.parse_kinds(getattr(o, world.kinds)) if world else []  # one rollout of each per round
+    if suite:  # its road types or track styles checked before anything is written
         try:
             suite.drives()
         except SteerlabError as e:
-            raise SteerlabError(f"dagger.suite_roads: {e}") from None
+            raise SteerlabError(f"dagger.suite_{world.kinds}: {e}") from None
     out = folder_to_write(cfg.out, "output folder (out)")
     car = car_of(rec.geometry)
     cfg = cfg.for_car(car)
     _claim(out, cfg, o, car)
     base = replace(cfg, dagger=None)
-    track = o.world == "track"
-    kinds = STYLES if track else road_types(o.roads)  # one rollout of each per round
-    camera = (rec.fisheye or DONKEY_FISHEYE,) if track else ()  # the track world renders the recording's fisheye
     replay = SplitReplay(cfg, o.speed) if o.world == "replay" else None
     rows, extra = _read_log(out), list(cfg.extra_data)
     for r in range(o.iterations + 1):
         run = out / f"round{r}"
         beta = 1.0 if r == 0 else o.beta * o.beta_decay ** (r - 1)
-        rollout_metrics = []
+        autonomies = []  # of the rollouts made now (none: reused)
         if r > 0 and replay:
             folder = run / "rollouts" / "replay"
             extra.append(str(folder))
             if not (folder / "recording.json").exists():
                 shutil.rmtree(folder, ignore_errors=True)  # an interrupted rollout starts again
                 if progress:
-                    print(f"== DAgger round {r}: replaying round {r - 1}'s model over the training frames, beta {beta:.3f}")
-                rollout_metrics = replay.rollouts(out / f"round{r - 1}" / "best.pt", folder, beta,
-                                                  o.seeds_from + 100 * r, progress)
+                    print(f"== DAgger round {r}: replaying round {r - 1}'s model over the training frames, "
+                          f"beta {beta:.3f}")
+                autonomies = [m["autonomy"] for m in replay.rollouts(out / f"round{r - 1}" / "best.pt", folder, beta,
+                                                                      o.seeds_from + 100 * r, progress)]
         elif r > 0:
             jobs = []
             for k, kind in enumerate(kinds):
                 folder = run / "rollouts" / f"{kind}-{o.seeds_from + 100 * r + k}"
                 extra.append(str(folder))
-                if not (folder / ("manifest.json" if track else "recording.json")).exists():
+                if not (folder / world.rollout_done).exists():
                     shutil.rmtree(folder, ignore_errors=True)  # an interrupted rollout starts again
                     jobs.append((str(out / f"round{r - 1}" / "best.pt"), str(folder), o.seeds_from + 100 * r + k,
-                                 o.minutes / len(kinds), kind, beta, *camera))
+                                 o.minutes / len(kinds), kind, beta, world.rollout_camera(rec)))
             if progress and jobs:
-                print(f"== DAgger round {r}: rolling out round {r - 1}'s model on {len(jobs)} "
-                      f"{'track' if track else 'road'}(s), beta {beta:.3f}")
-            rollout_metrics = run_parallel(_track_rollout_job if track else _rollout_job, jobs, o.workers,
-                                           int(round(o.minutes / len(kinds) * 60 * 20)), progress, "rollouts")
+                print(f"== DAgger round {r}: rolling out round {r - 1}'s model in {len(jobs)} fresh place(s) of the "
+                      f"{world.name} world, beta {beta:.3f}")
+            autonomies = [m.autonomy for m in run_parallel(world.rollout, jobs, o.workers,
+                                                           int(round(o.minutes / len(kinds) * 60 * 20)), progress,
+                                                           "rollouts")]
         round_cfg = replace(base, out=str(run), extra_data=tuple(extra))
         if r > 0:
             round_cfg = replace(round_cfg, train=replace(round_cfg.train, epochs=o.epochs,
@@ -188,17 +197,12 @@ def run_dagger(cfg: TrainConfig, progress: bool = True) -> Path:
         metrics = json.loads((run / "metrics.json").read_text())
         if replay:
             closed = replay.evaluate(run / "best.pt", run / "replay", progress)
-        elif track and suite:
-            closed = _track_columns(run_track_suite([run / "best.pt"], run / "suite", suite, progress=progress,
-                                                    plots=False))  # the tables; `sim bench` draws the tracks
         elif suite:
-            summary = run_suite([run / "best.pt"], run / "suite", suite, progress=progress)
-            closed = {f"autonomy_{s['road_type']}": s["autonomy"] for s in summary}
-            closed["interventions_per_km"] = next(s for s in summary if s["road_type"] == "all")["interventions_per_km"]
+            closed = world.round_columns(world.suite([run / "best.pt"], run / "suite", suite, progress=progress))
         else:
             closed = {}
         if r >= len(rows):
-            rows.append(_log_row(r, beta, extra, rollout_metrics, metrics, closed))
+            rows.append(_log_row(r, beta, extra, autonomies, metrics, closed))
             _write_log(out, rows)
     for name in ("best.pt", "log.csv", "val_predictions.csv", "metrics.json"):
         shutil.copyfile(out / f"round{len(rows) - 1}" / name, out / name)
@@ -222,7 +226,7 @@ def _claim(out: Path, cfg: TrainConfig, o: DaggerOptions, car) -> None:
         try:
             stored = json.loads(path.read_text())
             earlier = _settings(parse_config({**stored, "dagger": None}).for_car(car),
-                                parse(DaggerOptions, stored["dagger"], "dagger"))
+                                parse(DaggerOptions, _renamed(stored["dagger"]), "dagger"))
         except (OSError, ValueError, KeyError, TypeError, SteerlabError):
             earlier = None
         if earlier != _settings(cfg, o):
@@ -237,19 +241,10 @@ FIELDS = ["round", "beta", "recordings", "rollout_autonomy", "val_rmse", "autono
           "clean_laps_pct", "lap_ratio", "off_track_per_lap"]  # the last three: the track suite's
 
 
-def _track_columns(summary: list[dict]) -> dict:
-    """The track suite over all its tracks: clean laps in % of the laps completed (empty without a lap), the mean
-    clean lap time over the expert's (empty without a clean lap) and off-track events per lap driven."""
-    a = next(s for s in summary if s["style"] == "all")
-    return {"clean_laps_pct": 100 * a["clean_laps"] / a["laps"] if a["laps"] else "",
-            "lap_ratio": "" if a["lap_ratio"] is None else a["lap_ratio"], "off_track_per_lap": a["off_track_per_lap"]}
-
-
-def _log_row(r, beta, extra, rollout_metrics, metrics, closed: dict) -> dict:
+def _log_row(r, beta, extra, autonomies: list[float], metrics, closed: dict) -> dict:
     """One round: its rollouts' mean autonomy, validation RMSE and the closed-loop columns (suite or replay)."""
     row = {"round": r, "beta": beta, "recordings": 1 + len(extra), "val_rmse": metrics["rmse"],
-           "rollout_autonomy": (sum(m["autonomy"] for m in rollout_metrics) / len(rollout_metrics)
-                                if rollout_metrics else ""), **closed}
+           "rollout_autonomy": sum(autonomies) / len(autonomies) if autonomies else "", **closed}
     return {k: row.get(k, "") for k in FIELDS}
 
 
@@ -261,10 +256,46 @@ def _read_log(out: Path) -> list[dict]:
 
 
 def _write_log(out: Path, rows: list[dict]) -> None:
-    from steerlab.sim.plots import plot_rounds
-
     with open(out / "dagger.csv", "w", newline="") as f:
         w = csv.DictWriter(f, FIELDS)
         w.writeheader()
         w.writerows(rows)
     plot_rounds(out / "dagger.png", rows)
+
+
+def plot_rounds(path: str | Path, rows: list[dict]) -> None:
+    """DAgger: closed-loop autonomy per road type, or in replay, or the track suite's clean laps (and the
+    validation RMSE) against the round; the validation RMSE alone when the rounds were not driven (`suite: null`)."""
+    import numpy as np
+
+    from steerlab.figures import figure  # matplotlib: imported where it draws
+
+    with figure(path, figsize=(7, 4)) as (fig, ax):
+        rounds = [int(r["round"]) for r in rows]
+        rmse = [float(r["val_rmse"]) for r in rows]
+        if not any(r.get(k, "") != "" for r in rows for k in ("autonomy_all", "replay_autonomy", "clean_laps_pct")):
+            ax.plot(rounds, rmse, "kx:")
+            ax.set_xlabel("DAgger round")
+            ax.set_ylabel("validation RMSE [the recording's steering unit]")
+            ax.set_xticks(rounds)
+            ax.grid(alpha=0.3)
+            return
+        for key, style, label in [("autonomy_country", "o-", "country"), ("autonomy_highway", "s-", "highway"),
+                                  ("autonomy_twisty", "^-", "twisty"), ("autonomy_all", "k.--", "all"),
+                                  ("replay_autonomy", "kD-", "replay"),
+                                  ("clean_laps_pct", "g*-", "clean laps of the track suite")]:
+            values = [float(r[key]) if r.get(key, "") != "" else np.nan for r in rows]
+            if not np.all(np.isnan(values)):
+                ax.plot(rounds, values, style, label=label)
+        ax.set_xlabel("DAgger round")
+        ax.set_ylabel("closed-loop autonomy or clean laps [%]")
+        ax.set_ylim(top=101)  # at most 100 %
+        ax.set_xticks(rounds)
+        ax.grid(alpha=0.3)
+        ax2 = ax.twinx()
+        ax2.plot(rounds, rmse, color="0.6", ls=":", marker="x", label="val RMSE")
+        ax2.set_ylabel("validation RMSE [steering unit]", color="0.4")
+        lines = ax.get_legend_handles_labels()
+        extra = ax2.get_legend_handles_labels()
+        ax.legend(lines[0] + extra[0], lines[1] + extra[1], fontsize=8, loc="upper center", ncol=3,
+                  bbox_to_anchor=(0.5, -0.15))  # below the axes: over none of the lines, near 100 % or near 0

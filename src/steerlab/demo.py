@@ -7,7 +7,7 @@ from __future__ import annotations
 import csv
 import json
 import time
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from steerlab.options import AT_LEAST_1, Options, POSITIVE, option
@@ -44,9 +44,10 @@ def run_demo(o: DemoOptions = DemoOptions(), progress: bool = True) -> Path:
     from steerlab.dagger import run_dagger
     from steerlab.data.readers import Source
     from steerlab.evaluate.offline import evaluate
-    from steerlab.sim.bench import SuiteOptions, run_suite
-    from steerlab.sim.replay_run import ReplayOptions, run_replay
-    from steerlab.sim.world import RecordOptions, record
+    from steerlab.sim.road.suite import SuiteOptions, run_suite
+    from steerlab.sim.replay.run import ReplayOptions, run_replay
+    from steerlab.sim.road.run import record
+    from steerlab.sim.road.world import RecordOptions
     from steerlab.train.config import load_config
 
     out, minutes, fps, epochs, suite_minutes, dagger_minutes, workers = (
@@ -86,7 +87,8 @@ def run_demo(o: DemoOptions = DemoOptions(), progress: bool = True) -> Path:
     report.write_text(_report(offline, rounds, dagger_minutes, (out / "replay" / "replay.md").read_text(),
                               (out / "closed-loop" / "suite.md").read_text(), split, n))
     (out / "summary.json").write_text(json.dumps({"open_loop": offline, "dagger": rounds, "replay": replay,
-                                                 "closed_loop": summary, "seconds": stages.seconds}, indent=1))
+                                                 "closed_loop": [asdict(s) for s in summary],
+                                                 "seconds": stages.seconds}, indent=1))
     return report
 
 

@@ -30,7 +30,7 @@ from steerlab.evaluate.scoring import read_steering_csv
 from steerlab.paths import folder_to_write
 from steerlab.options import Options, POSITIVE, as_dict, option, parse
 from steerlab.pilot import Pilot
-from steerlab.sim.bench import SuiteOptions, closed_loop_metrics, plot_roads
+from steerlab.sim.road.suite import SuiteOptions, closed_loop_metrics
 from steerlab.split_replay import SplitReplay
 from steerlab.train.config import TrainConfig, parse_config, read_yaml
 from steerlab.train.loop import train
@@ -166,6 +166,8 @@ def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: boo
         preds[entry.name] = read_steering_csv(out / entry.name / "seed0" / "val_predictions.csv")
     _write(out, rows, preds, cfg, seeds, _speed_references(labels, next(iter(preds.values()))[0]))
     if drives:
+        from steerlab.sim.road.plots import plot_roads  # matplotlib: imported where it draws
+
         plot_roads(out / "roads", drives, exp.closed_loop.road_minutes)
     return out / "table.md"
 

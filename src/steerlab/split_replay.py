@@ -10,18 +10,19 @@ from steerlab.data.geometry import CAMERAS
 from steerlab.data.readers import Source
 from steerlab.data.splits import make_split
 from steerlab.errors import SteerlabError
-from steerlab.sim.parallel import run_parallel, tick_reporter
-from steerlab.sim.replay import Replay, replay_speed, rollout_recording
-from steerlab.sim.replay_run import ReplayOptions, run_replay
+from steerlab.sim.core.parallel import run_parallel, tick_reporter
+from steerlab.sim.replay.path import replay_speed
+from steerlab.sim.replay.run import ReplayOptions, rollout_recording, run_replay
+from steerlab.sim.replay.world import Replay
 from steerlab.train.config import TrainConfig
 from steerlab.train.sources import main_recording
 
 
-def _rollout_job(checkpoint: str, out: str, source: Source, replay: dict, beta: float, seed: int) -> dict:
+def _rollout_job(checkpoint: str, out: str, source: Source, replay: Replay, beta: float, seed: int) -> dict:
     from steerlab.pilot import Pilot
 
-    return rollout_recording(Pilot(checkpoint), Replay(source.open(), **replay, frames=source.frames), out, beta,
-                             seed, on_tick=tick_reporter())
+    return rollout_recording(Pilot(checkpoint), replay, source.open(), source.frames, out, beta, seed,
+                             on_tick=tick_reporter())
 
 
 class SplitReplay:
@@ -34,7 +35,7 @@ class SplitReplay:
         self.train_idx, self.val_idx = make_split(cfg.split, len(rec), rec.extra.get("session"))
         cam, car = CAMERAS[rec.geometry], CARS[rec.geometry]
         self.speed, self.speed_source = replay_speed(rec, cam, car, speed)
-        self.replay = {"cam": cam, "car": car, "speed": self.speed}
+        self.replay = Replay(cam, car, self.speed)
         self.source = Source(cfg.data, cfg.range, cfg.labels, cfg.reader)
 
     def _frames(self, idx) -> Source:

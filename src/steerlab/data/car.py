@@ -13,7 +13,7 @@ from steerlab.errors import SteerlabError
 
 @dataclass(frozen=True)
 class Motor:
-    """How a small car's speed answers its throttle u in [-1, 1] (`sim/smallcar.py`, a brushed motor on an ESC):
+    """How a small car's speed answers its throttle u in [-1, 1] (`sim/track/smallcar.py`, a brushed motor on an ESC):
     for u >= 0 the speed approaches u x `top_speed` (m/s) with `time_constant` (s) under power, or with
     `coast_time_constant` (s) while it is faster than that (the ESC's drag brake); `rolling` (m/s^2) is the
     rolling resistance while it moves. Braking (u < 0) and air drag are the car's `max_decel` and `drag`."""
@@ -65,7 +65,7 @@ class Car:
         return math.radians(self.full_lock_deg)
 
 
-# CH2's car, a Lincoln MKZ (steering ratio 14.8), is also the synthetic world's; its left and right cameras sit
+# CH2's car, a Lincoln MKZ (steering ratio 14.8), is also the road world's; its left and right cameras sit
 # 20 inches beside the centre one, as in paper 002 V-D. A donkeycar: a 1:10 RC car with a 25-degree servo lock,
 # 0.26 m wheelbase, a 0.42 x 0.20 m body and its camera 0.22 m ahead of the rear axle; throttle 1 approaches
 # 5 m/s with a 0.3 s lag (1.5 s when slowing to a lower throttle), braking at 6 m/s^2 at throttle -1.
@@ -77,7 +77,7 @@ CARS = {"sim": CH2_CAR, "ch2": CH2_CAR, "donkey": DONKEY_CAR}
 
 
 def car_of(geometry: str | None) -> Car:
-    """The car of a camera geometry (the synthetic world's for one steerlab does not know)."""
+    """The car of a camera geometry (the road world's for one steerlab does not know)."""
     if geometry is not None and geometry not in CARS:
         raise SteerlabError(f"unknown camera geometry {geometry!r}; choose one of {', '.join(CARS)}")
     return CARS[geometry or "sim"]

@@ -4,7 +4,7 @@ A `Camera` is a pinhole camera on a car: image size, focal length, principal row
 (down positive), looking straight ahead from the car's centre line. Vehicle axes are forward, left, up
 (metres); camera axes x right, y down, z along the optical axis. The presets carry the name of the
 preprocessing preset whose frames they match (docs/ARCHITECTURE.md shows real and rendered frames side by
-side), and the synthetic world renders with the same cameras.
+side), and the road world renders with the same cameras.
 
 `shift_view(frame, cam, shift_m, yaw_deg)` turns a frame into the frame a camera moved `shift_m` to the left
 and turned `yaw_deg` to the left would have seen (two homographies: the flat road plane and the sky); it makes

@@ -1,4 +1,4 @@
-"""steerlab's native recording layout, written by the synthetic world: `recording.json` (metadata, steering
+"""steerlab's native recording layout, written by the road world: `recording.json` (metadata, steering
 convention) + `log.csv` (one row per frame, NATIVE_COLUMNS) + one folder of JPEGs per camera."""
 
 from __future__ import annotations

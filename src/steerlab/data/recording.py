@@ -106,7 +106,7 @@ class Recording:
     timestamps_ns: int64 capture times, strictly increasing.
     steering: float64, in `convention` (radians, or [-1, 1] for normalized steering).
     speed, throttle, brake: optional float64 arrays (m/s, 0..1, 0..1); NaN-free.
-    extra: further per-frame columns (e.g. the synthetic world's lateral offset and episode label).
+    extra: further per-frame columns (e.g. the road world's lateral offset and episode label).
     frame_ids: the ids a predictions file uses (CH2: the nanosecond file name; otherwise the timestamp).
     fisheye: the fisheye camera the frames were taken with, when the recording says (the track world's do).
     """

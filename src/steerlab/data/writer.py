@@ -19,7 +19,7 @@ from steerlab.data.recording import SteeringConvention
 from steerlab.data.simlog import image_name, log_row, to_sim_steering
 from steerlab.errors import SteerlabError
 
-CONVENTION = SteeringConvention("steering_wheel", "left")  # the synthetic world's, like CH2: steering wheel, left
+CONVENTION = SteeringConvention("steering_wheel", "left")  # the road world's, like CH2: steering wheel, left
 EPOCH_NS = int(datetime(2020, 1, 1, tzinfo=timezone.utc).timestamp()) * 1_000_000_000  # recorded times start here
 JPEG = [cv2.IMWRITE_JPEG_QUALITY, 92]
 
@@ -27,7 +27,7 @@ JPEG = [cv2.IMWRITE_JPEG_QUALITY, 92]
 class RecordingWriter:
     """Writes frames and per-frame rows as a steerlab recording (`recording.json`, `log.csv`, one folder of
     JPEGs per camera) or in the Udacity simulator's `driving_log.csv` layout. Steering is written in
-    `convention` (the synthetic world's own by default); `geometry` is the camera geometry of the frames, which
+    `convention` (the road world's own by default); `geometry` is the camera geometry of the frames, which
     also names the car (`data.car`)."""
 
     def __init__(self, out: str | Path, cameras: list[str], layout: str = "steerlab",

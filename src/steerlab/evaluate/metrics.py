@@ -68,8 +68,8 @@ def quantized_classification_error(pred, target, deg_per_unit: float = DEG, edge
     """Quantized classification error, QCE (Codevilla et al. 2018): the fraction of frames whose
     prediction falls in another steering class than the target. Their Q(x, sigma) has three classes, x < -sigma,
     -sigma <= x < sigma and x >= sigma, with sigma in CARLA's normalized steering; here sigma = 1 degree of the
-    wheel the recording measures (the hand wheel for CH2 and the synthetic world, the road wheel for simulator
-    and donkeycar data), which puts about a fifth (CH2) to a half (synthetic world) of a recording's frames in
+    wheel the recording measures (the hand wheel for CH2 and the road world, the road wheel for simulator
+    and donkeycar data), which puts about a fifth (CH2) to a half (road world) of a recording's frames in
     the straight class. Needs the steering in degrees (a tub without `full_lock_deg` has none)."""
     if not np.isfinite(deg_per_unit):
         raise SteerlabError("QCE needs the steering in degrees; this recording's full-lock angle is unknown")

@@ -42,3 +42,29 @@ class PilotNet(SteeringModel):
 
     def forward(self, x: torch.Tensor) -> dict[str, torch.Tensor]:
         return self.named(self.head(self.features(x).flatten(1)))
+
+
+@register("donkey-linear")
+class DonkeyLinear(SteeringModel):
+    """donkeycar's linear model (`KerasLinear`, `default_n_linear` in donkeycar's parts/keras.py), written here with
+    its published layout: five convolutions of 24, 32, 64, 64, 64 filters with kernels 5, 5, 5, 3, 3 and strides
+    2, 2, 2, 1, 1, ReLU, dropout after each; fully connected 100 and 50 with ReLU and dropout; a linear steering
+    output and, with `throttle`, a linear throttle output. donkeycar feeds it the whole 160x120 RGB frame (for that
+    input the flattened features are 64 x 8 x 13 = 6656) and drops 0.2 everywhere."""
+
+    inputs: dict = {}  # any colour space and size the convolutions fit
+
+    def __init__(self, in_channels: int = 3, dropout: float = 0.2, throttle: bool = False):
+        super().__init__()
+        self.learns_throttle = throttle
+        layers, c = [], in_channels
+        for out, k, s in [(24, 5, 2), (32, 5, 2), (64, 5, 2), (64, 3, 1), (64, 3, 1)]:
+            layers += [nn.Conv2d(c, out, k, s), nn.ReLU(inplace=True), nn.Dropout(dropout)]
+            c = out
+        self.features = nn.Sequential(*layers)
+        self.head = nn.Sequential(nn.LazyLinear(100), nn.ReLU(inplace=True), nn.Dropout(dropout),
+                                  nn.Linear(100, 50), nn.ReLU(inplace=True), nn.Dropout(dropout),
+                                  nn.Linear(50, 1 + throttle))
+
+    def forward(self, x: torch.Tensor) -> dict[str, torch.Tensor]:
+        return self.named(self.head(self.features(x).flatten(1)))

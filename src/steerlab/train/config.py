@@ -91,7 +91,7 @@ class TrainConfig(Options):
     out: str = "runs/train"
     dagger: dict | None = None       # steerlab sim dagger (dagger.DaggerOptions)
     tune: dict | None = None         # steerlab tune's search space (tune/space.py)
-    closed_loop: dict | None = None  # the closed-loop suite (sim/bench.SuiteOptions)
+    closed_loop: dict | None = None  # the closed-loop suite (sim/road/suite.SuiteOptions)
 
     def __post_init__(self):
         super().__post_init__()

@@ -263,7 +263,7 @@ def build(cfg: TrainConfig, ranks: Ranks, progress: bool, init: dict | None, tea
     if t.recovery_weight > 1:
         episodes = data.episodes()
         if not np.isin(episodes, "recover").any():
-            raise SteerlabError("recovery_weight needs recordings with recovery episodes (the synthetic world's)")
+            raise SteerlabError("recovery_weight needs recordings with recovery episodes (the road and track worlds')")
         repeats = recovery_repeats(samples, episodes, t.recovery_weight)
     weights = balance_weights(data.steering(samples)) if t.balance else None
     sampler = EpochSampler(samples, t.batch_size, t.seed, t.flip, t.motion_dropout, weights, repeats, ranks.rank,

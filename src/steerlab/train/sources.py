@@ -46,7 +46,7 @@ def usable_frames(ds: CompiledDataset, idx: np.ndarray, name: str, min_speed: fl
         idx = idx[ds.labels["speed"][idx] >= min_speed]
     if exclude_episodes:
         if "episode" not in ds.labels:
-            raise SteerlabError("exclude_episodes needs a recording with episode labels (the synthetic world's)")
+            raise SteerlabError("exclude_episodes needs a recording with episode labels (the road and track worlds')")
         idx = idx[~np.isin(ds.labels["episode"][idx], list(exclude_episodes))]
     if len(idx) == 0:
         raise SteerlabError(f"the {name} split is empty" + (f" once frames slower than {min_speed} m/s are dropped"

@@ -16,7 +16,7 @@ from steerlab.errors import DataError, SteerlabError, warn
 from steerlab.locks import pid_alive, waiting_lock
 from steerlab.paths import folder_to_write
 from steerlab.options import as_dict
-from steerlab.sim.bench import closed_loop_metrics, suite_options
+from steerlab.sim.road.suite import closed_loop_metrics, suite_options
 from steerlab.train.config import TrainConfig
 from steerlab.tune.options import OBJECTIVES, TuneOptions
 from steerlab.tune.report import short, write_reports

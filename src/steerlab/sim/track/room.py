@@ -1,7 +1,7 @@
 """The room a track lies in, drawn from the track's seed: the floor (concrete, epoxy, wood, carpet, tarp) with the
 track's tape or paint, the walls with doors, shutters and windows, the ceiling and its lights, clutter beside
 the track, and the light of the place; its surfaces in one texture atlas at several levels of detail, which
-`track_render.TrackRenderer` reads the frames from."""
+`render.TrackRenderer` reads the frames from."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ import math
 import cv2
 import numpy as np
 
-from steerlab.sim.track import Track
+from steerlab.sim.track.track import Track
 
 RES = 0.01        # m per floor texel
 WALL_RES = 0.03   # m per wall texel

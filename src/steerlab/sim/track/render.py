@@ -26,8 +26,8 @@ import cv2
 import numpy as np
 
 from steerlab.data.fisheye import DONKEY_FISHEYE, FisheyeCamera
-from steerlab.sim.room import CEIL_RES, LEVELS, MIRROR_LEVEL, RES, WALL_RES, Room
-from steerlab.sim.track import Track
+from steerlab.sim.track.room import CEIL_RES, LEVELS, MIRROR_LEVEL, RES, WALL_RES, Room
+from steerlab.sim.track.track import Track
 
 def _subdivide(poly: np.ndarray, k: int = 2) -> np.ndarray:
     """A polygon's outline with k points per edge, so that its edges bend as the fisheye bends them."""

@@ -17,7 +17,7 @@ import numpy as np
 
 from steerlab.data.car import CARS, Car
 from steerlab.errors import SteerlabError
-from steerlab.sim.vehicle import Vehicle, VehicleState
+from steerlab.sim.core.vehicle import Vehicle, VehicleState
 
 
 def speed_after(v: float, throttle: float, dt: float, car: Car) -> float:

@@ -2,7 +2,7 @@
 
 donkeycar's vehicle loop drives with parts: each loop a pilot part's `run(img_arr)` gets the camera frame (H x W x
 3 uint8 RGB) and returns `(angle, throttle)`, the servo command in [-1, 1] (positive right) and the throttle in
-[-1, 1]. `PartPilot` puts any object with that interface where `driving.drive_loop` expects a pilot: steerlab's
+[-1, 1]. `PartPilot` puts any object with that interface where `core.driving.drive_loop` expects a pilot: steerlab's
 own part (`donkey.SteerlabPilot`, made for the track world's car by `donkey_pilot`) or another (donkeycar's
 KerasLinear, say, behind a part of the same interface). The world renders BGR frames, as OpenCV does; the part
 gets them as RGB, as donkeycar's cameras deliver them. Its angle is steering in the convention normalized,

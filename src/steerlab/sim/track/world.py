@@ -1,7 +1,7 @@
 """The track world: a small car (`CARS["donkey"]`, `smallcar.SmallCar`) on a closed procedural track
-(`track.Track`), seen through the donkeycar fisheye camera (`track_render.TrackRenderer`), stepped at the frame
-rate. It is a world of `driving.drive_loop` like the road `World`, with what racing a small car on a hall floor
-brings:
+(`track.Track`), seen through the donkeycar fisheye camera (`render.TrackRenderer`), stepped at the frame rate,
+and the options of recording in it and driving in it. It is a world of `core.driving.drive_loop` like the road
+world's, with what racing a small car on a hall floor brings:
 
 - the speed comes from the throttle: `step(road_wheel, throttle)` drives the car's throttle model (`Car.motor`);
   a pilot that gives no throttle drives at the world's constant `throttle`;
@@ -14,8 +14,9 @@ brings:
   on the start line at standstill, so the first lap includes the standing start; a lap with an off-track event
   is not clean.
 
-`RacerPilot` is the racing expert (`racer.Racer`) as a pilot of the same loop: recordings and the suite's
-reference laps are driven by it through `drive_loop` too.
+`RacerPilot` is the racing expert (`expert.Racer`) as a pilot of the same loop: recordings and the suite's
+reference laps are driven by it through `drive_loop` too. What is done in the world is `run.py`; its suite is
+`suite.py`.
 """
 
 from __future__ import annotations
@@ -30,15 +31,13 @@ import numpy as np
 from steerlab.data.car import CARS, Car
 from steerlab.data.fisheye import DONKEY_FISHEYE, FisheyeCamera, load_calibration
 from steerlab.data.recording import SteeringConvention
-from steerlab.errors import SteerlabError
 from steerlab.options import AT_LEAST_0, Options, POSITIVE, Range, UNIT, option
 from steerlab.pilot import Controls
-from steerlab.sim.racer import Racer, expert_controls, pursuit
-from steerlab.sim.smallcar import SmallCar
-from steerlab.sim.track import LANE_WIDTH, Track
-from steerlab.sim.track_render import TrackRenderer
-from steerlab.sim.vehicle import VehicleState
-from steerlab.sim.world import RESERVED_SEEDS
+from steerlab.sim.core.vehicle import VehicleState
+from steerlab.sim.track.expert import Racer, expert_controls, pursuit
+from steerlab.sim.track.smallcar import SmallCar
+from steerlab.sim.track.track import LANE_WIDTH, Track
+from steerlab.sim.track.render import TrackRenderer
 
 THROTTLE = 0.3        # the constant throttle of a pilot that gives none: about 1.4 m/s on a straight
 DRIFT_EVERY_S = 12.0  # the racing expert's drift-and-recover episodes in a recording, on average
@@ -105,12 +104,6 @@ class TrackDriveOptions(Options):
 def camera_of(calibration: str | None) -> FisheyeCamera:
     """The fisheye the frames are rendered through: the donkeycar default, or a calibration file's."""
     return DONKEY_FISHEYE if calibration is None else load_calibration(calibration)
-
-
-def check_track_seed(seed: int) -> None:
-    if seed in RESERVED_SEEDS:
-        raise SteerlabError(f"track seeds {RESERVED_SEEDS.start}-{RESERVED_SEEDS.stop - 1} are reserved for the "
-                            "track suite and never recorded; choose another seed")
 
 
 class Laps:
@@ -214,7 +207,7 @@ class TrackWorld:
 
     def expert_controls(self) -> tuple[float, float]:
         """The expert's (road-wheel angle, throttle) in this state, without lag, noise or memory
-        (`racer.expert_controls`): the labels of DAgger's rollouts."""
+        (`expert.expert_controls`): the labels of DAgger's rollouts."""
         return expert_controls(self.track, self.state, self.s, self.car)
 
     def step(self, road_wheel: float, throttle: float | None = None) -> None:

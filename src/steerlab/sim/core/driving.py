@@ -1,16 +1,13 @@
-"""The one driving loop of every closed loop: the synthetic road world (`sim drive`, the suite, DAgger rollouts),
-the track world of small cars (`sim drive/bench --world track`) and replay on recorded camera data (`steerlab
-replay`), and the `Trajectory` it returns.
+"""The one driving loop of every closed loop: the road world (`sim drive`, the suite, DAgger rollouts), the track
+world of small cars (`sim drive/bench --world track`) and replay on recorded camera data (`steerlab replay`), and
+the `Trajectory` it returns.
 
-A world here is anything with `intervene(limit_m)`, `render(lateral=0)`, `state` (with `.v`, m/s), `s` (its
-arc length), `expert_steering()`, `step(road_wheel, throttle=None)`, `steering_ratio`, `done`, `car` and
-`record_row(tick)` (what a DAgger rollout records of a tick besides the frames and the label): the road `World`,
-the `TrackWorld` and the replay of a recording (`sim.replay.ReplayWorld`). Each tick the car is put back if it
-left the lane (an intervention, after which the pilot forgets its past; what leaving the lane means, and what
-`limit_m` measures, is the world's), the camera frame is taken, the pilot answers, and the car moves by the
-model's command and, where the pilot gives one, its throttle (or, for DAgger, by whatever `choose` picks): a
-world whose speed comes from the throttle (the track world) drives by it, the others follow their own speed
-profile or recording and ignore it."""
+A world and a pilot are what `contracts.World` and `contracts.Pilot` say, checked before the first tick. Each tick
+the car is put back if it left the lane (an intervention, after which the pilot forgets its past; what leaving the
+lane means, and what `limit_m` measures, is the world's), the camera frame is taken, the pilot answers, and the car
+moves by the model's command and, where the pilot gives one, its throttle (or, for DAgger, by whatever `choose`
+picks): a world whose speed comes from the throttle (the track world) drives by it, the others follow their own
+speed profile or recording and ignore it."""
 
 from __future__ import annotations
 
@@ -23,6 +20,7 @@ import numpy as np
 from tqdm import tqdm
 
 from steerlab.errors import SteerlabError
+from steerlab.sim.core.contracts import World, check
 
 
 @dataclass
@@ -79,16 +77,27 @@ class Trajectory:
         return cls(**{by_column[name]: data[:, i] if by_column[name] not in ("intervention", "segment", "frame")
                       else data[:, i].astype(np.int64) for i, name in enumerate(rows[0])})
 
-    def metrics(self, dt: float) -> dict:
-        """Closed-loop metrics: autonomy, interventions per km, mean and max |offset|, command gamma (degrees of
-        the pilot's steering convention), km driven."""
+    def metrics(self, dt: float) -> DriveMetrics:
+        """The closed-loop metrics of a drive stepped every `dt` s."""
         km = float(np.sum(self.speed) * dt / 1000)
         n = self.interventions
-        return {"autonomy": autonomy(n, len(self) * dt), "interventions": n,
-                "interventions_per_km": n / max(km, 1e-9), "mean_abs_offset_m": float(np.mean(np.abs(self.offset))),
-                "max_abs_offset_m": float(np.max(np.abs(self.offset))),
-                "command_gamma_deg": float(np.degrees(np.std(np.diff(self.command)))) if len(self) > 1 else 0.0,
-                "distance_km": km}
+        return DriveMetrics(autonomy(n, len(self) * dt), n, n / max(km, 1e-9), float(np.mean(np.abs(self.offset))),
+                            float(np.max(np.abs(self.offset))),
+                            float(np.degrees(np.std(np.diff(self.command)))) if len(self) > 1 else 0.0, km)
+
+
+@dataclass(frozen=True)
+class DriveMetrics:
+    """A drive's closed-loop metrics: NVIDIA's autonomy (%), interventions and interventions per km, mean and
+    largest |lateral offset| (m), command gamma (degrees of the pilot's steering convention) and km driven."""
+
+    autonomy: float
+    interventions: int
+    interventions_per_km: float
+    mean_abs_offset_m: float
+    max_abs_offset_m: float
+    command_gamma_deg: float
+    distance_km: float
 
 
 @dataclass
@@ -103,7 +112,7 @@ class Tick:
     heading: float
     model: float
     intervention: bool
-    world: object
+    world: World
     throttle: float | None = None
 
     @cached_property
@@ -122,6 +131,11 @@ def check_steers(pilot, car) -> None:
                             "reader option full_lock_deg)") from None
 
 
+def ticks(minutes: float, fps: float) -> int:
+    """The frames of a drive of `minutes` at `fps`."""
+    return int(round(minutes * 60 * fps))
+
+
 def autonomy(interventions: int, elapsed_s: float) -> float:
     """NVIDIA's autonomy: (1 - interventions * 6 s / elapsed s) * 100."""
     return (1.0 - interventions * 6.0 / elapsed_s) * 100.0
@@ -134,6 +148,7 @@ def drive_loop(world, pilot, ticks: int, limit_m: float, fps: float, choose=None
     (`Controls.throttle`, None for a pilot that gives none) goes to `world.step` with it; `choose(tick)` returns
     the (road-wheel angle, throttle) to apply instead (DAgger's mix of model and expert). `on_step(tick)` sees
     every tick (recording, video); `on_tick(k)` is called every 100 ticks (progress of a suite)."""
+    check(world, pilot)
     rows = []
     for i in tqdm(range(ticks), desc=desc, unit="tick", disable=None if progress else True):
         if world.done:
@@ -164,7 +179,7 @@ def rollout(pilot, worlds, writer, convention, beta: float, rng: np.random.Gener
     with `writer` — the centre camera, and the side views the writer has cameras for (the world rendered from a
     camera the car's `side_camera_offset_m` to either side) — labelled with the expert's steering in
     `convention`. (The track world's, which labels the throttle too and writes a tub, is
-    `track_run.track_rollout`.)"""
+    `track.run.rollout`.)"""
     trajs = []
     for world, ticks in worlds:
         sides = {c: off for c, off in (("left", world.car.side_camera_offset_m),

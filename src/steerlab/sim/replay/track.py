@@ -1,5 +1,5 @@
 """Replay of small-car recordings (donkeycar tubs, the track world's): `steerlab replay` on a recording of the
-donkey camera, the track world's counterpart of the road replay (`replay.py`), which it extends.
+donkey camera, the track world's counterpart of the road replay (`world.py`), which it extends.
 
 - **The view**: the donkey camera is a fisheye. The recorded frame is warped by `fisheye.shift_view`: undistort,
   flat-floor homography, distort again, composed into one remap per offset and heading. The fisheye is the one
@@ -18,7 +18,7 @@ donkey camera, the track world's counterpart of the road replay (`replay.py`), w
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, replace
 from typing import Literal
 
 import numpy as np
@@ -30,15 +30,11 @@ from steerlab.data.recording import Recording
 from steerlab.errors import DataError, SteerlabError
 from steerlab.options import AT_LEAST_1, Options, POSITIVE, option
 from steerlab.pilot import smoothing_option
-from steerlab.sim.replay import MOUNT_HEIGHT, PITCH, HumanPath, Replay, ReplayWorld
-from steerlab.sim.smallcar import SmallCar, throttle_speeds
-from steerlab.sim.track import LANE_WIDTH
-from steerlab.sim.track_world import lane_width_option
-
-
-def world_of(rec: Recording) -> str:
-    """The replay a recording gets unless told: track for the donkey camera (tubs), road for the others."""
-    return "track" if rec.geometry == "donkey" else "road"
+from steerlab.sim.replay.path import HumanPath
+from steerlab.sim.replay.world import MOUNT_HEIGHT, PITCH, Replay, ReplaySetup, ReplayWorld
+from steerlab.sim.track.smallcar import SmallCar, throttle_speeds
+from steerlab.sim.track.track import LANE_WIDTH
+from steerlab.sim.track.world import lane_width_option
 
 
 @dataclass(frozen=True)
@@ -60,14 +56,49 @@ class TrackReplayOptions(Options):
     workers: int = option(2, AT_LEAST_1, help="checkpoints replayed in parallel")
     smoothing: float | None = smoothing_option()
 
+    def setup(self, rec: Recording) -> ReplaySetup:
+        """The small cars' replay of `rec` (its fisheye, with these options' calibration and mount), or a one-line
+        error for what cannot be replayed so."""
+        car = CARS["donkey"]
+        if rec.geometry != "donkey":
+            raise SteerlabError(f"{rec.source}: the track replay is for the donkey camera (donkeycar tubs, the track "
+                                f"world's recordings), not the {rec.geometry!r} camera: replay it with --world road")
+        if self.lane_width <= car.body.width:
+            raise SteerlabError(f"--lane-width {self.lane_width:g} m leaves no room for the car's {car.body.width:g} m "
+                                "wide body")
+        if self.speed is not None and self.throttle == "model":
+            raise SteerlabError("--speed and --throttle model exclude each other: the model's throttle sets the speed")
+        if self.speed is None and rec.throttle is None:
+            raise DataError(rec.source, "records no throttle to take the speed from: give one with --speed M/S")
+        fisheye = rec.fisheye or DONKEY_FISHEYE
+        if self.calibration is not None:
+            fisheye = load_calibration(self.calibration, fisheye)
+        mount = {"mount_height": self.mount_height, "pitch_deg": self.pitch}
+        fisheye = replace(fisheye, **{k: v for k, v in mount.items() if v is not None})
+        source = ("given (--speed)" if self.speed is not None else
+                  "the model's throttle" if self.throttle == "model" else "the recorded throttle")
+        replay = TrackReplay(CAMERAS["donkey"], car, self.speed, fisheye=fisheye, lane_width=self.lane_width,
+                             learned_throttle=self.throttle == "model")
+        return ReplaySetup(replay, source, f"the car's body leaves the {self.lane_width:g} m lane around the human's "
+                           "path", self.lane_width / 2 - car.body.width / 2,
+                           "the body at the lane edge when parallel to the path (turned: sooner)",
+                           {"fisheye": asdict(fisheye), "lane_width_m": self.lane_width})
+
+    def check_pilot(self, pilot, checkpoint, rec: Recording) -> None:
+        """A checkpoint that `--throttle model` cannot replay (it learned no throttle) is refused."""
+        if self.throttle == "model" and "throttle" not in pilot.targets:
+            raise SteerlabError(f"{checkpoint} predicts no throttle: --throttle model needs a model that learned it "
+                                "(train.throttle_weight)")
+
 
 class TrackReplayWorld(ReplayWorld):
     """One segment of a small-car recording as a world (see the module's docstring): the road replay's world
     with the fisheye's view, the body's lane criterion and, with `learned_throttle`, the pilot's throttle."""
 
-    def __init__(self, replay: TrackReplay, start: int, path: HumanPath):
-        super().__init__(replay.rec, start, path, replay.cam, replay.car)
-        self.fisheye, self.lane_width, self.learned_throttle = replay.fisheye, replay.lane_width, replay.learned_throttle
+    def __init__(self, replay: TrackReplay, rec: Recording, start: int, path: HumanPath):
+        super().__init__(rec, start, path, replay.cam, replay.car)
+        self.fisheye, self.lane_width = replay.fisheye, replay.lane_width
+        self.learned_throttle = replay.learned_throttle
         self.smallcar = SmallCar(self.vehicle.state, replay.car)
         self.vehicle = self.smallcar.vehicle
         self.camera_forward = replay.car.body.camera_forward
@@ -108,32 +139,10 @@ class TrackReplay(Replay):
     def limit(self) -> float:
         return 0.0  # no part of the body may overhang the lane edge
 
-    def speeds(self, a: int, b: int) -> np.ndarray:
+    def speeds(self, rec: Recording, a: int, b: int) -> np.ndarray:
         if self.speed is not None:
             return np.full(b - a, self.speed)
-        return throttle_speeds(self.rec.throttle[a:b], self.rec.timestamps_ns[a:b] / 1e9, self.car)
+        return throttle_speeds(rec.throttle[a:b], rec.timestamps_ns[a:b] / 1e9, self.car)
 
-    def world(self, start: int, path: HumanPath) -> TrackReplayWorld:
-        return TrackReplayWorld(self, start, path)
-
-
-def track_replay(rec: Recording, o: TrackReplayOptions) -> tuple[dict, str]:
-    """The arguments of `TrackReplay` for `rec` (its fisheye, with the options' calibration and mount) and
-    where the speed comes from; a one-line error for what cannot be replayed so."""
-    car = CARS["donkey"]
-    if o.lane_width <= car.body.width:
-        raise SteerlabError(f"--lane-width {o.lane_width:g} m leaves no room for the car's {car.body.width:g} m wide "
-                            "body")
-    if o.speed is not None and o.throttle == "model":
-        raise SteerlabError("--speed and --throttle model exclude each other: the model's throttle sets the speed")
-    if o.speed is None and rec.throttle is None:
-        raise DataError(rec.source, "records no throttle to take the speed from: give one with --speed M/S")
-    fisheye = rec.fisheye or DONKEY_FISHEYE
-    if o.calibration is not None:
-        fisheye = load_calibration(o.calibration, fisheye)
-    mount = {"mount_height": o.mount_height, "pitch_deg": o.pitch}
-    fisheye = replace(fisheye, **{k: v for k, v in mount.items() if v is not None})
-    source = ("given (--speed)" if o.speed is not None else
-              "the model's throttle" if o.throttle == "model" else "the recorded throttle")
-    return {"cam": CAMERAS["donkey"], "car": car, "speed": o.speed, "fisheye": fisheye, "lane_width": o.lane_width,
-            "learned_throttle": o.throttle == "model"}, source
+    def world(self, rec: Recording, start: int, path: HumanPath) -> TrackReplayWorld:
+        return TrackReplayWorld(self, rec, start, path)

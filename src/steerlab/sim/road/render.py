@@ -14,7 +14,7 @@ import cv2
 import numpy as np
 
 from steerlab.data.geometry import Camera, camera
-from steerlab.sim.road import DS, EDGE, LANE, LINE_WIDTH, ROAD_TYPES, VERGE, Road
+from steerlab.sim.road.road import DS, EDGE, LANE, LINE_WIDTH, ROAD_TYPES, VERGE, Road
 
 MAX_RANGE = 250.0   # m: ground further away is drawn as haze
 

@@ -1,0 +1,136 @@
+"""What the suites of both worlds share (`road.suite`, `track.suite`): the checkpoints to drive and their labels,
+the drives planned and reused from their folders, the grouping of a summary and its CSV.
+
+A suite drives every checkpoint on every road or track of a fixed, versioned set. Each drive is kept in its
+folder (`drive.json` and `trajectory.csv`) with a cache key (the checkpoint's sha256 and every option that changes
+the result), and a later run with the same key reuses it, so an interrupted suite continues where it stopped.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import hashlib
+import json
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+from steerlab.errors import SteerlabError
+from steerlab.sim.core.parallel import run_parallel
+
+
+RESERVED_SEEDS = range(9000, 10000)  # the suites' roads and tracks: never recorded, never rolled out on
+
+
+def check_seed(seed: int, world: str) -> None:
+    """A seed that recordings and rollouts may use: not one of the suites' (`world`: "road" or "track")."""
+    if seed in RESERVED_SEEDS:
+        raise SteerlabError(f"{world} seeds {RESERVED_SEEDS.start}-{RESERVED_SEEDS.stop - 1} are reserved for the "
+                            f"{world} suites and never recorded; choose another seed")
+
+
+def checkpoints_to_drive(checkpoints) -> tuple[list[Path], list[str]]:
+    """The checkpoints a suite or replay drives (at least one, each a file) and their labels (`labels_for`)."""
+    checkpoints = [Path(c) for c in checkpoints]
+    if not checkpoints:
+        raise SteerlabError("no checkpoint to drive: name at least one")
+    for c in checkpoints:
+        if not c.is_file():
+            raise SteerlabError(f"{c}: checkpoint not found")
+    return checkpoints, labels_for(checkpoints)
+
+
+def labels_for(checkpoints: list[Path]) -> list[str]:
+    """Short unique names (each a folder below the output folder): the run folder of `run/best.pt`, with as
+    many parent folders as it takes (and the file name where one run's best.pt and last.pt are compared). The
+    same checkpoint named twice is an error."""
+    seen = {}
+    for p in checkpoints:
+        if p.resolve() in seen:
+            raise SteerlabError(f"{p} is named twice (as {seen[p.resolve()]} too): name each checkpoint once")
+        seen[p.resolve()] = p
+    for short in (True, False):
+        for depth in range(1, 8):
+            names = ["/".join((p.parent if short and p.name in ("best.pt", "last.pt") else p.with_suffix(""))
+                              .parts[-depth:]) for p in checkpoints]
+            names = [n.lstrip("/") for n in names]
+            if len(set(names)) == len(names) and all(names):
+                return names
+    return [f"{k}-{p.stem}" for k, p in enumerate(checkpoints)]
+
+
+def file_sha256(path: Path) -> str:
+    """The sha256 of a checkpoint's bytes (an exported .onnx carries its metadata inside): a drive's cache key."""
+    with open(path, "rb") as f:
+        return hashlib.file_digest(f, "sha256").hexdigest()
+
+
+def as_stored(key: dict) -> dict:
+    """A cache key as drive.json gives it back (tuples become lists), so that the two compare equal."""
+    return json.loads(json.dumps(key))
+
+
+@dataclass(frozen=True)
+class Planned:
+    """One drive of a suite: `where` it goes in the results, its `folder`, its cache `key` and the job's
+    arguments (`args`, for the suite's job function)."""
+
+    where: tuple
+    folder: Path
+    key: dict
+    args: tuple
+
+
+def run_drives(job: Callable, result: type, planned: list[Planned], workers: int, ticks_per_job: int,
+               progress: bool, desc: str) -> dict:
+    """Every planned drive's result (a `result` dataclass) by `where`: read from its folder's drive.json when that
+    holds exactly the planned key (an unreadable one is driven anew), else `job(*args)`, the jobs in `workers`
+    worker processes."""
+    results, todo = {}, []
+    for p in planned:
+        stored = _stored(p.folder / "drive.json", p.key)
+        if stored is not None:
+            results[p.where] = from_json(result, stored)
+        else:
+            todo.append(p)
+    driven = run_parallel(job, [p.args for p in todo], workers, ticks_per_job, progress, desc)
+    results.update({p.where: r for p, r in zip(todo, driven)})
+    return results
+
+
+def _stored(done: Path, key: dict) -> dict | None:
+    try:
+        stored = json.loads(done.read_text())
+    except (OSError, ValueError):
+        return None
+    return stored if isinstance(stored, dict) and stored.get("cache_key") == key else None
+
+
+def from_json(cls: type, data: dict):
+    """A result dataclass from the dict of its drive.json (which holds more: the cache key)."""
+    return cls(**{f.name: data[f.name] for f in dataclasses.fields(cls)})
+
+
+def write_json(path: Path, result, meta: dict | None = None) -> None:
+    """A drive's result (a dataclass) and `meta` (its cache key) as drive.json."""
+    path.write_text(json.dumps({**dataclasses.asdict(result), **(meta or {})}, indent=1))
+
+
+def grouped(drives: list, key: str) -> Iterator[tuple[str, str, list]]:
+    """A suite's summary rows: per label, its drives of each value of the attribute `key` (in the order they
+    come), then all of its drives (value "all"), as (label, value, drives)."""
+    for label in dict.fromkeys(d.label for d in drives):
+        mine = [d for d in drives if d.label == label]
+        for value in [*dict.fromkeys(getattr(d, key) for d in mine), "all"]:
+            yield label, value, [d for d in mine if value in ("all", getattr(d, key))]
+
+
+def write_csv(path: Path, rows: list, fields: list[str] | None = None) -> None:
+    """A table of dataclass rows (all their fields, or `fields`), an empty cell for None (a value that does not
+    exist)."""
+    fields = fields or [f.name for f in dataclasses.fields(rows[0])]
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fields)
+        w.writeheader()
+        w.writerows([{k: "" if getattr(r, k) is None else getattr(r, k) for k in fields} for r in rows])

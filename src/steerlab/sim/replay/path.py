@@ -1,0 +1,87 @@
+"""The human's path in replay: the recorded steering and speed integrated through the kinematic bicycle
+(`human_path`), the speed to replay at (recorded, given or estimated from the frames: `replay_speed`) and the
+stretches of a recording that are replayed (`replay_segments`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from steerlab.data.car import Car
+from steerlab.data.geometry import Camera
+from steerlab.data.recording import Recording
+from steerlab.data.speed import estimate_speed
+from steerlab.errors import DataError, SteerlabError
+from steerlab.sim.core.vehicle import Vehicle, VehicleState
+
+MIN_SECONDS = 3.0       # shorter segments are not replayed
+
+
+@dataclass
+class HumanPath:
+    """The path the human drove, one point per frame: time (s), pose (m, rad) and arc length (m), speed (m/s)
+    and the human's road-wheel angle (rad, positive left)."""
+
+    t: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    psi: np.ndarray
+    s: np.ndarray
+    v: np.ndarray
+    wheel: np.ndarray
+
+
+def human_path(road_wheel: np.ndarray, speed: np.ndarray, times_s: np.ndarray, car: Car) -> HumanPath:
+    """Integrate the recorded road-wheel angles (rad, positive left) and speeds through the vehicle model: frame
+    i's steering and frame i+1's speed take the car from frame i to frame i+1."""
+    vehicle = Vehicle(VehicleState(0.0, 0.0, 0.0, float(speed[0])), car)
+    pose = [(0.0, 0.0, 0.0)]
+    for i in range(1, len(times_s)):
+        st = vehicle.advance(float(road_wheel[i - 1]), float(speed[i]), float(times_s[i] - times_s[i - 1]))
+        pose.append((st.x, st.y, st.psi))
+    x, y, psi = np.array(pose).T
+    s = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(x), np.diff(y)))])
+    return HumanPath(np.asarray(times_s, float), x, y, psi, s, np.asarray(speed, float), np.asarray(road_wheel, float))
+
+
+def replay_speed(rec: Recording, cam: Camera, car: Car, speed: float | None) -> tuple[float | None, str]:
+    """The speed to replay `rec` at (None: the recorded one) and where it comes from: given, recorded, or
+    estimated from the frames (printed; refused when it is not a speed the car drives at)."""
+    if speed is not None:
+        if not 0 < speed < 100:
+            raise SteerlabError(f"--speed must lie in (0, 100) m/s, got {speed}")
+        return speed, "given (--speed)"
+    if rec.speed is not None:
+        return None, "recorded"
+    speed = estimate_speed(rec, cam)
+    low, high = car.speeds
+    if not low <= speed <= high:
+        raise DataError(rec.source, f"no speed recorded, and the one estimated from the frames, {speed:.2f} m/s, is "
+                                    f"not one this car drives at ({low:g}-{high:g} m/s): the camera geometry may not "
+                                    "fit (--mount-height, --pitch, --fov); give the speed with --speed M/S")
+    print(f"{rec.source} has no speed signal; estimated from the frames: {speed:.2f} m/s ({speed * 3.6:.0f} km/h); "
+          "override with --speed")
+    return speed, "estimated from the frames"
+
+
+def human_road_wheel(rec: Recording, car: Car) -> np.ndarray:
+    """The recorded steering as road-wheel angles (rad, positive left), which rebuild the driven path."""
+    try:
+        return rec.convention.to_road_wheel_left(rec.steering, car.steering_ratio)
+    except SteerlabError as e:
+        raise DataError(rec.source, f"{e}: it is needed to rebuild the driven path") from None
+
+
+def replay_segments(rec: Recording, frames: np.ndarray | None = None) -> list[tuple[int, int]]:
+    """The half-open frame ranges to replay: the recording's segments (or the runs of consecutive `frames`
+    within them, e.g. a validation split) that last at least MIN_SECONDS."""
+    idx = np.arange(len(rec)) if frames is None else np.asarray(frames)
+    seg = rec.segment_ids()[idx]
+    breaks = np.flatnonzero((np.diff(idx) != 1) | (np.diff(seg) != 0)) + 1
+    times = rec.timestamps_ns / 1e9
+    runs = [(int(r[0]), int(r[-1]) + 1) for r in np.split(idx, breaks) if len(r)]
+    out = [(a, b) for a, b in runs if times[b - 1] - times[a] >= MIN_SECONDS]
+    if not out:
+        raise DataError(rec.source, f"too short to replay: no segment lasts {MIN_SECONDS:g} s ({len(idx)} frames)")
+    return out

@@ -1,0 +1,196 @@
+"""The road world's closed-loop suite (`steerlab sim bench`): every checkpoint drives one fixed, versioned set of
+unseen roads, and the drives are summarised per road type.
+
+The roads of a suite version never change, and their seeds (9000-9999) are refused by `sim record` and by
+DAgger's rollouts, so no model has seen them. Drives run in parallel worker processes (one torch thread each);
+a finished drive is reused when the suite is run again with the same cache key: the checkpoint's content hash,
+suite version, minutes and smoothing (`SuiteOptions.key`; `core.suite`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from steerlab.errors import SteerlabError
+from steerlab.options import AT_LEAST_1, Options, POSITIVE, option, parse
+from steerlab.pilot import smoothing_option
+from steerlab.sim.core.driving import autonomy
+from steerlab.sim.core.parallel import tick_reporter
+from steerlab.sim.core.suite import (Planned, as_stored, checkpoints_to_drive, file_sha256, grouped, run_drives,
+                                     write_csv)
+from steerlab.sim.road.run import RoadDrive, drive_checkpoint
+from steerlab.sim.road.world import DriveOptions
+
+SUITES = {
+    # 11 roads of 3 minutes: 33 minutes of driving, about 30 km
+    "v1": {"minutes": 3.0, "roads": {"country": [9101, 9102, 9103, 9104, 9105], "highway": [9201, 9202, 9203],
+                                     "twisty": [9301, 9302, 9303]}},
+}
+FPS = 20.0  # the suite's frame rate
+
+
+@dataclass(frozen=True)
+class SuiteOptions(Options):
+    """The closed-loop suite: `steerlab sim bench`'s options and a config's `closed_loop:` section."""
+
+    suite: str = option("v1", lambda v: v in SUITES, " or ".join(SUITES), help="suite version")
+    minutes: float | None = option(None, POSITIVE, "positive and finite",
+                                   help="minutes per road (default: the suite's, 3 for v1)")
+    workers: int = option(2, AT_LEAST_1, help="roads driven in parallel")
+    smoothing: float | None = smoothing_option()
+    roads: str | None = option(None, help="comma list of the suite's road types to drive (default: all)")
+
+    @property
+    def road_minutes(self) -> float:
+        return SUITES[self.suite]["minutes"] if self.minutes is None else self.minutes
+
+    def drives(self) -> list[tuple[str, int]]:
+        """(road type, seed) of every road to drive."""
+        spec = SUITES[self.suite]
+        types = list(spec["roads"]) if self.roads is None else [t.strip() for t in self.roads.split(",") if t.strip()]
+        unknown = [t for t in types if t not in spec["roads"]]
+        if unknown:
+            raise SteerlabError(f"suite {self.suite} has no {', '.join(unknown)} roads; it has "
+                                f"{', '.join(spec['roads'])}")
+        if not types:
+            raise SteerlabError(f"no road to drive: choose road types of suite {self.suite} "
+                                f"({', '.join(spec['roads'])})")
+        return [(t, s) for t in types for s in spec["roads"][t]]
+
+    def key(self, checkpoint: Path) -> dict:
+        """Everything that changes a drive's result besides its road: the checkpoint's content (the sha256 of
+        the file; an exported .onnx carries its metadata inside), the suite version, the minutes and the
+        smoothing. A finished drive is reused only when its drive.json holds exactly this key."""
+        return as_stored({"checkpoint_sha256": file_sha256(checkpoint), "suite": self.suite,
+                          "minutes": self.road_minutes, "smoothing": self.smoothing})
+
+
+@dataclass(frozen=True)
+class SuiteDrive:
+    """One drive of the suite: suite.csv's row."""
+
+    label: str
+    checkpoint: str
+    road_type: str
+    seed: int
+    minutes: float
+    autonomy: float
+    interventions: int
+    interventions_per_km: float
+    mean_abs_offset_m: float
+    max_abs_offset_m: float
+    command_gamma_deg: float
+    distance_km: float
+
+
+@dataclass(frozen=True)
+class SuiteSummary:
+    """A checkpoint's drives of one road type (or "all"): summary.csv's row."""
+
+    label: str
+    road_type: str
+    drives: int
+    minutes: float
+    distance_km: float
+    interventions: int
+    autonomy: float
+    interventions_per_km: float
+    mean_abs_offset_m: float
+    max_abs_offset_m: float
+    command_gamma_deg: float
+
+
+def suite_options(section: dict | None, where: str) -> SuiteOptions:
+    """A config's `closed_loop:` section (None: the default suite)."""
+    return parse(SuiteOptions, section or {}, where)
+
+
+def _job(checkpoint: str, road: str, seed: int, minutes: float, out: str, smoothing: float | None,
+         key: dict) -> RoadDrive:
+    """One drive of the suite (its path is drawn with the other checkpoints' in the suite's roads/ figure); its
+    drive.json also holds the key, which later runs compare."""
+    return drive_checkpoint(checkpoint, out, DriveOptions(seed, minutes, road, fps=FPS), smoothing, progress=False,
+                            on_tick=tick_reporter(), plot=False, meta={"cache_key": key})
+
+
+def run_suite(checkpoints, out: str | Path, o: SuiteOptions = SuiteOptions(), progress: bool = True,
+              plots: bool = True) -> list[SuiteSummary]:
+    """Drive every checkpoint on every road of the suite (or of the road types in `o.roads`); write
+    `suite.csv` (one row per drive), `summary.csv` and `suite.md` (per checkpoint and road type) and, with
+    `plots`, one trajectory plot per road in `out/roads/`. Returns the summary rows."""
+    checkpoints, labels = checkpoints_to_drive(checkpoints)
+    roads, minutes, out = o.drives(), o.road_minutes, Path(out)
+    planned = []
+    for label, ckpt in zip(labels, checkpoints):
+        key = o.key(ckpt)
+        for road, seed in roads:
+            folder = out / label / f"{road}-{seed}"
+            planned.append(Planned((label, road, seed), folder, key,
+                                   (str(ckpt), road, seed, minutes, str(folder), o.smoothing, key)))
+    results = run_drives(_job, RoadDrive, planned, o.workers, round(minutes * 60 * FPS), progress, f"suite {o.suite}")
+    drives = []
+    for label, ckpt in zip(labels, checkpoints):
+        for road, seed in roads:
+            r = results[(label, road, seed)]
+            drives.append(SuiteDrive(label, str(ckpt), road, seed, minutes, r.autonomy, r.interventions,
+                                     r.interventions_per_km, r.mean_abs_offset_m, r.max_abs_offset_m,
+                                     r.command_gamma_deg, r.distance_km))
+    summary = summarize(drives)
+    out.mkdir(parents=True, exist_ok=True)
+    write_csv(out / "suite.csv", drives)
+    write_csv(out / "summary.csv", summary)
+    (out / "suite.md").write_text(markdown(summary, o.suite, minutes))
+    if plots:
+        from steerlab.sim.road.plots import plot_roads  # matplotlib: imported where it draws
+
+        plot_roads(out / "roads", [{**dataclasses.asdict(d), "folder": out / d.label / f"{d.road_type}-{d.seed}"}
+                                   for d in drives], minutes)
+    return summary
+
+
+def closed_loop_metrics(checkpoint: Path, o: SuiteOptions, progress: bool, plots: bool = True) -> dict:
+    """A checkpoint on the closed-loop suite (drives kept in the `suite` folder beside it): autonomy over all
+    roads and per road type, interventions per km and command gamma."""
+    summary = run_suite([checkpoint], checkpoint.parent / "suite", o, progress=progress, plots=plots)
+    overall = next(s for s in summary if s.road_type == "all")
+    return {**{f"autonomy_{s.road_type}": s.autonomy for s in summary}, "autonomy": overall.autonomy,
+            "interventions_per_km": overall.interventions_per_km, "command_gamma_deg": overall.command_gamma_deg}
+
+
+def round_columns(summary: list[SuiteSummary]) -> dict:
+    """A DAgger round's columns of dagger.csv: autonomy per road type and over all, interventions per km."""
+    overall = next(s for s in summary if s.road_type == "all")
+    return {**{f"autonomy_{s.road_type}": s.autonomy for s in summary},
+            "interventions_per_km": overall.interventions_per_km}
+
+
+def summarize(drives: list[SuiteDrive]) -> list[SuiteSummary]:
+    """Per label and road type (and "all"): autonomy over the summed time and interventions, interventions
+    per km over the summed distance, the mean of the drives' mean |offset|, the largest |offset|, the mean
+    command gamma, and the km driven."""
+    out = []
+    for label, road, ds in grouped(drives, "road_type"):
+        km = sum(d.distance_km for d in ds)
+        n = sum(d.interventions for d in ds)
+        seconds = sum(d.minutes * 60 for d in ds)
+        out.append(SuiteSummary(label, road, len(ds), seconds / 60, km, n, autonomy(n, seconds), n / max(km, 1e-9),
+                                float(np.mean([d.mean_abs_offset_m for d in ds])),
+                                float(max(d.max_abs_offset_m for d in ds)),
+                                float(np.mean([d.command_gamma_deg for d in ds]))))
+    return out
+
+
+def markdown(summary: list[SuiteSummary], suite: str, minutes: float) -> str:
+    lines = [f"Closed-loop suite {suite}: {minutes:g} min per road; autonomy = (1 - interventions x 6 s / "
+             "elapsed s) x 100.", "",
+             "| checkpoint | roads | drives | km | interventions | autonomy [%] | interventions/km | "
+             "mean abs offset [m] | max abs offset [m] | command gamma [deg] |", "|---" * 10 + "|"]
+    for r in summary:
+        lines.append(f"| {r.label} | {r.road_type} | {r.drives} | {r.distance_km:.1f} | {r.interventions} | "
+                     f"{r.autonomy:.1f} | {r.interventions_per_km:.2f} | {r.mean_abs_offset_m:.3f} | "
+                     f"{r.max_abs_offset_m:.3f} | {r.command_gamma_deg:.3f} |")
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,90 @@
+"""The contracts of the driving loop (`sim/core/contracts.py`) and the registry of worlds (`sim/worlds.py`): every
+world and pilot steerlab has is what the loop asks for, a world that is not is refused before it drives, and every
+command finds a world's options and functions through its registry entry."""
+
+import json
+
+import numpy as np
+import pytest
+
+from conftest import made
+from steerlab.cli import main
+from steerlab.data.car import CARS
+from steerlab.data.geometry import CAMERAS
+from steerlab.data.readers import open_recording
+from steerlab.pilot import Controls, Pilot
+from steerlab.sim.core.contracts import Pilot as PilotContract, World as WorldContract
+from steerlab.sim.core.driving import drive_loop
+from steerlab.sim.core.part import PartPilot
+from steerlab.sim.replay.path import human_path
+from steerlab.sim.replay.track import TrackReplay
+from steerlab.sim.replay.world import Replay
+from steerlab.sim.road.world import World
+from steerlab.sim.track.world import RacerPilot, TrackWorld
+from steerlab.sim.worlds import WORLDS, world_of
+
+
+class Part:
+    def run(self, img_arr):
+        return 0.0, 0.2
+
+
+def test_every_world_and_pilot_keeps_the_contract(tiny_recording, tiny_checkpoint):
+    rec = open_recording(tiny_recording)
+    path = human_path(np.zeros(40), np.full(40, 1.5), np.arange(40) * 0.05, CARS["donkey"])
+    worlds = [World(1, "country", "sim", 10.0), TrackWorld(1, camera=None),
+              Replay(CAMERAS["sim"], CARS["sim"]).world(rec, 0, path),
+              TrackReplay(CAMERAS["donkey"], CARS["donkey"]).world(rec, 0, path)]
+    assert all(isinstance(w, WorldContract) for w in worlds)
+    pilots = [Pilot(tiny_checkpoint), PartPilot(Part(), 25.0), RacerPilot(worlds[1], 1)]
+    assert all(isinstance(p, PilotContract) for p in pilots)
+
+
+def test_the_loop_refuses_what_is_not_a_world_or_a_pilot():
+    class Wheel:  # a world without a renderer, state or lane
+        car, steering_ratio, s, done = CARS["sim"], 1.0, 0.0, False
+
+        def step(self, road_wheel, throttle=None):
+            pass
+
+    class Silent:  # answers frames, but nothing says what it is
+        def step(self, frame, speed=None):
+            return Controls(0.0)
+
+    with pytest.raises(TypeError, match="Wheel is not a World of the driving loop: it lacks expert_steering, "
+                                        "intervene, record_row, render, state"):
+        drive_loop(Wheel(), PartPilot(Part(), 25.0), 10, 1.0, 20.0, progress=False)
+    with pytest.raises(TypeError, match="Silent is not a Pilot of the driving loop: it lacks convention, geometry, "
+                                        "name, reset, source"):
+        drive_loop(TrackWorld(1, camera=None), Silent(), 10, 0.0, 20.0, progress=False)
+
+
+def test_each_world_is_found_by_its_camera_and_its_suites():
+    assert world_of("donkey").name == "track" and world_of("sim").name == world_of("ch2").name == "road"
+    for name, w in WORLDS.items():
+        assert w.name == name and w.cameras and w.suites
+        for cls in (w.record_options, w.drive_options, w.suite_options, w.replay_options):
+            cls()  # every option of a world has a default
+        assert w.parse_kinds(None) == w.parse_kinds(",".join(w.parse_kinds(None)))
+        assert w.suite_options().drives()  # the default suite has places to drive
+
+
+def test_a_config_that_names_the_road_world_synthetic_still_loads(tmp_path, capsys):
+    from steerlab.dagger import dagger_options
+    from steerlab.train.config import load_config
+
+    cfg = load_config(None, base={"data": str(tmp_path), "dagger": {"world": "synthetic", "iterations": 1}})
+    o = dagger_options(cfg)
+    assert o.world == "road" and o.iterations == 1
+    assert capsys.readouterr().out == "notice: dagger.world: synthetic is the road world's earlier name; read as road\n"
+
+
+def test_sim_drive_of_each_world_prints_its_result(tmp_path, tiny_checkpoint, capsys):
+    tub_model = made(tmp_path, "normalized", "right", "donkey", full_lock_deg=25)
+    for world, ckpt in (("road", tiny_checkpoint), ("track", tub_model)):
+        out = tmp_path / world
+        assert main(["sim", "drive", str(ckpt), "--world", world, "--minutes", "0.01", "--out", str(out)]) == 0
+        printed = capsys.readouterr().out
+        result = json.loads((out / "drive.json").read_text())
+        assert result["label"] == "pilotnet" and f"wrote {out}/{WORLDS[world].drive_files}" in printed
+        assert all(name in printed for name in result)  # every field of the typed result in the table
