@@ -288,7 +288,8 @@ def test_sim_bench_world_track_writes_its_tables_and_reuses_drives(tmp_path, cap
             "--workers", "1", "--out", str(out)]
     assert main(argv) == 0
     printed = capsys.readouterr().out
-    assert "| a | centre | 2 |" in printed and "| a | all | 2 |" in printed and "| a | centre-9451 |" in printed
+    assert "| a | centre | 0 of 2 |" in printed and "| a | all | 0 of 2 |" in printed
+    assert "| checkpoint | centre-9451 | centre-9452 |" in printed
     with open(out / "suite.csv") as f:
         rows = list(csv.DictReader(f))
     assert [(r["style"], r["seed"]) for r in rows] == [("centre", "9451"), ("centre", "9452")]
@@ -297,8 +298,8 @@ def test_sim_bench_world_track_writes_its_tables_and_reuses_drives(tmp_path, cap
         summary = list(csv.DictReader(f))
     assert [s["style"] for s in summary] == ["centre", "all"]
     assert int(summary[1]["off_track"]) == sum(int(r["off_track"]) for r in rows)
-    expert = json.loads((out / "expert" / "centre-9451" / "drive.json").read_text())
-    assert expert["off_track"] == 0 and expert["cache_key"] == {"suite": "t1", "minutes": 0.02}
+    expert = json.loads((out / "expert-max0.5" / "centre-9451" / "drive.json").read_text())
+    assert expert["off_track"] == 0 and expert["cache_key"] == {"suite": "t1", "minutes": 0.02, "max_throttle": 0.5}
     assert sorted(p.name for p in (out / "tracks").glob("*.png")) == ["centre-9451.png", "centre-9452.png"]
     key = json.loads((out / "a" / "centre-9451" / "drive.json").read_text())["cache_key"]
     assert key["throttle"] == 0.3 and key["camera"] is None and key["suite"] == "t1"
@@ -387,3 +388,64 @@ def test_dagger_in_the_track_world(tmp_path):
     ds = prepare_dataset(round1, progress=False)
     trained_on = [len(training_sources(c, ds, np.arange(40), progress=False)[1]) for c in (round0, round1)]
     assert trained_on == [40, 100]
+
+
+def timed_laps(length: float, crossings: list[float], dirty: list[int]) -> dict:
+    """`Laps.result()` of a car that passes the start line at `crossings` (s) and leaves the lane in the laps
+    `dirty` (1-based): the progress of each lap added in one step that ends on the line."""
+    laps = Laps(length)
+    for k, t in enumerate(crossings, start=1):
+        if k in dirty:
+            laps.off_track()
+        laps.advance(length, t)
+    return laps.result()
+
+
+def test_the_pace_of_a_track_and_of_the_suite_is_over_the_same_tracks():
+    """Three tracks (expert laps 10, 8 and 9 s); X laps A in 12 s and C in 9.9 s but never B cleanly, Y laps A in
+    11 s and B in 10 s but never C cleanly. The headline pace of each is over A alone, the one track both finished."""
+    from steerlab.sim.track.run import TrackDrive
+    from steerlab.sim.track.suite import drive_row, summarize
+
+    def drive(label, style, seed, crossings, dirty=()):
+        r = timed_laps(40.0, crossings, list(dirty))
+        return TrackDrive(label, seed, style, 0.9, 40.0, 1.0, float(len(crossings)), **r, off_track=len(dirty),
+                          off_track_per_lap=len(dirty) / len(crossings), off_track_per_km=0.0, autonomy=100.0,
+                          distance_km=0.04 * len(crossings), mean_speed=3.0, mean_abs_offset_m=0.1,
+                          max_abs_offset_m=0.2, command_gamma_deg=1.0)
+
+    expert = {1: drive("expert", "taped", 1, [10, 20, 30]), 2: drive("expert", "taped", 2, [8, 16, 24]),
+              3: drive("expert", "centre", 3, [9, 18, 27])}
+    laps = {("X", 1): ([13, 24, 36, 48], [1]), ("X", 2): ([10, 21], [1, 2]), ("X", 3): ([9.9, 19.8], []),
+            ("Y", 1): ([11, 22], []), ("Y", 2): ([10, 20, 30], [2]), ("Y", 3): ([9, 18], [1, 2])}
+    style = {1: "taped", 2: "taped", 3: "centre"}
+    rows = [drive_row(drive(label, style[seed], seed, *laps[label, seed]), expert[seed], label, f"{label}.pt",
+                      style[seed], seed) for label in "XY" for seed in (1, 2, 3)]
+    pace = {(r.label, r.seed): r.pace for r in rows}
+    # X on A: clean laps 2-4 of 11, 12 and 12 s; on B none; on C 9.9 s twice. Y on B: laps 1 and 3, 10 s each.
+    assert pace == pytest.approx({("X", 1): (35 / 3) / 10, ("X", 2): None, ("X", 3): 1.1, ("Y", 1): 1.1,
+                                  ("Y", 2): 10 / 8, ("Y", 3): None})
+    summary = {(s.label, s.style): s for s in summarize(rows)}
+    x, y = summary["X", "all"], summary["Y", "all"]
+    assert (x.laps, x.clean_laps, x.finished, x.tracks, x.off_track) == (8, 5, 2, 3, 3)
+    assert (y.laps, y.clean_laps, y.finished, y.tracks, y.off_track) == (7, 4, 2, 3, 3)
+    assert x.clean_pct == pytest.approx(62.5) and y.clean_pct == pytest.approx(400 / 7)
+    assert (x.pace, x.pace_tracks, y.pace, y.pace_tracks) == (pytest.approx(35 / 30), 1, pytest.approx(1.1), 1)
+    assert summary["X", "taped"].pace == pytest.approx(35 / 30) and summary["X", "centre"].pace is None
+    assert summary["X", "centre"].finished == 1 and summary["Y", "centre"].finished == 0
+
+
+def test_the_experts_reference_laps_are_driven_under_the_models_cap(tmp_path):
+    from steerlab.sim.track.run import drive_expert
+    from steerlab.sim.track.suite import TrackSuiteOptions
+
+    laps = {}
+    for cap in (0.5, 1.0):
+        o = TrackSuiteOptions(minutes=0.5, max_throttle=cap)
+        r = drive_expert(tmp_path / f"cap{cap}", o.drive_options("taped", 9406))
+        laps[cap] = r
+        assert r.off_track == 0 and r.clean_laps == r.laps >= 2
+        rows = (tmp_path / f"cap{cap}" / "trajectory.csv").read_text().split()[1:]
+        speeds = [float(row.split(",")[6]) for row in rows]
+        assert max(speeds) <= steady_speed(cap, 1 / 20, CARS["donkey"]) + 1e-3  # never faster than the cap holds
+    assert laps[0.5].mean_lap_s > 1.1 * laps[1.0].mean_lap_s

@@ -24,13 +24,13 @@ from __future__ import annotations
 import csv
 import json
 import shutil
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Literal
 
 from steerlab.data.car import car_of
 from steerlab.errors import SteerlabError
-from steerlab.options import AT_LEAST_0, AT_LEAST_1, Options, POSITIVE, UNIT, as_dict, option, parse
+from steerlab.options import AT_LEAST_0, AT_LEAST_1, Options, POSITIVE, UNIT, Range, as_dict, option, parse
 from steerlab.paths import folder_to_write
 from steerlab.sim.core.parallel import run_parallel
 from steerlab.sim.road.world import ROADS, road_types
@@ -80,12 +80,15 @@ class DaggerOptions(Options):
                                 help="track world: track styles of the rollouts (default: both)")
     suite_styles: str | None = option(None, help="track world: comma list of the suite's track styles to drive "
                                       "(default: all)")
+    max_throttle: float = option(0.5, Range(0, 1, lo_open=True), help="track world: the cap of the learned throttle "
+                                 "in the rollouts and the suite, and of the expert's throttle labels (1: uncapped)")
     speed: float | None = option(None, POSITIVE, help="replay: m/s for a recording without speed")
 
 
 # the options that belong to some worlds only: given for another, they are refused
 OWN = {"roads": ("road",), "suite_roads": ("road",), "styles": ("track",), "suite_styles": ("track",),
-       "suite": ("road", "track"), "suite_minutes": ("road", "track"), "speed": ("replay",)}
+       "max_throttle": ("track",), "suite": ("road", "track"), "suite_minutes": ("road", "track"),
+       "speed": ("replay",)}
 
 
 def dagger_options(cfg: TrainConfig) -> DaggerOptions:
@@ -111,15 +114,18 @@ def _renamed(section: dict | None, notice: bool = False) -> dict:
 
 
 def round_suite(o: DaggerOptions):
-    """The closed-loop suite's options every round drives (None: none): a suite of the rollouts' world."""
-    if not o.suite or o.world == "replay":
+    """The options of the closed-loop suite of the rollouts' world (None in replay): what every round drives unless
+    `suite` is null, and how the rollouts drive (the track world's cap)."""
+    if o.world == "replay":
         return None
     world = WORLDS[o.world]
-    if o.suite not in world.suites:
+    if o.suite and o.suite not in world.suites:
         raise SteerlabError(f"dagger.suite: {o.suite} is a {suite_world(o.suite).name} suite; world {o.world} "
                             f"drives a {o.world} suite ({', '.join(world.suites)}) or none (null)")
-    return world.suite_options(suite=o.suite, minutes=o.suite_minutes, workers=o.workers,
-                               **{world.kinds: getattr(o, f"suite_{world.kinds}")})
+    shared = {"workers", "max_throttle"} & {f.name for f in fields(world.suite_options)}
+    return world.suite_options(**({"suite": o.suite} if o.suite else {}), minutes=o.suite_minutes,
+                               **{world.kinds: getattr(o, f"suite_{world.kinds}")},
+                               **{k: getattr(o, k) for k in shared})
 
 
 def _check_world(o: DaggerOptions, rec) -> None:
@@ -141,7 +147,8 @@ def run_dagger(cfg: TrainConfig, progress: bool = True) -> Path:
     rec = main_recording(cfg)
     _check_world(o, rec)
     world = None if o.world == "replay" else WORLDS[o.world]
-    suite = round_suite(o)
+    drives = round_suite(o)  # how the rollouts and the suite drive
+    suite = drives if o.suite else None
     kinds = world.parse_kinds(getattr(o, world.kinds)) if world else []  # one rollout of each per round
     if suite:  # its road types or track styles checked before anything is written
         try:
@@ -177,7 +184,7 @@ def run_dagger(cfg: TrainConfig, progress: bool = True) -> Path:
                 if not (folder / world.rollout_done).exists():
                     shutil.rmtree(folder, ignore_errors=True)  # an interrupted rollout starts again
                     jobs.append((str(out / f"round{r - 1}" / "best.pt"), str(folder), o.seeds_from + 100 * r + k,
-                                 o.minutes / len(kinds), kind, beta, world.rollout_camera(rec)))
+                                 o.minutes / len(kinds), kind, beta, world.rollout_camera(rec), drives))
             if progress and jobs:
                 print(f"== DAgger round {r}: rolling out round {r - 1}'s model in {len(jobs)} fresh place(s) of the "
                       f"{world.name} world, beta {beta:.3f}")

@@ -92,6 +92,8 @@ class SteerlabPilot:
     kp, ki: the PI gains of the speed controller (throttle per m/s, per m/s and frame).
     command_step: the throttle change per frame of a speed-command model's accelerate / decelerate.
     smoothing: exponential smoothing of the steering (paper 002 Eq. 2), as `steerlab sim drive --smoothing`.
+    steering_step: then the largest change of the steering from one frame to the next (servo units for a tub model),
+    as `steerlab sim drive --steering-step`.
     reset_after_s: a longer gap between frames starts a new segment (None: never).
     clock: seconds, for the gap (`time.monotonic`).
     """
@@ -99,7 +101,7 @@ class SteerlabPilot:
     def __init__(self, model: str | Path, throttle: float | None = None, *, learned_throttle: bool = True,
                  throttle_scale: float = 1.0, full_lock_deg: float | None = None, max_throttle: float = 0.5,
                  kp: float = 0.1, ki: float = 0.01, command_step: float = 0.01, smoothing: float | None = None,
-                 threads: int | None = None, reset_after_s: float | None = 0.5,
+                 steering_step: float | None = None, threads: int | None = None, reset_after_s: float | None = 0.5,
                  clock: Callable[[], float] = time.monotonic):
         forced = throttle is not None
         self.throttle = _check("throttle", DEFAULT_THROTTLE if throttle is None else throttle, 0.0, 1.0)
@@ -111,7 +113,7 @@ class SteerlabPilot:
         if not isinstance(learned_throttle, bool):
             raise SteerlabError(f"SteerlabPilot: learned_throttle must be True or False, got {learned_throttle!r}")
         self.source = Path(model)
-        self.pilot = Pilot(model, smoothing=smoothing,
+        self.pilot = Pilot(model, smoothing=smoothing, steering_step=steering_step,
                            threads=max(1, (os.cpu_count() or 2) // 2) if threads is None else threads)
         self.learned = learned_throttle and "throttle" in self.pilot.targets
         if self.learned and forced:

@@ -27,7 +27,7 @@ from steerlab.data.geometry import CAMERAS
 from steerlab.data.modalities import frame_difference, optical_flow
 from steerlab.data.preprocess import preprocess
 from steerlab.errors import SteerlabError
-from steerlab.options import FRACTION, Options, option
+from steerlab.options import FRACTION, POSITIVE, Options, option
 from steerlab.runtime import load_model
 
 
@@ -42,11 +42,19 @@ def smoothing_option():
                   "(paper 002 Eq. 2; 0.2 there)")
 
 
+def steering_step_option():
+    """The option of every command that makes a Pilot: the largest change of its steering from one frame to the
+    next."""
+    return option(None, POSITIVE, help="the largest change of the steering from one frame to the next, in the "
+                  "model's unit (a tub model's servo units; radians otherwise): a limit on how fast it turns")
+
+
 @dataclass(frozen=True)
 class DriveWith(Options):
     """How `steerlab sim drive` makes its Pilot."""
 
     smoothing: float | None = smoothing_option()
+    steering_step: float | None = steering_step_option()
 
 
 @dataclass(frozen=True)
@@ -71,14 +79,17 @@ def _check_speed(speed):
 
 class Pilot:
     def __init__(self, checkpoint: str | Path | dict, smoothing: float | None = None, threads: int | None = None,
-                 other_camera: bool = False):
+                 other_camera: bool = False, steering_step: float | None = None):
         """`checkpoint`: a .pt checkpoint (path or loaded dict) or an exported .onnx file (self-contained: its
         preprocessing, statistics and convention are in its metadata). `threads`: the runtime's threads (ONNX
         Runtime's intra-op threads, or torch's for a .pt checkpoint; default: see `runtime`). A frame of another
         size than the camera the model was trained on is refused, unless `other_camera` (then it is cropped and
-        resized like any)."""
+        resized like any). `smoothing`: exponential smoothing of the steering; `steering_step`: then the largest
+        change of the steering from one frame to the next (in the model's unit)."""
         if smoothing is not None and not FRACTION(smoothing):
             raise SteerlabError(f"smoothing must be a number in (0, 1], got {smoothing!r}")
+        if steering_step is not None and not POSITIVE(steering_step):
+            raise SteerlabError(f"steering_step must be a positive finite number, got {steering_step!r}")
         if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or threads < 1):
             raise SteerlabError(f"threads must be a whole number >= 1, got {threads!r}")
         self.net = load_model(checkpoint, threads)
@@ -87,7 +98,7 @@ class Pilot:
         self.geometry, self.speed_history, self.targets = self.net.geometry, self.net.speed_history, self.net.targets
         cam = None if other_camera else CAMERAS.get(self.geometry)
         self.frame_size = None if cam is None else (cam.height, cam.width)
-        self.smoothing = smoothing
+        self.smoothing, self.steering_step = smoothing, steering_step
         self._channels, c = {}, 0  # each modality's channels of the network input, in input order
         for m, n in self.config.channels().items():
             self._channels[m], c = slice(c, c + n), c + n
@@ -99,7 +110,7 @@ class Pilot:
         self._prev = None  # the previous frame's (image, gray)
         self._frames: deque = deque(maxlen=self.config.stack)
         self._speeds: deque = deque(maxlen=self.speed_history)
-        self._smoothed = None
+        self._smoothed = self._steered = None
         self.net.reset()
 
     @staticmethod
@@ -205,6 +216,10 @@ class Pilot:
         if self.smoothing is not None:
             self._smoothed = y if self._smoothed is None else self.smoothing * y + (1 - self.smoothing) * self._smoothed
             y = self._smoothed
+        if self.steering_step is not None:
+            if self._steered is not None:
+                y = float(np.clip(y, self._steered - self.steering_step, self._steered + self.steering_step))
+            self._steered = y
         return Controls(y, float(out["speed"]) if "speed" in out else None,
                         int(out["command"].argmax()) if "command" in out else None,
                         float(out["throttle"]) if "throttle" in out else None)

@@ -45,7 +45,7 @@ def cmd_sim_drive(a) -> None:
 
     world = WORLDS[a.world]
     o, w = world_options(a, "drive", (DriveWith,))
-    print_table(asdict(world.drive(a.checkpoint, a.out, o, w.smoothing, a.video)))
+    print_table(asdict(world.drive(a.checkpoint, a.out, o, w, a.video)))
     print(f"wrote {a.out}/{world.drive_files}" + (f", {a.video}" if a.video else ""))
 
 

@@ -1,4 +1,7 @@
-"""Contiguous time-block splits. Never frame-by-frame at random: neighbouring frames are near-duplicates."""
+"""Splits of a recording into training and validation frames: contiguous time blocks, sessions, or paper 000's
+protocol. A random choice of frames (`{random: 0.2}`, as donkeycar's trainer splits a tub) is there to compare with
+it: neighbouring frames are near-duplicates, so its validation frames have twins in training and its error
+says little about unseen driving; early stopping on it stops late."""
 
 from __future__ import annotations
 
@@ -9,7 +12,7 @@ import numpy as np
 
 from steerlab.data.rows import parse_range
 from steerlab.errors import SteerlabError
-from steerlab.options import AT_LEAST_1, value_of
+from steerlab.options import AT_LEAST_1, Range, value_of
 
 
 def block(text: str, n: int, name: str) -> np.ndarray:
@@ -55,21 +58,33 @@ def by_sessions(part: dict, sessions: np.ndarray | None, name: str) -> np.ndarra
 @dataclass(frozen=True)
 class Split:
     """The split: section of a config: `{train: "a:b", val: "c:d"}`, `{train: {sessions: [...]}, val:
-    {sessions: [...]}}` or `{protocol: paper, k: 3, length: 1000}` (the default)."""
+    {sessions: [...]}}`, `{random: 0.2[, seed: 0]}` (that fraction of the frames, drawn at random, validates) or
+    `{protocol: paper, k: 3, length: 1000}` (the default)."""
 
     protocol: str | None = "paper"
     k: int = 3
     length: int = 1000
     train: str | dict | None = None
     val: str | dict | None = None
+    random: float | None = None
+    seed: int = 0
 
     @classmethod
     def parse_option(cls, value, where: str) -> Split:
         if not isinstance(value, Mapping):
             raise SteerlabError(f"{where} must be a mapping, e.g. {{train: '0:1800', val: '1800:2400'}}; got {value!r}")
-        unknown = sorted(set(value) - {"protocol", "k", "length", "train", "val"})
+        known = ["k", "length", "protocol", "random", "seed", "train", "val"]
+        unknown = sorted(set(value) - set(known))
         if unknown:
-            raise SteerlabError(f"unknown {where} options {unknown}; known: ['k', 'length', 'protocol', 'train', 'val']")
+            raise SteerlabError(f"unknown {where} options {unknown}; known: {known}")
+        if "random" in value:
+            if set(value) - {"random", "seed"}:
+                raise SteerlabError(f"{where}: random takes only a seed beside it, got {sorted(value)}")
+            fraction = value_of(float, value["random"], f"{where}.random", Range(0, 1, lo_open=True, hi_open=True))
+            return cls(None, 3, 1000, None, None, fraction, value_of(int, value.get("seed", 0), f"{where}.seed",
+                                                                     Range(0)))
+        if "seed" in value:
+            raise SteerlabError(f"{where}.seed is the seed of a random split ({where}.random)")
         if value.get("protocol") is not None:
             if value["protocol"] != "paper" or "train" in value or "val" in value:
                 raise SteerlabError(f"{where}: protocol must be paper (without train and val ranges), got "
@@ -86,6 +101,8 @@ class Split:
         return cls(None, 3, 1000, value["train"], value["val"])
 
     def as_dict(self) -> dict:
+        if self.random is not None:
+            return {"random": self.random, "seed": self.seed}
         if self.protocol:
             return {"protocol": self.protocol, "k": self.k, "length": self.length}
         return {"train": self.train, "val": self.val}
@@ -95,6 +112,11 @@ def make_split(spec: Split, n: int, sessions: np.ndarray | None = None) -> tuple
     """The training and validation frames of a recording of `n` frames (and its `sessions`)."""
     if spec.protocol == "paper":
         return paper_protocol(n, spec.k, spec.length)
+    if spec.random is not None:
+        val = np.sort(np.random.default_rng(spec.seed).permutation(n)[:max(1, round(spec.random * n))])
+        if len(val) == n:
+            raise SteerlabError(f"a random split of {spec.random:g} leaves no training frame of {n}")
+        return np.setdiff1d(np.arange(n), val), val
     train, val = (by_sessions(part, sessions, k) if isinstance(part, Mapping) else block(part, n, k)
                   for k, part in (("train", spec.train), ("val", spec.val)))
     if np.intersect1d(train, val).size:

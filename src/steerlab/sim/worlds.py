@@ -43,7 +43,8 @@ class WorldEntry:
     - `kinds`: the name of the option that picks some of its places (`roads`: road types; `styles`: track styles)
       and `parse_kinds` that reads it (None: all);
     - recording its expert: `record_options`, `record(out, options)`;
-    - a model's drive: `drive_options`, `drive(checkpoint, out, options, smoothing, video)` and the files it writes;
+    - a model's drive: `drive_options`, `drive(checkpoint, out, options, drive_with, video)` (`pilot.DriveWith`:
+      how its Pilot is made) and the files it writes;
     - its suite: `suite_options`, `suite(checkpoints, out, options, progress, plots)` -> summary rows, its versions
       and figures, and `round_columns(summary)`: a DAgger round's columns of dagger.csv;
     - replay of its recordings: `replay_options` (their `setup(rec)` makes the replay);

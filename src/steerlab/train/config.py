@@ -107,6 +107,9 @@ class TrainConfig(Options):
         if t.balance and cls.recurrent:
             raise SteerlabError("balanced sampling picks single frames; recurrent models train on sequences "
                                 "(paper 003 does not balance its LSTM either)")
+        if self.split.random is not None and cls.recurrent:
+            raise SteerlabError(f"split.random draws single frames; model {self.model.name!r} trains on sequences "
+                                "of consecutive frames: split by blocks (split.train and split.val)")
         if hasattr(cls, "loss") and t.loss != "mse":
             raise SteerlabError(f"model {self.model.name!r} trains on a loss of its own; train.loss={t.loss} does "
                                 "not apply")

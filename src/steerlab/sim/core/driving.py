@@ -12,6 +12,7 @@ speed profile or recording and ignore it."""
 from __future__ import annotations
 
 import csv
+from collections import deque
 from dataclasses import dataclass, fields
 from functools import cached_property
 from pathlib import Path
@@ -142,13 +143,17 @@ def autonomy(interventions: int, elapsed_s: float) -> float:
 
 
 def drive_loop(world, pilot, ticks: int, limit_m: float, fps: float, choose=None, on_step=None, desc: str = "drive",
-               progress: bool = True, on_tick=None) -> Trajectory:
+               progress: bool = True, on_tick=None, latency: int = 0) -> Trajectory:
     """Drive `pilot` in `world` for `ticks` frames (or until `world.done`). The pilot's steering (in
     `pilot.convention`) becomes a road-wheel angle through `world.steering_ratio`; the pilot's throttle
     (`Controls.throttle`, None for a pilot that gives none) goes to `world.step` with it; `choose(tick)` returns
-    the (road-wheel angle, throttle) to apply instead (DAgger's mix of model and expert). `on_step(tick)` sees
-    every tick (recording, video); `on_tick(k)` is called every 100 ticks (progress of a suite)."""
+    the (road-wheel angle, throttle) to apply instead (DAgger's mix of model and expert). `latency`: the pilot
+    steers on the frame rendered that many ticks before (the first frame until there is one that old), as a
+    real car's pilot acts on a frame its camera and model took time over. `on_step(tick)` sees every tick
+    (recording, video; `tick.frame` is the frame rendered now); `on_tick(k)` is called every 100 ticks (progress of
+    a suite)."""
     check(world, pilot)
+    seen = deque(maxlen=latency + 1)  # the frames of the last `latency` + 1 ticks
     rows = []
     for i in tqdm(range(ticks), desc=desc, unit="tick", disable=None if progress else True):
         if world.done:
@@ -157,8 +162,9 @@ def drive_loop(world, pilot, ticks: int, limit_m: float, fps: float, choose=None
         if put_back:
             pilot.reset()
         frame = world.render()
+        seen.append(frame)
         st = world.state
-        controls = pilot.step(frame, st.v)
+        controls = pilot.step(seen[0], st.v)
         command = controls.steering
         tick = Tick(i, frame, offset, heading, pilot.convention.to_road_wheel_left(command, world.steering_ratio),
                     put_back, world, controls.throttle)

@@ -66,6 +66,12 @@ def file_sha256(path: Path) -> str:
         return hashlib.file_digest(f, "sha256").hexdigest()
 
 
+def when_set(options, *names: str) -> dict:
+    """The options `names` that are set (not None, not 0): what a cache key adds of options that came after drives
+    were first kept, so that those drives stay reusable."""
+    return {n: getattr(options, n) for n in names if getattr(options, n) not in (None, 0)}
+
+
 def as_stored(key: dict) -> dict:
     """A cache key as drive.json gives it back (tuples become lists), so that the two compare equal."""
     return json.loads(json.dumps(key))

@@ -13,6 +13,7 @@ from tqdm import tqdm
 from steerlab.data.car import car_of
 from steerlab.data.writer import CONVENTION, RecordingWriter
 from steerlab.errors import SteerlabError, warn
+from steerlab.pilot import DriveWith
 from steerlab.sim.core.driving import check_steers, drive_loop, rollout as drive_rollout, ticks
 from steerlab.sim.core.parallel import tick_reporter
 from steerlab.sim.core.plots import write_strip
@@ -153,13 +154,15 @@ def drive(pilot, out: str | Path | None, o: DriveOptions = DriveOptions(), video
     return result
 
 
-def drive_checkpoint(checkpoint: str | Path, out: str | Path | None, o: DriveOptions, smoothing: float | None = None,
+def drive_checkpoint(checkpoint: str | Path, out: str | Path | None, o: DriveOptions, w: DriveWith = DriveWith(),
                      video: str | Path | None = None, progress: bool = True, on_tick=None, plot: bool = True,
                      meta: dict | None = None) -> RoadDrive:
-    """`drive` with steerlab's Pilot on `checkpoint` (`o.geometry`: another camera than it was trained on)."""
+    """`drive` with steerlab's Pilot on `checkpoint`, made as `w` says (`o.geometry`: another camera than it was
+    trained on)."""
     from steerlab.pilot import Pilot
 
-    pilot = Pilot(checkpoint, smoothing=smoothing, other_camera=o.geometry is not None)
+    pilot = Pilot(checkpoint, smoothing=w.smoothing, steering_step=w.steering_step,
+                  other_camera=o.geometry is not None)
     return drive(pilot, out, o, video, progress, on_tick, plot, meta)
 
 
@@ -182,9 +185,11 @@ def rollout(pilot, out: str | Path, seed: int, minutes: float, road: str = "coun
     return RoadDrive(pilot.name, seed, road, minutes, **vars(t.metrics(1.0 / fps)))
 
 
-def rollout_job(checkpoint: str, out: str, seed: int, minutes: float, road: str, beta: float,
-                geometry: str | None) -> RoadDrive:
-    """A DAgger rollout in a worker process: steerlab's Pilot on `checkpoint`, the recording's camera."""
+def rollout_job(checkpoint: str, out: str, seed: int, minutes: float, road: str, beta: float, geometry: str | None,
+                suite) -> RoadDrive:
+    """A DAgger rollout in a worker process: steerlab's Pilot on `checkpoint` made as the round's suite makes it
+    (`suite`: its options; smoothing, steering step), the recording's camera."""
     from steerlab.pilot import Pilot
 
-    return rollout(Pilot(checkpoint), out, seed, minutes, road, beta, geometry, on_tick=tick_reporter())
+    pilot = Pilot(checkpoint, smoothing=suite.smoothing, steering_step=suite.steering_step)
+    return rollout(pilot, out, seed, minutes, road, beta, geometry, on_tick=tick_reporter())

@@ -17,11 +17,11 @@ import numpy as np
 
 from steerlab.errors import SteerlabError
 from steerlab.options import AT_LEAST_1, Options, POSITIVE, option, parse
-from steerlab.pilot import smoothing_option
+from steerlab.pilot import DriveWith, smoothing_option, steering_step_option
 from steerlab.sim.core.driving import autonomy
 from steerlab.sim.core.parallel import tick_reporter
 from steerlab.sim.core.suite import (Planned, as_stored, checkpoints_to_drive, file_sha256, grouped, run_drives,
-                                     write_csv)
+                                     when_set, write_csv)
 from steerlab.sim.road.run import RoadDrive, drive_checkpoint
 from steerlab.sim.road.world import DriveOptions
 
@@ -42,6 +42,7 @@ class SuiteOptions(Options):
                                    help="minutes per road (default: the suite's, 3 for v1)")
     workers: int = option(2, AT_LEAST_1, help="roads driven in parallel")
     smoothing: float | None = smoothing_option()
+    steering_step: float | None = steering_step_option()
     roads: str | None = option(None, help="comma list of the suite's road types to drive (default: all)")
 
     @property
@@ -63,10 +64,11 @@ class SuiteOptions(Options):
 
     def key(self, checkpoint: Path) -> dict:
         """Everything that changes a drive's result besides its road: the checkpoint's content (the sha256 of
-        the file; an exported .onnx carries its metadata inside), the suite version, the minutes and the
-        smoothing. A finished drive is reused only when its drive.json holds exactly this key."""
+        the file; an exported .onnx carries its metadata inside), the suite version, the minutes, the smoothing
+        and the steering step (only when set: drives made before it existed stay reusable). A finished drive is
+        reused only when its drive.json holds exactly this key."""
         return as_stored({"checkpoint_sha256": file_sha256(checkpoint), "suite": self.suite,
-                          "minutes": self.road_minutes, "smoothing": self.smoothing})
+                          "minutes": self.road_minutes, "smoothing": self.smoothing, **when_set(self, "steering_step")})
 
 
 @dataclass(frozen=True)
@@ -109,11 +111,10 @@ def suite_options(section: dict | None, where: str) -> SuiteOptions:
     return parse(SuiteOptions, section or {}, where)
 
 
-def _job(checkpoint: str, road: str, seed: int, minutes: float, out: str, smoothing: float | None,
-         key: dict) -> RoadDrive:
+def _job(checkpoint: str, road: str, seed: int, minutes: float, out: str, w: DriveWith, key: dict) -> RoadDrive:
     """One drive of the suite (its path is drawn with the other checkpoints' in the suite's roads/ figure); its
     drive.json also holds the key, which later runs compare."""
-    return drive_checkpoint(checkpoint, out, DriveOptions(seed, minutes, road, fps=FPS), smoothing, progress=False,
+    return drive_checkpoint(checkpoint, out, DriveOptions(seed, minutes, road, fps=FPS), w, progress=False,
                             on_tick=tick_reporter(), plot=False, meta={"cache_key": key})
 
 
@@ -130,7 +131,8 @@ def run_suite(checkpoints, out: str | Path, o: SuiteOptions = SuiteOptions(), pr
         for road, seed in roads:
             folder = out / label / f"{road}-{seed}"
             planned.append(Planned((label, road, seed), folder, key,
-                                   (str(ckpt), road, seed, minutes, str(folder), o.smoothing, key)))
+                                   (str(ckpt), road, seed, minutes, str(folder),
+                                    DriveWith(o.smoothing, o.steering_step), key)))
     results = run_drives(_job, RoadDrive, planned, o.workers, round(minutes * 60 * FPS), progress, f"suite {o.suite}")
     drives = []
     for label, ckpt in zip(labels, checkpoints):

@@ -27,6 +27,7 @@ from steerlab.data.fisheye import DONKEY_FISHEYE, FisheyeCamera
 from steerlab.data.recording import SteeringConvention
 from steerlab.data.writer import RecordingWriter, TubWriter
 from steerlab.errors import SteerlabError
+from steerlab.pilot import DriveWith
 from steerlab.sim.core.driving import Trajectory, check_steers, drive_loop, ticks
 from steerlab.sim.core.parallel import tick_reporter
 from steerlab.sim.core.plots import write_strip
@@ -77,8 +78,8 @@ def record(out: str | Path, o: TrackRecordOptions = TrackRecordOptions(), progre
     suite's own track (give the suite's lane width and style)."""
     if not suite_tracks_ok:
         check_seed(o.seed, "track")
-    camera = camera_of(o.calibration)
-    world = TrackWorld(o.seed, o.lane_width, o.style, o.fps, camera)
+    camera = o.camera()
+    world = TrackWorld(o.seed, o.lane_width, o.style, o.fps, camera, room=o.room)
     expert = RacerPilot(world, o.seed, DRIFT_EVERY_S if o.drift else None)
     car = world.car
     if o.layout == "tub":
@@ -101,8 +102,9 @@ def record(out: str | Path, o: TrackRecordOptions = TrackRecordOptions(), progre
                progress=progress)
     if o.layout == "tub":
         return tub.close()
-    return writer.close({"world": "track", "seed": o.seed, "lane_width": o.lane_width, "style": o.style,
-                         "lap_m": world.track.length, "fps": o.fps, "minutes": o.minutes, "fisheye": asdict(camera)})
+    return writer.close({"world": "track", "seed": o.seed, "room": o.room, "lane_width": o.lane_width,
+                         "style": o.style, "lap_m": world.track.length, "fps": o.fps, "minutes": o.minutes,
+                         "fisheye": asdict(camera)})
 
 
 def check_camera(pilot) -> None:
@@ -152,7 +154,7 @@ def drive(pilot, out: str | Path | None, o: TrackDriveOptions = TrackDriveOption
                       f"{world.state.v:3.1f} m/s  off track {events}", limit=room)
 
     t = drive_loop(world, pilot, ticks(o.minutes, o.fps), o.limit_m, o.fps, on_step=on_step,
-                   desc=f"drive track {o.seed}", progress=progress, on_tick=on_tick)
+                   desc=f"drive track {o.seed}", progress=progress, on_tick=on_tick, latency=o.latency)
     if movie:
         movie.close()
     result = result_of(pilot.name, o, t, world)
@@ -169,23 +171,24 @@ def drive(pilot, out: str | Path | None, o: TrackDriveOptions = TrackDriveOption
     return result
 
 
-def drive_checkpoint(checkpoint: str | Path, out: str | Path | None, o: TrackDriveOptions,
-                     smoothing: float | None = None, video: str | Path | None = None, progress: bool = True,
-                     on_tick=None, plot: bool = True, meta: dict | None = None) -> TrackDrive:
+def drive_checkpoint(checkpoint: str | Path, out: str | Path | None, o: TrackDriveOptions, w: DriveWith = DriveWith(),
+                     video: str | Path | None = None, progress: bool = True, on_tick=None, plot: bool = True,
+                     meta: dict | None = None) -> TrackDrive:
     """`drive` with steerlab's donkeycar part on `checkpoint` (`core.part.donkey_pilot`: the constant throttle
-    `o.throttle` for a model that predicts none, its learned throttle capped at `o.max_throttle`)."""
+    `o.throttle` for a model that predicts none, its learned throttle capped at `o.max_throttle`, its steering
+    shaped as `w` says)."""
     from steerlab.sim.core.part import donkey_pilot
 
-    pilot = donkey_pilot(checkpoint, o.throttle, smoothing, o.max_throttle)
+    pilot = donkey_pilot(checkpoint, o.throttle, w.smoothing, o.max_throttle, steering_step=w.steering_step)
     return drive(pilot, out, o, video, progress, on_tick, plot, meta)
 
 
 def drive_expert(out: str | Path, o: TrackDriveOptions, on_tick=None, meta: dict | None = None) -> TrackDrive:
-    """The racing expert (no drift episodes) on a track as `drive` drives a model, without rendering a
-    frame (it reads the car's state): the reference laps of the track suite. Writes trajectory.csv and
-    drive.json into `out`."""
+    """The racing expert (no drift episodes) on a track as `drive` drives a model, its throttle capped at
+    `o.max_throttle` as a model's is, without rendering a frame (it reads the car's state): the reference laps of
+    the track suite. Writes trajectory.csv and drive.json into `out`."""
     world = TrackWorld(o.seed, o.lane_width, o.style, o.fps, camera=None)
-    expert = RacerPilot(world, o.seed)
+    expert = RacerPilot(world, o.seed, max_throttle=o.max_throttle)
     t = drive_loop(world, expert, ticks(o.minutes, o.fps), o.limit_m, o.fps, progress=False, on_tick=on_tick)
     result = result_of(expert.name, o, t, world)
     out = Path(out)
@@ -196,12 +199,15 @@ def drive_expert(out: str | Path, o: TrackDriveOptions, on_tick=None, meta: dict
 
 
 def rollout(pilot, out: str | Path, seed: int, minutes: float, style: str = "taped", beta: float = 0.0,
-            camera: FisheyeCamera = DONKEY_FISHEYE, fps: float = 20.0, on_tick=None) -> TrackDrive:
+            camera: FisheyeCamera = DONKEY_FISHEYE, fps: float = 20.0, on_tick=None, max_throttle: float = 1.0,
+            latency: int = 0) -> TrackDrive:
     """DAgger's data collection in the track world: `pilot` races the track made from `seed` (`style`, the default
     lane width) for `minutes`, seen through `camera`, with off-track events as in `drive`, while with
     probability `beta` each tick the expert drives instead, steering and throttle. Every visited frame is written
     to a tub in `out` labelled with the expert's steering and throttle in its state (`TrackWorld.expert_controls`:
-    the expert without lag, noise or drift episodes). Returns the drive's result."""
+    the expert without lag, noise or drift episodes), its throttle capped at `max_throttle` as the car's is: labels
+    the car can follow at the speed and cap it drives with. `latency`: the pilot steers on the frame of that many
+    ticks before (train with `train.target_shift_s` to match). Returns the drive's result."""
     check_seed(seed, "track")
     check_camera(pilot)
     world = TrackWorld(seed, style=style, fps=fps, camera=camera)
@@ -211,25 +217,28 @@ def rollout(pilot, out: str | Path, seed: int, minutes: float, style: str = "tap
     expert = {}
 
     def label(t):
-        expert["controls"] = world.expert_controls()
+        wheel, throttle = world.expert_controls()
+        expert["controls"] = (wheel, float(np.clip(throttle, -max_throttle, max_throttle)))
         tub.add(t.frame, int(round(t.index * 1e9 / fps)), *expert["controls"])
 
     t = drive_loop(world, pilot, ticks(minutes, fps), 0.0, fps, on_step=label, desc=f"rollout track {seed}",
-                   progress=False, on_tick=on_tick,
+                   progress=False, on_tick=on_tick, latency=latency,
                    choose=lambda t: expert["controls"] if rng.random() < beta else (t.model, t.throttle))
     tub.close()
     return result_of(pilot.name, TrackDriveOptions(seed, minutes, fps, style=style), t, world)
 
 
-def rollout_job(checkpoint: str, out: str, seed: int, minutes: float, style: str, beta: float,
-                camera: FisheyeCamera) -> TrackDrive:
-    """A DAgger rollout in a worker process: the model races through the donkeycar part as in the track suite (its
-    default throttle, cap of the learned throttle and smoothing), seen through the recording's fisheye."""
+def rollout_job(checkpoint: str, out: str, seed: int, minutes: float, style: str, beta: float, camera: FisheyeCamera,
+                suite) -> TrackDrive:
+    """A DAgger rollout in a worker process: the model races through the donkeycar part as the round's track suite
+    drives it (`suite`: its options; the constant throttle, the cap of the learned throttle and of the labels,
+    smoothing, steering step and latency), seen through the recording's fisheye."""
     from steerlab.sim.core.part import donkey_pilot
 
-    d = TrackDriveOptions()
-    pilot = donkey_pilot(checkpoint, d.throttle, None, d.max_throttle)
-    return rollout(pilot, out, seed, minutes, style, beta, camera, on_tick=tick_reporter())
+    pilot = donkey_pilot(checkpoint, suite.throttle, suite.smoothing, suite.max_throttle,
+                         steering_step=suite.steering_step)
+    return rollout(pilot, out, seed, minutes, style, beta, camera, on_tick=tick_reporter(),
+                   max_throttle=suite.max_throttle, latency=suite.latency)
 
 
 def title(r: TrackDrive) -> str:

@@ -4,15 +4,19 @@ tracks, through the donkeycar part, for a fixed time each; laps are the measure.
 The tracks of a suite version never change (seed, lane width and style), and their seeds lie in 9000-9999, which
 `sim record --world track` refuses, so no model has seen them. Each track is also driven once by the racing
 expert (no drift episodes, from the car's state, without a camera): its lap times are the reference a model's
-are put against. Drives run in parallel worker processes; a finished drive is reused when the suite runs again
-with the same cache key (`core.suite`): the checkpoint's content hash, suite version, minutes, smoothing, the
-constant throttle, the learned throttle's cap and the camera (`TrackSuiteOptions.key`); the expert's drives with
-the same suite version and minutes.
+are put against, driven under the same throttle cap as the models (`--max-throttle`; its drives are kept per cap,
+in `expert-max<cap>/`). Drives run in parallel worker processes; a finished drive is reused when the suite runs
+again with the same cache key (`core.suite`): the checkpoint's content hash, suite version, minutes, smoothing,
+the constant throttle, the learned throttle's cap and the camera (`TrackSuiteOptions.key`); the expert's drives
+with the same suite version, minutes and cap.
 
-Per drive (`suite.csv`) and per checkpoint and style and over all tracks (`summary.csv`, `suite.md`): laps
-completed, clean laps (no off-track event), best and mean clean lap time against the expert's on the same track
-(a summary takes the mean of the drives' ratios), off-track events per lap and per km, and NVIDIA's autonomy,
-(1 - events x 6 s / elapsed s) x 100. `tracks/<style>-<seed>.png` draws every checkpoint's line on each track.
+Per drive (`suite.csv`): laps completed, clean laps (no off-track event), best and mean clean lap time, the
+expert's on the same track, the pace (the mean clean lap over the expert's; none without a clean lap: the track is
+not finished), off-track events per lap and per km, and NVIDIA's autonomy, (1 - events x 6 s / elapsed s) x 100.
+Per checkpoint and style and over all tracks (`summary.csv`, `suite.md`), every checkpoint over the same tracks:
+laps, clean laps and their share, tracks finished of the tracks driven, off-track events, and one pace: the mean
+pace over the tracks that every checkpoint compared finished, so that no checkpoint's pace leaves out a track
+another's counts. `tracks/<style>-<seed>.png` draws every checkpoint's line on each track.
 """
 
 from __future__ import annotations
@@ -24,23 +28,26 @@ import numpy as np
 
 from steerlab.errors import SteerlabError
 from steerlab.options import AT_LEAST_1, Options, POSITIVE, option
-from steerlab.pilot import smoothing_option
+from steerlab.pilot import DriveWith, smoothing_option, steering_step_option
 from steerlab.sim.core.driving import autonomy
 from steerlab.sim.core.parallel import tick_reporter
 from steerlab.sim.core.suite import (Planned, as_stored, checkpoints_to_drive, file_sha256, grouped, run_drives,
-                                     write_csv)
+                                     when_set, write_csv)
 from steerlab.sim.track.run import TrackDrive, drive_checkpoint, drive_expert
-from steerlab.sim.track.world import (TrackDriveOptions, calibration_option, camera_of, max_throttle_option,
-                                      throttle_option)
+from steerlab.sim.track.world import (TrackDriveOptions, calibration_option, camera_of, latency_option,
+                                      max_throttle_option, throttle_option)
 
 TRACK_SUITES = {
     # 8 tracks of 2 minutes, 0.9 m lanes: six taped, two with a painted centre line (28-54 m laps; the expert
     # laps them in 8-17 s, a model at the default throttle in about twice that)
     "t1": {"minutes": 2.0, "lane_width": 0.9,
            "tracks": {"taped": [9401, 9402, 9403, 9404, 9405, 9406], "centre": [9451, 9452]}},
+    # the selection tracks: recipes are chosen on these, and scored on t1's (also reserved: never recorded)
+    "s1": {"minutes": 2.0, "lane_width": 0.9,
+           "tracks": {"taped": [9501, 9502, 9503, 9504, 9505, 9506], "centre": [9551, 9552]}},
 }
 FPS = 20.0
-EXPERT = "expert"  # the folder of the expert's drives
+EXPERT = "expert"  # the label of the expert's reference laps (its drives: `expert_folder`)
 
 
 @dataclass(frozen=True)
@@ -52,9 +59,11 @@ class TrackSuiteOptions(Options):
                                    help="minutes per track (default: the suite's, 2 for t1)")
     workers: int = option(2, AT_LEAST_1, help="tracks driven in parallel")
     smoothing: float | None = smoothing_option()
+    steering_step: float | None = steering_step_option()
     styles: str | None = option(None, help="comma list of the suite's track styles to drive (default: all)")
     throttle: float = throttle_option()
     max_throttle: float = max_throttle_option()
+    latency: int = latency_option()
     calibration: str | None = calibration_option()
 
     @property
@@ -73,22 +82,28 @@ class TrackSuiteOptions(Options):
 
     def drive_options(self, style: str, seed: int) -> TrackDriveOptions:
         return TrackDriveOptions(seed, self.track_minutes, FPS, 0.0, TRACK_SUITES[self.suite]["lane_width"], style,
-                                 self.calibration, self.throttle, self.max_throttle)
+                                 self.calibration, self.throttle, self.max_throttle, self.latency)
+
+    def expert_folder(self) -> str:
+        """The folder of the expert's drives under this cap."""
+        return f"{EXPERT}-max{self.max_throttle:g}"
 
     def key(self, checkpoint: Path) -> dict:
         """Everything that changes a drive's result besides its track: the checkpoint's content, the suite
-        version, minutes, smoothing, the constant throttle, the learned throttle's cap and the camera's calibration
-        (its K and D)."""
+        version, minutes, smoothing, the constant throttle, the learned throttle's cap, the camera's calibration
+        (its K and D), and where set the steering step and the latency (drives made before they existed stay
+        reusable)."""
         camera = None if self.calibration is None else list(astuple(camera_of(self.calibration)))
         return as_stored({"checkpoint_sha256": file_sha256(checkpoint), "suite": self.suite,
                           "minutes": self.track_minutes, "smoothing": self.smoothing, "throttle": self.throttle,
-                          "max_throttle": self.max_throttle, "camera": camera})
+                          "max_throttle": self.max_throttle, "camera": camera,
+                          **when_set(self, "steering_step", "latency")})
 
 
 @dataclass(frozen=True)
 class SuiteDrive:
-    """One drive of the suite, with the expert's lap times on the same track and the ratio of the mean clean lap
-    times (None without a clean lap): suite.csv's row."""
+    """One drive of the suite, with the expert's lap times on the same track (under the same cap) and the pace,
+    the mean clean lap over the expert's (None without a clean lap: the track is not finished): suite.csv's row."""
 
     label: str
     checkpoint: str
@@ -103,7 +118,7 @@ class SuiteDrive:
     mean_lap_s: float | None
     expert_best_lap_s: float | None
     expert_mean_lap_s: float | None
-    lap_ratio: float | None
+    pace: float | None
     off_track: int
     off_track_per_lap: float
     off_track_per_km: float
@@ -116,20 +131,25 @@ class SuiteDrive:
 
 @dataclass(frozen=True)
 class SuiteSummary:
-    """A checkpoint's drives of one style (or "all"): summary.csv's row."""
+    """A checkpoint's drives of one style (or "all"): summary.csv's row. `finished`: the tracks with a clean lap, of
+    `tracks`; `pace`: the mean of the drives' paces over the `pace_tracks` tracks that every checkpoint of the
+    summary finished (None when there is none)."""
 
     label: str
     style: str
-    drives: int
+    tracks: int
+    finished: int
     minutes: float
     distance_km: float
     laps: int
     clean_laps: int
+    clean_pct: float | None
     off_track: int
     off_track_per_lap: float
     off_track_per_km: float
     autonomy: float
-    lap_ratio: float | None
+    pace: float | None
+    pace_tracks: int
     command_gamma_deg: float
 
 
@@ -138,8 +158,8 @@ def _job(checkpoint: str | None, o: TrackSuiteOptions, style: str, seed: int, ou
     d = o.drive_options(style, seed)
     if checkpoint is None:
         return drive_expert(out, d, on_tick=tick_reporter(), meta={"cache_key": key})
-    return drive_checkpoint(checkpoint, out, d, o.smoothing, progress=False, on_tick=tick_reporter(), plot=False,
-                            meta={"cache_key": key})
+    return drive_checkpoint(checkpoint, out, d, DriveWith(o.smoothing, o.steering_step), progress=False,
+                            on_tick=tick_reporter(), plot=False, meta={"cache_key": key})
 
 
 def run_suite(checkpoints, out: str | Path, o: TrackSuiteOptions = TrackSuiteOptions(), progress: bool = True,
@@ -147,20 +167,34 @@ def run_suite(checkpoints, out: str | Path, o: TrackSuiteOptions = TrackSuiteOpt
     """Drive every checkpoint (and the expert) on every track of the suite (or of the styles in `o.styles`);
     write `suite.csv`, `summary.csv`, `suite.md` and, with `plots`, `tracks/<style>-<seed>.png`. Returns the
     summary rows."""
+    return report(race(checkpoints, out, o, progress), out, o, plots)
+
+
+def race(checkpoints, out: str | Path, o: TrackSuiteOptions, progress: bool = True) -> list[SuiteDrive]:
+    """Every checkpoint's drive of every track of the suite, with the expert's on the same track (under the same
+    cap): drives kept in `out/<label>/<style>-<seed>/` and reused."""
     checkpoints, labels = checkpoints_to_drive(checkpoints)
     tracks, out = o.drives(), Path(out)
-    if EXPERT in labels:
-        raise SteerlabError(f"{checkpoints[labels.index(EXPERT)]}: its label {EXPERT!r} is the folder of the "
-                            "expert's drives; name it otherwise (its run folder)")
-    expert_key = as_stored({"suite": o.suite, "minutes": o.track_minutes})
-    runs = [(EXPERT, None, expert_key)] + [(label, str(c), o.key(c)) for label, c in zip(labels, checkpoints)]
+    taken = [c for c, label in zip(checkpoints, labels) if label.startswith(EXPERT)]
+    if taken:
+        raise SteerlabError(f"{taken[0]}: its label begins with {EXPERT!r}, as the folders of the expert's drives do; "
+                            "name it otherwise (its run folder)")
+    expert_key = as_stored({"suite": o.suite, "minutes": o.track_minutes, "max_throttle": o.max_throttle})
+    runs = [(o.expert_folder(), None, expert_key),
+            *((label, str(c), o.key(c)) for label, c in zip(labels, checkpoints))]
     planned = [Planned((label, seed), out / label / f"{style}-{seed}", key,
                        (ckpt, o, style, seed, str(out / label / f"{style}-{seed}"), key))
                for label, ckpt, key in runs for style, seed in tracks]
     rows = run_drives(_job, TrackDrive, planned, o.workers, round(o.track_minutes * 60 * FPS), progress,
                       f"track suite {o.suite}")
-    drives = [drive_row(rows[(label, seed)], rows[(EXPERT, seed)], label, ckpt, style, seed)
-              for label, ckpt, _ in runs[1:] for style, seed in tracks]
+    return [drive_row(rows[(label, seed)], rows[(o.expert_folder(), seed)], label, ckpt, style, seed)
+            for label, ckpt, _ in runs[1:] for style, seed in tracks]
+
+
+def report(drives: list[SuiteDrive], out: str | Path, o: TrackSuiteOptions, plots: bool = True) -> list[SuiteSummary]:
+    """The suite's tables of `drives` (every label over the same tracks: `summarize`) in `out`: `suite.csv`,
+    `summary.csv`, `suite.md` and, with `plots`, `tracks/<style>-<seed>.png`. Returns the summary rows."""
+    out = Path(out)
     summary = summarize(drives)
     out.mkdir(parents=True, exist_ok=True)
     write_csv(out / "suite.csv", drives)
@@ -169,13 +203,13 @@ def run_suite(checkpoints, out: str | Path, o: TrackSuiteOptions = TrackSuiteOpt
     if plots:
         from steerlab.sim.track.plots import plot_tracks  # matplotlib: imported where it draws
 
-        plot_tracks(out, drives, TRACK_SUITES[o.suite]["lane_width"], EXPERT)
+        plot_tracks(out, drives, TRACK_SUITES[o.suite]["lane_width"], o.expert_folder())
     return summary
 
 
 def drive_row(r: TrackDrive, expert: TrackDrive, label: str, checkpoint: str, style: str, seed: int) -> SuiteDrive:
-    """A drive's row of suite.csv, with the expert's lap times on the same track and the ratio of the mean
-    clean lap times (None without a clean lap)."""
+    """A drive's row of suite.csv, with the expert's lap times on the same track and the pace, the ratio of the
+    mean clean lap times (None without a clean lap)."""
     ratio = None if r.mean_lap_s is None or expert.mean_lap_s is None else r.mean_lap_s / expert.mean_lap_s
     return SuiteDrive(label, checkpoint, style, seed, r.lap_m, r.minutes, r.laps_driven, r.laps, r.clean_laps,
                       r.best_lap_s, r.mean_lap_s, expert.best_lap_s, expert.mean_lap_s, ratio, r.off_track,
@@ -184,30 +218,35 @@ def drive_row(r: TrackDrive, expert: TrackDrive, label: str, checkpoint: str, st
 
 
 def summarize(drives: list[SuiteDrive]) -> list[SuiteSummary]:
-    """Per label and style (and "all"): laps and clean laps, off-track events per lap (over the laps driven,
-    fractions included) and per km, autonomy over the summed time, the mean lap-time ratio to the expert over
-    the drives with a clean lap (None without one) and the mean command gamma."""
+    """Per label and style (and "all"), every label over the same tracks: laps and clean laps, tracks finished (a
+    clean lap), off-track events per lap (over the laps driven, fractions included) and per km, autonomy over the
+    summed time, the mean pace over the tracks that every label finished, and the mean command gamma."""
+    finished = {}  # (style or "all") -> the tracks every label finished
+    for label, style, ds in grouped(drives, "style"):
+        mine = {(d.style, d.seed) for d in ds if d.pace is not None}
+        finished[style] = mine if style not in finished else finished[style] & mine
     out = []
     for label, style, ds in grouped(drives, "style"):
         n = sum(d.off_track for d in ds)
         km = sum(d.distance_km for d in ds)
+        laps, clean = sum(d.laps for d in ds), sum(d.clean_laps for d in ds)
         laps_driven = sum(d.laps_driven for d in ds)
         seconds = sum(d.minutes * 60 for d in ds)
-        ratios = [d.lap_ratio for d in ds if d.lap_ratio is not None]
-        out.append(SuiteSummary(label, style, len(ds), seconds / 60, km, sum(d.laps for d in ds),
-                                sum(d.clean_laps for d in ds), n, n / max(laps_driven, 1e-9), n / max(km, 1e-9),
-                                autonomy(n, seconds), float(np.mean(ratios)) if ratios else None,
-                                float(np.mean([d.command_gamma_deg for d in ds]))))
+        paces = [d.pace for d in ds if (d.style, d.seed) in finished[style]]
+        out.append(SuiteSummary(label, style, len(ds), sum(d.pace is not None for d in ds), seconds / 60, km, laps,
+                                clean, 100 * clean / laps if laps else None, n, n / max(laps_driven, 1e-9),
+                                n / max(km, 1e-9), autonomy(n, seconds), float(np.mean(paces)) if paces else None,
+                                len(paces), float(np.mean([d.command_gamma_deg for d in ds]))))
     return out
 
 
 def round_columns(summary: list[SuiteSummary]) -> dict:
     """A DAgger round's columns of dagger.csv, over all the suite's tracks: clean laps in % of the laps completed
-    (empty without a lap), the mean clean lap time over the expert's (empty without a clean lap) and off-track
-    events per lap driven."""
+    (empty without a lap), the pace over the tracks it finished (empty without a clean lap) and off-track events per
+    lap driven."""
     a = next(s for s in summary if s.style == "all")
-    return {"clean_laps_pct": 100 * a.clean_laps / a.laps if a.laps else "",
-            "lap_ratio": "" if a.lap_ratio is None else a.lap_ratio, "off_track_per_lap": a.off_track_per_lap}
+    return {"clean_laps_pct": "" if a.clean_pct is None else a.clean_pct,
+            "lap_ratio": "" if a.pace is None else a.pace, "off_track_per_lap": a.off_track_per_lap}
 
 
 def _num(v, fmt: str) -> str:
@@ -216,20 +255,26 @@ def _num(v, fmt: str) -> str:
 
 def markdown(summary: list[SuiteSummary], drives: list[SuiteDrive], o: TrackSuiteOptions) -> str:
     lines = [f"Track suite {o.suite}: {o.track_minutes:g} min per track, {TRACK_SUITES[o.suite]['lane_width']:g} m "
-             f"lanes, constant throttle {o.throttle:g} for models that predict none; lap times are of clean laps "
-             "(no off-track event), the first from a standing start; lap / expert: mean clean lap over the expert's "
-             "on the same track; autonomy = (1 - off-track events x 6 s / elapsed s) x 100.", "",
-             "| checkpoint | tracks | drives | km | laps | clean laps | off track | off track / lap | off track / km | "
-             "autonomy [%] | lap / expert | command gamma [deg] |", "|---" * 12 + "|"]
+             f"lanes, the learned throttle and the expert's capped at {o.max_throttle:g}, constant throttle "
+             f"{o.throttle:g} for models that predict none. A lap is clean without an off-track event (the first "
+             "starts standing); a track is finished with a clean lap; pace: mean clean lap over the expert's on the "
+             "same track, the summary's over the tracks every checkpoint finished (their number beside it); "
+             "autonomy = (1 - off-track events x 6 s / elapsed s) x 100.", "",
+             "| checkpoint | tracks | finished | laps | clean laps | clean [%] | off track | off track / lap | "
+             "off track / km | autonomy [%] | pace (tracks) | km | command gamma [deg] |", "|---" * 13 + "|"]
     for r in summary:
-        lines.append(f"| {r.label} | {r.style} | {r.drives} | {r.distance_km:.2f} | {r.laps} | {r.clean_laps} | "
-                     f"{r.off_track} | {r.off_track_per_lap:.2f} | {r.off_track_per_km:.1f} | {r.autonomy:.1f} | "
-                     f"{_num(r.lap_ratio, '.2f')} | {r.command_gamma_deg:.3f} |")
-    lines += ["", "| checkpoint | track | lap [m] | laps | clean laps | best lap [s] | mean lap [s] | expert best / "
-              "mean lap [s] | lap / expert | off track | autonomy [%] | mean speed [m/s] |", "|---" * 12 + "|"]
-    for d in drives:
-        lines.append(f"| {d.label} | {d.style}-{d.seed} | {d.lap_m:.1f} | {d.laps} | {d.clean_laps} | "
-                     f"{_num(d.best_lap_s, '.2f')} | {_num(d.mean_lap_s, '.2f')} | "
-                     f"{_num(d.expert_best_lap_s, '.2f')} / {_num(d.expert_mean_lap_s, '.2f')} | "
-                     f"{_num(d.lap_ratio, '.2f')} | {d.off_track} | {d.autonomy:.1f} | {d.mean_speed:.2f} |")
+        lines.append(f"| {r.label} | {r.style} | {r.finished} of {r.tracks} | {r.laps} | {r.clean_laps} | "
+                     f"{_num(r.clean_pct, '.1f')} | {r.off_track} | {r.off_track_per_lap:.2f} | "
+                     f"{r.off_track_per_km:.1f} | {r.autonomy:.1f} | {_num(r.pace, '.2f')} ({r.pace_tracks}) | "
+                     f"{r.distance_km:.2f} | {r.command_gamma_deg:.3f} |")
+    tracks = list(dict.fromkeys((d.style, d.seed) for d in drives))
+    expert = {(d.style, d.seed): d.expert_mean_lap_s for d in drives}
+    lines += ["", "Per track: clean laps / laps, pace or not finished, off-track events.", "",
+              "| checkpoint | " + " | ".join(f"{style}-{seed}" for style, seed in tracks) + " |",
+              "|---" * (1 + len(tracks)) + "|",
+              "| expert: mean lap [s] | " + " | ".join(_num(expert[t], ".2f") for t in tracks) + " |"]
+    for label in dict.fromkeys(d.label for d in drives):
+        cells = {(d.style, d.seed): f"{d.clean_laps}/{d.laps}, {'not finished' if d.pace is None else f'{d.pace:.2f}'}"
+                 f", {d.off_track}" for d in drives if d.label == label}
+        lines.append(f"| {label} | " + " | ".join(cells[t] for t in tracks) + " |")
     return "\n".join(lines) + "\n"

@@ -22,7 +22,7 @@ reference laps are driven by it through `drive_loop` too. What is done in the wo
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import lru_cache
 from typing import Literal
 
@@ -66,8 +66,14 @@ def throttle_option():
 def max_throttle_option():
     """The option of every track command that drives a model: the cap of a learned throttle, by default the
     donkeycar part's own (0.5, about 2.4 m/s), as on a real car; 1 races uncapped."""
-    return option(0.5, UNIT, help="the cap of a model's learned throttle (the donkeycar part's max_throttle; 1: "
-                  "uncapped)")
+    return option(0.5, Range(0, 1, lo_open=True), help="the cap of a model's learned throttle and of the racing "
+                  "expert's on the suite (the donkeycar part's max_throttle; 1: uncapped)")
+
+
+def latency_option():
+    """The option of every track command that drives a model: the age of the frame it steers on."""
+    return option(0, Range(0, 20), help="ticks the frame the model steers on is late (a real part's camera and "
+                  "model time: 1 at 20 frames/s is 50 ms); train such a model with train.target_shift_s to match")
 
 
 @dataclass(frozen=True)
@@ -83,6 +89,17 @@ class TrackRecordOptions(Options):
     lane_width: float = lane_width_option()
     style: Literal["taped", "centre"] = _style()
     calibration: str | None = calibration_option()
+    room: int | None = option(None, help="seed of the room the track lies in: its floor, light and clutter (default: "
+                              "the track's seed); the same track in other rooms is cheap augmentation")
+    mount_height: float | None = option(None, Range(0.05, 0.5, unit="m"), help="the camera's height above the floor, "
+                                        "m (default: the fisheye's, 0.15)")
+    pitch: float | None = option(None, Range(0, 45, unit="degrees"), help="the camera's pitch, degrees down "
+                                 "(default: the fisheye's, 20)")
+
+    def camera(self) -> FisheyeCamera:
+        """The fisheye the recording is rendered through: the calibration's (or the default), at the mount given."""
+        mount = {"mount_height": self.mount_height, "pitch_deg": self.pitch}
+        return replace(camera_of(self.calibration), **{k: v for k, v in mount.items() if v is not None})
 
 
 @dataclass(frozen=True)
@@ -99,6 +116,7 @@ class TrackDriveOptions(Options):
     calibration: str | None = calibration_option()
     throttle: float = throttle_option()
     max_throttle: float = max_throttle_option()
+    latency: int = latency_option()
 
 
 def camera_of(calibration: str | None) -> FisheyeCamera:
@@ -138,10 +156,12 @@ class Laps:
 
 
 @lru_cache(maxsize=4)
-def renderer_of(seed: int, lane_width: float, style: str, camera: FisheyeCamera) -> TrackRenderer:
-    """The renderer of a track, built once per process for the last few tracks (0.2-0.5 s and up to 22 MB each):
-    the track suite, DAgger and replay drive a track many times. A renderer does not change as it renders."""
-    return TrackRenderer(Track(seed, lane_width, style), camera)
+def renderer_of(seed: int, lane_width: float, style: str, camera: FisheyeCamera,
+                room: int | None = None) -> TrackRenderer:
+    """The renderer of a track (in the room drawn from `room`, default the track's seed), built once per process for
+    the last few tracks (0.2-0.5 s and up to 22 MB each): the track suite, DAgger and replay drive a track many
+    times. A renderer does not change as it renders."""
+    return TrackRenderer(Track(seed, lane_width, style), camera, room)
 
 
 class TrackWorld:
@@ -151,8 +171,8 @@ class TrackWorld:
 
     def __init__(self, seed: int, lane_width: float = LANE_WIDTH, style: str = "taped", fps: float = 20.0,
                  camera: FisheyeCamera | None = DONKEY_FISHEYE, throttle: float = THROTTLE,
-                 car: Car = CARS["donkey"]):
-        self.renderer = None if camera is None else renderer_of(seed, lane_width, style, camera)
+                 car: Car = CARS["donkey"], room: int | None = None):
+        self.renderer = None if camera is None else renderer_of(seed, lane_width, style, camera, room)
         self.track = Track(seed, lane_width, style) if camera is None else self.renderer.track
         self.blank = np.zeros((DONKEY_FISHEYE.height, DONKEY_FISHEYE.width, 3), np.uint8)
         self.car, self.fps, self.throttle = car, fps, throttle
@@ -231,14 +251,15 @@ class TrackWorld:
 
 class RacerPilot:
     """The racing expert as a pilot of `drive_loop` in a `TrackWorld`: it reads the world's state, not the frame,
-    and answers its road-wheel angle (positive left) and throttle; `episode` labels its last answer (normal,
-    drift-out, recover)."""
+    and answers its road-wheel angle (positive left) and throttle, the throttle capped to +-`max_throttle` as the
+    donkeycar part caps a model's (the suite's reference laps are driven under the models' cap); `episode` labels
+    its last answer (normal, drift-out, recover)."""
 
     name, geometry, source = "expert", "donkey", "the racing expert"
     convention = SteeringConvention("road_wheel", "left")
 
-    def __init__(self, world: TrackWorld, seed: int, drift_every_s: float | None = None):
-        self.world = world
+    def __init__(self, world: TrackWorld, seed: int, drift_every_s: float | None = None, max_throttle: float = 1.0):
+        self.world, self.max_throttle = world, max_throttle
         self.racer = Racer(world.track, world.car, seed, 1.0 / world.fps, drift_every_s=drift_every_s)
         self.episode = "normal"
 
@@ -246,7 +267,7 @@ class RacerPilot:
         w = self.world
         offset, _ = w.observe()
         delta, throttle, self.episode = self.racer.act(w.state, w.s, offset, w.time_s)
-        return Controls(delta, throttle=throttle)
+        return Controls(delta, throttle=float(np.clip(throttle, -self.max_throttle, self.max_throttle)))
 
     def reset(self) -> None:
         """Nothing to forget: the expert acts on the state."""

@@ -1,0 +1,262 @@
+"""Racing the track world: recipes chosen in the closed loop, and donkeycar's own linear model beside them.
+
+Every recipe trains on the same tubs: the racing expert recorded with `steerlab sim record --world track` on tracks
+1-4 in both styles (taped and a painted centre line), 2 minutes each (recorded here where they are missing, with
+the commands of configs/track_best.yaml's header). A recipe is the config `BASE` (donkeycar linear's recipe written
+as a steerlab config) with a few `section.key=value` overrides (`RECIPES`): one factor at a time from donkeycar's
+recipe towards steerlab's tub default, and the levers of small-car racing. Each trains with every `--seeds` seed
+(`train.seed`) and races the track suite `--suite` (default s1, the selection tracks; t1 scores) at every
+`--caps` throttle cap, through the donkeycar part. donkeycar's linear model, trained by donkeycar's own trainer on
+the same tubs in its own environment (`donkey train --type linear`, its default config: a random 80/20 split,
+early stopping; three runs, its runs are not seeded), races the same tracks behind a pipe (`_donkey_part.py`).
+
+Per cap, every checkpoint is summarised over the same tracks (`track.suite.summarize`): laps, clean laps and their
+share, tracks finished, off-track events per lap and the pace over the tracks that every checkpoint compared
+finished. `OUT/table.md`, `table.csv`, `table.json`: per recipe, the mean over its seeds and each seed's values;
+`OUT/<suite>-max<cap>/`: the suite's own tables and every drive. Everything is kept and reused: a rerun trains and
+drives only what is missing.
+
+python studies/track_recipes.py [--recipes donkey,gray,...] [--seeds 0,1] [--suite s1] [--caps 1,0.5]
+    [--donkeycar] [--workers 2] [--out runs/race]
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import subprocess
+import sys
+from dataclasses import asdict, replace
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+from common import ROOT, machine  # noqa: E402
+
+from steerlab.data.car import CARS  # noqa: E402
+from steerlab.sim.core.part import PartPilot  # noqa: E402
+from steerlab.sim.core.suite import from_json  # noqa: E402
+from steerlab.sim.track.run import TrackDrive, drive, drive_expert  # noqa: E402
+from steerlab.sim.track.suite import TrackSuiteOptions, drive_row, race, report, summarize  # noqa: E402
+
+TUBS = [f"{style}-{seed}" for style in ("taped", "centre") for seed in (1, 2, 3, 4)]
+TUB_MINUTES = 2.0
+DONKEY_VENV = ROOT / "runs" / "donkeycar-venv"
+DONKEY = "donkeycar[pc]==5.3.0"  # 5.4 needs Python >= 3.12
+DONKEYCAR = "donkeycar"          # the label of donkeycar's own runs
+DONKEY_RUNS = 3
+
+
+def base(tubs: Path) -> dict:
+    """donkeycar linear's recipe as a steerlab config: its network (`donkey-linear`) on the whole 160x120 RGB
+    frame, the MSE of the steering and the throttle's error with weight 1, batches of 128, Adam 1e-3, early
+    stopping with patience 5; validation on a block (the last 538 records of the first taped tub)."""
+    return {"data": str(tubs / TUBS[0]), "extra_data": [str(tubs / t) for t in TUBS[1:]],
+            "reader": {"full_lock_deg": CARS["donkey"].full_lock_deg}, "cache": str(tubs.parent / "cache"),
+            "preprocess": {"crop": [0, 0, 0, 0], "width": 160, "height": 120, "color": "rgb"},
+            "model": {"name": "donkey-linear"}, "split": {"train": "0:1800", "val": "1800:2338"},
+            "train": {"epochs": 30, "patience": 5, "batch_size": 128, "lr": 1e-3, "loss": "mse",
+                      "throttle_weight": 1.0}}
+
+
+RECIPES = {  # name: (what differs from donkeycar's recipe, overrides)
+    "donkey": ("donkeycar linear's recipe", []),
+    "crop": ("the donkey crop (the top 40 rows off: 160x80)", ["preprocess.crop=[40,0,0,0]", "preprocess.height=80"]),
+    "gray": ("gray instead of RGB", ["preprocess.color=gray"]),
+    "200x66": ("resized to 200x66", ["preprocess.width=200", "preprocess.height=66"]),
+    "pilotnet": ("PilotNet's network", ["model.name=pilotnet"]),
+    "mae": ("the MAE of the steering", ["train.loss=mae"]),
+    "random-split": ("a random 20 % of the first tub validates", ["split={random: 0.2}"]),
+    "throttle-0.5": ("the throttle's weight 0.5", ["train.throttle_weight=0.5"]),
+    "batch-32": ("batches of 32, Adam 3e-4", ["train.batch_size=32", "train.lr=3.0e-4"]),
+    "lstm": ("recurrent: the CNN-LSTM", ["model.name=lstm"]),
+    "tub-default": ("steerlab's tub default (multimodal-lstm, gray 200x66 crop, MAE, batch 32, Adam 3e-4, throttle "
+                    "weight 0.5)", ["model.name=multimodal-lstm", "preprocess.crop=[40,0,0,0]", "preprocess.width=200",
+                                    "preprocess.height=66", "preprocess.color=gray", "train.loss=mae",
+                                    "train.batch_size=32", "train.lr=3.0e-4", "train.throttle_weight=0.5"]),
+}
+
+
+def record_tubs(tubs: Path) -> None:
+    for name in TUBS:
+        if not (tubs / name / "manifest.json").exists():
+            style, seed = name.split("-")
+            subprocess.run([sys.executable, "-m", "steerlab", "sim", "record", "--world", "track", "--style", style,
+                            "--seed", seed, "--minutes", str(TUB_MINUTES), "--out", str(tubs / name)], check=True)
+
+
+def train_recipe(name: str, seed: int, out: Path, tubs: Path) -> Path:
+    """The recipe's checkpoint for `seed` (trained once; an interrupted training resumes)."""
+    from steerlab.train.config import load_config
+    from steerlab.train.loop import train
+
+    run = out / "recipes" / name / f"seed{seed}"
+    if not (run / "done.json").exists():
+        print(f"== training {name}, seed {seed}", flush=True)
+        cfg = load_config(None, base=base(tubs), overrides=[*RECIPES[name][1], f"train.seed={seed}", f"out={run}"])
+        metrics = train(cfg, progress=False)
+        (run / "done.json").write_text(json.dumps(metrics, indent=1))
+    return run / "best.pt"
+
+
+class DonkeycarPart:
+    """donkeycar's own pilot part for a model trained by `donkey train`, run in donkeycar's environment:
+    `run(img_arr)` sends the frame down a pipe and returns the part's (angle, throttle), the throttle capped."""
+
+    def __init__(self, python: Path, car: Path, model: Path, log: Path, max_throttle: float):
+        self.log, self.max_throttle = log, max_throttle
+        self.process = subprocess.Popen([str(python), str(Path(__file__).with_name("_donkey_part.py")),
+                                         str(car / "config.py"), str(model), "linear"], cwd=car,
+                                        stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=open(log, "wb"))
+        if self.process.stdout.readline() != b"ready\n":
+            raise RuntimeError(f"donkeycar's part did not start; see {log}")
+
+    def run(self, img_arr: np.ndarray):
+        self.process.stdin.write(np.ascontiguousarray(img_arr, np.uint8).tobytes())
+        self.process.stdin.flush()
+        answer = self.process.stdout.read(16)
+        if len(answer) != 16:
+            raise RuntimeError(f"donkeycar's part stopped; see {self.log}")
+        angle, throttle = (float(v) for v in np.frombuffer(answer, np.float64))
+        return angle, float(np.clip(throttle, -self.max_throttle, self.max_throttle))
+
+    def close(self) -> None:
+        self.process.stdin.close()
+        self.process.wait()
+
+
+def donkey_python() -> Path:
+    python = DONKEY_VENV / "bin" / "python"
+    if not python.exists():
+        print(f"creating {DONKEY_VENV} with {DONKEY} (once)", flush=True)
+        subprocess.run([sys.executable, "-m", "venv", str(DONKEY_VENV)], check=True)
+        subprocess.run([str(python), "-m", "pip", "install", "--quiet", DONKEY], check=True)
+    return python
+
+
+def donkey_models(out: Path, tubs: Path) -> tuple[Path, list[Path]]:
+    """donkeycar's car folder and its linear models, trained by `donkey train` on every tub (once each)."""
+    python = donkey_python()
+    work = out / "donkey"
+    car = work / "car"
+    if not car.exists():
+        subprocess.run([str(python.parent / "donkey"), "createcar", "--path", str(car)], check=True,
+                       stdout=subprocess.DEVNULL)
+        with open(car / "myconfig.py", "a") as f:
+            f.write("\nSHOW_PLOT = False\nCREATE_TF_LITE = False\nSAVE_MODEL_AS_H5 = True\n")
+    models = []
+    for k in range(DONKEY_RUNS):
+        model = work / f"linear-{k}.h5"
+        if not model.exists():
+            print(f"== training donkeycar's linear model, run {k} (donkey train)", flush=True)
+            with open(work / f"train-{k}.log", "w") as log:
+                subprocess.run([str(python.parent / "donkey"), "train", "--tub", ",".join(str(tubs / t) for t in TUBS),
+                                "--model", str(model), "--type", "linear", "--framework", "tensorflow"], cwd=car,
+                               check=True, stdout=log, stderr=subprocess.STDOUT)
+        models.append(model)
+    return car, models
+
+
+def race_donkeycar(car: Path, models: list[Path], out: Path, o: TrackSuiteOptions) -> list:
+    """donkeycar's models on every track of the suite, as suite rows against the expert's drives under the same
+    cap (drives kept in `out` and reused)."""
+    python = donkey_python()
+    rows = []
+    for style, seed in o.drives():
+        d = o.drive_options(style, seed)
+        folder = out / o.expert_folder() / f"{style}-{seed}"
+        if not (folder / "drive.json").exists():
+            drive_expert(folder, d)
+        expert = from_json(TrackDrive, json.loads((folder / "drive.json").read_text()))
+        for k, model in enumerate(models):
+            folder = out / f"run{k}" / f"{style}-{seed}"
+            if not (folder / "drive.json").exists():
+                part = DonkeycarPart(python, car, model, out / "part.log", o.max_throttle)
+                try:
+                    drive(PartPilot(part, CARS["donkey"].full_lock_deg, name=DONKEYCAR, source=str(model)), folder, d,
+                          progress=False, plot=False)
+                finally:
+                    part.close()
+            r = from_json(TrackDrive, json.loads((folder / "drive.json").read_text()))
+            rows.append(drive_row(r, expert, f"{DONKEYCAR}/run{k}", str(model), style, seed))
+    return rows
+
+
+def table(rows: list, cap: float) -> list[dict]:
+    """Per recipe (the label's first part): the mean over its runs of each overall summary value, and the runs'."""
+    overall = [s for s in summarize(rows) if s.style == "all"]
+    by_recipe = {}
+    for s in overall:
+        by_recipe.setdefault(s.label.split("/")[0], []).append(s)
+    out = []
+    for name, runs in by_recipe.items():
+        def mean(key):
+            values = [getattr(r, key) for r in runs if getattr(r, key) is not None]
+            return float(np.mean(values)) if values else None
+
+        out.append({"recipe": name, "cap": cap, "runs": len(runs), "laps": mean("laps"),
+                    "clean_pct": mean("clean_pct"), "finished": mean("finished"), "tracks": runs[0].tracks,
+                    "off_track_per_lap": mean("off_track_per_lap"), "off_track": mean("off_track"),
+                    "pace": mean("pace"), "pace_tracks": runs[0].pace_tracks,
+                    "each": [asdict(r) for r in runs]})
+    return out
+
+
+def markdown(rows: list[dict], suite: str) -> str:
+    what = {**{n: d for n, (d, _) in RECIPES.items()}, DONKEYCAR: "donkeycar's own trainer and part"}
+    lines = [f"Track suite {suite}, every checkpoint over the same tracks (pace: over the tracks every checkpoint of "
+             "the same cap finished, their number beside it). Means over the runs (seeds).", "",
+             "| recipe | what differs from donkeycar's recipe | cap | runs | laps | clean laps [%] | finished | "
+             "off track / lap | off track | pace (tracks) |", "|---" * 10 + "|"]
+    for r in rows:
+        def f(v, fmt):
+            return "-" if v is None else format(v, fmt)
+
+        lines.append(f"| {r['recipe']} | {what.get(r['recipe'], '')} | {r['cap']:g} | {r['runs']} | "
+                     f"{f(r['laps'], '.1f')} | {f(r['clean_pct'], '.1f')} | {f(r['finished'], '.1f')} of "
+                     f"{r['tracks']} | {f(r['off_track_per_lap'], '.2f')} | {f(r['off_track'], '.1f')} | "
+                     f"{f(r['pace'], '.3f')} ({r['pace_tracks']}) |")
+    return "\n".join(lines) + "\n"
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--recipes", default=",".join(RECIPES), help=f"comma list of {', '.join(RECIPES)}")
+    ap.add_argument("--seeds", default="0,1", help="training seeds (train.seed) of every recipe")
+    ap.add_argument("--suite", default="s1", help="the track suite raced (s1: selection tracks; t1 scores)")
+    ap.add_argument("--caps", default="1,0.5", help="throttle caps (the learned throttle's and the expert's)")
+    ap.add_argument("--donkeycar", action="store_true", help="also donkeycar's linear model (its own trainer)")
+    ap.add_argument("--workers", type=int, default=2, help="tracks driven in parallel")
+    ap.add_argument("--out", default=str(ROOT / "runs" / "race"))
+    a = ap.parse_args()
+    recipes = [r for r in a.recipes.split(",") if r]
+    unknown = [r for r in recipes if r not in RECIPES]
+    if unknown:
+        sys.exit(f"error: unknown recipes {unknown}; known: {', '.join(RECIPES)}")
+    out = Path(a.out)
+    tubs = out / "tubs"
+    record_tubs(tubs)
+    ckpts = {name: [train_recipe(name, int(seed), out, tubs) for seed in a.seeds.split(",")] for name in recipes}
+    donkey = donkey_models(out, tubs) if a.donkeycar else None
+    results = []
+    for cap in (float(c) for c in a.caps.split(",")):
+        o = TrackSuiteOptions(suite=a.suite, max_throttle=cap, workers=a.workers)
+        suite = out / f"{a.suite}-max{cap:g}"
+        rows = [replace(r, label=f"{name}/{r.label}") for name in recipes for r in race(ckpts[name], suite / name, o)]
+        if donkey:
+            rows += race_donkeycar(*donkey, suite / DONKEYCAR, o)
+        report(rows, suite, o, plots=False)
+        results += table(rows, cap)
+    (out / "table.md").write_text(f"machine: {machine()}\n\n" + markdown(results, a.suite))
+    (out / "table.json").write_text(json.dumps(results, indent=1))
+    with open(out / "table.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, [k for k in results[0] if k != "each"])
+        w.writeheader()
+        w.writerows([{k: v for k, v in r.items() if k != "each"} for r in results])
+    print((out / "table.md").read_text())
+
+
+if __name__ == "__main__":
+    main()
