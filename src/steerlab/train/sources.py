@@ -11,6 +11,7 @@ import numpy as np
 
 from steerlab.data.dataset import CompiledDataset, compile_recording
 from steerlab.data.geometry import CAMERAS
+from steerlab.data.preprocess import CROP_PRESETS
 from steerlab.data.readers import open_recording
 from steerlab.data.recording import Recording, SteeringConvention
 from steerlab.errors import SteerlabError
@@ -27,6 +28,10 @@ def prepare_dataset(cfg: TrainConfig, progress: bool = True, camera: str | None 
     """The compiled main recording of a config (or the whole recording `data`), one camera stream of it, or a
     virtual view (shift_m, yaw_deg) synthesised from its centre camera."""
     rec = main_recording(cfg) if data is None else open_recording(data, cache=cfg.cache)
+    preset = cfg.preprocess.preset
+    if preset is not None and rec.geometry in CROP_PRESETS and rec.geometry != preset:
+        raise SteerlabError(f"{rec.source} holds frames of the {rec.geometry!r} camera; the config's preprocess.preset "
+                            f"{preset} is for the {preset!r} camera: train it on recordings of that camera")
     camera = camera or cfg.camera
     if camera not in rec.frames:
         raise SteerlabError(f"{rec.source} has no {camera!r} camera (it has {', '.join(rec.cameras)})")
