@@ -5,14 +5,14 @@ The tubs: the racing expert on tracks 1-4 for 3 minutes each (`steerlab sim reco
 where they are missing). steerlab's tub default is trained on them with `configs/track_default.yaml` (or give
 `--checkpoint`); donkeycar's linear model with donkeycar's own trainer (`donkey train --type linear`, its default
 config: a random 80/20 split, early stopping), in donkeycar's own environment ($DONKEY_VENV, made on first use as
-`bench_donkeycar.py` makes it). Both race the track suite (`steerlab sim bench --world track`: 8 unseen tracks)
+`donkeycar_tubs.py` makes it). Both race the track suite (`steerlab sim bench --world track`: 8 unseen tracks)
 through a donkeycar part: steerlab's own `SteerlabPilot`, and donkeycar's `KerasLinear` run in its environment
 behind a pipe (`_donkey_part.py`). Both drive with their learned throttle, capped at `--max-throttle` (1: uncapped,
 as donkeycar drives its pilot with `AI_THROTTLE_MULT` 1; 0.5: `SteerlabPilot`'s default on a real car). The
 tables (suite-max<cap>/both.md) and plots (suite-max<cap>/tracks/*.png): laps, clean laps, lap time against the
 expert's, off-track events.
 
-python benchmarks/donkeycar_on_track.py [--checkpoint runs/track/default/best.pt] [--max-throttle 1] [--minutes 2]
+python studies/donkeycar_on_track.py [--checkpoint runs/track/default/best.pt] [--max-throttle 1] [--minutes 2]
     [--workers 1]
 Finished drives are kept in runs/donkeycar-track/suite-max<cap> and reused.
 """
@@ -25,17 +25,19 @@ from pathlib import Path
 
 import numpy as np
 
-from _common import ROOT, track_tubs
-from bench_donkeycar import donkey_python
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+from common import ROOT, track_tubs  # noqa: E402
+from donkeycar_tubs import donkey_python  # noqa: E402
 
-from steerlab.data.car import CARS
-from steerlab.sim.road.suite import labels_for, write_csv
-from steerlab.sim.core.part import PartPilot
-from steerlab.sim.track.suite import (DRIVE_FIELDS, EXPERT, SUMMARY_FIELDS, TrackSuiteOptions, drive_row, markdown,
-                                      plot_tracks, run_track_suite, summarize)
-from steerlab.sim.track.run import drive_track
-from steerlab.train.config import load_config
-from steerlab.train.loop import train
+from steerlab.data.car import CARS  # noqa: E402
+from steerlab.sim.core.part import PartPilot  # noqa: E402
+from steerlab.sim.core.suite import from_json, labels_for, write_csv  # noqa: E402
+from steerlab.sim.track.plots import plot_tracks  # noqa: E402
+from steerlab.sim.track.run import TrackDrive, drive  # noqa: E402
+from steerlab.sim.track.suite import (EXPERT, TRACK_SUITES, TrackSuiteOptions, drive_row, markdown,  # noqa: E402
+                                      run_suite, summarize)
+from steerlab.train.config import load_config  # noqa: E402
+from steerlab.train.loop import train  # noqa: E402
 
 OUT = ROOT / "runs" / "donkeycar-track"
 LABEL = "donkeycar-linear"
@@ -65,6 +67,11 @@ class DonkeycarPart:
     def close(self) -> None:
         self.process.stdin.close()
         self.process.wait()
+
+
+def read_drive(folder: Path) -> TrackDrive:
+    """A finished drive's result from its drive.json."""
+    return from_json(TrackDrive, json.loads((folder / "drive.json").read_text()))
 
 
 def donkey_model(python: Path, tubs: list[Path]) -> tuple[Path, Path]:
@@ -103,7 +110,7 @@ def main() -> None:
         train(load_config(ROOT / "configs" / "track_default.yaml", [f"out={checkpoint.parent}"]), progress=False)
     o = TrackSuiteOptions(minutes=args.minutes, workers=args.workers, max_throttle=args.max_throttle)
     suite = OUT / f"suite-max{args.max_throttle:g}"
-    run_track_suite([checkpoint], suite, o, plots=False)  # steerlab's drives and the expert's
+    run_suite([checkpoint], suite, o, plots=False)  # steerlab's drives and the expert's
     label = labels_for([checkpoint])[0]
     full_lock = CARS["donkey"].full_lock_deg
     drives = []
@@ -112,22 +119,21 @@ def main() -> None:
         if not (folder / "drive.json").exists():
             part = DonkeycarPart(python, car, model, OUT / "part.log", args.max_throttle)
             try:
-                drive_track(PartPilot(part, full_lock, name=LABEL, source=str(model)), folder,
-                            o.drive_options(style, seed), progress=False)
+                drive(PartPilot(part, full_lock, name=LABEL, source=str(model)), folder, o.drive_options(style, seed),
+                      progress=False)
             finally:
                 part.close()
             print(f"  {LABEL} drove {style}-{seed}", flush=True)
-        expert = json.loads((suite / EXPERT / f"{style}-{seed}" / "drive.json").read_text())
+        expert = read_drive(suite / EXPERT / f"{style}-{seed}")
         for name, ckpt in ((label, checkpoint), (LABEL, model)):
-            r = json.loads((suite / name / f"{style}-{seed}" / "drive.json").read_text())
-            drives.append(drive_row(r, expert, name, str(ckpt), style, seed))
-    drives.sort(key=lambda d: d["label"] != label)
+            drives.append(drive_row(read_drive(suite / name / f"{style}-{seed}"), expert, name, str(ckpt), style, seed))
+    drives.sort(key=lambda d: d.label != label)
     summary = summarize(drives)
-    write_csv(suite / "both.csv", DRIVE_FIELDS, drives)
-    write_csv(suite / "both-summary.csv", SUMMARY_FIELDS, summary)
+    write_csv(suite / "both.csv", drives)
+    write_csv(suite / "both-summary.csv", summary)
     table = markdown(summary, drives, o)
     (suite / "both.md").write_text(table)
-    plot_tracks(suite, drives, o)  # tracks/<style>-<seed>.png with both models' lines
+    plot_tracks(suite, drives, TRACK_SUITES[o.suite]["lane_width"], EXPERT)  # tracks/<style>-<seed>.png: both lines
     print(table)
 
 

@@ -23,9 +23,9 @@ intervention where the car's body leaves a 0.9 m lane around the human's path).
 donkeycar is never a dependency of steerlab: it lives in its own virtual environment ($DONKEY_VENV, default
 runs/donkeycar-venv, made on first use with `pip install donkeycar[pc]`) and `_donkey_eval.py` runs there.
 
-python benchmarks/bench_donkeycar.py [--epochs 30] [--seeds 3] [--skip-donkey] [--models pilotnet,cg23,...]
+python studies/donkeycar_tubs.py [--epochs 30] [--seeds 3] [--skip-donkey] [--models pilotnet,cg23,...]
     [--donkey-models linear,rnn]
-Every finished run (trainer, model, seed) is kept in runs/bench-donkeycar/<tub>/results.json and reused by a
+Every finished run (trainer, model, seed) is kept in runs/donkeycar-tubs/<tub>/results.json and reused by a
 later run (delete the file to train them again); the table shows every run kept there.
 """
 
@@ -40,17 +40,18 @@ from pathlib import Path
 
 import numpy as np
 
-from _common import ROOT, SHARED, machine
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+from common import ROOT, SHARED, machine  # noqa: E402
 
-from steerlab.data.readers import Source
-from steerlab.evaluate.offline import evaluate
-from steerlab.sim.replay.run import run_replay
-from steerlab.sim.replay.track import TrackReplayOptions
-from steerlab.train.config import load_config
-from steerlab.train.loop import train
+from steerlab.data.readers import Source  # noqa: E402
+from steerlab.evaluate.offline import evaluate  # noqa: E402
+from steerlab.sim.replay.run import run_replay  # noqa: E402
+from steerlab.sim.replay.track import TrackReplayOptions  # noqa: E402
+from steerlab.train.config import load_config  # noqa: E402
+from steerlab.train.loop import train  # noqa: E402
 
 TUBS = SHARED / "donkeycar"
-OUT = ROOT / "runs" / "bench-donkeycar"
+OUT = ROOT / "runs" / "donkeycar-tubs"
 VENV = Path(os.environ.get("DONKEY_VENV", ROOT / "runs" / "donkeycar-venv"))
 DONKEY = "donkeycar[pc]==5.3.0"  # 5.4 needs Python >= 3.12
 STEERLAB_MODELS = ["pilotnet", "cg23", "multimodal-lstm", "train-mean"]
@@ -73,7 +74,7 @@ def donkey_python() -> Path:
 
 
 def donkey_or_skip(skip_donkey: bool) -> Path | None:
-    """donkeycar's python (None with --skip-donkey); ends the benchmark when the shared tubs are absent."""
+    """donkeycar's python (None with --skip-donkey); ends the study when the shared tubs are absent."""
     if not (TUBS / "hall" / "manifest.json").exists():
         print(f"skipped: {TUBS} not found")
         sys.exit(0)
