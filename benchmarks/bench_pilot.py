@@ -13,14 +13,13 @@ faster for every model, steering equal to 1e-4 rad.
 """
 
 import tempfile
-import time
 from pathlib import Path
 
 import cv2
 import numpy as np
 import torch
 
-from common import CH2, Report, arguments, machine, need_ch2
+from common import CH2, Report, arguments, each_ms, machine, need_ch2
 
 from steerlab.data.readers import open_recording
 from steerlab.evaluate.latency import TimedModel, untrained_checkpoint
@@ -40,13 +39,9 @@ def run(model_file: Path, jpegs: list[np.ndarray]) -> tuple[np.ndarray, np.ndarr
     """(whole-pilot ms, model ms, steering) per frame after the warm-up."""
     pilot = Pilot(model_file, smoothing=0.2)
     pilot.net = timed = TimedModel(pilot.net)
-    times, steering = [], []
-    for data in jpegs:
-        t = time.perf_counter()
-        c = pilot.step(cv2.imdecode(data, cv2.IMREAD_COLOR), speed=10.0)  # speed: used by multitask-speed only
-        times.append(time.perf_counter() - t)
-        steering.append(c.steering)
-    return np.array(times[WARMUP:]) * 1000, np.array(timed.ms[WARMUP:]), np.array(steering)
+    # speed: used by multitask-speed only
+    ms, controls = each_ms(lambda data: pilot.step(cv2.imdecode(data, cv2.IMREAD_COLOR), speed=10.0), jpegs)
+    return ms[WARMUP:], np.array(timed.ms[WARMUP:]), np.array([c.steering for c in controls])
 
 
 def main() -> None:

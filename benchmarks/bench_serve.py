@@ -25,7 +25,7 @@ with warnings.catch_warnings():  # eventlet, imported by python-socketio 4, anno
     warnings.simplefilter("ignore")
     import socketio
 
-from common import SHARED, Report, arguments, machine  # noqa: E402
+from common import SHARED, Report, arguments, each_ms, machine  # noqa: E402
 
 from steerlab.checkpoint import save_checkpoint  # noqa: E402
 from steerlab.data.preprocess import PreprocessConfig  # noqa: E402
@@ -57,12 +57,7 @@ def telemetry(i: int, image: str) -> dict:
 def in_process(model: Path, images: list[str]) -> np.ndarray:
     """Milliseconds per message (after the warm-up) of the server's session answering it in this process."""
     session = DriveSession(Pilot(model), ServeOptions().set_speed, source=model)
-    ms = []
-    for i, image in enumerate(images):
-        t = time.perf_counter()
-        session.command(telemetry(i, image))
-        ms.append((time.perf_counter() - t) * 1000)
-    return np.array(ms[WARMUP:])
+    return each_ms(lambda i: session.command(telemetry(i, images[i])), range(len(images)))[0][WARMUP:]
 
 
 def round_trips(model: Path, images: list[str]) -> np.ndarray:
@@ -81,15 +76,14 @@ def round_trips(model: Path, images: list[str]) -> np.ndarray:
             except socketio.exceptions.ConnectionError:
                 time.sleep(0.1)
         got.wait(10)
-        ms = []
-        for i, image in enumerate(images):
+
+        def ask(i: int) -> None:
             got.clear()
-            t = time.perf_counter()
-            client.emit("telemetry", telemetry(i, image))
+            client.emit("telemetry", telemetry(i, images[i]))
             if not got.wait(10):
                 raise RuntimeError("no answer from the server")
-            ms.append((time.perf_counter() - t) * 1000)
-        return np.array(ms[WARMUP:])
+
+        return each_ms(ask, range(len(images)))[0][WARMUP:]
     finally:
         client.disconnect()
         server.terminate()

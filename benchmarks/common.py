@@ -3,7 +3,7 @@
 benchmarks/ on sys.path in its first lines.
 
 - Where things are: `ROOT`, `SHARED` (the real recordings of ../shared/data), `CH2`, `need_ch2`, `track_tubs`.
-- Timing: `machine` (what every result is measured on), `timed`, `median_seconds`, `per_second`.
+- Timing: `machine` (what every result is measured on), `timed`, `median_seconds`, `per_second`, `each_ms`.
 - A timing's report: `arguments` (its command line, with `--json`) and `Report`, the numbers it prints as JSON.
 - Replay against the truth of a world's suite (`studies/replay_vs_road_suite.py`, `studies/replay_vs_track_suite.py`):
   `record_expert`, `train_baseline`, `train_snapshots`, `replay_missing`, `correlations`, `correlation_table`,
@@ -76,6 +76,17 @@ def per_second(fn, count: int, runs: int = 5, warmup: int = 1) -> float:
     """How many things a second (frames/s) a call of `fn` that handles `count` of them gets through: `count` over
     `median_seconds`."""
     return count / median_seconds(fn, runs, warmup)
+
+
+def each_ms(fn, items) -> tuple[np.ndarray, list]:
+    """Milliseconds of `fn(item)` for each item in turn (the latency of each frame, not their median) and what
+    each call returned."""
+    ms, out = [], []
+    for item in items:
+        t = time.perf_counter()
+        out.append(fn(item))
+        ms.append(1000 * (time.perf_counter() - t))
+    return np.array(ms), out
 
 
 # a timing's report
