@@ -5,6 +5,8 @@ benchmarks/ on sys.path in its first lines.
 - Where things are: `ROOT`, `SHARED` (the real recordings of ../shared/data), `CH2`, `need_ch2`, `track_tubs`.
 - Timing: `machine` (what every result is measured on), `timed`, `median_seconds`, `per_second`, `each_ms`.
 - A timing's report: `arguments` (its command line, with `--json`) and `Report`, the numbers it prints as JSON.
+- donkeycar's own environment, in which the studies run donkeycar's trainer and parts (steerlab never imports
+  donkeycar): `donkey_python`, `donkey_car`.
 - Replay against the truth of a world's suite (`studies/replay_vs_road_suite.py`, `studies/replay_vs_track_suite.py`):
   `record_expert`, `train_baseline`, `train_snapshots`, `replay_missing`, `correlations`, `correlation_table`,
   `scatter_axes`, `write_table`.
@@ -147,6 +149,34 @@ def _plain(value):
     if isinstance(value, Path):
         return str(value)
     return value
+
+
+# donkeycar's own environment
+
+DONKEY_VENV = Path(os.environ.get("DONKEY_VENV", ROOT / "runs" / "donkeycar-venv"))
+DONKEY = "donkeycar[pc]==5.3.0"  # 5.4 needs Python >= 3.12
+
+
+def donkey_python() -> Path:
+    """The python of donkeycar's virtual environment ($DONKEY_VENV, default runs/donkeycar-venv), made with
+    `pip install donkeycar[pc]` on first use."""
+    python = DONKEY_VENV / "bin" / "python"
+    if not python.exists():
+        print(f"creating {DONKEY_VENV} with {DONKEY} (once)", flush=True)
+        subprocess.run([sys.executable, "-m", "venv", str(DONKEY_VENV)], check=True)
+        subprocess.run([str(python), "-m", "pip", "install", "--quiet", DONKEY], check=True)
+    return python
+
+
+def donkey_car(python: Path, car: Path) -> Path:
+    """A donkeycar car folder (`donkey createcar`, made once) whose config trains without plots and saves .h5
+    models, as `donkey train` and donkeycar's parts read them."""
+    if not car.exists():
+        subprocess.run([str(python.parent / "donkey"), "createcar", "--path", str(car)], check=True,
+                       stdout=subprocess.DEVNULL)
+        with open(car / "myconfig.py", "a") as f:
+            f.write("\nSHOW_PLOT = False\nCREATE_TF_LITE = False\nSAVE_MODEL_AS_H5 = True\n")
+    return car
 
 
 # replay against the truth of a world's suite

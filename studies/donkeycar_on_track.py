@@ -4,8 +4,8 @@ suite.
 The tubs: the racing expert on tracks 1-4 for 3 minutes each (`steerlab sim record --world track`; recorded here
 where they are missing). steerlab's tub default is trained on them with `configs/track_default.yaml` (or give
 `--checkpoint`); donkeycar's linear model with donkeycar's own trainer (`donkey train --type linear`, its default
-config: a random 80/20 split, early stopping), in donkeycar's own environment ($DONKEY_VENV, made on first use as
-`donkeycar_tubs.py` makes it). Both race the track suite (`steerlab sim bench --world track`: 8 unseen tracks)
+config: a random 80/20 split, early stopping), in donkeycar's own environment ($DONKEY_VENV, made on first use:
+`common.donkey_python`). Both race the track suite (`steerlab sim bench --world track`: 8 unseen tracks)
 through a donkeycar part: steerlab's own `SteerlabPilot`, and donkeycar's `KerasLinear` run in its environment
 behind a pipe (`_donkey_part.py`). Both drive with their learned throttle, capped at `--max-throttle` (1: uncapped,
 as donkeycar drives its pilot with `AI_THROTTLE_MULT` 1; 0.5: `SteerlabPilot`'s default on a real car). The
@@ -26,8 +26,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from common import ROOT, track_tubs  # noqa: E402
-from donkeycar_tubs import donkey_python  # noqa: E402
+from common import ROOT, donkey_car, donkey_python, track_tubs  # noqa: E402
 
 from steerlab.data.car import CARS  # noqa: E402
 from steerlab.sim.core.part import PartPilot  # noqa: E402
@@ -76,12 +75,7 @@ def read_drive(folder: Path) -> TrackDrive:
 
 def donkey_model(python: Path, tubs: list[Path]) -> tuple[Path, Path]:
     """donkeycar's linear model trained by `donkey train` on `tubs` (once); its car folder and model file."""
-    car, model = OUT / "car", OUT / "linear.h5"
-    if not car.exists():
-        subprocess.run([str(python.parent / "donkey"), "createcar", "--path", str(car)], check=True,
-                       stdout=subprocess.DEVNULL)
-        with open(car / "myconfig.py", "a") as f:
-            f.write("\nSHOW_PLOT = False\nCREATE_TF_LITE = False\nSAVE_MODEL_AS_H5 = True\n")
+    car, model = donkey_car(python, OUT / "car"), OUT / "linear.h5"
     if not model.exists():
         print("training donkeycar's linear model (donkey train)", flush=True)
         with open(OUT / "train-linear.log", "w") as log:

@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from common import ROOT, SHARED, machine  # noqa: E402
+from common import ROOT, SHARED, donkey_car, donkey_python, machine  # noqa: E402
 
 from steerlab.data.readers import Source  # noqa: E402
 from steerlab.evaluate.offline import evaluate  # noqa: E402
@@ -52,8 +52,6 @@ from steerlab.train.loop import train  # noqa: E402
 
 TUBS = SHARED / "donkeycar"
 OUT = ROOT / "runs" / "donkeycar-tubs"
-VENV = Path(os.environ.get("DONKEY_VENV", ROOT / "runs" / "donkeycar-venv"))
-DONKEY = "donkeycar[pc]==5.3.0"  # 5.4 needs Python >= 3.12
 STEERLAB_MODELS = ["pilotnet", "cg23", "multimodal-lstm", "train-mean"]
 DONKEY_MODELS = ["linear"]
 FULL_LOCK_DEG = 25.0  # assumed: the tubs do not record it
@@ -62,15 +60,6 @@ READER = {"skip_missing": True, "full_lock_deg": FULL_LOCK_DEG}
 
 def blocks(n: int) -> tuple[int, int]:
     return int(0.7 * n), int(0.8 * n)
-
-
-def donkey_python() -> Path:
-    python = VENV / "bin" / "python"
-    if not python.exists():
-        print(f"creating {VENV} with {DONKEY} (once)", flush=True)
-        subprocess.run([sys.executable, "-m", "venv", str(VENV)], check=True)
-        subprocess.run([str(python), "-m", "pip", "install", "--quiet", DONKEY], check=True)
-    return python
 
 
 def donkey_or_skip(skip_donkey: bool) -> Path | None:
@@ -103,12 +92,7 @@ def run_donkey(python: Path, tub: Path, rec, a: int, n: int, work: Path, kinds: 
                results: dict) -> None:
     """Train each donkeycar model `seeds` times on the first `a` records with `donkey train` and score it on the
     held-out block; runs already in `results` are kept."""
-    car = work / "car"
-    if not car.exists():
-        subprocess.run([str(python.parent / "donkey"), "createcar", "--path", str(car)], check=True,
-                       stdout=subprocess.DEVNULL)
-        with open(car / "myconfig.py", "a") as f:
-            f.write("\nSHOW_PLOT = False\nCREATE_TF_LITE = False\nSAVE_MODEL_AS_H5 = True\n")
+    car = donkey_car(python, work / "car")
     train_tub = training_tub(tub, set(int(i) for i in rec.frame_ids[:a]), work / "train-tub")
     test = {"images": [str(p) for p in rec.frames["center"][a:n]], "angles": rec.steering[a:n].tolist(),
             "throttles": rec.throttle[a:n].tolist()}
