@@ -1,21 +1,20 @@
-"""Data-parallel training throughput: one process (2 torch threads) against 2 DDP ranks (gloo, 1 thread each,
-as torchrun sets them) on this machine, same model, same global batch, same data.
+"""Data-parallel training throughput: 2 DDP ranks (gloo, 1 thread each, as torchrun sets them) against one process
+(2 torch threads; the baseline, measured in the same run) on this machine, same model, same global batch, same
+data.
 
-python benchmarks/bench_ddp.py [--model pilotnet] [--epochs 3]
+python benchmarks/bench_ddp.py [--model pilotnet] [--epochs 3] [--json PATH]
 Data: a 2-minute synthetic-world recording (made once under runs/bench-ddp). Reported: training samples per
 second of the epochs after the first (the epoch time of the log minus nothing: validation runs on every rank,
 on 100 frames only).
 """
 
-import argparse
 import csv
 import os
 import subprocess
 import sys
 
 import yaml
-
-from _common import ROOT, machine
+from common import ROOT, Report, arguments, machine
 
 from steerlab.data.readers import open_recording
 
@@ -36,10 +35,11 @@ def run(cfg: dict, name: str, nproc: int) -> float:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = arguments(__doc__)
     ap.add_argument("--model", default="pilotnet")
     ap.add_argument("--epochs", type=int, default=3)
     args = ap.parse_args()
+    report = Report(__file__, {"model": args.model, "epochs": args.epochs, "global_batch": 64}, args.json)
     rec = OUT / "recording"
     if not (rec / "recording.json").exists():
         subprocess.run([sys.executable, "-m", "steerlab", "sim", "record", "--seed", "5", "--minutes", "2",
@@ -53,6 +53,10 @@ def main() -> None:
     two = run(cfg, "two", 2)
     print(f"1 process (2 threads): {samples / one:7.1f} samples/s ({one:.1f} s/epoch)")
     print(f"2 DDP ranks (1 thread each): {samples / two:7.1f} samples/s ({two:.1f} s/epoch); x{one / two:.2f}")
+    report.add("data", training_frames=samples)
+    report.add("1 process", samples_per_s=samples / one, seconds_per_epoch=one)
+    report.add("2 DDP ranks", samples_per_s=samples / two, seconds_per_epoch=two, vs_1_process=one / two)
+    report.write()
 
 
 if __name__ == "__main__":

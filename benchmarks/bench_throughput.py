@@ -10,21 +10,18 @@ Measured in the same run:
   throughput, so that a faster device (a GPU) is fed;
 - `train.workers` 0 and 1 (data loading in this process, or one worker process preparing the next batches).
 
-python benchmarks/bench_throughput.py [--models pilotnet,lstm] [--no-baseline]
+python benchmarks/bench_throughput.py [--models pilotnet,lstm] [--no-baseline] [--json PATH]
 """
 
-import argparse
 import os
 import shutil
 import subprocess
 import sys
 import tempfile
-import time
 
 import numpy as np
 import torch
-
-from _common import ROOT, SHARED, machine
+from common import ROOT, SHARED, Report, arguments, machine, timed
 
 from steerlab.data.dataset import compile_recording
 from steerlab.data.inputs import channel_stats, segment_starts
@@ -62,19 +59,19 @@ def training(name: str, rec, cache: str, workers: int) -> float:
     batches.sampler.set_epoch(1)
     train_one_epoch(model, opt, batches, progress=False)  # warm-up: oneDNN kernels, page cache, workers
     batches.sampler.set_epoch(2)
-    t = time.perf_counter()
-    train_one_epoch(model, opt, batches, progress=False)
-    return frames / (time.perf_counter() - t)
+    return frames / timed(lambda: train_one_epoch(model, opt, batches, progress=False))
 
 
 def loading(name: str, rec, cache: str, workers: int) -> float:
     _, batches, frames = setup(name, rec, cache, workers)
-    for epoch in (1, 2):  # the first epoch warms up
-        batches.sampler.set_epoch(epoch)
-        t = time.perf_counter()
+
+    def epoch(n: int) -> None:
+        batches.sampler.set_epoch(n)
         for _ in batches:
             pass
-    return frames / (time.perf_counter() - t)
+
+    epoch(1)  # warms up
+    return frames / timed(lambda: epoch(2))
 
 
 def baseline(models: list[str]) -> dict[str, float]:
@@ -95,7 +92,7 @@ def baseline(models: list[str]) -> dict[str, float]:
 
 
 def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p = arguments(__doc__)
     p.add_argument("--models", help="comma list (default: every trainable model)")
     p.add_argument("--no-baseline", action="store_true", help=f"skip the measurement of commit {BASELINE}")
     a = p.parse_args()
@@ -103,6 +100,8 @@ def main() -> None:
         print(f"skipped: {SIM} not found (the benchmark uses the real simulator recording)")
         return
     models = a.models.split(",") if a.models else [n for n in list_models() if model_class(n).trainable]
+    report = Report(__file__, {"frames": N, "models": models, "baseline_commit": None if a.no_baseline else BASELINE},
+                    a.json)
     rec = open_recording(SIM, f"0:{N}")
     print(f"machine: {machine()}; {N} simulator frames, one training epoch per model, frames/s")
     before = {} if a.no_baseline else baseline(models)
@@ -115,7 +114,10 @@ def main() -> None:
             old = before.get(name, float("nan"))
             print(f"{name:<16} {old:8.0f} {w0:10.0f} {w1:10.0f} {max(w0, w1) / old:10.2f}x {feed:13.0f} "
                   f"{feed / max(w0, w1):12.1f}x", flush=True)
+            report.add(name, before_fps=old, workers_0_fps=w0, workers_1_fps=w1, now_vs_before=max(w0, w1) / old,
+                       loader_alone_fps=feed, loader_vs_training=feed / max(w0, w1))
     print("targets: now/before >= 1.00x for every model (2 cores); loader alone >= 3x the training throughput")
+    report.write()
 
 
 if __name__ == "__main__":

@@ -1,19 +1,17 @@
-"""Epoch time of PilotNet training from the compiled cache vs. (a) a naive loader that decodes and
-preprocesses the JPEGs (and computes the optical flow, when the model takes it) in every step, and (b) tensors
-already in memory (the floor for data loading). Two inputs: gray (paper 000 "spatial") and gray + Farneback
-flow (paper 000 "spatial + optical flow").
+"""Epoch time of PilotNet training from the compiled cache vs. two baselines measured in the same run: (a) a naive
+loader that decodes and preprocesses the JPEGs (and computes the optical flow, when the model takes it) in every
+step, and (b) tensors already in memory (the floor for data loading). Two inputs: gray (paper 000 "spatial") and
+gray + Farneback flow (paper 000 "spatial + optical flow").
 
-python benchmarks/bench_training.py
+python benchmarks/bench_training.py [--json PATH]
 Targets: cache >= 5x faster than naive; cache within 15% of in-memory.
 """
 
 import tempfile
-import time
 
 import numpy as np
 import torch
-
-from _common import CH2, machine, need_ch2
+from common import CH2, Report, arguments, machine, need_ch2, timed
 
 from steerlab.data.dataset import compile_recording
 from steerlab.data.modalities import optical_flow
@@ -31,17 +29,19 @@ def epoch(get_batch, order, channels: int) -> float:
     model = create_model("pilotnet", in_channels=channels).to(memory_format=torch.channels_last)
     opt = torch.optim.Adam(model.parameters(), 1e-4)
     model.train()
-    t = time.perf_counter()
-    for s in range(0, len(order), BATCH):
-        x, y = get_batch(order[s: s + BATCH])
-        loss = torch.mean((model(x)["steering"] - y) ** 2)
-        opt.zero_grad()
-        loss.backward()
-        opt.step()
-    return time.perf_counter() - t
+
+    def run():
+        for s in range(0, len(order), BATCH):
+            x, y = get_batch(order[s: s + BATCH])
+            loss = torch.mean((model(x)["steering"] - y) ** 2)
+            opt.zero_grad()
+            loss.backward()
+            opt.step()
+
+    return timed(run)
 
 
-def bench(rec, modalities: list[str], cache: str) -> None:
+def bench(rec, modalities: list[str], cache: str, report: Report) -> None:
     cfg = PreprocessConfig.from_dict({"preset": "ch2", "modalities": modalities})
     channels = sum(cfg.channels().values())
     ds = compile_recording(rec, cfg, cache, progress=False)
@@ -76,15 +76,20 @@ def bench(rec, modalities: list[str], cache: str) -> None:
     print(f"  in-memory tensors : {t_mem:6.2f} s/epoch")
     print(f"  compiled cache    : {t_cache:6.2f} s/epoch   ({t_cache / t_mem - 1:+.1%} vs in-memory; target within 15%)")
     print(f"  naive JPEG loader : {t_naive:6.2f} s/epoch   (cache is x{t_naive / t_cache:.2f} faster; target >= 5x)")
+    report.add("+".join(modalities), channels=channels, in_memory_s=t_mem, cache_s=t_cache, naive_s=t_naive,
+               cache_vs_in_memory=t_cache / t_mem, naive_vs_cache=t_naive / t_cache)
 
 
 def main() -> None:
+    args = arguments(__doc__).parse_args()
     need_ch2()
+    report = Report(__file__, {"model": "pilotnet", "frames": N, "batch": BATCH}, args.json)
     rec = open_recording(CH2, f"0:{N}", CH2 / "CH2_final_evaluation.csv")
     print(f"machine: {machine()}; PilotNet, {N} CH2 frames, batch {BATCH}")
     with tempfile.TemporaryDirectory() as cache:
-        bench(rec, ["image"], cache)
-        bench(rec, ["image", "flow"], cache)
+        bench(rec, ["image"], cache, report)
+        bench(rec, ["image", "flow"], cache, report)
+    report.write()
 
 
 if __name__ == "__main__":

@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from common import ROOT, machine  # noqa: E402
+from common import ROOT, DonkeycarPart, donkey_car, donkey_python, machine  # noqa: E402
 
 from steerlab.data.car import CARS  # noqa: E402
 from steerlab.sim.core.part import PartPilot  # noqa: E402
@@ -43,8 +43,6 @@ from steerlab.sim.track.suite import TrackSuiteOptions, drive_row, race, report,
 
 TUBS = [f"{style}-{seed}" for style in ("taped", "centre") for seed in (1, 2, 3, 4)]
 TUB_MINUTES = 2.0
-DONKEY_VENV = ROOT / "runs" / "donkeycar-venv"
-DONKEY = "donkeycar[pc]==5.3.0"  # 5.4 needs Python >= 3.12
 DONKEYCAR = "donkeycar"          # the label of donkeycar's own runs
 DONKEY_RUNS = 3
 
@@ -52,12 +50,13 @@ DONKEY_RUNS = 3
 def base(tubs: Path) -> dict:
     """donkeycar linear's recipe as a steerlab config: its network (`donkey-linear`) on the whole 160x120 RGB
     frame, the MSE of the steering and the throttle's error with weight 1, batches of 128, Adam 1e-3, early
-    stopping with patience 5; validation on a block (the last 538 records of the first taped tub)."""
+    stopping with patience 3 (at most 15 epochs); validation on a block (the last 538 records of the first taped
+    tub)."""
     return {"data": str(tubs / TUBS[0]), "extra_data": [str(tubs / t) for t in TUBS[1:]],
             "reader": {"full_lock_deg": CARS["donkey"].full_lock_deg}, "cache": str(tubs.parent / "cache"),
             "preprocess": {"crop": [0, 0, 0, 0], "width": 160, "height": 120, "color": "rgb"},
             "model": {"name": "donkey-linear"}, "split": {"train": "0:1800", "val": "1800:2338"},
-            "train": {"epochs": 30, "patience": 5, "batch_size": 128, "lr": 1e-3, "loss": "mse",
+            "train": {"epochs": 15, "patience": 3, "batch_size": 128, "lr": 1e-3, "loss": "mse",
                       "throttle_weight": 1.0}}
 
 
@@ -101,51 +100,11 @@ def train_recipe(name: str, seed: int, out: Path, tubs: Path) -> Path:
     return run / "best.pt"
 
 
-class DonkeycarPart:
-    """donkeycar's own pilot part for a model trained by `donkey train`, run in donkeycar's environment:
-    `run(img_arr)` sends the frame down a pipe and returns the part's (angle, throttle), the throttle capped."""
-
-    def __init__(self, python: Path, car: Path, model: Path, log: Path, max_throttle: float):
-        self.log, self.max_throttle = log, max_throttle
-        self.process = subprocess.Popen([str(python), str(Path(__file__).with_name("_donkey_part.py")),
-                                         str(car / "config.py"), str(model), "linear"], cwd=car,
-                                        stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=open(log, "wb"))
-        if self.process.stdout.readline() != b"ready\n":
-            raise RuntimeError(f"donkeycar's part did not start; see {log}")
-
-    def run(self, img_arr: np.ndarray):
-        self.process.stdin.write(np.ascontiguousarray(img_arr, np.uint8).tobytes())
-        self.process.stdin.flush()
-        answer = self.process.stdout.read(16)
-        if len(answer) != 16:
-            raise RuntimeError(f"donkeycar's part stopped; see {self.log}")
-        angle, throttle = (float(v) for v in np.frombuffer(answer, np.float64))
-        return angle, float(np.clip(throttle, -self.max_throttle, self.max_throttle))
-
-    def close(self) -> None:
-        self.process.stdin.close()
-        self.process.wait()
-
-
-def donkey_python() -> Path:
-    python = DONKEY_VENV / "bin" / "python"
-    if not python.exists():
-        print(f"creating {DONKEY_VENV} with {DONKEY} (once)", flush=True)
-        subprocess.run([sys.executable, "-m", "venv", str(DONKEY_VENV)], check=True)
-        subprocess.run([str(python), "-m", "pip", "install", "--quiet", DONKEY], check=True)
-    return python
-
-
 def donkey_models(out: Path, tubs: Path) -> tuple[Path, list[Path]]:
     """donkeycar's car folder and its linear models, trained by `donkey train` on every tub (once each)."""
     python = donkey_python()
     work = out / "donkey"
-    car = work / "car"
-    if not car.exists():
-        subprocess.run([str(python.parent / "donkey"), "createcar", "--path", str(car)], check=True,
-                       stdout=subprocess.DEVNULL)
-        with open(car / "myconfig.py", "a") as f:
-            f.write("\nSHOW_PLOT = False\nCREATE_TF_LITE = False\nSAVE_MODEL_AS_H5 = True\n")
+    car = donkey_car(python, work / "car")
     models = []
     for k in range(DONKEY_RUNS):
         model = work / f"linear-{k}.h5"

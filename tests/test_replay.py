@@ -240,13 +240,14 @@ def test_record_suite_roads_only_when_asked(tmp_path):
     the suite's own road: as long as `drive` makes it, so the same frames."""
     from steerlab.errors import SteerlabError
     from steerlab.sim.road.run import record
+    from steerlab.sim.road.suite import SuiteOptions
     from steerlab.sim.road.world import World
 
     with pytest.raises(SteerlabError, match="reserved"):
         record(tmp_path / "refused", RecordOptions(seed=9101, minutes=0.01), progress=False)
     assert not (tmp_path / "refused").exists() or not any((tmp_path / "refused").iterdir())
-    out = record(tmp_path / "suite", RecordOptions(seed=9101, minutes=0.1, road="country", drift=False,
-                                                   side_cameras=False), progress=False, suite_roads_ok=True)
+    out = record(tmp_path / "suite", SuiteOptions(minutes=0.1).record_options("country", 9101), progress=False,
+                 suite_ok=True)
     rec = open_recording(out)
     assert len(rec) == 120
     first = World(9101, "country", "sim", 120 / 20).render()  # the suite's road for these minutes, as `drive` makes it

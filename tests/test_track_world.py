@@ -312,16 +312,14 @@ def test_sim_bench_world_track_writes_its_tables_and_reuses_drives(tmp_path, cap
 
 def test_the_suites_tracks_are_recorded_only_for_evaluation(tmp_path):
     from steerlab.sim.track.track import Track
-    from steerlab.sim.track.suite import TRACK_SUITES
+    from steerlab.sim.track.suite import TRACK_SUITES, TrackSuiteOptions
     from steerlab.sim.track.run import record
-    from steerlab.sim.track.world import TrackRecordOptions
 
-    o = TrackRecordOptions(seed=9401, minutes=0.01, drift=False, layout="steerlab",
-                           lane_width=TRACK_SUITES["t1"]["lane_width"])
+    o = replace(TrackSuiteOptions(minutes=0.01).record_options("taped", 9401), layout="steerlab")
+    assert o.lane_width == TRACK_SUITES["t1"]["lane_width"] and not o.drift
     with pytest.raises(SteerlabError, match="reserved for the track suites"):
         record(tmp_path / "refused", o, progress=False)
-    meta = json.loads((record(tmp_path / "eval", o, progress=False, suite_tracks_ok=True)
-                       / "recording.json").read_text())
+    meta = json.loads((record(tmp_path / "eval", o, progress=False, suite_ok=True) / "recording.json").read_text())
     assert meta["seed"] == 9401 and meta["lap_m"] == pytest.approx(Track(9401, o.lane_width, "taped").length)
 
 

@@ -44,23 +44,24 @@ class RoadDrive:
 
 
 def record(out: str | Path, o: RecordOptions = RecordOptions(), progress: bool = True, *,
-           suite_roads_ok: bool = False) -> Path:
+           suite_ok: bool = False) -> Path:
     """Drive the expert on roads made from `o.seed` and write a labelled recording. Same options, same bytes.
 
     With several road types (`road="mixed"` or a comma list) the expert drives one road of each type and
     the recording takes turns between them every `chunk_minutes`, each chunk its own segment, so that any
     contiguous block of the recording (a validation split, say) mixes the road types.
 
-    `suite_roads_ok=True` is for evaluation recordings only (replay against the closed-loop suite; not in the
-    CLI, never for training data): it allows the suite's reserved seeds and makes each road exactly as long
-    as `drive` makes it for the same minutes, so that the recording shows the suite's own road."""
-    if not suite_roads_ok:
+    `suite_ok=True` is for evaluation recordings only (replay against the closed-loop suite, with the options
+    of `SuiteOptions.record_options`; not in the CLI, never for training data): it allows the suite's reserved
+    seeds and makes each road exactly as long as `drive` makes it for the same minutes, so that the recording
+    shows the suite's own road."""
+    if not suite_ok:
         check_seed(o.seed, "road")
     n = ticks(o.minutes, o.fps)
     types = road_types(o.road)
     chunk = n if len(types) == 1 else ticks(o.chunk_minutes, o.fps)
     schedule = [types[(i // chunk) % len(types)] for i in range(n)]  # a type may be listed twice for a larger share
-    extra = 0 if suite_roads_ok else chunk  # the suite's roads: as long as `drive` makes them
+    extra = 0 if suite_ok else chunk  # the suite's roads: as long as `drive` makes them
     worlds = {t: World(o.seed, t, o.geometry, (schedule.count(t) + extra) / o.fps, o.fps) for t in dict.fromkeys(types)}
     drivers = {t: ExpertDriver(w.road, o.seed, w.car, 1.0 / o.fps, drift_every_s=25.0 if o.drift else None)
                for t, w in worlds.items()}

@@ -23,7 +23,7 @@ from steerlab.sim.core.parallel import tick_reporter
 from steerlab.sim.core.suite import (Planned, as_stored, checkpoints_to_drive, file_sha256, grouped, run_drives,
                                      when_set, write_csv)
 from steerlab.sim.road.run import RoadDrive, drive_checkpoint
-from steerlab.sim.road.world import DriveOptions
+from steerlab.sim.road.world import DriveOptions, RecordOptions
 
 SUITES = {
     # 11 roads of 3 minutes: 33 minutes of driving, about 30 km
@@ -61,6 +61,12 @@ class SuiteOptions(Options):
             raise SteerlabError(f"no road to drive: choose road types of suite {self.suite} "
                                 f"({', '.join(spec['roads'])})")
         return [(t, s) for t in types for s in spec["roads"][t]]
+
+    def record_options(self, road: str, seed: int) -> RecordOptions:
+        """The expert's recording of one road of the suite, to replay models on against their drives there
+        (`run.record(..., suite_ok=True)`): the suite's road for its minutes, without drift episodes or side
+        cameras."""
+        return RecordOptions(seed=seed, minutes=self.road_minutes, road=road, drift=False, side_cameras=False)
 
     def key(self, checkpoint: Path) -> dict:
         """Everything that changes a drive's result besides its road: the checkpoint's content (the sha256 of

@@ -69,14 +69,14 @@ class TrackDrive:
 
 
 def record(out: str | Path, o: TrackRecordOptions = TrackRecordOptions(), progress: bool = True, *,
-                 suite_tracks_ok: bool = False) -> Path:
+           suite_ok: bool = False) -> Path:
     """The racing expert on the track made from `o.seed` (with drift-and-recover episodes unless `o.drift` is
     false), written as a tub or a steerlab recording (see the module's docstring). Same options, same bytes.
 
-    `suite_tracks_ok=True` is for evaluation recordings only (replay against the track suite; not in the CLI,
-    never for training data): it allows the track suite's reserved seeds, so that the recording shows the
-    suite's own track (give the suite's lane width and style)."""
-    if not suite_tracks_ok:
+    `suite_ok=True` is for evaluation recordings only (replay against the track suite, with the options of
+    `TrackSuiteOptions.record_options`; not in the CLI, never for training data): it allows the track suite's
+    reserved seeds, so that the recording shows the suite's own track."""
+    if not suite_ok:
         check_seed(o.seed, "track")
     camera = o.camera()
     world = TrackWorld(o.seed, o.lane_width, o.style, o.fps, camera, room=o.room)

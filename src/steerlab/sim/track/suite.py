@@ -34,8 +34,8 @@ from steerlab.sim.core.parallel import tick_reporter
 from steerlab.sim.core.suite import (Planned, as_stored, checkpoints_to_drive, file_sha256, grouped, run_drives,
                                      when_set, write_csv)
 from steerlab.sim.track.run import TrackDrive, drive_checkpoint, drive_expert
-from steerlab.sim.track.world import (TrackDriveOptions, calibration_option, camera_of, latency_option,
-                                      max_throttle_option, throttle_option)
+from steerlab.sim.track.world import (TrackDriveOptions, TrackRecordOptions, calibration_option, camera_of,
+                                      latency_option, max_throttle_option, throttle_option)
 
 TRACK_SUITES = {
     # 8 tracks of 2 minutes, 0.9 m lanes: six taped, two with a painted centre line (28-54 m laps; the expert
@@ -87,6 +87,14 @@ class TrackSuiteOptions(Options):
     def expert_folder(self) -> str:
         """The folder of the expert's drives under this cap."""
         return f"{EXPERT}-max{self.max_throttle:g}"
+
+    def record_options(self, style: str, seed: int) -> TrackRecordOptions:
+        """The racing expert's recording of one track of the suite, to replay models on against their drives there
+        (`run.record(..., suite_ok=True)`): the suite's track (its lane width and style) through this camera for
+        the suite's minutes, without drift episodes."""
+        return TrackRecordOptions(seed=seed, minutes=self.track_minutes, drift=False,
+                                  lane_width=TRACK_SUITES[self.suite]["lane_width"], style=style,
+                                  calibration=self.calibration)
 
     def key(self, checkpoint: Path) -> dict:
         """Everything that changes a drive's result besides its track: the checkpoint's content, the suite

@@ -23,9 +23,9 @@ intervention where the car's body leaves a 0.9 m lane around the human's path).
 donkeycar is never a dependency of steerlab: it lives in its own virtual environment ($DONKEY_VENV, default
 runs/donkeycar-venv, made on first use with `pip install donkeycar[pc]`) and `_donkey_eval.py` runs there.
 
-python benchmarks/bench_donkeycar.py [--epochs 30] [--seeds 3] [--skip-donkey] [--models pilotnet,cg23,...]
+python studies/donkeycar_tubs.py [--epochs 30] [--seeds 3] [--skip-donkey] [--models pilotnet,cg23,...]
     [--donkey-models linear,rnn]
-Every finished run (trainer, model, seed) is kept in runs/bench-donkeycar/<tub>/results.json and reused by a
+Every finished run (trainer, model, seed) is kept in runs/donkeycar-tubs/<tub>/results.json and reused by a
 later run (delete the file to train them again); the table shows every run kept there.
 """
 
@@ -40,19 +40,18 @@ from pathlib import Path
 
 import numpy as np
 
-from _common import ROOT, SHARED, machine
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+from common import ROOT, SHARED, donkey_car, donkey_python, machine  # noqa: E402
 
-from steerlab.data.readers import Source
-from steerlab.evaluate.offline import evaluate
-from steerlab.sim.replay.run import run_replay
-from steerlab.sim.replay.track import TrackReplayOptions
-from steerlab.train.config import load_config
-from steerlab.train.loop import train
+from steerlab.data.readers import Source  # noqa: E402
+from steerlab.evaluate.offline import evaluate  # noqa: E402
+from steerlab.sim.replay.run import run_replay  # noqa: E402
+from steerlab.sim.replay.track import TrackReplayOptions  # noqa: E402
+from steerlab.train.config import load_config  # noqa: E402
+from steerlab.train.loop import train  # noqa: E402
 
 TUBS = SHARED / "donkeycar"
-OUT = ROOT / "runs" / "bench-donkeycar"
-VENV = Path(os.environ.get("DONKEY_VENV", ROOT / "runs" / "donkeycar-venv"))
-DONKEY = "donkeycar[pc]==5.3.0"  # 5.4 needs Python >= 3.12
+OUT = ROOT / "runs" / "donkeycar-tubs"
 STEERLAB_MODELS = ["pilotnet", "cg23", "multimodal-lstm", "train-mean"]
 DONKEY_MODELS = ["linear"]
 FULL_LOCK_DEG = 25.0  # assumed: the tubs do not record it
@@ -63,17 +62,8 @@ def blocks(n: int) -> tuple[int, int]:
     return int(0.7 * n), int(0.8 * n)
 
 
-def donkey_python() -> Path:
-    python = VENV / "bin" / "python"
-    if not python.exists():
-        print(f"creating {VENV} with {DONKEY} (once)", flush=True)
-        subprocess.run([sys.executable, "-m", "venv", str(VENV)], check=True)
-        subprocess.run([str(python), "-m", "pip", "install", "--quiet", DONKEY], check=True)
-    return python
-
-
 def donkey_or_skip(skip_donkey: bool) -> Path | None:
-    """donkeycar's python (None with --skip-donkey); ends the benchmark when the shared tubs are absent."""
+    """donkeycar's python (None with --skip-donkey); ends the study when the shared tubs are absent."""
     if not (TUBS / "hall" / "manifest.json").exists():
         print(f"skipped: {TUBS} not found")
         sys.exit(0)
@@ -102,12 +92,7 @@ def run_donkey(python: Path, tub: Path, rec, a: int, n: int, work: Path, kinds: 
                results: dict) -> None:
     """Train each donkeycar model `seeds` times on the first `a` records with `donkey train` and score it on the
     held-out block; runs already in `results` are kept."""
-    car = work / "car"
-    if not car.exists():
-        subprocess.run([str(python.parent / "donkey"), "createcar", "--path", str(car)], check=True,
-                       stdout=subprocess.DEVNULL)
-        with open(car / "myconfig.py", "a") as f:
-            f.write("\nSHOW_PLOT = False\nCREATE_TF_LITE = False\nSAVE_MODEL_AS_H5 = True\n")
+    car = donkey_car(python, work / "car")
     train_tub = training_tub(tub, set(int(i) for i in rec.frame_ids[:a]), work / "train-tub")
     test = {"images": [str(p) for p in rec.frames["center"][a:n]], "angles": rec.steering[a:n].tolist(),
             "throttles": rec.throttle[a:n].tolist()}

@@ -1,18 +1,17 @@
 """Does replay of small-car recordings predict true closed-loop racing in the track world?
 
-python benchmarks/replay_vs_track_suite.py --out runs/replay-track-truth [--minutes 0.5] [--workers 1]
+python studies/replay_vs_track_suite.py --out runs/replay-track-truth [--minutes 0.5] [--workers 1]
 
-The track world's counterpart of `replay_vs_closed_loop.py` (roads). The script
+The track world's counterpart of `replay_vs_road_suite.py`. The script
 1. records the racing expert (no drift episodes) as a donkeycar tub on every track of the track suite t1 for
-   `--minutes` each (`track_run.record_track(..., suite_tracks_ok=True)`: the suite's own track, lane width and
-   style);
+   `--minutes` each (`common.record_expert`: the suite's own track, lane width and style);
 2. trains small models on the track-world tubs of `configs/track_pilotnet.yaml` (`--tubs`: the racing expert on
    tracks 1-4, 3 minutes each) on few frames and for few epochs, keeping a snapshot after chosen epochs, plus
    the zero and train-mean baselines and any `--extra` checkpoints: at least 20 checkpoints of very different
    quality;
-3. drives every checkpoint on the suite for `--minutes` per track (the truth: `track_bench.run_track_suite`,
+3. drives every checkpoint on the suite for `--minutes` per track (the truth: `sim.track.suite.run_suite`,
    through the donkeycar part, the model's learned throttle) and replays it on the expert's recordings of those
-   tracks (`replay_run.run_replay` with `TrackReplayOptions`, the suite's lane width; the speed as in the
+   tracks (`sim.replay.run.run_replay` with `TrackReplayOptions`, the suite's lane width; the speed as in the
    suite: the model's learned throttle, else the speed of the suite's constant throttle);
 4. reports per checkpoint off-track events per lap (truth: events over the laps driven; replay: interventions
    over the laps the recordings cover), summed over the tracks, and the Spearman rank correlation and R^2
@@ -34,14 +33,14 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
 import torch
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import ROOT, machine  # noqa: E402
-from replay_vs_closed_loop import correlations  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+from common import (ROOT, correlation_table, correlations, machine, record_expert, replay_missing,  # noqa: E402
+                    replayed, scatter_axes, train_baseline, train_snapshots, write_table)
 
 from steerlab.data.car import CARS  # noqa: E402
+from steerlab.sim.core.suite import labels_for  # noqa: E402
 from steerlab.sim.track.suite import TRACK_SUITES  # noqa: E402
 
 SUITE = "t1"
@@ -64,32 +63,6 @@ SPEEDS = {"model": "the model's throttle where it learned one, else the speed th
 LOCK = {"full_lock_deg": str(CARS["donkey"].full_lock_deg)}  # the track world's tubs: normalized of the car's lock
 
 
-def suite_tracks() -> list[tuple[str, int]]:
-    return [(style, seed) for style, seeds in TRACK_SUITES[SUITE]["tracks"].items() for seed in seeds]
-
-
-def record_expert(out: Path, minutes: float) -> dict[tuple[str, int], Path]:
-    """The racing expert on every suite track, as a tub: the suite's own track (seed, lane width, style)."""
-    from steerlab.sim.track.run import record_track
-    from steerlab.sim.track.world import TrackRecordOptions
-
-    recs = {}
-    for style, seed in suite_tracks():
-        folder = out / "expert" / f"{style}-{seed}"
-        stamp = folder / "minutes.json"
-        if not (stamp.exists() and json.loads(stamp.read_text())["minutes"] == minutes):
-            shutil.rmtree(folder, ignore_errors=True)
-            shutil.rmtree(out / "replay" / folder.name, ignore_errors=True)  # replays of the old recording
-            t0 = time.time()
-            record_track(folder, TrackRecordOptions(seed=seed, minutes=minutes, drift=False, style=style,
-                                                    lane_width=TRACK_SUITES[SUITE]["lane_width"]),
-                         progress=False, suite_tracks_ok=True)
-            stamp.write_text(json.dumps({"minutes": minutes}))
-            print(f"recorded the expert on {style}-{seed} ({minutes:g} min) in {time.time() - t0:.0f} s", flush=True)
-        recs[(style, seed)] = folder
-    return recs
-
-
 def _config(tubs: list[Path], extra: list[int], frames: str, out: Path, run: Path, model: dict, train: dict):
     """The training config (a `TrainConfig`) of one run on the tubs."""
     from steerlab.train.config import load_config
@@ -102,40 +75,15 @@ def _config(tubs: list[Path], extra: list[int], frames: str, out: Path, run: Pat
 
 
 def checkpoints(out: Path, tubs: list[Path], extra: list[Path]) -> list[Path]:
-    """Train every variant (one run each, the weights after each kept epoch copied to `out/checkpoints/`), the
-    baselines, and copy the `extra` checkpoints in; anything already there is reused."""
-    from steerlab.train.loop import train
-
+    """Train the baselines and every variant (one run each, the weights after each kept epoch copied to
+    `out/checkpoints/`), and copy the `extra` checkpoints in; anything already there is reused."""
     ckpts = out / "checkpoints"
     ckpts.mkdir(parents=True, exist_ok=True)
-    result = []
-    for name in BASELINES:
-        target = ckpts / f"{name}.pt"
-        if not target.exists():
-            run = out / "runs" / name
-            train(_config(tubs, [], "0:1000", out, run, {"name": name}, {"epochs": 1}), progress=False)
-            shutil.copy(run / "best.pt", target)
-        result.append(target)
+    result = [train_baseline(name, _config(tubs, [], "0:1000", out, out / "runs" / name, {"name": name},
+                                           {"epochs": 1}), ckpts) for name in BASELINES]
     for name, (model, more, frames, keep) in VARIANTS.items():
-        targets = {e: ckpts / f"{name}-e{e}.pt" for e in keep}
-        if not all(t.exists() for t in targets.values()):
-            run = out / "runs" / name
-            t0 = time.time()
-
-            def on_epoch(epoch, metrics, run=run, targets=targets, name=name, t0=t0):
-                print(f"  {name} epoch {epoch}: val rmse {metrics['rmse']:.4f} ({time.time() - t0:.0f} s)", flush=True)
-                if epoch in targets:
-                    shutil.copy(run / "last.pt", targets[epoch])
-
-            train(_config(tubs, more, frames, out, run, model, {"epochs": max(keep)}), progress=False,
-                  on_epoch=on_epoch)
-            if not targets[max(keep)].exists():  # the run had already finished its epochs before it was stopped
-                shutil.copy(run / "last.pt", targets[max(keep)])
-            missing = [str(t) for t in targets.values() if not t.exists()]
-            if missing:
-                sys.exit(f"{name}: the snapshots {', '.join(missing)} are missing; delete {run} to train it again")
-            print(f"trained {name} ({max(keep)} epochs) in {time.time() - t0:.0f} s", flush=True)
-        result += list(targets.values())
+        config = _config(tubs, more, frames, out, out / "runs" / name, model, {"epochs": max(keep)})
+        result += train_snapshots(name, config, keep, ckpts)
     for c in extra:
         target = ckpts / f"{c.parent.name}-{c.stem}.pt"
         if not target.exists():
@@ -146,11 +94,10 @@ def checkpoints(out: Path, tubs: list[Path], extra: list[Path]) -> list[Path]:
 
 def true_suite(ckpts: list[Path], out: Path, minutes: float, workers: int) -> tuple[dict[str, dict], list[dict]]:
     """The track suite for every checkpoint; per checkpoint off-track events over the laps driven, all tracks."""
-    from steerlab.sim.track.suite import TrackSuiteOptions, run_track_suite
+    from steerlab.sim.track.suite import TrackSuiteOptions, run_suite
 
     t0 = time.time()
-    run_track_suite(ckpts, out / "suite", TrackSuiteOptions(SUITE, minutes, workers=workers), progress=False,
-                    plots=False)
+    run_suite(ckpts, out / "suite", TrackSuiteOptions(SUITE, minutes, workers=workers), progress=False, plots=False)
     print(f"track suite {SUITE} ({minutes:g} min per track) for {len(ckpts)} checkpoints in {time.time() - t0:.0f} s",
           flush=True)
     drives = list(csv.DictReader(open(out / "suite" / "suite.csv")))
@@ -182,8 +129,6 @@ def replay(ckpts: list[Path], recs: dict, out: Path, workers: int, mode: str) ->
     """Every checkpoint on every expert recording (the speed as `speed_options(mode)`, the suite's lane width);
     per checkpoint interventions over the laps the replayed car covers, summed over the tracks."""
     from steerlab.data.readers import Source
-    from steerlab.sim.road.suite import labels_for
-    from steerlab.sim.replay.run import run_replay
     from steerlab.sim.replay.track import TrackReplayOptions
     from steerlab.sim.track.track import Track
 
@@ -192,22 +137,14 @@ def replay(ckpts: list[Path], recs: dict, out: Path, workers: int, mode: str) ->
     speeds = speed_options(ckpts, mode)
     rows = []
     for (style, seed), folder in recs.items():
-        where = out / "replay" / folder.name / mode  # one sub-folder per batch of checkpoints replayed together
+        where = out / "replay" / folder.name / mode
         lap_m = Track(seed, lane, style).length
-
-        def done():
-            return {r["checkpoint"]: r for f in sorted(where.glob("*/replay.csv")) for r in csv.DictReader(open(f))}
-
         for speed in map(json.loads, dict.fromkeys(json.dumps(s, sort_keys=True) for s in speeds)):
-            missing = [c for c, label, s in zip(ckpts, labels, speeds) if s == speed and label not in done()]
-            if missing:
-                t0 = time.time()
-                batch = where / str(len(list(where.glob("*/replay.csv"))))
-                run_replay(missing, Source(str(folder), reader=LOCK), batch,
-                           TrackReplayOptions(lane_width=lane, workers=workers, **speed), progress=False)
-                print(f"replayed {len(missing)} checkpoints on {style}-{seed} ({speed or 'recorded throttle'}) in "
-                      f"{time.time() - t0:.0f} s", flush=True)
-        have = done()
+            same = [(c, label) for c, label, s in zip(ckpts, labels, speeds) if s == speed]
+            replay_missing([c for c, _ in same], [label for _, label in same], Source(str(folder), reader=LOCK),
+                           where, TrackReplayOptions(lane_width=lane, workers=workers, **speed),
+                           f"{folder.name} ({speed or 'recorded throttle'})")
+        have = replayed(where)
         rows += [{**have[label], "style": style, "seed": seed, "laps": float(have[label]["km"]) * 1000 / lap_m}
                  for label in labels]
     total = {}
@@ -222,41 +159,20 @@ def replay(ckpts: list[Path], recs: dict, out: Path, workers: int, mode: str) ->
 def per_style(labels: list[str], drives: list[dict], rows: list[dict]) -> list[str]:
     """Spearman and R^2 of replay against truth (events per lap) per checkpoint and track, by track style."""
     truth = {(d["label"], int(d["seed"])): float(d["off_track_per_lap"]) for d in drives}
-    lines = ["| tracks | pairs (checkpoint x track) | Spearman | R^2 | true off track / lap (mean) | "
-             "replay interventions / lap (mean) |", "|---|---|---|---|---|---|"]
-    for kind in [*TRACK_SUITES[SUITE]["tracks"], "all"]:
-        pairs = [(truth[(r["checkpoint"], int(r["seed"]))], int(r["interventions"]) / max(r["laps"], 1e-9))
-                 for r in rows if r["checkpoint"] in labels and kind in ("all", r["style"])]
-        t, p = np.array(pairs).T
-        c = correlations(t, p)
-        lines.append(f"| {kind} | {len(pairs)} | {c['spearman']:.3f} | {c['r2']:.3f} | {t.mean():.2f} | "
-                     f"{p.mean():.2f} |")
-    return lines
+    groups = {kind: [(truth[(r["checkpoint"], int(r["seed"]))], int(r["interventions"]) / max(r["laps"], 1e-9))
+                     for r in rows if r["checkpoint"] in labels and kind in ("all", r["style"])]
+              for kind in [*TRACK_SUITES[SUITE]["tracks"], "all"]}
+    return correlation_table(groups, "track", "off track / lap", "interventions / lap")
 
 
 def scatter(path: Path, table: list[dict], corr: dict, minutes: float) -> None:
-    import matplotlib
+    from steerlab.figures import figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(7, 6), dpi=100)
-    t = np.array([r["true_off_track_per_lap"] for r in table])
-    p = np.array([r["replay_interventions_per_lap"] for r in table])
-    ax.scatter(t, p, s=25)
-    for r, x, y in zip(table, t, p):
-        ax.annotate(r["checkpoint"], (x, y), fontsize=6, alpha=0.8, xytext=(2, 2), textcoords="offset points")
-    slope, icept = np.polyfit(t, p, 1) if np.ptp(t) > 0 else (0.0, float(p.mean()))
-    xs = np.array([t.min(), t.max()])
-    ax.plot(xs, slope * xs + icept, "k:", lw=0.8, label=f"fit: replay = {slope:.2f} x truth + {icept:.2f}")
-    ax.set_title(f"Spearman {corr['spearman']:.2f}, R$^2$ {corr['r2']:.2f} ({corr['n']} checkpoints)")
-    ax.set_xlabel(f"true closed loop (track suite {SUITE}, {minutes:g} min per track): off-track events / lap")
-    ax.set_ylabel("replay of the expert's recordings: interventions / lap")
-    ax.legend(loc="upper left", fontsize=8)
-    ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
+    with figure(path, figsize=(7, 6)) as (_, ax):
+        scatter_axes(ax, [r["checkpoint"] for r in table], [r["true_off_track_per_lap"] for r in table],
+                     [r["replay_interventions_per_lap"] for r in table], corr,
+                     f"true closed loop (track suite {SUITE}, {minutes:g} min per track): off-track events / lap",
+                     "replay of the expert's recordings: interventions / lap", fit=True)
 
 
 def main() -> None:
@@ -278,13 +194,11 @@ def main() -> None:
     t_start, cpu_start = time.time(), time.process_time()
     print(f"machine: {machine()}; workers {a.workers}", flush=True)
 
-    recs = record_expert(out, a.minutes)
+    recs = record_expert("track", out, a.minutes)
     ckpts = checkpoints(out, [Path(t) for t in a.tubs], [Path(c) for c in a.extra])
     print(f"{len(ckpts)} checkpoints", flush=True)
     truth, drives = true_suite(ckpts, out, a.minutes, a.workers)
     rep, rows = replay(ckpts, recs, out, a.workers, a.speed)
-
-    from steerlab.sim.road.suite import labels_for
 
     labels = labels_for(ckpts)
     table = [{"checkpoint": label, "true_off_track": truth[label]["off_track"], "true_laps": truth[label]["laps"],
@@ -295,10 +209,7 @@ def main() -> None:
     corr = correlations([r["true_off_track_per_lap"] for r in table],
                         [r["replay_interventions_per_lap"] for r in table])
     name = "results" if a.speed == "model" else f"results-{a.speed}"
-    with open(out / f"{name}.csv", "w", newline="") as f:
-        w = csv.DictWriter(f, list(table[0]))
-        w.writeheader()
-        w.writerows([{k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in r.items()} for r in table])
+    write_table(out / f"{name}.csv", table)
     trained = [r for r in table if r["checkpoint"] not in BASELINES]
     sub = correlations([r["true_off_track_per_lap"] for r in trained],
                        [r["replay_interventions_per_lap"] for r in trained])

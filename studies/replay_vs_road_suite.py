@@ -1,15 +1,15 @@
 """Does closed-loop replay on recordings predict true closed-loop driving?
 
-python benchmarks/replay_vs_closed_loop.py --out runs/replay-truth [--minutes 1.0] [--workers 2]
+python studies/replay_vs_road_suite.py --out runs/replay-truth [--minutes 1.0] [--workers 2]
 
-In the synthetic world both exist. The script
+In the road world both exist. The script
 1. records the expert (no drift episodes, centre camera) on every road of the closed-loop suite v1 for
-   `--minutes` each (`sim.world.record(..., suite_roads_ok=True)`: the suite's own road, same length);
+   `--minutes` each (`common.record_expert`: the suite's own road, same length);
 2. trains a handful of zoo models on a short mixed-road recording (seed 3, 4 minutes), with and without side
    cameras and flips, and keeps a snapshot after chosen epochs, plus the zero and train-mean baselines: at
    least 20 checkpoints of very different quality;
-3. drives every checkpoint on the suite (the truth: `sim.bench.run_suite`) and replays it on the 11 expert
-   recordings (`sim.replay_run.run_replay`, recorded speed), summed per checkpoint over the recordings;
+3. drives every checkpoint on the suite (the truth: `sim.road.suite.run_suite`) and replays it on the 11 expert
+   recordings (`sim.replay.run.run_replay`, recorded speed), summed per checkpoint over the recordings;
 4. reports the Spearman rank correlation (tied values share their mean rank) and R^2 (squared Pearson) of
    replay against truth, for autonomy and for interventions per km, a Markdown table (`results.md`,
    `results.csv`) and a scatter plot (`scatter.png`);
@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import argparse
 import csv
-import json
 import math
 import shutil
 import sys
@@ -34,9 +33,11 @@ from pathlib import Path
 import numpy as np
 import torch
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _common import machine  # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+from common import (correlation_table, correlations, machine, record_expert, replay_missing,  # noqa: E402
+                    scatter_axes, train_baseline, train_snapshots, write_table)
 
+from steerlab.sim.core.suite import labels_for  # noqa: E402
 from steerlab.sim.road.suite import SUITES  # noqa: E402
 
 TRAIN_DATA = {"seed": 3, "minutes": 4.0, "road": "country,twisty,highway,twisty"}
@@ -61,29 +62,6 @@ VARIANTS = {
 BASELINES = ["zero", "train-mean"]
 OFFSETS = [0.25, 0.5, 1.0, 1.5]
 HEADINGS = [0.0, 2.0, 5.0, 10.0]
-
-
-def suite_roads(suite: str = "v1") -> list[tuple[str, int]]:
-    return [(t, s) for t, seeds in SUITES[suite]["roads"].items() for s in seeds]
-
-
-def record_expert(out: Path, minutes: float) -> dict[tuple[str, int], Path]:
-    """The expert on every suite road: the suite's own road (same seed, type and length as `drive` makes it)."""
-    from steerlab.sim.road.run import record
-    from steerlab.sim.road.world import RecordOptions
-
-    recs = {}
-    for road, seed in suite_roads():
-        folder = out / "expert" / f"{road}-{seed}"
-        meta = folder / "recording.json"
-        if not (meta.exists() and json.loads(meta.read_text())["minutes"] == minutes):
-            shutil.rmtree(folder, ignore_errors=True)
-            t0 = time.time()
-            record(folder, RecordOptions(seed=seed, minutes=minutes, road=road, drift=False, side_cameras=False),
-                   progress=False, suite_roads_ok=True)
-            print(f"recorded the expert on {road} road {seed} ({minutes:g} min) in {time.time() - t0:.0f} s", flush=True)
-        recs[(road, seed)] = folder
-    return recs
 
 
 def training_data(out: Path) -> Path:
@@ -113,73 +91,38 @@ def _config(data: Path, out: Path, run: Path, model: dict, pre: dict, train: dic
 
 
 def checkpoints(out: Path, data: Path) -> list[Path]:
-    """Train every variant (one run each, the weights after each kept epoch copied to `out/checkpoints/`) and
-    the baselines; anything already there is reused."""
-    from steerlab.train.loop import train
-
+    """Train the baselines and every variant (one run each, the weights after each kept epoch copied to
+    `out/checkpoints/`); anything already there is reused."""
     ckpts = out / "checkpoints"
-    ckpts.mkdir(parents=True, exist_ok=True)
-    result = []
-    for name in BASELINES:
-        target = ckpts / f"{name}.pt"
-        if not target.exists():
-            run = out / "runs" / name
-            train(_config(data, out, run, {"name": name}, {}, {}), progress=False)
-            shutil.copy(run / "best.pt", target)
-        result.append(target)
+    result = [train_baseline(name, _config(data, out, out / "runs" / name, {"name": name}, {}, {}), ckpts)
+              for name in BASELINES]
     for name, (model, pre, tr, keep) in VARIANTS.items():
-        targets = {e: ckpts / f"{name}-e{e}.pt" for e in keep}
-        if not all(t.exists() for t in targets.values()):
-            run = out / "runs" / name
-            t0 = time.time()
-
-            def on_epoch(epoch, metrics, run=run, targets=targets, name=name, t0=t0):
-                print(f"  {name} epoch {epoch}: val rmse {metrics['rmse']:.4f} ({time.time() - t0:.0f} s)", flush=True)
-                if epoch in targets:
-                    shutil.copy(run / "last.pt", targets[epoch])
-
-            train(_config(data, out, run, model, pre, {**tr, "epochs": max(keep)}), progress=False, on_epoch=on_epoch)
-            if not targets[max(keep)].exists():  # the run had already finished its epochs before it was stopped
-                shutil.copy(run / "last.pt", targets[max(keep)])
-            missing = [str(t) for t in targets.values() if not t.exists()]
-            if missing:
-                sys.exit(f"{name}: the snapshots {', '.join(missing)} are missing; delete {run} to train it again")
-            print(f"trained {name} ({max(keep)} epochs) in {time.time() - t0:.0f} s", flush=True)
-        result += list(targets.values())
+        config = _config(data, out, out / "runs" / name, model, pre, {**tr, "epochs": max(keep)})
+        result += train_snapshots(name, config, keep, ckpts)
     return result
 
 
-def true_closed_loop(ckpts: list[Path], out: Path, minutes: float, workers: int) -> dict[str, dict]:
+def true_closed_loop(ckpts: list[Path], out: Path, minutes: float, workers: int) -> dict:
+    """The suite for every checkpoint: its summary row over all roads (`SuiteSummary`) by label."""
     from steerlab.sim.road.suite import SuiteOptions, run_suite
 
     t0 = time.time()
     summary = run_suite(ckpts, out / "suite", SuiteOptions("v1", minutes, workers=workers), progress=False)
     print(f"suite v1 ({minutes:g} min per road) for {len(ckpts)} checkpoints in {time.time() - t0:.0f} s", flush=True)
-    return {r["label"]: r for r in summary if r["road_type"] == "all"}
+    return {r.label: r for r in summary if r.road_type == "all"}
 
 
 def replay(ckpts: list[Path], recs: dict, out: Path, workers: int) -> tuple[dict[str, dict], list[dict]]:
     """Every checkpoint on every expert recording (recorded speed); per checkpoint the sums over recordings."""
     from steerlab.data.readers import Source
-    from steerlab.sim.road.suite import labels_for
     from steerlab.sim.core.driving import autonomy
-    from steerlab.sim.replay.run import ReplayOptions, run_replay
+    from steerlab.sim.replay.run import ReplayOptions
 
     labels = labels_for(ckpts)
     rows = []
     for (road, seed), folder in recs.items():
-        where = out / "replay" / f"{road}-{seed}"  # one sub-folder per batch of checkpoints replayed together
-
-        def done():
-            return {r["checkpoint"]: r for f in sorted(where.glob("*/replay.csv")) for r in csv.DictReader(open(f))}
-
-        missing = [c for c, label in zip(ckpts, labels) if label not in done()]
-        if missing:
-            t0 = time.time()
-            run_replay(missing, Source(str(folder)), where / str(len(list(where.glob("*/replay.csv")))),
-                       ReplayOptions(speed=None, workers=workers), progress=False)
-            print(f"replayed {len(missing)} checkpoints on {road}-{seed} in {time.time() - t0:.0f} s", flush=True)
-        have = done()
+        have = replay_missing(ckpts, labels, Source(str(folder)), out / "replay" / folder.name,
+                              ReplayOptions(speed=None, workers=workers), folder.name)
         rows += [{**have[label], "road_type": road, "seed": seed} for label in labels]
     total = {}
     for label in labels:
@@ -193,62 +136,26 @@ def replay(ckpts: list[Path], recs: dict, out: Path, workers: int) -> tuple[dict
     return total, rows
 
 
-def r2(x, y) -> float:
-    x, y = np.asarray(x, float), np.asarray(y, float)
-    if len(x) < 3 or np.ptp(x) == 0 or np.ptp(y) == 0:
-        return float("nan")
-    return float(np.corrcoef(x, y)[0, 1] ** 2)
-
-
-def correlations(true, rep) -> dict:
-    from steerlab.evaluate.plots import rank_correlation
-
-    return {"spearman": rank_correlation(rep, true), "r2": r2(rep, true), "n": len(true)}
-
-
 def per_road_type(out: Path, labels: list[str], rows: list[dict]) -> list[str]:
-    """Spearman of replay against truth (interventions per km) within each road type and over all drives."""
-    from steerlab.evaluate.plots import rank_correlation
-
+    """Replay against truth (interventions per km) within each road type and over all drives."""
     drives = {(d["label"], d["road_type"], int(d["seed"])): d for d in csv.DictReader(open(out / "suite" / "suite.csv"))}
-    lines = ["| roads | pairs (checkpoint x road) | Spearman int/km | R^2 int/km | true int/km (mean) | "
-             "replay int/km (mean) |", "|---|---|---|---|---|---|"]
+    groups = {}
     for kind in [*SUITES["v1"]["roads"], "all"]:
-        pairs = []
-        for r in rows:
-            if r["checkpoint"] in labels and kind in ("all", r["road_type"]):
-                d = drives[(r["checkpoint"], r["road_type"], int(r["seed"]))]
-                pairs.append((float(d["interventions_per_km"]), float(r["interventions_per_km"])))
-        t, p = np.array(pairs).T
-        lines.append(f"| {kind} | {len(pairs)} | {rank_correlation(p, t):.3f} | {r2(p, t):.3f} | {t.mean():.2f} | "
-                     f"{p.mean():.2f} |")
-    return lines
+        groups[kind] = [(float(drives[(r["checkpoint"], r["road_type"], int(r["seed"]))]["interventions_per_km"]),
+                         float(r["interventions_per_km"]))
+                        for r in rows if r["checkpoint"] in labels and kind in ("all", r["road_type"])]
+    return correlation_table(groups, "road", "int/km", "int/km")
 
 
 def scatter(path: Path, table: list[dict], corr: dict) -> None:
-    import matplotlib
+    from steerlab.figures import figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(1, 2, figsize=(13, 6), dpi=100)
-    for ax, key, unit in ((axes[0], "autonomy", "autonomy [%]"), (axes[1], "interventions_per_km", "interventions / km")):
-        t = np.array([r[f"true_{key}"] for r in table])
-        p = np.array([r[f"replay_{key}"] for r in table])
-        ax.scatter(t, p, s=25)
-        for r, x, y in zip(table, t, p):
-            ax.annotate(r["checkpoint"], (x, y), fontsize=6, alpha=0.8, xytext=(2, 2), textcoords="offset points")
-        lo, hi = min(t.min(), p.min()), max(t.max(), p.max())
-        pad = 0.05 * (hi - lo + 1e-9)
-        ax.plot([lo - pad, hi + pad], [lo - pad, hi + pad], "k:", lw=0.8)
-        c = corr[key]
-        ax.set_title(f"{unit}: Spearman {c['spearman']:.2f}, R$^2$ {c['r2']:.2f} ({c['n']} checkpoints)")
-        ax.set_xlabel(f"true closed loop (suite v1): {unit}")
-        ax.set_ylabel(f"replay on the expert's recordings: {unit}")
-        ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
+    with figure(path, 1, 2, figsize=(13, 6)) as (_, axes):
+        for ax, key, unit in ((axes[0], "autonomy", "autonomy [%]"),
+                              (axes[1], "interventions_per_km", "interventions / km")):
+            scatter_axes(ax, [r["checkpoint"] for r in table], [r[f"true_{key}"] for r in table],
+                         [r[f"replay_{key}"] for r in table], corr[key], f"true closed loop (suite v1): {unit}",
+                         f"replay on the expert's recordings: {unit}", title=f"{unit}: ")
 
 
 def warp_error(out: Path) -> list[str]:
@@ -322,29 +229,24 @@ def main() -> None:
         print("\n".join(warp), flush=True)
         print(f"(warp table in {time.time() - t0:.0f} s)", flush=True)
 
-    recs = record_expert(out, a.minutes)
+    recs = record_expert("road", out, a.minutes)
     data = training_data(out)
     ckpts = checkpoints(out, data)
     print(f"{len(ckpts)} checkpoints", flush=True)
     truth = true_closed_loop(ckpts, out, a.minutes, a.workers)
     rep, rows = replay(ckpts, recs, out, a.workers)
 
-    from steerlab.sim.road.suite import labels_for
-
     labels = labels_for(ckpts)
-    table = [{"checkpoint": label, "true_autonomy": truth[label]["autonomy"], "replay_autonomy": rep[label]["autonomy"],
-              "true_interventions": truth[label]["interventions"], "replay_interventions": rep[label]["interventions"],
-              "true_interventions_per_km": truth[label]["interventions_per_km"],
+    table = [{"checkpoint": label, "true_autonomy": truth[label].autonomy, "replay_autonomy": rep[label]["autonomy"],
+              "true_interventions": truth[label].interventions, "replay_interventions": rep[label]["interventions"],
+              "true_interventions_per_km": truth[label].interventions_per_km,
               "replay_interventions_per_km": rep[label]["interventions_per_km"],
-              "true_km": truth[label]["distance_km"], "replay_km": rep[label]["km"],
-              "true_mean_offset_m": truth[label]["mean_abs_offset_m"], "replay_mean_offset_m": rep[label]["mean_offset_m"]}
+              "true_km": truth[label].distance_km, "replay_km": rep[label]["km"],
+              "true_mean_offset_m": truth[label].mean_abs_offset_m, "replay_mean_offset_m": rep[label]["mean_offset_m"]}
              for label in labels]
     corr = {k: correlations([r[f"true_{k}"] for r in table], [r[f"replay_{k}"] for r in table])
             for k in ("autonomy", "interventions_per_km")}
-    with open(out / "results.csv", "w", newline="") as f:
-        w = csv.DictWriter(f, list(table[0]))
-        w.writeheader()
-        w.writerows([{k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in r.items()} for r in table])
+    write_table(out / "results.csv", table)
     lines = [f"Replay vs. true closed loop: {len(table)} checkpoints; truth = suite v1 ({a.minutes:g} min on each of its "
              f"{len(recs)} roads); replay = the same checkpoints on the expert's recordings of those roads (no drift "
              "episodes, centre camera, recorded speed), summed over the recordings. Autonomy from the summed time "

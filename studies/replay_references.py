@@ -4,10 +4,10 @@ a few ticks late, and of steering straight, on the same frames and at the same s
 The human's own steering rebuilds the path exactly (0 interventions: the replay is consistent); a human who
 reacts 0.1 or 0.2 s late and a driver who never steers bracket what a model's count means there.
 
-python benchmarks/replay_references.py --data ../shared/data/donkeycar/hall --range 4012:5015 \
+python studies/replay_references.py --data ../shared/data/donkeycar/hall --range 4012:5015 \
     --reader skip_missing=true --reader full_lock_deg=25 --speed 2
-python benchmarks/replay_references.py --data ../shared/data/donkeycar/hall --range 4012:5015 \
-    --reader skip_missing=true --reader full_lock_deg=25 --world track    # a small car's replay (replay_track.py)
+python studies/replay_references.py --data ../shared/data/donkeycar/hall --range 4012:5015 \
+    --reader skip_missing=true --reader full_lock_deg=25 --world track    # a small car's replay (replay/track.py)
 
 With `--checkpoint` (repeatable) trained models drive beside the references. With `--world track --camera-variants`
 every driver is replayed again through cameras that differ from the nominal one by -20 % and +20 % in the fisheye's
@@ -17,21 +17,25 @@ that a real tub does not describe.
 """
 
 import argparse
+import sys
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 from scipy.stats import spearmanr
 
-from _common import machine
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+from common import machine  # noqa: E402
 
-from steerlab.data.car import CARS
-from steerlab.data.fisheye import DONKEY_FISHEYE
-from steerlab.data.geometry import CAMERAS
-from steerlab.data.readers import Source, reader_options
-from steerlab.pilot import Controls, Pilot
-from steerlab.sim.replay.world import Replay, replay_recording
-from steerlab.sim.replay.track import TrackReplay
-from steerlab.sim.track.track import LANE_WIDTH
+from steerlab.data.car import CARS  # noqa: E402
+from steerlab.data.fisheye import DONKEY_FISHEYE  # noqa: E402
+from steerlab.data.geometry import CAMERAS  # noqa: E402
+from steerlab.data.readers import Source, reader_options  # noqa: E402
+from steerlab.pilot import Controls, Pilot  # noqa: E402
+from steerlab.sim.replay.run import replay_recording  # noqa: E402
+from steerlab.sim.replay.track import TrackReplay  # noqa: E402
+from steerlab.sim.replay.world import Replay  # noqa: E402
+from steerlab.sim.track.track import LANE_WIDTH  # noqa: E402
 
 
 class Scripted:
@@ -39,7 +43,7 @@ class Scripted:
 
     def __init__(self, rec, delay: int | None):
         self.rec, self.delay, self.k = rec, delay, 0
-        self.name, self.geometry, self.convention = "reference", rec.geometry, rec.convention
+        self.name, self.source, self.geometry, self.convention = "reference", "reference", rec.geometry, rec.convention
 
     def reset(self) -> None:
         pass
@@ -88,9 +92,9 @@ def main() -> None:
               "\n|---|---|---|---|---|")
         cam, car = CAMERAS[rec.geometry], CARS[rec.geometry]
         for label, make in drivers:
-            replay = (TrackReplay(rec, cam, car, args.speed, fisheye=fisheye, lane_width=args.lane_width)
-                      if args.world == "track" else Replay(rec, cam, car, args.speed, car.lane_limit_m))
-            rows, _ = replay_recording(make(), replay)
+            replay = (TrackReplay(cam, car, args.speed, fisheye=fisheye, lane_width=args.lane_width)
+                      if args.world == "track" else Replay(cam, car, args.speed, car.lane_limit_m))
+            rows, _ = replay_recording(make(), replay, rec)
             r = next(r for r in rows if r["segment"] == "all")
             counts.setdefault(camera, []).append(r["interventions"])
             print(f"| {label} | {r['km']:.3f} | {r['interventions']} | {r['interventions_per_km']:.1f} | "
