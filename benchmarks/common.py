@@ -181,13 +181,13 @@ def donkey_car(python: Path, car: Path) -> Path:
 
 
 class DonkeycarPart:
-    """donkeycar's own pilot part for a model trained by `donkey train`, run in donkeycar's environment:
+    """donkeycar's own pilot part for a model of `kind` trained by `donkey train`, run in donkeycar's environment:
     `run(img_arr)` sends the frame down a pipe and returns the part's (angle, throttle), the throttle capped."""
 
-    def __init__(self, python: Path, car: Path, model: Path, log: Path, max_throttle: float):
+    def __init__(self, python: Path, car: Path, model: Path, log: Path, max_throttle: float, kind: str = "linear"):
         self.log, self.max_throttle = log, max_throttle
         self.process = subprocess.Popen([str(python), str(ROOT / "studies" / "_donkey_part.py"),
-                                         str(car / "config.py"), str(model), "linear"], cwd=car,
+                                         str(car / "config.py"), str(model), kind], cwd=car,
                                         stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=open(log, "wb"))
         if self.process.stdout.readline() != b"ready\n":
             raise RuntimeError(f"donkeycar's part did not start; see {log}")

@@ -15,10 +15,10 @@ settings are its defaults for a tub (`TUB_DEFAULTS` in train/config.py: batch 32
 throttle learned with weight 0.5 where the model can), only the model is named; multimodal-lstm is the tub
 default.
 
-Each steerlab model is also replayed in closed loop on the held-out block with the small cars' replay (`steerlab
-replay --world track`: the fisheye frames warped to the car's view, the speed from the recorded throttle, an
-assumed full-lock angle of FULL_LOCK_DEG so that the tub's normalized steering becomes a wheel angle; an
-intervention where the car's body leaves a 0.9 m lane around the human's path).
+Each model, steerlab's and donkeycar's (its own part behind a pipe), is also replayed in closed loop on the held-out
+block with the small cars' replay (`steerlab replay --world track`: the fisheye frames warped to the car's view, the
+speed from the recorded throttle, an assumed full-lock angle of FULL_LOCK_DEG so that the tub's normalized steering
+becomes a wheel angle; an intervention where the car's body leaves a 0.9 m lane around the human's path).
 
 donkeycar is never a dependency of steerlab: it lives in its own virtual environment ($DONKEY_VENV, default
 runs/donkeycar-venv, made on first use with `pip install donkeycar[pc]`) and `_donkey_eval.py` runs there.
@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from common import ROOT, SHARED, donkey_car, donkey_python, machine  # noqa: E402
+from common import ROOT, SHARED, DonkeycarPart, donkey_car, donkey_python, machine  # noqa: E402
 
 from steerlab.data.readers import Source  # noqa: E402
 from steerlab.evaluate.offline import evaluate  # noqa: E402
@@ -121,6 +121,33 @@ def run_donkey(python: Path, tub: Path, rec, a: int, n: int, work: Path, kinds: 
             print(f"  donkeycar {kind} run {seed}: held-out MAE {r['mae']:.4f}, throttle MAE "
                   f"{r['throttle_mae']:.4f}, {seconds:.0f} s", flush=True)
             (work / "results.json").write_text(json.dumps(results, indent=1))
+    for kind in kinds:  # then each run in replay, as steerlab's models are
+        for seed in range(seeds):
+            key, model = f"donkeycar {kind} {seed}", work / f"{kind}-{seed}.h5"
+            if "mae" in results.get(key, {}) and "interventions" not in results[key]:
+                results[key].update(replay_donkey(python, car, model, kind, tub, a, n, work / f"{kind}-{seed}.log"))
+                print(f"  donkeycar {kind} run {seed}: replay {results[key]['interventions']} interventions in "
+                      f"{results[key]['km']:.2f} km", flush=True)
+                (work / "results.json").write_text(json.dumps(results, indent=1))
+
+
+def replay_donkey(python: Path, car: Path, model: Path, kind: str, tub: Path, b: int, n: int, log: Path) -> dict:
+    """donkeycar's model, its own part behind a pipe, in the small cars' replay of the held-out block, as
+    `steerlab replay --world track` replays steerlab's models (the throttle from the recording)."""
+    from steerlab.sim.core.part import PartPilot
+    from steerlab.sim.replay.run import replay_recording
+
+    rec = Source(str(tub), reader=READER).open()
+    replay = TrackReplayOptions(workers=1).setup(rec).replay
+    part = DonkeycarPart(python, car, model, log.with_suffix(".part.log"), 1.0, kind)
+    try:
+        rows, _ = replay_recording(PartPilot(part, FULL_LOCK_DEG, name=f"donkeycar {kind}", source=str(model)),
+                                   replay, rec, np.arange(b, n))
+    finally:
+        part.close()
+    r = rows[-1]
+    return {"interventions": r["interventions"], "interventions_per_km": r["interventions_per_km"],
+            "autonomy": r["autonomy"], "km": r["km"]}
 
 
 def run_steerlab(tub: Path, n: int, epochs: int, work: Path, models: list[str], seeds: int, results: dict) -> None:
