@@ -197,13 +197,20 @@ def main() -> None:
     out = Path(a.out)
     tubs = out / "tubs"
     record_tubs(tubs)
-    ckpts = {name: [train_recipe(name, int(seed), out, tubs) for seed in a.seeds.split(",")] for name in recipes}
+    caps = [float(c) for c in a.caps.split(",")]
+    for name in recipes:  # each recipe races as soon as it is trained
+        ckpts = [train_recipe(name, int(seed), out, tubs) for seed in a.seeds.split(",")]
+        for cap in caps:
+            race(ckpts, out / f"{a.suite}-max{cap:g}" / name, TrackSuiteOptions(suite=a.suite, max_throttle=cap,
+                                                                                workers=a.workers))
     donkey = donkey_models(out, tubs) if a.donkeycar else None
     results = []
-    for cap in (float(c) for c in a.caps.split(",")):
+    for cap in caps:
         o = TrackSuiteOptions(suite=a.suite, max_throttle=cap, workers=a.workers)
         suite = out / f"{a.suite}-max{cap:g}"
-        rows = [replace(r, label=f"{name}/{r.label}") for name in recipes for r in race(ckpts[name], suite / name, o)]
+        rows = [replace(r, label=f"{name}/{r.label}") for name in recipes
+                for r in race([train_recipe(name, int(seed), out, tubs) for seed in a.seeds.split(",")],
+                              suite / name, o)]
         if donkey:
             rows += race_donkeycar(*donkey, suite / DONKEYCAR, o)
         report(rows, suite, o, plots=False)
