@@ -9,11 +9,11 @@ pursuit of the lane centre, `road.run.rollout`) and drives the closed-loop suite
 `suite` is null); `world: replay` rolls out in closed-loop replay over the training frames of the config's
 recording (the expert: the human's steering plus pure pursuit's way back to the path,
 `replay.run.rollout_recording`) and replays the validation frames after every round; `world: track` (a config of
-donkeycar tubs, the track world's camera) races the model, with its learned throttle capped as the track suite
-caps it, on fresh tracks of both styles (taped and centre line) seen through the recording's fisheye (the expert,
-steering and throttle: pure pursuit of the lane centre and the feed-forward throttle to the track's speed
-profile, `track.run.rollout`), records the rollouts as tubs and drives the track suite (`suite: t1`; its tables,
-without the figures of the tracks) after every round. The worlds are `sim.worlds.WORLDS`' entries. `dagger.csv`
+donkeycar tubs, the track world's camera) races the model as the track suite drives it, its learned throttle capped
+at `max_throttle`, on fresh tracks of the styles `styles` (both by default: taped and centre line) seen through
+the recording's fisheye (the expert, steering and throttle: pure pursuit of the lane centre and the feed-forward
+throttle to the track's speed profile, capped as the car is, `track.run.rollout`), records the rollouts as tubs and
+drives the track suite (`suite: t1` or s1) after every round. The worlds are `sim.worlds.WORLDS`' entries. `dagger.csv`
 and `dagger.png` show autonomy (the track world: clean laps, lap time over the expert's, off-track events per
 lap) against the round. Every step is kept on disk and reused, so an interrupted run continues where it stopped.
 The final round's `best.pt`, `log.csv`, `val_predictions.csv` and `metrics.json` are copied to the output folder.

@@ -10,6 +10,7 @@ from steerlab.cli import path_option, Parser, add_options, data_args, flag, from
 from steerlab.errors import SteerlabError
 from steerlab.options import optional, options_of, value_of
 
+
 def world_options(a, command: str, extra: tuple[type, ...] = ()) -> list:
     """The options of `command` ("record", "drive", "suite" or "replay") in the world `a.world` from the flags
     given, then those of `extra`. A flag that only another world's options have is checked against its range,
@@ -129,7 +130,8 @@ def register(sub) -> None:
     path_option(q, "checkpoint", kind="file", help="checkpoint (.pt) or exported model (.onnx)")
     world(q, "drive", "sim drive", DriveWith)
     path_option(q, "--out", kind="folder", default="runs/drive", help="output folder (default runs/drive)")
-    path_option(q, "--video", kind="new-file", help="also write an MP4 of the drive with the model's and the expert's steering")
+    path_option(q, "--video", kind="new-file",
+                help="also write an MP4 of the drive with the model's and the expert's steering")
     q.set_defaults(func=cmd_sim_drive)
 
     q = sim.add_parser("bench", help="drive checkpoints on the fixed closed-loop benchmark roads or tracks",
@@ -156,7 +158,8 @@ def register(sub) -> None:
     path_option(q, "checkpoints", kind="file", nargs="+", help="checkpoints (.pt) or exported models (.onnx) to replay")
     data_args(q, camera=False)
     path_option(q, "--out", kind="folder", default="runs/replay", help="output folder (default runs/replay)")
-    path_option(q, "--video", kind="new-file", help="also write an MP4 of the warped view with the model's and the human's steering "
+    path_option(q, "--video", kind="new-file",
+                help="also write an MP4 of the warped view with the model's and the human's steering "
                    "(one per checkpoint)")
     q.add_argument("--world", choices=list(WORLDS), help="road: a car's replay, the frames warped as a pinhole "
                    "camera's, an intervention off the human's path or heading; track: a small car's, through its "

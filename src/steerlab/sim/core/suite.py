@@ -91,12 +91,12 @@ class Planned:
 def run_drives(job: Callable, result: type, planned: list[Planned], workers: int, ticks_per_job: int,
                progress: bool, desc: str) -> dict:
     """Every planned drive's result (a `result` dataclass) by `where`: read from its folder's drive.json when that
-    holds exactly the planned key (an unreadable one is driven anew), else `job(*args)`, the jobs in `workers`
-    worker processes."""
+    holds exactly the planned key and every field of `result` (an unreadable or partial one is driven anew), else
+    `job(*args)`, the jobs in `workers` worker processes."""
     results, todo = {}, []
     for p in planned:
         stored = _stored(p.folder / "drive.json", p.key)
-        if stored is not None:
+        if stored is not None and {f.name for f in dataclasses.fields(result)} <= set(stored):
             results[p.where] = from_json(result, stored)
         else:
             todo.append(p)
