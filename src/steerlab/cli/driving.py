@@ -160,7 +160,7 @@ def register(sub) -> None:
     path_option(q, "--out", kind="folder", default="runs/replay", help="output folder (default runs/replay)")
     path_option(q, "--video", kind="new-file",
                 help="also write an MP4 of the warped view with the model's and the human's steering "
-                   "(one per checkpoint)")
+                     "(one per checkpoint)")
     q.add_argument("--world", choices=list(WORLDS), help="road: a car's replay, the frames warped as a pinhole "
                    "camera's, an intervention off the human's path or heading; track: a small car's, through its "
                    "fisheye, the speed from the throttle, an intervention when the body leaves the lane (default: the "
