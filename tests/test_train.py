@@ -108,9 +108,33 @@ def test_smoothness_term_hand_computed_and_recurrent_only(tiny_recording, tmp_pa
         _cfg(tiny_recording, tmp_path, smoothness=-1)
 
 
-def test_side_cameras_and_episode_filter(tiny_recording, tmp_path):
-    cfg = _cfg(tiny_recording, tmp_path, epochs=1, side_cameras=True, exclude_episodes=["drift-out"])
-    loop.train(cfg, progress=False)
+def test_exclude_episodes_drops_the_drift_out_frames_of_training_only(tmp_path):
+    """A road-world drive whose first drift-out comes early (seed 26, 12 s at 5 frames/s: normal 0-25, drift-out
+    26-32, recover 33-39, normal 40-59), trained with side cameras on frames 0-29 and validated on 30-59, the
+    same drive also an extra recording: training draws every frame of the split and of the extra recording
+    whose episode label (log.csv, read here as text) is not drift-out, from each of the three cameras, and no
+    other; validation keeps its drift-out frames."""
+    from steerlab.sim.road.run import record
+
+    rec = record(tmp_path / "rec", RecordOptions(seed=26, minutes=0.2, fps=5), progress=False)
+    with open(rec / "log.csv") as f:
+        episode = [row["episode"] for row in csv.DictReader(f)]
+    assert [i for i, e in enumerate(episode) if e == "drift-out"] == list(range(26, 33))
+    cfg = _cfg(rec, tmp_path, epochs=1, side_cameras=True, exclude_episodes=["drift-out"],
+               split={"train": "0:30", "val": "30:60"}, extra=[str(rec)])
+    run = loop.build(cfg.for_car(CH2_CAR), Ranks(), False, None, None)
+    drawn = np.concatenate([batch.codes for batch in run.sampler])
+    assert len(drawn) == len(set(drawn.tolist()))  # each once an epoch
+    kept = {(k, int(c - run.data.offsets[k])) for c in drawn.tolist()
+            for k in [int(np.searchsorted(run.data.offsets, c, side="right")) - 1]}
+    not_drift = [i for i, e in enumerate(episode) if e != "drift-out"]
+    # streams: the recording's centre, left and right cameras, then the extra recording's
+    expected = {(k, i) for k in range(3) for i in not_drift if i < 30} | {(k, i) for k in range(3, 6) for i in not_drift}
+    assert kept == expected
+    assert list(run.val_idx) == list(range(30, 60))  # validation keeps drift-out frames 30-32
+    assert {episode[i] for i in range(60)} - {episode[i] for _, i in kept} == {"drift-out"}
+    (tmp_path / "run").mkdir()
+    loop.fit(run, Ranks(), False)  # and it trains on them
     assert len(_log(tmp_path)) == 1
 
 
