@@ -125,11 +125,12 @@ def test_exclude_episodes_drops_the_drift_out_frames_of_training_only(tmp_path):
     run = loop.build(cfg.for_car(CH2_CAR), Ranks(), False, None, None)
     drawn = np.concatenate([batch.codes for batch in run.sampler])
     assert len(drawn) == len(set(drawn.tolist()))  # each once an epoch
-    kept = {(k, int(c - run.data.offsets[k])) for c in drawn.tolist()
-            for k in [int(np.searchsorted(run.data.offsets, c, side="right")) - 1]}
+    stream = np.searchsorted(run.data.offsets, drawn, side="right") - 1  # of each sample code
+    kept = set(zip(stream.tolist(), (drawn - run.data.offsets[stream]).tolist()))  # (stream, frame)
     not_drift = [i for i, e in enumerate(episode) if e != "drift-out"]
-    # streams: the recording's centre, left and right cameras, then the extra recording's
-    expected = {(k, i) for k in range(3) for i in not_drift if i < 30} | {(k, i) for k in range(3, 6) for i in not_drift}
+    # streams 0-2: the recording's centre, left and right cameras on frames 0-29; 3-5: the extra recording's, whole
+    expected = ({(k, i) for k in range(3) for i in not_drift if i < 30}
+                | {(k, i) for k in range(3, 6) for i in not_drift})
     assert kept == expected
     assert list(run.val_idx) == list(range(30, 60))  # validation keeps drift-out frames 30-32
     assert {episode[i] for i in range(60)} - {episode[i] for _, i in kept} == {"drift-out"}
