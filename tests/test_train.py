@@ -7,6 +7,8 @@ import torch
 
 from dataclasses import replace
 
+from conftest import drawn_pixels, image_of, legend_of
+
 from steerlab.checkpoint import load_checkpoint
 from steerlab.data.car import CH2_CAR
 from steerlab.data.readers import Source, open_recording
@@ -39,7 +41,7 @@ def _log(tmp_path):
         return list(csv.DictReader(f))
 
 
-def test_training_lowers_loss_and_checkpoint_reproduces(tiny_recording, tmp_path):
+def test_training_lowers_loss_and_checkpoint_reproduces(tiny_recording, tmp_path, saved_figures):
     best = loop.train(_cfg(tiny_recording, tmp_path), progress=False)
     rows = _log(tmp_path)
     assert len(rows) == 4
@@ -49,9 +51,20 @@ def test_training_lowers_loss_and_checkpoint_reproduces(tiny_recording, tmp_path
                  progress=False)
     assert m["frames"] == 60
     assert m["rmse"] == pytest.approx(best["rmse"], rel=1e-3)
-    assert (tmp_path / "eval" / "steering.png").stat().st_size > 10_000
     with open(tmp_path / "eval" / "predictions.csv") as f:
-        assert next(csv.reader(f)) == ["frame_id", "steering_angle"]
+        table = list(csv.reader(f))
+    assert table[0] == ["frame_id", "steering_angle"] and len(table) == 61
+    # its plot: 11 x 3.6 inches at 110 dpi; the recorded and the predicted steering of the 60 frames in degrees,
+    # both drawn across the axes, and the legend naming them
+    png = tmp_path / "eval" / "steering.png"
+    img = image_of(png)
+    assert img.shape[:2] == (396, 1210)
+    ax = saved_figures[str(png)].axes[0]
+    assert legend_of(ax) == ["target", "pilotnet"]
+    target, predicted = ax.get_lines()
+    np.testing.assert_allclose(target.get_ydata(), np.degrees(open_recording(tiny_recording, "240:300").steering))
+    np.testing.assert_allclose(predicted.get_ydata(), np.degrees([float(r[1]) for r in table[1:]]), atol=1e-4)
+    assert drawn_pixels(img, ax, target.get_color()) > 500 and drawn_pixels(img, ax, predicted.get_color()) > 500
 
 
 @pytest.mark.parametrize("keep, epochs, best_epoch", [("best", 2, 1), ("last", 3, 3)])
