@@ -212,3 +212,84 @@ def resaved(path, ckpt) -> None:
     from steerlab.checkpoint import save_payload
 
     save_payload(path, ckpt)
+
+
+# Plots and videos: what a test reads of them beside the file. A figure is checked where it is drawn (its lines and
+# their points, its legend) and in the PNG written from it (its size, the pixels of its lines); a video by its frames.
+
+@pytest.fixture
+def saved_figures(monkeypatch):
+    """Every matplotlib figure saved in this process while the test runs, by the path it was saved to (as text),
+    kept after steerlab closes it."""
+    from matplotlib.figure import Figure
+
+    saved, save = {}, Figure.savefig
+
+    def keep(fig, path, *args, **kwargs):
+        saved[str(path)] = fig
+        return save(fig, path, *args, **kwargs)
+
+    monkeypatch.setattr(Figure, "savefig", keep)
+    return saved
+
+
+def image_of(path) -> np.ndarray:
+    """A PNG (or any image file) as OpenCV reads it: (height, width, 3) BGR."""
+    img = cv2.imread(str(path))
+    assert img is not None, f"{path} is not an image"
+    return img
+
+
+def legend_of(ax) -> list[str]:
+    legend = ax.get_legend()
+    assert legend is not None, "the axes have no legend"
+    return [text.get_text() for text in legend.get_texts()]
+
+
+def drawn_pixels(img: np.ndarray, ax, color) -> int:
+    """How many pixels of the saved figure `img` inside the axes `ax` (their frame and legend left out) show the
+    matplotlib colour `color`, alone or blended with the white background as the edges of an antialiased line
+    are (at least a third of the colour): what the artists of that colour drew."""
+    from matplotlib.colors import to_rgb
+
+    height = img.shape[0]
+
+    def box(artist, inset=0):  # the artist's extent in the image's pixel rows and columns
+        b = artist.get_window_extent()
+        return (max(int(height - b.y1) + inset, 0), int(height - b.y0) - inset,
+                max(int(b.x0) + inset, 0), int(b.x1) - inset)
+
+    white, ink = np.full(3, 255.0), np.array(to_rgb(color))[::-1] * 255  # BGR, as OpenCV reads
+    pixels = img.astype(float)
+    share = ((white - pixels) @ (white - ink)) / max(float((white - ink) @ (white - ink)), 1.0)
+    residual = np.linalg.norm(pixels - (white + share[..., None] * (ink - white)), axis=2)
+    near = (share >= 1 / 3) & (residual < 30)
+    inside = np.zeros_like(near)
+    r0, r1, c0, c1 = box(ax, inset=3)
+    inside[r0:r1, c0:c1] = True
+    if ax.get_legend() is not None:
+        r0, r1, c0, c1 = box(ax.get_legend())
+        inside[r0:r1, c0:c1] = False
+    return int((near & inside).sum())
+
+
+def video_frames(path) -> list[np.ndarray]:
+    """Every frame of a video file, decoded."""
+    video, frames = cv2.VideoCapture(str(path)), []
+    while True:
+        ok, frame = video.read()
+        if not ok:
+            return frames
+        frames.append(frame)
+
+
+def assert_video(path, count: int, size: tuple[int, int]) -> list[np.ndarray]:
+    """The video has `count` frames of `size` (width, height), and they move: at least half of the consecutive
+    pairs differ (a video of one repeated frame, or of blank frames, fails)."""
+    frames = video_frames(path)
+    assert len(frames) == count
+    assert {f.shape for f in frames} == {(size[1], size[0], 3)}
+    moved = sum(np.abs(a.astype(int) - b).mean() > 0.5 for a, b in zip(frames, frames[1:]))
+    assert moved >= (count - 1) / 2, f"{moved} of {count - 1} consecutive frames differ"
+    assert min(float(f.std()) for f in frames) > 5  # none blank
+    return frames

@@ -2,9 +2,13 @@ import argparse
 import csv
 import json
 
+import numpy as np
 import pytest
 
+from conftest import drawn_pixels, image_of, legend_of
 from steerlab.cli import build_parser, main
+from steerlab.evaluate.scoring import read_steering_csv
+from steerlab.sim.core.driving import Trajectory
 from steerlab.models import list_models
 
 
@@ -45,7 +49,7 @@ def test_a_wrong_option_value_is_one_line_naming_the_flag(capsys):
     assert err.count("\n") == 1 and "argument --workers: invalid int value: 'two'" in err
 
 
-def test_compile_train_evaluate_drive(tiny_recording, tmp_path, capsys):
+def test_compile_train_evaluate_drive(tiny_recording, tmp_path, capsys, saved_figures):
     cache = str(tmp_path / "cache")
     assert main(["compile", "--data", str(tiny_recording), "--modalities", "image,diff", "--cache", cache]) == 0
     assert "diff: (300, 66, 200, 1) uint8" in capsys.readouterr().out
@@ -64,7 +68,22 @@ def test_compile_train_evaluate_drive(tiny_recording, tmp_path, capsys):
     offsets = [abs(float(r["lateral_offset_m"])) for r in csv.DictReader(open(tmp_path / "drive" / "trajectory.csv"))]
     assert len(offsets) == 60 and result["label"] == "pilotnet"  # 0.05 min at 20 frames/s
     assert result["mean_abs_offset_m"] == pytest.approx(sum(offsets) / 60, abs=1e-4)
-    assert (tmp_path / "drive" / "frames.png").exists()
+    # frames.png: the frames kept every 5 s, here the first, as the road world renders it (country road 100)
+    from steerlab.sim.road.world import World
+
+    np.testing.assert_array_equal(image_of(tmp_path / "drive" / "frames.png"),
+                                  World(100, "country", "sim", 3.0, 20.0).render())
+    # path.png: the driven path on the map and its offset, both drawn; the legend names the lane and the model
+    png = tmp_path / "drive" / "path.png"
+    img = image_of(png)
+    assert img.shape[:2] == (500, 1300)
+    the_map, offsets = saved_figures[str(png)].axes
+    assert legend_of(the_map) == ["lane centre", "pilotnet"]
+    drive = Trajectory.read(tmp_path / "drive" / "trajectory.csv")
+    path, line = the_map.get_lines()[-1], offsets.get_lines()[0]
+    np.testing.assert_allclose(path.get_xydata(), np.c_[drive.x, drive.y], atol=1e-4)  # as the csv rounds
+    np.testing.assert_allclose(line.get_ydata(), drive.offset, atol=1e-4)
+    assert drawn_pixels(img, the_map, path.get_color()) > 50 and drawn_pixels(img, offsets, line.get_color()) > 500
 
 
 def test_models_lists_every_model_with_its_needs(capsys):
@@ -102,7 +121,7 @@ def test_train_errors_are_one_line(tmp_path, capsys):
     assert not (tmp_path / "exp").exists()
 
 
-def test_experiment_table(tiny_recording, tmp_path, capsys):
+def test_experiment_table(tiny_recording, tmp_path, capsys, saved_figures):
     cfg = tmp_path / "exp.yaml"
     cfg.write_text(f"""
 data: {tiny_recording}
@@ -121,15 +140,16 @@ models:
     text = (tmp_path / "exp" / "table.md").read_text()
     assert "| zero | image (gray) | 1@200x66 |" in text and "| flow | image+flow (gray) | 3@128x64 |" in text
     assert (tmp_path / "exp" / "flow" / "seed1" / "best.pt").exists()
-    assert (tmp_path / "exp" / "predictions.png").exists()
+    check_predictions_plot(tmp_path / "exp", saved_figures)
     # one figure per road with every model's seed-0 drive on it; the runs' own suites draw none
     assert sorted(p.name for p in (tmp_path / "exp" / "roads").iterdir()) == [f"twisty-930{k}.png" for k in (1, 2, 3)]
     assert not list((tmp_path / "exp").glob("*/seed*/suite/roads"))
+    check_road_plot(tmp_path / "exp", "twisty-9302", saved_figures)
     assert ("| autonomy [%] | country / highway / twisty [%] | interventions/km | command gamma [deg] | "
             "worst seed: country / highway / twisty [%] |") in text
     assert "holding the current speed" in text
     assert "Rank correlation of the open-loop metrics with autonomy: not defined here" in text  # two trained models
-    assert (tmp_path / "exp" / "open_vs_closed.png").exists()
+    check_open_vs_closed_plot(tmp_path / "exp", saved_figures)
     speed_row = next(line for line in text.splitlines() if line.startswith("| multitask-speed | ") and "+-" in line
                      and "@" not in line)  # the paper 002 table: steering MAE, speed MAE, command accuracy
     assert speed_row.split("|")[3].strip() != "-" and speed_row.split("|")[4].strip() == "-"
@@ -153,3 +173,52 @@ models:
     assert all(r["frames"] == "80" and r["speed_source"] == "recorded" for r in replayed)
     assert float(flow["replay_interventions_per_km_mean"]) == pytest.approx(
         sum(float(r["interventions_per_km"]) for r in replayed) / 2, rel=1e-4)
+
+
+def check_predictions_plot(exp, saved_figures):
+    """predictions.png: 11 x 3.6 inches at 110 dpi, the validation steering and every model's seed-0 predictions
+    over the 80 validation frames in degrees, each drawn, and a legend naming them."""
+    img = image_of(exp / "predictions.png")
+    assert img.shape[:2] == (396, 1210)
+    ax = saved_figures[str(exp / "predictions.png")].axes[0]
+    assert legend_of(ax) == ["target", "zero", "flow", "multitask-speed"]
+    lines = ax.get_lines()
+    assert [len(line.get_ydata()) for line in lines] == [80] * 4
+    for line, label in zip(lines[1:], ["zero", "flow", "multitask-speed"]):
+        predicted = read_steering_csv(exp / label / "seed0" / "val_predictions.csv")[1]
+        np.testing.assert_allclose(line.get_ydata(), np.degrees(predicted), atol=1e-4)
+    assert min(drawn_pixels(img, ax, line.get_color()) for line in lines) > 500  # about 1,700-2,400 each
+
+
+def check_road_plot(exp, road, saved_figures):
+    """roads/ROAD.png: 13 x 5 inches at 100 dpi; on the map (left) and in the offsets (right) every model's seed-0
+    drive as its trajectory.csv has it, each drawn, and a legend naming the models with their autonomy."""
+    png = exp / "roads" / f"{road}.png"
+    img = image_of(png)
+    assert img.shape[:2] == (500, 1300)
+    the_map, offsets = saved_figures[str(png)].axes
+    legend = legend_of(the_map)
+    assert legend[0] == "lane centre" and [t.split(" (")[0] for t in legend[1:]] == ["zero", "flow", "multitask-speed"]
+    paths, lines = the_map.get_lines()[-3:], offsets.get_lines()[:3]
+    for path, line, label in zip(paths, lines, ["zero", "flow", "multitask-speed"]):
+        drive = Trajectory.read(next((exp / label / "seed0" / "suite").glob(f"*/{road}/trajectory.csv")))
+        assert len(drive) == 12  # 0.01 minutes at 20 frames/s
+        np.testing.assert_allclose(path.get_xydata(), np.c_[drive.x, drive.y], atol=1e-4)  # as the csv rounds
+        np.testing.assert_allclose(line.get_ydata(), drive.offset, atol=1e-4)
+        assert drawn_pixels(img, offsets, line.get_color()) > 100  # 400-700 measured
+    # the three paths start together on the map, so the last drawn covers the first: they are drawn together
+    assert sum(drawn_pixels(img, the_map, path.get_color()) for path in paths) > 100  # 260 measured
+
+
+def check_open_vs_closed_plot(exp, saved_figures):
+    """open_vs_closed.png: 8 x 5.5 inches at 100 dpi, one point per trained model at its validation RMSE and
+    its autonomy on the suite (table.csv), drawn, and the legend."""
+    img = image_of(exp / "open_vs_closed.png")
+    assert img.shape[:2] == (550, 800)
+    ax = saved_figures[str(exp / "open_vs_closed.png")].axes[0]
+    assert legend_of(ax) == ["models"]
+    trained = [r for r in csv.DictReader(open(exp / "table.csv")) if float(r["epoch_mean"]) > 0]
+    points = ax.collections[0]
+    np.testing.assert_allclose(points.get_offsets(), [[float(r["rmse_mean"]), float(r["autonomy_mean"])]
+                                                      for r in trained])
+    assert drawn_pixels(img, ax, points.get_facecolor()[0]) > 50  # 178 measured, two markers

@@ -8,7 +8,7 @@ import cv2
 import numpy as np
 import pytest
 
-from conftest import resaved
+from conftest import assert_video, drawn_pixels, image_of, legend_of, resaved
 from steerlab.cli import main
 from steerlab.data.car import CH2_CAR
 from steerlab.data.geometry import CAMERAS, shift_view
@@ -22,14 +22,7 @@ from steerlab.sim.road.road import LANE_CENTER, Road
 from steerlab.sim.road.run import drive, record, rollout
 from steerlab.sim.road.suite import SUITES, SuiteDrive, summarize
 from steerlab.sim.road.world import DriveOptions, RecordOptions, World
-
-
-def frame_count(path) -> int:
-    cap = cv2.VideoCapture(str(path))
-    n = 0
-    while cap.read()[0]:
-        n += 1
-    return n
+from steerlab.video import MODEL, REFERENCE
 
 
 class ConstantPilot:
@@ -162,7 +155,7 @@ def test_rollout_labels_are_the_experts(tmp_path):
     assert set(rec.extra["episode"]) == {"rollout"}
 
 
-def test_dagger_aggregates_rollouts(tiny_recording, tmp_path):
+def test_dagger_aggregates_rollouts(tiny_recording, tmp_path, saved_figures):
     from steerlab.dagger import run_dagger
     from steerlab.train.config import load_config
     from steerlab.sim.road.suite import SuiteOptions
@@ -182,7 +175,18 @@ def test_dagger_aggregates_rollouts(tiny_recording, tmp_path):
         rows = list(csv.DictReader(f))
     assert [r["round"] for r in rows] == ["0", "1"] and rows[1]["recordings"] == "3"
     assert float(rows[1]["beta"]) == 0.5 and rows[1]["autonomy_twisty"] != "" and rows[1]["autonomy_country"] == ""
-    assert (tmp_path / "dagger" / "dagger.png").exists()
+    # dagger.png: 7 x 4 inches at 100 dpi; the suite's twisty roads (the only ones driven) and all of them, and
+    # the validation RMSE, per round as dagger.csv has them, drawn, the legend naming the three
+    png = tmp_path / "dagger" / "dagger.png"
+    img = image_of(png)
+    assert img.shape[:2] == (400, 700)
+    autonomy, rmse = saved_figures[str(png)].axes
+    assert legend_of(autonomy) == ["twisty", "all", "val RMSE"]
+    twisty, everywhere = autonomy.get_lines()
+    assert list(twisty.get_xdata()) == [0, 1]
+    for line, key in [(twisty, "autonomy_twisty"), (everywhere, "autonomy_all"), (rmse.get_lines()[0], "val_rmse")]:
+        np.testing.assert_allclose(line.get_ydata(), [float(r[key]) for r in rows])
+    assert drawn_pixels(img, autonomy, twisty.get_color()) > 100 and drawn_pixels(img, autonomy, "black") > 100
     # a second run into the folder may resume the same config (other workers allowed), not another one
     from steerlab.dagger import _claim
 
@@ -276,12 +280,14 @@ def test_drive_and_evaluate_videos(tiny_checkpoint, tiny_recording, tmp_path):
 
     r = drive(Pilot(tiny_checkpoint), tmp_path / "d", DriveOptions(seed=101, minutes=0.025), video=tmp_path / "d.mp4",
               progress=False)
-    assert frame_count(tmp_path / "d.mp4") == 30 and r.distance_km > 0
+    assert r.distance_km > 0
+    # every tick a frame: the 320x160 camera scaled to 640 wide over a panel of 150 rows, the road moving
     evaluate(tiny_checkpoint, Source(str(tiny_recording), "0:20"), tmp_path / "e", video=tmp_path / "e.mp4",
              progress=False)
-    assert frame_count(tmp_path / "e.mp4") == 20
-    first = cv2.VideoCapture(str(tmp_path / "e.mp4")).read()[1]
-    assert first.shape[1] == 640 and first.shape[0] > 320  # the camera view with the wheels below it
+    for path, count in ((tmp_path / "d.mp4", 30), (tmp_path / "e.mp4", 20)):
+        frames = assert_video(path, count, (640, 470))
+        for color in (MODEL, REFERENCE):  # the model's wheel (amber) and the expert's or recorded one (green)
+            assert (np.abs(frames[0][320:].astype(int) - color).max(axis=2) < 40).sum() > 200, (path, color)
 
 
 def test_another_camera_is_refused_unless_asked_for(tiny_checkpoint, ch2_folder, tmp_path, capsys):

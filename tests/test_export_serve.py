@@ -26,9 +26,10 @@ from steerlab.data.preprocess import PreprocessOptions
 from steerlab.models.registry import ModelSpec
 
 
-def untrained(tmp_path, name: str, geometry: str = "ch2"):
-    """A checkpoint of `name` with random weights and non-trivial standardisation statistics."""
-    pre = ModelSpec(name, {}).preprocess(PreprocessOptions(preset=geometry)).resolve()
+def untrained(tmp_path, name: str, geometry: str = "ch2", size: dict | None = None):
+    """A checkpoint of `name` with random weights and non-trivial standardisation statistics (input `size`:
+    {width, height}, default the geometry's)."""
+    pre = ModelSpec(name, {}).preprocess(PreprocessOptions(preset=geometry, **(size or {}))).resolve()
     c = sum(pre.channels().values())
     model_cfg = {"in_channels": c, "height": pre.height, "width": pre.width}
     torch.manual_seed(0)

@@ -7,7 +7,7 @@ import math
 import cv2
 import numpy as np
 import pytest
-from conftest import SHARED, made
+from conftest import SHARED, assert_video, drawn_pixels, image_of, legend_of, made
 
 from steerlab.cli import main
 from steerlab.data.car import CARS, CH2_CAR
@@ -136,7 +136,7 @@ def test_speed_estimated_from_the_frames(twisty):
     assert estimate == pytest.approx(float(np.median(twisty.speed)), rel=0.1)
 
 
-def test_replay_command_writes_its_report(tiny_checkpoint, twisty, tmp_path, capsys):
+def test_replay_command_writes_its_report(tiny_checkpoint, twisty, tmp_path, capsys, saved_figures):
     out = tmp_path / "replay"
     assert main(["replay", str(tiny_checkpoint), str(tiny_checkpoint.parent / "last.pt"), "--data", str(twisty.source),
                  "--range", "0:70", "--out", str(out), "--video", str(tmp_path / "r.mp4"), "--workers", "1"]) == 0
@@ -147,13 +147,26 @@ def test_replay_command_writes_its_report(tiny_checkpoint, twisty, tmp_path, cap
     for r in rows:
         assert r["recording"] == twisty.name and float(r["km"]) > 0 and r["speed_source"] == "recorded"
         assert float(r["interventions_per_km"]) == pytest.approx(int(r["interventions"]) / float(r["km"]), rel=1e-3)
-    for name in ("replay.md", "replay.png", "segments.csv"):
+    for name in ("replay.md", "segments.csv"):
         assert (out / name).exists()
     assert [r["checkpoint"] for r in rows] == ["best", "last"]
-    for label in ("best", "last"):
-        assert (tmp_path / f"r-{label}.mp4").exists()
     traj = Trajectory.read(out / "best" / "trajectory.csv")
     assert len(traj) == 69 and traj.interventions == int(rows[0]["interventions"])
+    # replay.png: 12 x 4 inches at 100 dpi, each checkpoint's offset from the human's path along the route as its
+    # trajectory.csv has it, drawn; the legend names them with their interventions, and the limit
+    img = image_of(out / "replay.png")
+    assert img.shape[:2] == (400, 1200)
+    ax = saved_figures[str(out / "replay.png")].axes[0]
+    assert legend_of(ax) == [f"best ({rows[0]['interventions']} interventions)",
+                             f"last ({rows[1]['interventions']} interventions)", "intervention limit (+-1 m)"]
+    best, last = ax.get_lines()[0:4:2]  # each offset line is followed by its intervention marks
+    for label, line in (("best", best), ("last", last)):
+        np.testing.assert_allclose(line.get_ydata(), Trajectory.read(out / label / "trajectory.csv").offset, atol=1e-4)
+    # one epoch of training: best.pt and last.pt hold the same weights, so the last line covers the first
+    assert drawn_pixels(img, ax, last.get_color()) > 200
+    # a video per checkpoint: a frame every tick, the warped 320x160 view scaled to 640 wide over the panel
+    for label in ("best", "last"):
+        assert_video(tmp_path / f"r-{label}.mp4", 69, (640, 470))
     assert traj.frame[0] == 0 and (traj.segment == 0).all()
     assert main(["replay", str(tiny_checkpoint), "--data", str(twisty.source), "--range", "0:70", "--speed", "9",
                  "--out", str(tmp_path / "given"), "--workers", "1"]) == 0

@@ -6,18 +6,17 @@ import json
 import math
 from dataclasses import replace
 
-import cv2
 import numpy as np
 import pytest
 
-from conftest import made
+from conftest import assert_video, drawn_pixels, image_of, legend_of, made
 from steerlab.cli import main
 from steerlab.data.car import CARS
 from steerlab.data.readers import open_recording
 from steerlab.data.recording import SteeringConvention
 from steerlab.errors import SteerlabError
 from steerlab.pilot import Controls
-from steerlab.sim.core.driving import drive_loop
+from steerlab.sim.core.driving import Trajectory, drive_loop
 from steerlab.sim.core.part import PartPilot, donkey_pilot
 from steerlab.sim.track.smallcar import speed_after, steady_speed
 from steerlab.sim.track.world import Laps, RacerPilot, TrackWorld
@@ -243,7 +242,7 @@ def donkeycar_tub_or_none(request):
         return None
 
 
-def test_sim_drive_world_track_with_a_tub_checkpoint(tmp_path, capsys):
+def test_sim_drive_world_track_with_a_tub_checkpoint(tmp_path, capsys, saved_figures):
     ckpt = made(tmp_path, "normalized", "right", "donkey", full_lock_deg=25)
     out = tmp_path / "drive"
     assert main(["sim", "drive", str(ckpt), "--world", "track", "--minutes", "0.025", "--throttle", "0.4",
@@ -256,9 +255,22 @@ def test_sim_drive_world_track_with_a_tub_checkpoint(tmp_path, capsys):
     assert result["off_track"] == sum(int(r["intervention"]) for r in rows)
     assert result["autonomy"] == pytest.approx((1 - result["off_track"] * 6 / 1.5) * 100)
     assert float(rows[-1]["speed"]) > 1.0  # throttle 0.4 for a steering model
-    assert (out / "track.png").exists() and (out / "frames.png").exists()
-    video = cv2.VideoCapture(str(out / "drive.mp4"))
-    assert sum(1 for _ in iter(lambda: video.read()[0], False)) == 30
+    # track.png, 13 x 5.5 inches at 100 dpi: the driven line on the track and the speed over time as
+    # trajectory.csv has them, both drawn, and the legend; frames.png: the first frame of the fisheye camera
+    img = image_of(out / "track.png")
+    assert img.shape[:2] == (550, 1300)
+    the_track, speed = saved_figures[str(out / "track.png")].axes
+    assert legend_of(the_track) == ["start line", f"pilotnet ({result['off_track']} off track)"]
+    drive = Trajectory.read(out / "trajectory.csv")
+    path, line = the_track.get_lines()[4], speed.get_lines()[0]
+    np.testing.assert_allclose(path.get_xydata()[~drive.intervention.astype(bool)],
+                               np.c_[drive.x, drive.y][~drive.intervention.astype(bool)], atol=1e-4)
+    np.testing.assert_allclose(line.get_ydata(), drive.speed, atol=1e-4)
+    assert drawn_pixels(img, the_track, path.get_color()) > 10 and drawn_pixels(img, speed, line.get_color()) > 200
+    strip = image_of(out / "frames.png")
+    assert strip.shape[:2] == (120, 160) and strip.std() > 5
+    # drive.mp4: a frame every tick, the 160x120 camera scaled to 640 wide over the panel of 150 rows
+    assert_video(out / "drive.mp4", 30, (640, 630))
 
 
 def test_a_model_that_learned_the_throttle_drives_the_track_with_its_own(tmp_path):

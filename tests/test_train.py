@@ -7,6 +7,8 @@ import torch
 
 from dataclasses import replace
 
+from conftest import drawn_pixels, image_of, legend_of
+
 from steerlab.checkpoint import load_checkpoint
 from steerlab.data.car import CH2_CAR
 from steerlab.data.readers import Source, open_recording
@@ -39,7 +41,7 @@ def _log(tmp_path):
         return list(csv.DictReader(f))
 
 
-def test_training_lowers_loss_and_checkpoint_reproduces(tiny_recording, tmp_path):
+def test_training_lowers_loss_and_checkpoint_reproduces(tiny_recording, tmp_path, saved_figures):
     best = loop.train(_cfg(tiny_recording, tmp_path), progress=False)
     rows = _log(tmp_path)
     assert len(rows) == 4
@@ -49,9 +51,20 @@ def test_training_lowers_loss_and_checkpoint_reproduces(tiny_recording, tmp_path
                  progress=False)
     assert m["frames"] == 60
     assert m["rmse"] == pytest.approx(best["rmse"], rel=1e-3)
-    assert (tmp_path / "eval" / "steering.png").stat().st_size > 10_000
     with open(tmp_path / "eval" / "predictions.csv") as f:
-        assert next(csv.reader(f)) == ["frame_id", "steering_angle"]
+        table = list(csv.reader(f))
+    assert table[0] == ["frame_id", "steering_angle"] and len(table) == 61
+    # its plot: 11 x 3.6 inches at 110 dpi; the recorded and the predicted steering of the 60 frames in degrees,
+    # both drawn across the axes, and the legend naming them
+    png = tmp_path / "eval" / "steering.png"
+    img = image_of(png)
+    assert img.shape[:2] == (396, 1210)
+    ax = saved_figures[str(png)].axes[0]
+    assert legend_of(ax) == ["target", "pilotnet"]
+    target, predicted = ax.get_lines()
+    np.testing.assert_allclose(target.get_ydata(), np.degrees(open_recording(tiny_recording, "240:300").steering))
+    np.testing.assert_allclose(predicted.get_ydata(), np.degrees([float(r[1]) for r in table[1:]]), atol=1e-4)
+    assert drawn_pixels(img, ax, target.get_color()) > 500 and drawn_pixels(img, ax, predicted.get_color()) > 500
 
 
 @pytest.mark.parametrize("keep, epochs, best_epoch", [("best", 2, 1), ("last", 3, 3)])
@@ -108,9 +121,34 @@ def test_smoothness_term_hand_computed_and_recurrent_only(tiny_recording, tmp_pa
         _cfg(tiny_recording, tmp_path, smoothness=-1)
 
 
-def test_side_cameras_and_episode_filter(tiny_recording, tmp_path):
-    cfg = _cfg(tiny_recording, tmp_path, epochs=1, side_cameras=True, exclude_episodes=["drift-out"])
-    loop.train(cfg, progress=False)
+def test_exclude_episodes_drops_the_drift_out_frames_of_training_only(tmp_path):
+    """A road-world drive whose first drift-out comes early (seed 26, 12 s at 5 frames/s: normal 0-25, drift-out
+    26-32, recover 33-39, normal 40-59), trained with side cameras on frames 0-29 and validated on 30-59, the
+    same drive also an extra recording: training draws every frame of the split and of the extra recording
+    whose episode label (log.csv, read here as text) is not drift-out, from each of the three cameras, and no
+    other; validation keeps its drift-out frames."""
+    from steerlab.sim.road.run import record
+
+    rec = record(tmp_path / "rec", RecordOptions(seed=26, minutes=0.2, fps=5), progress=False)
+    with open(rec / "log.csv") as f:
+        episode = [row["episode"] for row in csv.DictReader(f)]
+    assert [i for i, e in enumerate(episode) if e == "drift-out"] == list(range(26, 33))
+    cfg = _cfg(rec, tmp_path, epochs=1, side_cameras=True, exclude_episodes=["drift-out"],
+               split={"train": "0:30", "val": "30:60"}, extra=[str(rec)])
+    run = loop.build(cfg.for_car(CH2_CAR), Ranks(), False, None, None)
+    drawn = np.concatenate([batch.codes for batch in run.sampler])
+    assert len(drawn) == len(set(drawn.tolist()))  # each once an epoch
+    stream = np.searchsorted(run.data.offsets, drawn, side="right") - 1  # of each sample code
+    kept = set(zip(stream.tolist(), (drawn - run.data.offsets[stream]).tolist()))  # (stream, frame)
+    not_drift = [i for i, e in enumerate(episode) if e != "drift-out"]
+    # streams 0-2: the recording's centre, left and right cameras on frames 0-29; 3-5: the extra recording's, whole
+    expected = ({(k, i) for k in range(3) for i in not_drift if i < 30}
+                | {(k, i) for k in range(3, 6) for i in not_drift})
+    assert kept == expected
+    assert list(run.val_idx) == list(range(30, 60))  # validation keeps drift-out frames 30-32
+    assert {episode[i] for i in range(60)} - {episode[i] for _, i in kept} == {"drift-out"}
+    (tmp_path / "run").mkdir()
+    loop.fit(run, Ranks(), False)  # and it trains on them
     assert len(_log(tmp_path)) == 1
 
 

@@ -8,7 +8,7 @@ import sys
 import pytest
 import yaml
 
-from conftest import CliProcess
+from conftest import CliProcess, drawn_pixels, image_of, legend_of
 from steerlab.cli import flag
 from steerlab.errors import SteerlabError
 from steerlab.options import parse
@@ -105,11 +105,11 @@ def test_small_study_prunes_and_writes_a_runnable_best_config(tmp_path, tiny_rec
     assert best.tune is None
     if len(complete) >= 2:  # too few trials for fANOVA: said, no numbers
         assert (out / "importance.md").read_text().startswith(f"fANOVA importance: {len(complete)} completed trials")
-        assert not (out / "importance.png").exists() and (out / "slice.png").stat().st_size > 0
-    assert (out / "history.png").stat().st_size > 0
+        assert not (out / "importance.png").exists() and image_of(out / "slice.png").shape[:2] == (528, 704)
+    assert image_of(out / "history.png").shape[:2] == (440, 715)  # what they draw: the test below
 
 
-def test_importance_names_the_parameter_the_objective_depends_on(tmp_path, tiny_recording):
+def test_importance_names_the_parameter_the_objective_depends_on(tmp_path, tiny_recording, saved_figures):
     """Twelve completed trials whose objective depends on the learning rate only: fANOVA gives it most of the
     explained variance (89 %: twelve points are few for a forest); with nine the report says they are too few."""
     import numpy as np
@@ -136,7 +136,28 @@ def test_importance_names_the_parameter_the_objective_depends_on(tmp_path, tiny_
               if line.startswith("| ") and "hyperparameter" not in line and "---" not in line}
     assert table.startswith("fANOVA importance over 12 completed trials")
     assert shares["train.lr"] > 80 and sum(shares.values()) == pytest.approx(100.0, abs=0.15)
-    assert (tmp_path / "twelve" / "importance.png").stat().st_size > 0
+    # the plots, 6.5 x 4 inches at 110 dpi: the twelve objective values and the best so far, drawn and named in the
+    # legend; a bar per parameter as long as its share of importance.md; the slice, a point per trial per parameter
+    folder, values = tmp_path / "twelve", [t.value for t in study.trials]
+    img = image_of(folder / "history.png")
+    assert img.shape[:2] == (440, 715)
+    history = saved_figures[str(folder / "history.png")].axes[0]
+    assert legend_of(history) == ["Objective Value", "Best Value"]
+    points, best = history.collections[0], history.get_lines()[0]
+    np.testing.assert_allclose(points.get_offsets()[:, 1], values)
+    np.testing.assert_allclose(best.get_ydata(), np.minimum.accumulate(values))
+    assert drawn_pixels(img, history, points.get_facecolor()[0]) > 100
+    assert drawn_pixels(img, history, best.get_color()) > 100
+    img = image_of(folder / "importance.png")
+    assert img.shape[:2] == (440, 715)
+    bars = saved_figures[str(folder / "importance.png")].axes[0]
+    assert sorted(100 * p.get_width() for p in bars.patches) == pytest.approx(sorted(shares.values()), abs=0.06)
+    assert drawn_pixels(img, bars, bars.patches[0].get_facecolor()) > 1000
+    assert image_of(folder / "slice.png").shape[:2] == (528, 704)
+    panels = [ax for ax in saved_figures[str(folder / "slice.png")].axes if ax.get_label() != "<colorbar>"]
+    assert [ax.get_xlabel() for ax in panels] == ["model.dropout", "train.lr"]
+    for ax in panels:
+        np.testing.assert_allclose(ax.collections[0].get_offsets()[:, 1], values)
 
 
 def test_reports_leave_out_surplus_trials_and_trials_not_yet_claimed(tmp_path, tiny_recording):
