@@ -27,7 +27,7 @@ import csv
 import json
 import subprocess
 import sys
-from dataclasses import asdict, replace
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -60,43 +60,92 @@ def base(tubs: Path) -> dict:
                       "throttle_weight": 1.0}}
 
 
-RECIPES = {  # name: (what differs from donkeycar's recipe, overrides)
-    "donkey": ("donkeycar linear's recipe", []),
-    "crop": ("the donkey crop (the top 40 rows off: 160x80)", ["preprocess.crop=[40,0,0,0]", "preprocess.height=80"]),
-    "gray": ("gray instead of RGB", ["preprocess.color=gray"]),
-    "200x66": ("resized to 200x66", ["preprocess.width=200", "preprocess.height=66"]),
-    "pilotnet": ("PilotNet's network", ["model.name=pilotnet"]),
-    "mae": ("the MAE of the steering", ["train.loss=mae"]),
-    "random-split": ("a random 20 % of the first tub validates", ["split={random: 0.2}"]),
-    "throttle-0.5": ("the throttle's weight 0.5", ["train.throttle_weight=0.5"]),
-    "batch-32": ("batches of 32, Adam 3e-4", ["train.batch_size=32", "train.lr=3.0e-4"]),
-    "lstm": ("recurrent: the CNN-LSTM", ["model.name=lstm"]),
-    "tub-default": ("steerlab's tub default (multimodal-lstm, gray 200x66 crop, MAE, batch 32, Adam 3e-4, throttle "
-                    "weight 0.5)", ["model.name=multimodal-lstm", "preprocess.crop=[40,0,0,0]", "preprocess.width=200",
-                                    "preprocess.height=66", "preprocess.color=gray", "train.loss=mae",
-                                    "train.batch_size=32", "train.lr=3.0e-4", "train.throttle_weight=0.5"]),
+@dataclass(frozen=True)
+class Recipe:
+    """What differs from donkeycar's recipe (`what`): config overrides (`{init}` in one stands for the checkpoint of
+    the recipe `starts` with the same seed), options of the suite it races with (`race`: a steering step, a
+    latency), more tubs to train on (`tubs`: names of `AUGMENT`), and `starts`: the recipe it builds on (with no
+    overrides it races that recipe's checkpoint as it is)."""
+
+    what: str
+    overrides: tuple[str, ...] = ()
+    race: dict = field(default_factory=dict)
+    tubs: tuple[str, ...] = ()
+    starts: str | None = None
+
+
+# the same tracks 1-4 in other rooms (floor, light, clutter) and seen from other camera mounts
+AUGMENT = {f"{style}-{seed}-room": [style, str(seed), "--room", str(100 + seed), "--mount-height",
+                                    str(round(0.15 + 0.02 * (seed - 2.5), 3)), "--pitch", str(20 + 2 * (seed - 2.5))]
+           for style in ("taped", "centre") for seed in (1, 2, 3, 4)}
+CROP, GRAY_200x66 = ["preprocess.crop=[40,0,0,0]", "preprocess.height=80"], ["preprocess.width=200",
+                                                                             "preprocess.height=66"]
+RECIPES = {
+    # one factor at a time from donkeycar linear's recipe
+    "donkey": Recipe("donkeycar linear's recipe"),
+    "crop": Recipe("the donkey crop (the top 40 rows off: 160x80)", tuple(CROP)),
+    "gray": Recipe("gray instead of RGB", ("preprocess.color=gray",)),
+    "200x66": Recipe("resized to 200x66", tuple(GRAY_200x66)),
+    "pilotnet": Recipe("PilotNet's network", ("model.name=pilotnet",)),
+    "mae": Recipe("the MAE of the steering", ("train.loss=mae",)),
+    "random-split": Recipe("a random 20 % of the first tub validates", ("split={random: 0.2}",)),
+    "throttle-0.5": Recipe("the throttle's weight 0.5", ("train.throttle_weight=0.5",)),
+    "batch-32": Recipe("batches of 32, Adam 3e-4", ("train.batch_size=32", "train.lr=3.0e-4")),
+    "lstm": Recipe("recurrent: the CNN-LSTM", ("model.name=lstm",)),
+    "tub-default": Recipe("steerlab's tub default (multimodal-lstm, gray 200x66 crop, MAE, batch 32, Adam 3e-4, "
+                          "throttle weight 0.5)",
+                          ("model.name=multimodal-lstm", "preprocess.crop=[40,0,0,0]", *GRAY_200x66,
+                           "preprocess.color=gray", "train.loss=mae", "train.batch_size=32", "train.lr=3.0e-4",
+                           "train.throttle_weight=0.5")),
+    # the levers of small-car racing, on donkeycar's recipe
+    "dagger": Recipe("+ DAgger in the track world: 3 rounds of 4 minutes of rollouts, uncapped, the expert's labels "
+                     "at the car's speed", ("train.init={init}", "train.epochs=1",
+                                            "dagger={world: track, suite: s1, suite_minutes: 1.0, iterations: 3, "
+                                            "minutes: 4.0, beta: 0.5, beta_decay: 0.5, epochs: 3, max_throttle: 1.0, "
+                                            "seeds_from: 6000}"), starts="donkey"),
+    "steering-step": Recipe("+ the steering's change limited to 0.1 of full lock per frame",
+                            race={"steering_step": 0.1}, starts="donkey"),
+    "latency": Recipe("+ a frame one tick old (a real part's latency), labels not shifted", race={"latency": 1},
+                      starts="donkey"),
+    "latency-matched": Recipe("+ a frame one tick old, trained on the steering one tick later",
+                              ("train.target_shift_s=0.05",), race={"latency": 1}),
+    "stack-3": Recipe("+ three stacked frames", ("preprocess.stack=3",)),
+    "augment": Recipe("+ the same tracks in other rooms and from other camera mounts (8 more tubs)",
+                      tubs=tuple(AUGMENT)),
 }
 
 
-def record_tubs(tubs: Path) -> None:
-    for name in TUBS:
+def record_tubs(tubs: Path, names) -> None:
+    """The tubs `names` (of TUBS and AUGMENT), recorded where they are missing."""
+    for name in names:
         if not (tubs / name / "manifest.json").exists():
-            style, seed = name.split("-")
+            style, seed, *extra = AUGMENT.get(name) or name.split("-")
             subprocess.run([sys.executable, "-m", "steerlab", "sim", "record", "--world", "track", "--style", style,
-                            "--seed", seed, "--minutes", str(TUB_MINUTES), "--out", str(tubs / name)], check=True)
+                            "--seed", seed, "--minutes", str(TUB_MINUTES), *extra, "--out", str(tubs / name)],
+                           check=True)
 
 
 def train_recipe(name: str, seed: int, out: Path, tubs: Path) -> Path:
-    """The recipe's checkpoint for `seed` (trained once; an interrupted training resumes)."""
+    """The recipe's checkpoint for `seed` (trained once; an interrupted training resumes; DAgger where the recipe
+    has a `dagger` section)."""
+    from steerlab.dagger import run_dagger
     from steerlab.train.config import load_config
     from steerlab.train.loop import train
 
+    recipe = RECIPES[name]
+    if recipe.starts and not recipe.overrides and not recipe.tubs:
+        return train_recipe(recipe.starts, seed, out, tubs)
+    init = train_recipe(recipe.starts, seed, out, tubs) if recipe.starts else None
     run = out / "recipes" / name / f"seed{seed}"
     if not (run / "done.json").exists():
         print(f"== training {name}, seed {seed}", flush=True)
-        cfg = load_config(None, base=base(tubs), overrides=[*RECIPES[name][1], f"train.seed={seed}", f"out={run}"])
-        metrics = train(cfg, progress=False)
-        (run / "done.json").write_text(json.dumps(metrics, indent=1))
+        record_tubs(tubs, recipe.tubs)
+        cfg = base(tubs)
+        cfg["extra_data"] += [str(tubs / t) for t in recipe.tubs]
+        cfg = load_config(None, base=cfg, overrides=[*(o.replace("{init}", str(init)) for o in recipe.overrides),
+                                                     f"train.seed={seed}", f"out={run}"])
+        metrics = run_dagger(cfg, progress=False) if cfg.dagger else train(cfg, progress=False)
+        (run / "done.json").write_text(json.dumps(metrics if isinstance(metrics, dict) else str(metrics), indent=1))
     return run / "best.pt"
 
 
@@ -143,6 +192,11 @@ def race_donkeycar(car: Path, models: list[Path], out: Path, o: TrackSuiteOption
     return rows
 
 
+def suite_options(name: str, suite: str, cap: float, workers: int) -> TrackSuiteOptions:
+    """The suite a recipe races: `suite` under the throttle cap `cap`, with the recipe's own race options."""
+    return TrackSuiteOptions(suite=suite, max_throttle=cap, workers=workers, **RECIPES[name].race)
+
+
 def table(rows: list, cap: float) -> list[dict]:
     """Per recipe (the label's first part): the mean over its runs of each overall summary value, and the runs'."""
     overall = [s for s in summarize(rows) if s.style == "all"]
@@ -164,7 +218,7 @@ def table(rows: list, cap: float) -> list[dict]:
 
 
 def markdown(rows: list[dict], suite: str) -> str:
-    what = {**{n: d for n, (d, _) in RECIPES.items()}, DONKEYCAR: "donkeycar's own trainer and part"}
+    what = {**{n: r.what for n, r in RECIPES.items()}, DONKEYCAR: "donkeycar's own trainer and part"}
     lines = [f"Track suite {suite}, every checkpoint over the same tracks (pace: over the tracks every checkpoint of "
              "the same cap finished, their number beside it). Means over the runs (seeds).", "",
              "| recipe | what differs from donkeycar's recipe | cap | runs | laps | clean laps [%] | finished | "
@@ -196,13 +250,12 @@ def main() -> None:
         sys.exit(f"error: unknown recipes {unknown}; known: {', '.join(RECIPES)}")
     out = Path(a.out)
     tubs = out / "tubs"
-    record_tubs(tubs)
+    record_tubs(tubs, TUBS)
     caps = [float(c) for c in a.caps.split(",")]
     for name in recipes:  # each recipe races as soon as it is trained
         ckpts = [train_recipe(name, int(seed), out, tubs) for seed in a.seeds.split(",")]
         for cap in caps:
-            race(ckpts, out / f"{a.suite}-max{cap:g}" / name, TrackSuiteOptions(suite=a.suite, max_throttle=cap,
-                                                                                workers=a.workers))
+            race(ckpts, out / f"{a.suite}-max{cap:g}" / name, suite_options(name, a.suite, cap, a.workers))
     donkey = donkey_models(out, tubs) if a.donkeycar else None
     results = []
     for cap in caps:
@@ -210,7 +263,7 @@ def main() -> None:
         suite = out / f"{a.suite}-max{cap:g}"
         rows = [replace(r, label=f"{name}/{r.label}") for name in recipes
                 for r in race([train_recipe(name, int(seed), out, tubs) for seed in a.seeds.split(",")],
-                              suite / name, o)]
+                              suite / name, suite_options(name, a.suite, cap, a.workers))]
         if donkey:
             rows += race_donkeycar(*donkey, suite / DONKEYCAR, o)
         report(rows, suite, o, plots=False)
