@@ -606,7 +606,7 @@ BAD_INPUTS = {
     "replay tub speed nan": (_tub_replay("--speed", "nan"), "--speed must be positive and finite, got nan"),
     "replay speed inf": (_with("--speed", "inf", command="replay"), "--speed must be positive and finite, got inf"),
     "replay calibration that does not parse": (_tub_replay(calibration="{not json"),
-                                               "calib.json: not a JSON calibration file"),
+                                               "calib.json, row 1: not valid JSON"),
     "replay calibration of another image size": (
         _tub_replay(calibration={**CALIBRATION, "image_size": [640, 480]}),
         "calib.json: calibrated at 640x480, but the camera takes 160x120 frames"),
@@ -723,7 +723,7 @@ BAD_INPUTS = {
     "track lane width 0": (_track("record", "--lane-width", "0"), "--lane-width must be a number in (0, 2] m, got 0"),
     "track lane width -0.5": (_track("drive", "--lane-width=-0.5"), "--lane-width must be a number in (0, 2] m"),
     "track calibration that does not parse": (_track("drive", calibration="{not json"),
-                                              "calib.json: not a JSON calibration file"),
+                                              "calib.json, row 1: not valid JSON"),
     "track calibration of another image size": (
         _track("bench", calibration={**CALIBRATION, "image_size": [640, 480]}),
         "calib.json: calibrated at 640x480, but the camera takes 160x120 frames"),

@@ -28,6 +28,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Literal
 
+from steerlab.files import write_json
 from steerlab.data.car import car_of
 from steerlab.errors import SteerlabError
 from steerlab.options import AT_LEAST_0, AT_LEAST_1, Options, POSITIVE, UNIT, as_dict, option, parse
@@ -193,7 +194,7 @@ def run_dagger(cfg: TrainConfig, progress: bool = True) -> Path:
             if progress:
                 print(f"== DAgger round {r}: training on {1 + len(extra)} recording(s)")
             metrics = train(round_cfg, progress=progress)
-            (run / "metrics.json").write_text(json.dumps(metrics, indent=1))
+            write_json(run / "metrics.json", metrics)
         metrics = json.loads((run / "metrics.json").read_text())
         if replay:
             closed = replay.evaluate(run / "best.pt", run / "replay", progress)
@@ -233,7 +234,7 @@ def _claim(out: Path, cfg: TrainConfig, o: DaggerOptions, car) -> None:
             raise SteerlabError(f"{out} holds a DAgger run with another config; choose a new out directory or "
                                 "delete it")
     out.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps({**as_dict(cfg), "dagger": as_dict(o)}, indent=1))
+    write_json(path, {**as_dict(cfg), "dagger": as_dict(o)})
 
 
 FIELDS = ["round", "beta", "recordings", "rollout_autonomy", "val_rmse", "autonomy_country", "autonomy_highway",

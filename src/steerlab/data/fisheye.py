@@ -36,6 +36,7 @@ import yaml
 
 from steerlab.data.geometry import CAMERAS
 from steerlab.errors import DataError, SteerlabError
+from steerlab.files import UniqueKeys, parse_json, read_text
 
 PINHOLE = CAMERAS["donkey"]  # the pinhole view `undistort` makes by default: the donkey geometry's focal length
 
@@ -260,7 +261,7 @@ def _check_frame(img: np.ndarray, cam: FisheyeCamera) -> None:
 
 # --- calibration files -------------------------------------------------------------------------------------------
 
-class _Loader(yaml.SafeLoader):
+class _Loader(UniqueKeys):
     """YAML as OpenCV's FileStorage writes it: `%YAML:1.0` and `!!opencv-matrix` {rows, cols, dt, data}."""
 
 
@@ -274,13 +275,10 @@ SIZE_KEYS = ("image_size", "DIM", "image_width/image_height")
 
 
 def _parse(path: Path) -> dict:
-    try:
-        text = path.read_text()
-    except OSError as e:
-        raise DataError(path, f"cannot read the calibration file ({e.strerror})") from None
+    text = read_text(path, "calibration file")
     try:
         if path.suffix.lower() == ".json":
-            data = json.loads(text)
+            data = parse_json(text, path)
         else:
             if text.startswith("%YAML:"):  # OpenCV's FileStorage header, which PyYAML does not take
                 text = text.split("\n", 1)[1] if "\n" in text else ""

@@ -18,6 +18,7 @@ from steerlab.data.recording import Recording
 from steerlab.data.rows import parse_range
 from steerlab.data.simlog import SIM_OPTIONS, read_sim_log
 from steerlab.errors import DataError, SteerlabError
+from steerlab.files import UniqueKeys
 
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mkv", ".mov")
 
@@ -32,7 +33,7 @@ def reader_options(items: list[str]) -> dict:
         if "=" not in item:
             raise SteerlabError(f"--reader {item!r} must look like key=value, e.g. full_lock_deg=25")
         key, value = item.split("=", 1)
-        out[key.strip()] = yaml.safe_load(value)
+        out[key.strip()] = yaml.load(value, Loader=UniqueKeys)
     return out
 
 

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from steerlab.data.recording import Recording, SteeringConvention
-from steerlab.data.rows import apply_range, check_images, check_unique, ends_torn, number, read_rows
+from steerlab.data.rows import csv_header, apply_range, check_images, check_unique, ends_torn, number, read_rows
 from steerlab.errors import DataError, warn
 
 MPH_TO_MS = 0.44704
@@ -92,7 +92,7 @@ def read_sim_log(log: str | Path, frame_range=None, strict: bool = False) -> Rec
     log = Path(log)
     rows = read_rows(log)
     if rows and rows[0][0].strip() == "center":
-        header = [h.strip() for h in rows[0]]
+        header = csv_header(log, rows[0])
         missing = [c for c in SIM_COLUMNS if c not in header]
         if missing:
             raise DataError(log, f"header lacks columns {missing}; expected {','.join(SIM_COLUMNS)}", 1)

@@ -18,7 +18,7 @@ import cv2
 import numpy as np
 
 from steerlab.data.preprocess import CROP_PRESETS
-from steerlab.data.rows import apply_range, check_unique, number, read_rows
+from steerlab.data.rows import csv_header, apply_range, check_unique, number, read_rows
 from steerlab.data.recording import Recording, SteeringConvention, VideoFrames
 from steerlab.errors import DataError
 
@@ -49,7 +49,7 @@ def read_video(path: str | Path, frame_range=None, log: str | Path | None = None
     rows = read_rows(log)
     if len(rows) < 2:
         raise DataError(log, "the log has no rows")
-    header = [h.strip() for h in rows[0]]
+    header = csv_header(log, rows[0])
     col = {h: i for i, h in enumerate(header)}
     time_col = next((c for c in ("timestamp_ns", "timestamp", "frame") if c in col), None)
     if "steering" not in col or time_col is None:

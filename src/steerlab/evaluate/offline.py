@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from functools import partial
 from itertools import islice
 from pathlib import Path
@@ -15,6 +14,7 @@ from steerlab.data.labels import speed_targets
 from steerlab.data.readers import Source
 from steerlab.evaluate.metrics import SMOOTHING_ALPHA, all_metrics, exponential_smoothing, steering_metrics
 from steerlab.errors import SteerlabError, warn
+from steerlab.files import write_json
 from steerlab.evaluate.plots import plot_steering
 from steerlab.evaluate.scoring import write_predictions
 from steerlab.pilot import Pilot
@@ -118,5 +118,5 @@ def evaluate(checkpoint: str | Path, source: Source, out: str | Path, camera: st
                   title=f"{rec.name} {source.range or ''}: RMSE {metrics['rmse']:.4f} rad, "
                         f"gamma {metrics['gamma_deg']:.3f} vs target {metrics['target_gamma_deg']:.3f} deg",
                   throttle=(rec.throttle, pred["throttle"]) if "throttle" in metrics else None)
-    (out / "metrics.json").write_text(json.dumps(metrics, indent=1))
+    write_json(out / "metrics.json", metrics)
     return metrics

@@ -8,19 +8,18 @@ from pathlib import Path
 
 import numpy as np
 
-from steerlab.paths import regular_file
+from steerlab.files import csv_header, read_csv
 from steerlab.errors import DataError
 from steerlab.evaluate.metrics import gamma_deg, mae_deg, rmse
 
 
 def read_steering_csv(path: str | Path, need_public: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """Read `frame_id,steering_angle[,public]`; returns ids, angles and the public flags (or None)."""
-    path = regular_file(Path(path), "predictions file")
-    with open(path, newline="") as f:
-        rows = [r for r in csv.reader(f) if r]
+    path = Path(path)
+    rows = read_csv(path, "predictions file")
     if not rows:
         raise DataError(path, "the file is empty")
-    header = [h.strip() for h in rows[0]]
+    header = csv_header(path, rows[0])
     if "frame_id" not in header or "steering_angle" not in header:
         raise DataError(path, f"expected columns 'frame_id,steering_angle', got {header}", 1)
     if need_public and "public" not in header:

@@ -7,7 +7,6 @@ the replay of a recording (`setup`) and refuse what they cannot replay (`check_p
 from __future__ import annotations
 
 import csv
-import json
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
@@ -19,6 +18,7 @@ from steerlab.data.readers import Source
 from steerlab.data.recording import Recording
 from steerlab.data.writer import RecordingWriter
 from steerlab.errors import DataError, SteerlabError, warn
+from steerlab.files import write_json
 from steerlab.options import AT_LEAST_1, Options, POSITIVE, option
 from steerlab.pilot import smoothing_option
 from steerlab.sim.core.driving import Trajectory, autonomy, drive_loop, rollout
@@ -123,8 +123,8 @@ def run_replay(checkpoints, source: Source, out: str | Path, o=ReplayOptions(), 
                          for r in rows if keep(r)])
     whole = [r for r in rows if r["segment"] == "all"]
     (out / "replay.md").write_text(markdown(whole, setup.criterion, o.smoothing))
-    (out / "replay.json").write_text(json.dumps({"data": source.data, "range": source.range, **setup.camera,
-                                                 "car": asdict(car), "smoothing": o.smoothing, "rows": rows}, indent=1))
+    write_json(out / "replay.json", {"data": source.data, "range": source.range, **setup.camera, "car": asdict(car),
+                                     "smoothing": o.smoothing, "rows": rows})
     from steerlab.sim.replay.plots import plot_offsets  # matplotlib: imported where it draws, not with the options
 
     plot_offsets(out / "replay.png", {n: Trajectory.read(out / n / "trajectory.csv") for n in names},
