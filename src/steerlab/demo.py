@@ -5,11 +5,11 @@ with plots. Every step reuses what an interrupted earlier run already finished."
 from __future__ import annotations
 
 import csv
-import json
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
+from steerlab.files import write_json
 from steerlab.options import AT_LEAST_1, Options, POSITIVE, option
 
 TRAIN_SEED = 1
@@ -25,7 +25,7 @@ class DemoOptions(Options):
     3, with batches of 64 where the demo takes 16 (four times the updates: the single-frame models drive twisty
     roads better with them, docs/RESULTS.md "Batches of 16")."""
 
-    out: str = option("runs/demo", help="output folder", path="folder")
+    out: str = option("runs/demo", help="output folder", path="folder", makes="demo")
     minutes: float = option(8.0, POSITIVE, "positive and finite",
                             help="minutes of expert driving on mixed roads to train on")
     fps: float = option(10.0, POSITIVE, "positive and finite",
@@ -86,9 +86,8 @@ def run_demo(o: DemoOptions = DemoOptions(), progress: bool = True) -> Path:
     report = out / "report.md"
     report.write_text(_report(offline, rounds, dagger_minutes, (out / "replay" / "replay.md").read_text(),
                               (out / "closed-loop" / "suite.md").read_text(), split, n))
-    (out / "summary.json").write_text(json.dumps({"open_loop": offline, "dagger": rounds, "replay": replay,
-                                                 "closed_loop": [asdict(s) for s in summary],
-                                                 "seconds": stages.seconds}, indent=1))
+    write_json(out / "summary.json", {"open_loop": offline, "dagger": rounds, "replay": replay,
+                                      "closed_loop": [asdict(s) for s in summary], "seconds": stages.seconds})
     return report
 
 

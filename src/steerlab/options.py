@@ -82,11 +82,12 @@ class Options:
 
 
 def option(default: Any = MISSING, check: Callable | None = None, expected: str | None = None, help: str = "",
-           path: str | None = None):
+           path: str | None = None, makes: str | None = None):
     """A dataclass field with its check (a `Range`, or any `check(value) -> bool` on the parsed value), the
     words an error uses for what is expected (derived from a Range when not given), its help, and for a path what
-    it names (`path`: "file" to read, "folder" to write into, "new-file" to write; the command line checks it)."""
-    meta = {"check": check, "expected": expected, "help": help, "path": path}
+    it names (`path`: "file" to read, "folder" to write into, "new-file" to write; the command line checks it) and
+    for a folder the kind of folder written there (`makes`, one of `paths.KINDS`)."""
+    meta = {"check": check, "expected": expected, "help": help, "path": path, "makes": makes}
     if isinstance(default, (list, dict, set)):
         return field(default_factory=lambda: copy.deepcopy(default), metadata=meta)
     return field(default=default, metadata=meta)
@@ -101,6 +102,7 @@ class OptionInfo:
     expected: str
     help: str
     path: str | None = None
+    makes: str | None = None
 
 
 def _shown(value) -> str:
@@ -273,4 +275,4 @@ def options_of(cls, prefix: str = "") -> Iterator[OptionInfo]:
             f.default_factory() if f.default_factory is not MISSING else MISSING)
         check = f.metadata.get("check")
         yield OptionInfo(key, kind, default, check, f.metadata.get("expected") or words(kind, check),
-                         f.metadata.get("help", ""), f.metadata.get("path"))
+                         f.metadata.get("help", ""), f.metadata.get("path"), f.metadata.get("makes"))

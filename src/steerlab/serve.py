@@ -189,7 +189,8 @@ class ServeOptions(Options):
     set_speed: float = option(4.0, Range(0), "a finite number of at least 0 (m/s)",
                               help="speed the PI controller holds, m/s")
     smoothing: float | None = smoothing_option()
-    record: str | None = option(None, help="folder to record the drive to (driving_log.csv + IMG/)", path="folder")
+    record: str | None = option(None, help="folder to record the drive to (driving_log.csv + IMG/)", path="folder",
+                               makes="recording")
 
 
 def serve(checkpoint: str | Path, o: ServeOptions = ServeOptions(), host: str = "0.0.0.0") -> None:

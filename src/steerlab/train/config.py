@@ -20,7 +20,8 @@ from steerlab.data.splits import Split
 from steerlab.data.tub import is_tub
 from steerlab.errors import SteerlabError
 from steerlab.models.registry import ModelSpec, learns_throttle, list_models
-from steerlab.paths import regular_file
+from steerlab import files
+from steerlab.files import UniqueKeys
 from steerlab.options import AT_LEAST_0, AT_LEAST_1, Options, POSITIVE, Range, UNIT, as_dict, option, parse
 
 LOSSES = {"mse": "rmse", "mae": "mae"}  # train.loss -> the validation metric that picks the best epoch
@@ -116,6 +117,11 @@ class TrainConfig(Options):
                                 f"these do: {able}")
         self.model.check(self.preprocessing())  # the input fits the model's layers
 
+    def inputs(self) -> list[str]:
+        """Every path the run reads: recordings, a label file or video log, checkpoints. No output may be one."""
+        return [p for p in (self.data, *self.extra_data, self.labels, self.reader.get("log"), self.train.init,
+                            self.train.teacher) if isinstance(p, str)]
+
     def preprocessing(self, geometry: str | None = None) -> PreprocessConfig:
         """The preprocessing of this config's model on a recording of the camera `geometry`."""
         return self.model.preprocess(self.preprocess).resolve(geometry)
@@ -169,7 +175,7 @@ def apply_override(cfg: dict, text: str) -> None:
         node[parts[-1]] = value
         return
     try:
-        node[parts[-1]] = yaml.safe_load(value)
+        node[parts[-1]] = yaml.load(value, Loader=UniqueKeys)
     except yaml.YAMLError as e:
         raise SteerlabError(f"override {text!r}: the value is not valid YAML ({getattr(e, 'problem', None) or e}); "
                             f"quote it: {key}='\"{value}\"'") from None
@@ -177,11 +183,8 @@ def apply_override(cfg: dict, text: str) -> None:
 
 def read_yaml(path: str | Path, what: str = "sections (data, split, model, train, ...)") -> dict:
     """A YAML config file as a mapping, with one-line errors."""
-    path = regular_file(path, "config file")
-    try:
-        data = yaml.safe_load(path.read_text()) or {}
-    except yaml.YAMLError as e:
-        raise SteerlabError(f"{path}: not valid YAML: {e}") from None
+    path = Path(path)
+    data = files.read_yaml(path, "config file") or {}
     if not isinstance(data, dict):
         raise SteerlabError(f"{path}: expected a mapping of {what}")
     return data
