@@ -32,7 +32,7 @@ from steerlab.files import write_json
 from steerlab.data.car import car_of
 from steerlab.errors import SteerlabError
 from steerlab.options import AT_LEAST_0, AT_LEAST_1, Options, POSITIVE, UNIT, as_dict, option, parse
-from steerlab.paths import folder_to_write
+from steerlab.paths import check_outputs
 from steerlab.sim.core.parallel import run_parallel
 from steerlab.sim.road.world import ROADS, road_types
 from steerlab.sim.worlds import WORLDS, suite_world, track_styles
@@ -149,7 +149,8 @@ def run_dagger(cfg: TrainConfig, progress: bool = True) -> Path:
             suite.drives()
         except SteerlabError as e:
             raise SteerlabError(f"dagger.suite_{world.kinds}: {e}") from None
-    out = folder_to_write(cfg.out, "output folder (out)")
+    check_outputs({"output folder (out)": cfg.out}, inputs=cfg.inputs(), kind="dagger")
+    out = Path(cfg.out)
     car = car_of(rec.geometry)
     cfg = cfg.for_car(car)
     _claim(out, cfg, o, car)

@@ -10,6 +10,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from steerlab.files import write_json
+from steerlab.paths import check_outputs
 from steerlab.options import AT_LEAST_1, Options, POSITIVE, option
 
 TRAIN_SEED = 1
@@ -53,6 +54,7 @@ def run_demo(o: DemoOptions = DemoOptions(), progress: bool = True) -> Path:
     out, minutes, fps, epochs, suite_minutes, dagger_minutes, workers = (
         o.out, o.minutes, o.fps, o.epochs, o.suite_minutes, o.dagger_minutes, o.workers)
     out = Path(out)
+    check_outputs({"output folder (out)": out}, kind="demo")
     out.mkdir(parents=True, exist_ok=True)
     rec_dir = out / "recording"
     stages = Stages()

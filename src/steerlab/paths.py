@@ -159,6 +159,12 @@ def writable(path: Path, what: str = "output folder") -> None:
     """That `path` (a folder to make or fill, or a file to write) can be written: its name fits the file system, and
     a file can be made in the nearest folder that exists. Checked before any work, so that nothing is computed
     for an output that cannot be kept."""
+    if path.is_file():  # a file written again: opened for appending, which changes nothing
+        try:
+            open(path, "ab").close()
+        except OSError as e:
+            raise DataError(path, f"cannot be written ({reason(e)})") from None
+        return
     existing = path
     while not existing.exists() and existing != existing.parent:
         existing = existing.parent
