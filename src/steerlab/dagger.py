@@ -31,7 +31,8 @@ from typing import Literal
 from steerlab.files import write_json
 from steerlab.data.car import car_of
 from steerlab.errors import SteerlabError
-from steerlab.options import AT_LEAST_0, AT_LEAST_1, Options, POSITIVE, UNIT, as_dict, option, parse
+from steerlab.options import (AT_LEAST_0, AT_LEAST_1, MINUTES, Options, SEED, SPEED, UNIT, as_dict, holds_frames,
+                              option, parse)
 from steerlab.paths import check_outputs
 from steerlab.sim.core.parallel import run_parallel
 from steerlab.sim.road.world import ROADS, road_types
@@ -61,9 +62,9 @@ class DaggerOptions(Options):
         "road", help="where the rollouts drive: fresh roads of the road world, the config's recording in replay, or "
         "fresh tracks of the track world (a config of donkeycar tubs)")
     iterations: int = option(3, AT_LEAST_0, help="rounds of rollout + retraining after the first training")
-    minutes: float = option(4.0, POSITIVE, help="minutes of rollouts per round, shared by the road types (the "
+    minutes: float = option(4.0, MINUTES, help="minutes of rollouts per round, shared by the road types (the "
                             "track world: by the track styles)")
-    seeds_from: int = option(5000, help="round r drives road (or track) seeds seeds_from + 100 r + k")
+    seeds_from: int = option(5000, SEED, help="round r drives road (or track) seeds seeds_from + 100 r + k")
     beta: float = option(0.5, UNIT, help="probability that the expert drives a tick, in round 1")
     beta_decay: float = option(0.5, UNIT, help="beta is multiplied by this every round")
     epochs: int = option(4, AT_LEAST_1, help="epochs of every retraining (round 0 uses train.epochs)")
@@ -71,8 +72,7 @@ class DaggerOptions(Options):
     suite: str | None = option("v1", lambda v: v in ALL_SUITES, " or ".join(ALL_SUITES),
                                help="closed-loop suite after every round: a road suite (v1) for world road, a track "
                                "suite (t1) for world track (null: none)")
-    suite_minutes: float | None = option(None, POSITIVE, "positive and finite",
-                                         help="minutes per suite road or track")
+    suite_minutes: float | None = option(None, MINUTES, help="minutes per suite road or track")
     workers: int = option(2, AT_LEAST_1, help="parallel rollouts and suite drives")
     roads: str = option("mixed", _roads, ROADS, help="road world: road types of the rollouts")
     suite_roads: str | None = option(None, help="road world: comma list of the suite's road types to drive "
@@ -81,7 +81,9 @@ class DaggerOptions(Options):
                                 help="track world: track styles of the rollouts (default: both)")
     suite_styles: str | None = option(None, help="track world: comma list of the suite's track styles to drive "
                                       "(default: all)")
-    speed: float | None = option(None, POSITIVE, help="replay: m/s for a recording without speed")
+    speed: float | None = option(None, SPEED, help="replay: m/s for a recording without speed")
+
+    related = holds_frames("minutes", "suite_minutes", fps=20.0)
 
 
 # the options that belong to some worlds only: given for another, they are refused
@@ -119,8 +121,11 @@ def round_suite(o: DaggerOptions):
     if o.suite not in world.suites:
         raise SteerlabError(f"dagger.suite: {o.suite} is a {suite_world(o.suite).name} suite; world {o.world} "
                             f"drives a {o.world} suite ({', '.join(world.suites)}) or none (null)")
-    return world.suite_options(suite=o.suite, minutes=o.suite_minutes, workers=o.workers,
-                               **{world.kinds: getattr(o, f"suite_{world.kinds}")})
+    given = {"suite": o.suite, "minutes": o.suite_minutes, "workers": o.workers,
+             world.kinds: getattr(o, f"suite_{world.kinds}")}
+    names = {"minutes": "suite_minutes", world.kinds: f"suite_{world.kinds}"}  # the suite's options as dagger names them
+    return parse(world.suite_options, {k: v for k, v in given.items() if v is not None},
+                 name=lambda f: f"dagger.{names.get(f, f)}")
 
 
 def _check_world(o: DaggerOptions, rec) -> None:

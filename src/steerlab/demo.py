@@ -11,7 +11,7 @@ from pathlib import Path
 
 from steerlab.files import write_json
 from steerlab.paths import check_outputs
-from steerlab.options import AT_LEAST_1, Options, POSITIVE, option
+from steerlab.options import AT_LEAST_1, FPS, MINUTES, Options, frames_held, option
 
 TRAIN_SEED = 1
 ROADS = "country,twisty,highway,twisty"  # the recipe of configs/experiment_recipe.yaml: half the time on tight curves
@@ -27,16 +27,17 @@ class DemoOptions(Options):
     roads better with them, docs/RESULTS.md "Batches of 16")."""
 
     out: str = option("runs/demo", help="output folder", path="folder", makes="demo")
-    minutes: float = option(8.0, POSITIVE, "positive and finite",
-                            help="minutes of expert driving on mixed roads to train on")
-    fps: float = option(10.0, POSITIVE, "positive and finite",
-                        help="frames per second of the recording (the DAgger round and the suite drive at 20)")
+    minutes: float = option(8.0, MINUTES, help="minutes of expert driving on mixed roads to train on")
+    fps: float = option(10.0, FPS, help="frames per second of the recording (the DAgger round and the suite drive at 20)")
     epochs: int = option(5, AT_LEAST_1, help="epochs of the first training")
-    suite_minutes: float | None = option(None, POSITIVE, "positive and finite",
-                                         help="minutes on each road of the closed-loop suite (default: the suite's 3)")
-    dagger_minutes: float = option(2.0, POSITIVE, "positive and finite",
-                                   help="minutes the trained model drives a fresh twisty road in its DAgger round")
+    suite_minutes: float | None = option(None, MINUTES, help="minutes on each road of the closed-loop suite (default: the suite's 3)")
+    dagger_minutes: float = option(2.0, MINUTES, help="minutes the trained model drives a fresh twisty road in its DAgger round")
     workers: int = option(2, AT_LEAST_1, help="roads driven in parallel")
+
+    @classmethod
+    def related(cls, v):
+        yield from frames_held(v, "minutes")
+        yield from frames_held(v, "suite_minutes", "dagger_minutes", fps=20.0)
 
 
 def run_demo(o: DemoOptions = DemoOptions(), progress: bool = True) -> Path:

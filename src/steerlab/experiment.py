@@ -29,7 +29,7 @@ from steerlab.evaluate.metrics import (SMOOTHING_ALPHA, accuracy, all_metrics, e
 from steerlab.evaluate.plots import plot_open_vs_closed, plot_recovery, plot_steering, rank_correlation
 from steerlab.evaluate.scoring import read_steering_csv
 from steerlab.paths import check_outputs
-from steerlab.options import Options, POSITIVE, as_dict, option, parse
+from steerlab.options import Options, SPEED, as_dict, option, parse
 from steerlab.pilot import Pilot
 from steerlab.sim.road.suite import SuiteOptions, closed_loop_metrics
 from steerlab.split_replay import SplitReplay
@@ -45,7 +45,7 @@ class ReplayOn(Options):
     """An experiment's `replay:` section: replay every run on its validation frames ({} for the recorded or
     estimated speed, or {speed: M/S})."""
 
-    speed: float | None = option(None, POSITIVE)
+    speed: float | None = option(None, SPEED)
 
 
 @dataclass(frozen=True)

@@ -28,7 +28,7 @@ from tqdm import tqdm
 
 from steerlab.data.geometry import camera
 from steerlab.data.readers import Source
-from steerlab.options import AT_LEAST_1, Options, option
+from steerlab.options import AT_LEAST_1, Options, THREADS, option
 from steerlab.errors import SteerlabError
 from steerlab.export import export_onnx
 from steerlab.pilot import Pilot
@@ -154,7 +154,8 @@ class LatencyOptions(Options):
     geometry: Literal["donkey", "ch2", "sim"] | None = option(None, help="camera geometry of the untrained models "
                                                               "and the synthetic frames (default: the recording's "
                                                               "with --data, else donkey, 160x120)")
-    threads: int = option(1, AT_LEAST_1, help="threads of torch, OpenCV and ONNX Runtime (1: one core)")
+    threads: int = option(1, THREADS, help="threads of torch, OpenCV and ONNX Runtime (1: one core; at most the "
+                          "machine's cores)")
     runtime: Literal["torch", "onnx", "both"] = option("both", help="PyTorch, ONNX Runtime (a .pt is exported "
                                                        "first) or both")
     frames: int = option(500, AT_LEAST_1, help="frames timed, after 10 warm-up frames")

@@ -15,16 +15,24 @@ from typing import Literal
 import yaml
 
 from steerlab.data.car import Car
+from steerlab.data.native import EPISODES
 from steerlab.data.preprocess import PreprocessConfig, PreprocessOptions
 from steerlab.data.splits import Split
 from steerlab.data.tub import is_tub
 from steerlab.errors import SteerlabError
 from steerlab.models.registry import ModelSpec, learns_throttle, list_models
 from steerlab import files
+from steerlab.paths import distinct, same_path
 from steerlab.files import UniqueKeys
-from steerlab.options import AT_LEAST_0, AT_LEAST_1, Options, POSITIVE, Range, UNIT, as_dict, option, parse
+from steerlab.options import AT_LEAST_0, AT_LEAST_1, Options, POSITIVE, Range, SEED, UNIT, as_dict, option, parse
 
 LOSSES = {"mse": "rmse", "mae": "mae"}  # train.loss -> the validation metric that picks the best epoch
+
+
+def _folder(recording: str) -> Path:
+    """A recording's folder: a driving log or a native log.csv names the folder it lies in."""
+    path = Path(recording)
+    return path.parent if path.suffix == ".csv" and path.is_file() else path
 
 
 def _pairs(views) -> bool:
@@ -40,12 +48,12 @@ class TrainOptions(Options):
     lr: float = option(1e-4, POSITIVE)
     patience: int = option(5, AT_LEAST_1)
     flip: bool = False
-    seed: int = 0
+    seed: int = option(0, SEED)
     loss: Literal[tuple(LOSSES)] = option("mse", help="mse or mae of the steering (models with a loss of their "
                                           "own keep it); the best epoch has the lowest validation RMSE or MAE")
     smoothness: float = option(0.0, AT_LEAST_0, help="recurrent models: plus this weight times the same loss on "
                                "the steering's change between consecutive frames (paper 000's outlook)")
-    exclude_episodes: tuple[str, ...] = option((), expected="a list of episode names",
+    exclude_episodes: tuple[Literal[EPISODES], ...] = option((), expected=f"a list of episode names ({', '.join(EPISODES)})",
                                                help="e.g. [drift-out]: train on the recovery half of drift episodes")
     side_cameras: bool = option(False, help="side-camera recovery synthesis (paper 002 Eq. 3)")
     side_offset_m: float | None = option(None, Range(), help="side cameras' offset (default: the car's)")
@@ -98,6 +106,11 @@ class TrainConfig(Options):
         super().__post_init__()
         if not self.data:
             raise SteerlabError("the config names no data (set data: PATH or pass data=PATH)")
+        for i, extra in enumerate(self.extra_data):  # every frame of an extra recording trains
+            if same_path(_folder(extra), _folder(self.data)):
+                raise SteerlabError(f"extra_data[{i}] {extra} is the training recording itself (data): its "
+                                    "validation frames would be trained on")
+        distinct(self.extra_data, "recording of extra_data")
         t, cls = self.train, self.model.cls
         if t.smoothness > 0 and not cls.recurrent:
             raise SteerlabError(f"train.smoothness needs a recurrent model (it trains on windows of consecutive "

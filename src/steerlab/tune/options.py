@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Literal
 
-from steerlab.options import AT_LEAST_1, Options, Range, option
+from steerlab.options import AT_LEAST_1, Options, Range, SEED, option
 
 OBJECTIVES = {"rmse": ["minimize"], "rmse+gamma": ["minimize", "minimize"], "autonomy": ["maximize"]}
 
@@ -20,7 +20,7 @@ class TuneOptions(Options):
     storage: str | None = option(None, help="Optuna storage shared by workers: a journal file (*.journal) or an "
                                  "RDB URL (sqlite:///study.db, postgresql://...); default OUT/study.journal")
     study: str | None = option(None, help="study name (default: the name of the config's out folder)")
-    seed: int = option(0, help="sampler seed")
+    seed: int = option(0, SEED, help="sampler seed")
     reduction_factor: int = option(3, Range(2), "an integer of at least 2",
                                    help="Hyperband: each rung keeps the best 1/N of the trials")
     no_pruning: bool = option(False, help="run every trial to completion (no Hyperband)")

@@ -19,7 +19,7 @@ from steerlab.data.recording import Recording
 from steerlab.data.writer import RecordingWriter
 from steerlab.errors import DataError, SteerlabError, warn
 from steerlab.files import write_json
-from steerlab.options import AT_LEAST_1, Options, POSITIVE, option
+from steerlab.options import AT_LEAST_1, Options, POSITIVE, Range, SPEED, option
 from steerlab.pilot import smoothing_option
 from steerlab.sim.core.driving import Trajectory, autonomy, drive_loop, rollout
 from steerlab.sim.core.parallel import run_parallel, tick_reporter
@@ -37,16 +37,17 @@ POSITIVE_WORDS = "positive and finite"
 class ReplayOptions(Options):
     """`steerlab replay`'s options (the road world's replay: a car seen through a pinhole camera)."""
 
-    speed: float | None = option(None, POSITIVE, POSITIVE_WORDS,
-                                 help="speed in m/s (default: the recorded one, else estimated from the frames)")
+    speed: float | None = option(None, SPEED, help="speed in m/s (default: the recorded one, else estimated from "
+                                 "the frames)")
     limit: float | None = option(None, POSITIVE, POSITIVE_WORDS, help="road: metres off the human's path that "
                                  "count as an intervention (default: the car's: 1 for cars, 0.3 for donkeycars)")
-    max_heading: float = option(MAX_HEADING_DEG, POSITIVE, POSITIVE_WORDS, help="road: degrees of heading error "
-                                "beyond which the warped view is not trusted: an intervention")
+    max_heading: float = option(MAX_HEADING_DEG, Range(0, 90, lo_open=True, unit="degrees"),
+                                help="road: degrees of heading error beyond which the warped view is not trusted: "
+                                "an intervention")
     mount_height: float | None = option(None, MOUNT_HEIGHT, help="camera height above the road, m (default: the "
                                         "geometry's)")
     pitch: float | None = option(None, PITCH, help="camera pitch, degrees down (default: the geometry's)")
-    fov: float | None = option(None, POSITIVE, POSITIVE_WORDS,
+    fov: float | None = option(None, Range(0, 180, lo_open=True, hi_open=True, unit="degrees"),
                                help="road: horizontal field of view, degrees (default: the geometry's)")
     workers: int = option(2, AT_LEAST_1, help="checkpoints replayed in parallel")
     smoothing: float | None = smoothing_option()

@@ -15,8 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from steerlab.errors import SteerlabError
-from steerlab.options import AT_LEAST_1, Options, POSITIVE, option, parse
+from steerlab.options import AT_LEAST_1, MINUTES, Options, frames_held, names_from, names_held, option, parse
 from steerlab.pilot import smoothing_option
 from steerlab.sim.core.driving import autonomy
 from steerlab.sim.core.parallel import tick_reporter
@@ -38,11 +37,16 @@ class SuiteOptions(Options):
     """The closed-loop suite: `steerlab sim bench`'s options and a config's `closed_loop:` section."""
 
     suite: str = option("v1", lambda v: v in SUITES, " or ".join(SUITES), help="suite version")
-    minutes: float | None = option(None, POSITIVE, "positive and finite",
-                                   help="minutes per road (default: the suite's, 3 for v1)")
+    minutes: float | None = option(None, MINUTES, help="minutes per road (default: the suite's, 3 for v1)")
     workers: int = option(2, AT_LEAST_1, help="roads driven in parallel")
     smoothing: float | None = smoothing_option()
     roads: str | None = option(None, help="comma list of the suite's road types to drive (default: all)")
+
+    @classmethod
+    def related(cls, v):
+        yield from frames_held(v, "minutes", fps=FPS)
+        if v.suite in SUITES:
+            yield from names_held(v, "roads", SUITES[v.suite]["roads"], "road types")
 
     @property
     def road_minutes(self) -> float:
@@ -51,14 +55,7 @@ class SuiteOptions(Options):
     def drives(self) -> list[tuple[str, int]]:
         """(road type, seed) of every road to drive."""
         spec = SUITES[self.suite]
-        types = list(spec["roads"]) if self.roads is None else [t.strip() for t in self.roads.split(",") if t.strip()]
-        unknown = [t for t in types if t not in spec["roads"]]
-        if unknown:
-            raise SteerlabError(f"suite {self.suite} has no {', '.join(unknown)} roads; it has "
-                                f"{', '.join(spec['roads'])}")
-        if not types:
-            raise SteerlabError(f"no road to drive: choose road types of suite {self.suite} "
-                                f"({', '.join(spec['roads'])})")
+        types = names_from(self.roads, spec["roads"], "road types", f"suite {self.suite}") or list(spec["roads"])
         return [(t, s) for t in types for s in spec["roads"][t]]
 
     def key(self, checkpoint: Path) -> dict:

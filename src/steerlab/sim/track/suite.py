@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from steerlab.errors import SteerlabError
-from steerlab.options import AT_LEAST_1, Options, POSITIVE, option
+from steerlab.options import AT_LEAST_1, MINUTES, Options, frames_held, names_from, names_held, option
 from steerlab.pilot import smoothing_option
 from steerlab.sim.core.driving import autonomy
 from steerlab.sim.core.parallel import tick_reporter
@@ -48,14 +48,19 @@ class TrackSuiteOptions(Options):
     """`steerlab sim bench --world track`."""
 
     suite: str = option("t1", lambda v: v in TRACK_SUITES, " or ".join(TRACK_SUITES), help="track suite version")
-    minutes: float | None = option(None, POSITIVE, "positive and finite",
-                                   help="minutes per track (default: the suite's, 2 for t1)")
+    minutes: float | None = option(None, MINUTES, help="minutes per track (default: the suite's, 2 for t1)")
     workers: int = option(2, AT_LEAST_1, help="tracks driven in parallel")
     smoothing: float | None = smoothing_option()
     styles: str | None = option(None, help="comma list of the suite's track styles to drive (default: all)")
     throttle: float = throttle_option()
     max_throttle: float = max_throttle_option()
     calibration: str | None = calibration_option()
+
+    @classmethod
+    def related(cls, v):
+        yield from frames_held(v, "minutes", fps=FPS)
+        if v.suite in TRACK_SUITES:
+            yield from names_held(v, "styles", TRACK_SUITES[v.suite]["tracks"], "track styles")
 
     @property
     def track_minutes(self) -> float:
@@ -64,11 +69,7 @@ class TrackSuiteOptions(Options):
     def drives(self) -> list[tuple[str, int]]:
         """(style, seed) of every track to drive."""
         tracks = TRACK_SUITES[self.suite]["tracks"]
-        styles = list(tracks) if self.styles is None else [t.strip() for t in self.styles.split(",") if t.strip()]
-        unknown = [t for t in styles if t not in tracks]
-        if unknown or not styles:
-            raise SteerlabError(f"suite {self.suite} has no {', '.join(unknown) or 'such'} tracks; choose styles "
-                                f"of {', '.join(tracks)}")
+        styles = names_from(self.styles, tracks, "track styles", f"suite {self.suite}") or list(tracks)
         return [(style, seed) for style in styles for seed in tracks[style]]
 
     def drive_options(self, style: str, seed: int) -> TrackDriveOptions:
