@@ -890,8 +890,12 @@ def test_checkpoints_load_without_pickled_code_and_are_sealed(tmp_path):
     assert torch.load(tmp_path / "run" / "last.pt", weights_only=True)["epoch"] == 1
     data = best.read_bytes()  # the zip's comment: the seal, then the sha256 of every byte before the digest
     assert data[-64 - len(SEAL):-64] == SEAL and data[-64:] == hashlib.sha256(data[:-64]).hexdigest().encode()
-    torch.save(raw, tmp_path / "plain.pt")  # as torch.save alone writes it (no seal): still loads
-    assert load_checkpoint(tmp_path / "plain.pt")["model"] == "pilotnet"
+    torch.save(raw, tmp_path / "plain.pt")  # written again by torch.save alone (no seal): changed by another tool
+    with pytest.raises(SteerlabError, match="plain.pt: a checkpoint that steerlab sealed, without its seal: it was "
+                                            "written again by another tool"):
+        load_checkpoint(tmp_path / "plain.pt")
+    torch.save({**raw, "format": "steerlab-checkpoint-1"}, tmp_path / "first.pt")  # as the first versions wrote it
+    assert load_checkpoint(tmp_path / "first.pt")["model"] == "pilotnet"
 
 
 # ---------------------------------------------------------------- generated sweeps: every option, every path

@@ -123,7 +123,7 @@ def round_suite(o: DaggerOptions):
                             f"drives a {o.world} suite ({', '.join(world.suites)}) or none (null)")
     given = {"suite": o.suite, "minutes": o.suite_minutes, "workers": o.workers,
              world.kinds: getattr(o, f"suite_{world.kinds}")}
-    names = {"minutes": "suite_minutes", world.kinds: f"suite_{world.kinds}"}  # the suite's options as dagger names them
+    names = {"minutes": "suite_minutes", world.kinds: f"suite_{world.kinds}"}  # as the dagger section names them
     return parse(world.suite_options, {k: v for k, v in given.items() if v is not None},
                  name=lambda f: f"dagger.{names.get(f, f)}")
 

@@ -28,10 +28,13 @@ class DemoOptions(Options):
 
     out: str = option("runs/demo", help="output folder", path="folder", makes="demo")
     minutes: float = option(8.0, MINUTES, help="minutes of expert driving on mixed roads to train on")
-    fps: float = option(10.0, FPS, help="frames per second of the recording (the DAgger round and the suite drive at 20)")
+    fps: float = option(10.0, FPS, help="frames per second of the recording (the DAgger round and the suite drive "
+                        "at 20)")
     epochs: int = option(5, AT_LEAST_1, help="epochs of the first training")
-    suite_minutes: float | None = option(None, MINUTES, help="minutes on each road of the closed-loop suite (default: the suite's 3)")
-    dagger_minutes: float = option(2.0, MINUTES, help="minutes the trained model drives a fresh twisty road in its DAgger round")
+    suite_minutes: float | None = option(None, MINUTES, help="minutes on each road of the closed-loop suite "
+                                         "(default: the suite's 3)")
+    dagger_minutes: float = option(2.0, MINUTES, help="minutes the trained model drives a fresh twisty road in its "
+                                   "DAgger round")
     workers: int = option(2, AT_LEAST_1, help="roads driven in parallel")
 
     @classmethod

@@ -78,8 +78,8 @@ def _mapping(loader: UniqueKeys, node: yaml.MappingNode, deep: bool = False):
         try:
             if key in seen:
                 raise yaml.constructor.ConstructorError(
-                    None, None, f"key {key!r} is given twice (lines {seen[key] + 1} and {key_node.start_mark.line + 1});"
-                    " keep one", key_node.start_mark)
+                    None, None, f"key {key!r} is given twice (lines {seen[key] + 1} and "
+                    f"{key_node.start_mark.line + 1}); keep one", key_node.start_mark)
             seen[key] = key_node.start_mark.line
         except TypeError:  # an unhashable key: PyYAML's own error follows
             pass

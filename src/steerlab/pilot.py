@@ -136,7 +136,8 @@ class Pilot:
         segment). `load`, when given, turns each item into a BGR frame on the worker threads (a frame index or
         a file, say)."""
         prepare = self._prepare if load is None else lambda item: self._prepare(load(item))
-        pairs = zip(frames, repeat(None)) if speeds is None else zip(frames, map(self._plausible, map(_check_speed, speeds)), strict=True)
+        checked = None if speeds is None else map(self._plausible, map(_check_speed, speeds))
+        pairs = zip(frames, repeat(None)) if speeds is None else zip(frames, checked, strict=True)
         before = self._prev  # the frame before the first one (None: the first starts a segment)
 
         def motion(prev: Future | None, cur: Future) -> tuple:

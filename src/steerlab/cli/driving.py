@@ -129,7 +129,8 @@ def register(sub) -> None:
                               "steerlab sim drive runs/tub/best.pt --world track --minutes 2 --out runs/track-drive")
     path_option(q, "checkpoint", kind="file", help="checkpoint (.pt) or exported model (.onnx)")
     world(q, "drive", "sim drive", DriveWith)
-    path_option(q, "--out", kind="folder", makes="drive", default="runs/drive", help="output folder (default runs/drive)")
+    path_option(q, "--out", kind="folder", makes="drive", default="runs/drive",
+                help="output folder (default runs/drive)")
     path_option(q, "--video", kind="new-file", help="also write an MP4 of the drive with the model's and the expert's steering")
     q.set_defaults(func=cmd_sim_drive)
 
@@ -137,7 +138,8 @@ def register(sub) -> None:
                        epilog="example: steerlab sim bench runs/a/best.pt runs/b/best.pt --out runs/bench; "
                               "steerlab sim bench runs/tub/best.pt --world track --out runs/track-bench")
     path_option(q, "checkpoints", kind="file", nargs="+", help="checkpoints to compare")
-    path_option(q, "--out", kind="folder", makes="suite", default="runs/bench", help="output folder (default runs/bench)")
+    path_option(q, "--out", kind="folder", makes="suite", default="runs/bench",
+                help="output folder (default runs/bench)")
     world(q, "suite", "sim bench")
     q.set_defaults(func=cmd_sim_bench)
 
@@ -156,7 +158,8 @@ def register(sub) -> None:
                        "full_lock_deg=25 --lane-width 0.9 --out runs/replay-hall")
     path_option(q, "checkpoints", kind="file", nargs="+", help="checkpoints (.pt) or exported models (.onnx) to replay")
     data_args(q, camera=False)
-    path_option(q, "--out", kind="folder", makes="replay", default="runs/replay", help="output folder (default runs/replay)")
+    path_option(q, "--out", kind="folder", makes="replay", default="runs/replay",
+                help="output folder (default runs/replay)")
     path_option(q, "--video", kind="new-file", help="also write an MP4 of the warped view with the model's and the human's steering "
                    "(one per checkpoint)")
     q.add_argument("--world", choices=list(WORLDS), help="road: a car's replay, the frames warped as a pinhole "

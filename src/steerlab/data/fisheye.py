@@ -41,6 +41,9 @@ from steerlab.files import UniqueKeys, parse_json, read_text
 PINHOLE = CAMERAS["donkey"]  # the pinhole view `undistort` makes by default: the donkey geometry's focal length
 
 
+MIN_VIEW_DEG = 10.0  # a camera that sees less across renders one colour: nothing to steer by
+
+
 @dataclass(frozen=True)
 class FisheyeCamera:
     width: int = 160
@@ -75,6 +78,12 @@ class FisheyeCamera:
         if top <= reach:
             raise SteerlabError(f"fisheye coefficients D={tuple(self.d)} do not map the image corners to rays: "
                                 "theta_d must rise with theta past the corners")
+        left, right = self.ray(np.array([0.0, self.width - 1.0]), np.array([self.cy, self.cy]))
+        across = math.degrees(math.acos(float(np.clip(left @ right, -1, 1))))
+        if across < MIN_VIEW_DEG:  # every pixel would see nearly the same point: a blank frame
+            raise SteerlabError(f"the camera sees {across:.2g} degrees across its {self.width} px (fx={self.fx:g} px): "
+                                f"a blank frame; K in pixels of the {self.width}x{self.height} image is expected (a K "
+                                "of a larger image, or in other units?)")
 
     @property
     def K(self) -> np.ndarray:

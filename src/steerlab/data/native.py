@@ -9,7 +9,7 @@ import numpy as np
 
 from steerlab.data.fisheye import fisheye_from
 from steerlab.data.recording import Recording, SteeringConvention
-from steerlab.data.rows import csv_header, apply_range, check_images, check_unique, number, read_rows
+from steerlab.data.rows import apply_range, check_images, check_increasing, check_unique, csv_header, number, read_rows
 from steerlab.errors import DataError
 from steerlab.files import read_json
 
@@ -59,6 +59,7 @@ def read_native(folder: str | Path, frame_range=None) -> Recording:
         episodes.append(ep)
     stamps_a = np.array(stamps, dtype=np.int64)
     check_unique(stamps_a, log, first)
+    check_increasing(stamps_a, log, first)
     for paths in frames.values():
         check_images(paths, log, first)
     conv = meta.get("steering", {})

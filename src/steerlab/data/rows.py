@@ -69,6 +69,15 @@ def nearest(sorted_times: np.ndarray, times: np.ndarray) -> np.ndarray:
     return np.where(np.abs(sorted_times[j - 1] - times) <= np.abs(sorted_times[j] - times), j - 1, j)
 
 
+def check_increasing(times: np.ndarray, path: Path, first_row: int) -> None:
+    """Capture times in row order: a time that goes back is a one-line error naming the file and its row."""
+    back = np.flatnonzero(np.diff(times) < 0)
+    if back.size:
+        i = int(back[0]) + 1
+        raise DataError(path, f"the time goes back ({int(times[i])} ns after {int(times[i - 1])} ns in the row "
+                              "before): the rows must be in the order they were recorded", first_row + i)
+
+
 def check_unique(ids: np.ndarray, path: Path, first_row: int) -> None:
     order = np.argsort(ids, kind="stable")
     dup = np.flatnonzero(np.diff(ids[order]) == 0)

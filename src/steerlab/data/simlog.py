@@ -13,7 +13,8 @@ from pathlib import Path
 import numpy as np
 
 from steerlab.data.recording import Recording, SteeringConvention
-from steerlab.data.rows import csv_header, apply_range, check_images, check_unique, ends_torn, number, read_rows
+from steerlab.data.rows import (apply_range, check_images, check_increasing, check_unique, csv_header, ends_torn,
+                                number, read_rows)
 from steerlab.errors import DataError, warn
 from steerlab.options import Options, option
 
@@ -136,6 +137,7 @@ def read_sim_log(log: str | Path, frame_range=None, strict: bool = False) -> Rec
     frames = {c: p for c, p in frames.items() if len(p) == len(rows)}
     stamps_a = np.array(stamps, dtype=np.int64)
     check_unique(stamps_a, log, first)
+    check_increasing(stamps_a, log, first)
     for paths in frames.values():
         check_images(paths, log, first)
     return Recording(

@@ -20,7 +20,7 @@ import cv2
 import numpy as np
 
 from steerlab.data.preprocess import CROP_PRESETS
-from steerlab.data.rows import csv_header, apply_range, check_unique, number, read_rows
+from steerlab.data.rows import apply_range, check_increasing, check_unique, csv_header, number, read_rows
 from steerlab.data.recording import FULL_LOCK_DEG, KINDS, Recording, SteeringConvention, VideoFrames
 from steerlab.errors import DataError
 from steerlab.options import Options, option
@@ -100,6 +100,7 @@ def read_video(path: str | Path, frame_range=None, log: str | Path | None = None
     else:
         stamps = np.round(positions * 1e9 / (fps if fps > 0 else 30.0)).astype(np.int64)
     check_unique(stamps, log, 2)
+    check_increasing(stamps, log, 2)
     cut = apply_range(len(body), frame_range, log)
     stamps, positions, steer = stamps[cut], positions[cut], steer[cut]
     return Recording(
