@@ -1165,3 +1165,458 @@ def test_the_donkeycar_part_refuses_options_it_cannot_use(tmp_path):
                              ({"throttle_scale": -1}, r"throttle_scale must be a number in \[0, 10\], got -1")]:
         with pytest.raises(SteerlabError, match=message):
             SteerlabPilot(learned, **options)
+
+
+# ---------------------------------------------------------------- the rules, each a sweep generated from the code
+# Rule 1: every value checked where it enters (options, reader options, other worlds' options); rule 2: no output
+# over an input or into a folder of another kind, and one line when it cannot be written; rule 3: files as people
+# save them; rule 4: implausible values said; rule 5: only earlier versions' checkpoints taken as earlier versions.
+# Each generator lists its inputs and whether each is refused or said, so that `python tests/test_bad_input.py`
+# counts them (docs/RESULTS.md, "Bad input").
+
+def _option_classes():
+    """Every options dataclass a user's values enter through: the commands' (cli.OPTIONS), the config's sections,
+    the readers' option tables."""
+    from steerlab.cli import OPTIONS, build_parser
+    from steerlab.dagger import DaggerOptions
+    from steerlab.data import bag, tub, videolog
+    from steerlab.data.simlog import SIM_OPTIONS
+    from steerlab.train.config import TrainOptions
+
+    build_parser()
+    classes = {cls for group in OPTIONS.values() for cls in group}
+    return sorted(classes | {DaggerOptions, TrainOptions, tub.OPTIONS, bag.OPTIONS, videolog.OPTIONS, SIM_OPTIONS},
+                  key=lambda c: c.__name__)
+
+
+def _wrong_values(o):
+    """Values of the wrong kind for the option `o`: what no option of its type takes."""
+    from typing import Literal, get_origin
+
+    from steerlab.options import optional
+
+    kind = optional(o.kind)[0]
+    if kind is bool:
+        return ["maybe", 1, 0, "true", [True], None if not optional(o.kind)[1] else "no"]
+    if kind in (int, float):
+        return [[1], {"a": 1}, "abc", True, *(["nan", "inf"] if kind is float else [1.5, "2"])]
+    if get_origin(kind) is Literal:
+        return ["no-such-choice", 7, [kind.__args__[0]]]
+    if kind in (dict,):
+        return [5, "text", [1]]
+    if kind is str:
+        return [5, [1], {"a": 1}]
+    if get_origin(kind) is tuple:
+        return ["text", 5, {"a": 1}]
+    return []
+
+
+def rule1_cases():
+    """(class, option, value): every option of every options class, each value of a wrong kind, and each minutes that
+    hold no frame; all refused by `parse` naming the option."""
+    from steerlab.options import MINUTES, options_of
+
+    cases = []
+    for cls in _option_classes():
+        for o in options_of(cls):
+            if o.path:
+                continue
+            cases += [(cls, o.key, v) for v in _wrong_values(o)]
+            if o.check is MINUTES:
+                cases.append((cls, o.key, 1e-7))  # no frame at any frame rate
+    return cases
+
+
+@pytest.mark.parametrize("cls, key, value", rule1_cases(), ids=lambda v: getattr(v, "__name__", str(v))[:30])
+def test_rule1_every_option_refuses_a_value_it_cannot_mean(cls, key, value):
+    from steerlab.options import parse
+
+    with pytest.raises(SteerlabError) as e:
+        parse(cls, {key: value}, "x")
+    assert f"x.{key}" in str(e.value) and "\n" not in str(e.value), str(e.value)
+
+
+def _valid_value(o):
+    """A value the option `o` takes (its default, or a number in its range), as the command line writes it."""
+    from dataclasses import MISSING
+    from typing import Literal, get_origin
+
+    from steerlab.options import optional
+
+    kind = optional(o.kind)[0]
+    if o.default not in (None, MISSING) and kind is not bool:
+        return str(o.default)
+    if get_origin(kind) is Literal:
+        return str(kind.__args__[0])
+    if kind in (int, float):
+        lo = getattr(o.check, "lo", None)
+        return str(kind((lo or 0) + 1))
+    return None if kind is bool else "x"
+
+
+def rule1_world_cases():
+    """(command, world, flag, value): every flag of every world's options, given in another world that lacks it."""
+    from steerlab.cli import flag
+    from steerlab.options import optional, options_of
+    from steerlab.sim.worlds import WORLDS
+
+    cases = []
+    for command, sub in (("record", "sim record"), ("drive", "sim drive"), ("suite", "sim bench"),
+                         ("replay", "replay")):
+        for world in WORLDS.values():
+            own = {o.key for o in options_of(getattr(world, f"{command}_options"))}
+            for other in WORLDS.values():
+                for o in options_of(getattr(other, f"{command}_options")):
+                    if o.key in own or o.path:
+                        continue
+                    kind = optional(o.kind)[0]
+                    name = flag(f"no_{o.key}" if kind is bool and o.default is True else o.key)
+                    cases.append((sub, world.name, name, _valid_value(o)))
+    return sorted(set(cases))
+
+
+@pytest.mark.parametrize("command, world, name, value", rule1_world_cases(), ids=str)
+def test_rule1_an_option_of_another_world_is_refused(command, world, name, value, tmp_path, capsys):
+    (tmp_path / "model.pt").write_bytes(b"refused before it is read")
+    ckpt = [] if command == "sim record" else [str(tmp_path / "model.pt")]
+    data = ["--data", str(sim_log(tmp_path / "sim") if world == "road" else tub(tmp_path / "tub"))] \
+        if command == "replay" else []
+    argv = [*command.split(), *ckpt, *data, "--world", world, "--out", str(tmp_path / "out"), name,
+            *([] if value is None else [value])]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{name} is an option of the" in err, err
+    assert not (tmp_path / "out").exists()
+
+
+def rule1_reader_cases():
+    """(layout, option, value): a wrong value of every option of the readers of a driving log and a tub, through
+    `--reader` on the command line (the option tables of the other readers are swept by rule1_cases)."""
+    from steerlab.data import tub as tubs
+    from steerlab.data.simlog import SIM_OPTIONS
+    from steerlab.options import options_of
+
+    out = []
+    for layout, cls in (("sim", SIM_OPTIONS), ("tub", tubs.OPTIONS)):
+        for o in options_of(cls):
+            out += [(layout, o.key, v) for v in ("maybe", "[25]", "{a: 1}", "-1", "1e400") if v != "-1" or
+                    getattr(o.check, "lo", None) is not None]
+    return out
+
+
+@pytest.mark.parametrize("layout, key, value", rule1_reader_cases(), ids=str)
+def test_rule1_reader_options_are_typed(layout, key, value, tmp_path, capsys):
+    data = sim_log(tmp_path / "sim") if layout == "sim" else tub(tmp_path / "tub")
+    assert main(["compile", "--data", str(data), "--reader", f"{key}={value}", "--cache", str(tmp_path / "c")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"reader.{key} must be" in err, err
+    assert not (tmp_path / "c").exists()
+
+
+def rule1_named_set_cases():
+    """(class, option, value): a comma list of a fixed set's names with a name twice, an unknown one, or none."""
+    from steerlab.sim.road.suite import SUITES, SuiteOptions
+    from steerlab.sim.track.suite import TRACK_SUITES, TrackSuiteOptions
+
+    out = []
+    for cls, key, suites, part in ((SuiteOptions, "roads", SUITES, "roads"),
+                                   (TrackSuiteOptions, "styles", TRACK_SUITES, "tracks")):
+        for suite, spec in suites.items():
+            for name in spec[part]:
+                out += [(cls, suite, key, f"{name},{name}"), (cls, suite, key, f"{name},{name}x"),
+                        (cls, suite, key, ",")]
+    return out
+
+
+@pytest.mark.parametrize("cls, suite, key, value", rule1_named_set_cases(), ids=str)
+def test_rule1_names_from_a_fixed_set_once_each(cls, suite, key, value):
+    from steerlab.options import parse
+
+    with pytest.raises(SteerlabError, match=f"^--{key} must be a comma list of .* each once"):
+        parse(cls, {"suite": suite, key: value}, name=lambda f: f"--{f}")
+
+
+def _commands():
+    """(command words, its parser) of every subcommand."""
+    from steerlab.cli import build_parser
+
+    out = []
+    for name, parser in build_parser()._subparsers._group_actions[0].choices.items():
+        subs = [(f"{name} {n}", p) for n, p in parser._subparsers._group_actions[0].choices.items()] \
+            if parser._subparsers else [(name, parser)]
+        out += subs
+    return out
+
+
+def rule2_cases():
+    """(command, output argument, collision): every output argument of every command (its folders and files to
+    write, and `out` of the commands that take a config) against the ways an output can destroy or mix into what
+    is not its own."""
+    out = []
+    for command, parser in _commands():
+        paths = parser.get_default("paths") or {}
+        for dest, kind in paths.items():
+            if kind == "folder":
+                out += [(command, dest, c) for c in ("a recording", "a training run", "unwritable", "long name",
+                                                     "inside a recording")]
+            elif kind == "new-file":
+                out += [(command, dest, c) for c in ("an input", "an input through a symlink",
+                                                     "an input, relative", "a run's checkpoint", "long name")]
+        if paths.get("config") == "file":
+            out += [(command, "out=", c) for c in ("a recording", "the recording it reads", "a training run",
+                                                   "long name", "unwritable")]
+    return [c for c in out if not (c[0] == "train" and c[2] == "a training run")]  # a run continues its own
+
+
+def _collision(tmp_path, what, file_input):
+    """The path of a collision: a folder or file that the output must not be."""
+    rec = sim_log(tmp_path / "rec").parent
+    run = tmp_path / "run-of-another"
+    run.mkdir(exist_ok=True)
+    for name in ("best.pt", "last.pt"):
+        (run / name).write_bytes(b"a checkpoint")
+    if what == "unwritable":
+        ro = tmp_path / "ro"
+        ro.mkdir(exist_ok=True)
+        if subprocess.run(["chattr", "+i", str(ro)], capture_output=True).returncode:
+            pytest.skip("chattr is not available: no folder this test cannot write")
+        return ro / "out"
+    if (tmp_path / "a-link").exists() is False:
+        os.symlink(file_input, tmp_path / "a-link")
+    return {"a recording": rec, "the recording it reads": rec, "a training run": run,
+            "inside a recording": rec / "IMG", "long name": tmp_path / ("x" * 300), "an input": file_input,
+            "an input through a symlink": tmp_path / "a-link",
+            "an input, relative": Path(os.path.relpath(file_input)), "a run's checkpoint": run / "best.pt"}[what]
+
+
+@pytest.mark.parametrize("command, dest, what", rule2_cases(), ids=str)
+def test_rule2_no_output_over_an_input_or_into_another_kind_of_folder(command, dest, what, tmp_path, capsys):
+    from steerlab.cli import flag
+
+    parser = dict(_commands())[command]
+    file = tmp_path / "a-file.pt"
+    file.write_bytes(b"refused before it is read")
+    folder = tmp_path / "a-folder"
+    folder.mkdir()
+    target = _collision(tmp_path, what, file)
+    argv = [*command.split()]
+    for a in parser._actions:  # every other required argument, an existing input of its kind
+        if a.required and a.dest != dest and a.option_strings:
+            argv += [a.option_strings[0], str(sim_log(tmp_path / "sim").parent if a.dest == "data" else file)]
+        elif not a.option_strings and a.dest not in ("help", "overrides") and a.nargs != "*":
+            argv.append(str(_config_of(command, tmp_path) if a.dest == "config" else file))
+    if dest == "out=":
+        argv.append(f"out={target}")
+    else:
+        argv += [flag(dest), str(target)]
+    before = _files(tmp_path)
+    try:
+        assert main(argv) == 2, argv
+    finally:
+        subprocess.run(["chattr", "-i", str(tmp_path / "ro")], capture_output=True)
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and err.count("\n") == 1, err
+    shown = str(target if what != "long name" else tmp_path)
+    assert shown in err or str(target.resolve()) in err or str(file) in err, err
+    assert {p: t for p, t in _files(tmp_path).items() if p in before} == before  # nothing lost
+
+
+def _config_of(command, tmp_path):
+    """A config that `command` takes: a training config, with a models list for an experiment and a search space
+    for a study."""
+    cfg = config(tmp_path, tmp_path / "rec")
+    cfg.write_text(cfg.read_text() + {"experiment": "models:\n  - {model: {name: zero}}\n",
+                                      "tune": "tune: {train.lr: {low: 1.0e-5, high: 0.1, log: true}}\n"}.get(command, ""))
+    return cfg
+
+
+def _resaved(path):
+    """A copy of the file's bytes in another form: with a byte-order mark, CRLF, trailing blank lines; or in UTF-16,
+    with a Latin-1 byte, with its first column named twice."""
+    data = path.read_bytes()
+    return {"bom": b"\xef\xbb\xbf" + data, "crlf": data.replace(b"\n", b"\r\n"),
+            "bom+crlf": b"\xef\xbb\xbf" + data.replace(b"\n", b"\r\n"), "blank lines": data + b"\n\n\n",
+            "utf-16": data.decode().encode("utf-16"), "latin-1": data.replace(b"\n", b" \xe9\n", 2),
+            "column twice": data.replace(b",", b"," + data.split(b",")[0] + b",", 1)}
+
+
+def rule3_cases():
+    """(file, variant, taken): every text file a user gives (the readers' CSV files, the score's, a config, a
+    calibration), saved the ways people save them (taken) or otherwise (refused naming the file)."""
+    taken = ("bom", "crlf", "bom+crlf", "blank lines")
+    out = []
+    for file in ("ch2 labels", "driving log", "native log", "answer file", "config", "calibration"):
+        for variant in (*taken, "utf-16", "latin-1", "column twice"):
+            if variant == "column twice" and file in ("driving log", "config", "calibration"):
+                continue
+            out.append((file, variant, variant in taken))
+    return out + [("config", "key twice", False), ("calibration", "key twice", False),
+                  ("calibration", "NaN", False)]
+
+
+def _rule3_input(tmp_path, file):
+    """(the file, what reads it) for a file of rule3_cases."""
+    from steerlab.data.fisheye import load_calibration
+    from steerlab.data.readers import open_recording
+    from steerlab.evaluate.scoring import score
+    from steerlab.train.config import load_config
+
+    if file == "ch2 labels":
+        d = ch2(tmp_path / "ch2")
+        return d / "labels.csv", lambda: len(open_recording(d, labels=d / "labels.csv"))
+    if file == "driving log":
+        log = sim_log(tmp_path / "sim")
+        return log, lambda: len(open_recording(log))
+    if file == "native log":
+        d = _renamed_column(tmp_path)
+        (d / "log.csv").write_text((d / "log.csv").read_text().replace(",steer,", ",steering,", 1))
+        return d / "log.csv", lambda: len(open_recording(d))
+    if file == "answer file":
+        d = ch2(tmp_path / "ch2")
+        return d / "labels.csv", lambda: score(d / "labels.csv", d / "labels.csv")["frames"]
+    if file == "config":
+        cfg = config(tmp_path, sim_log(tmp_path / "sim"))
+        return cfg, lambda: load_config(cfg).train.epochs
+    path = tmp_path / "calib.yaml"
+    path.write_text("image_size: [160, 120]\nK: [[81.0, 0.0, 80.0], [0.0, 80.0, 61.0], [0.0, 0.0, 1.0]]\n"
+                    "D: [-0.02, -0.01, 0.0, 0.005]\n")
+    return path, lambda: load_calibration(path).fx
+
+
+@pytest.mark.parametrize("file, variant, taken", rule3_cases(), ids=str)
+def test_rule3_files_as_people_save_them(file, variant, taken, tmp_path):
+    path, read = _rule3_input(tmp_path, file)
+    original = read()
+    if variant == "key twice":
+        path.write_text(path.read_text() + ("train: {epochs: 2}\n" if file == "config" else "D: [0, 0, 0, 0]\n"))
+    elif variant == "NaN":  # a calibration in JSON, with a number JSON does not have
+        from steerlab.data.fisheye import load_calibration
+
+        path = tmp_path / "calib.json"
+        path.write_text('{"image_size": [160, 120], "K": [[81, 0, 80], [0, 80, 61], [0, 0, 1]], "D": [NaN, 0, 0, 0]}')
+        read = lambda: load_calibration(path)  # noqa: E731
+    else:
+        path.write_bytes(_resaved(path)[variant])
+    if taken:
+        assert read() == original
+        return
+    with pytest.raises(SteerlabError) as e:
+        read()
+    assert str(path) in str(e.value) and "\n" not in str(e.value), str(e.value)
+
+
+def test_rule3_what_steerlab_writes_is_valid_json(tmp_path):
+    """A metric that is not a number (one frame has no gamma) is null in metrics.json, never NaN."""
+    assert main(["evaluate", str(made(tmp_path)), "--data", str(sim_log(tmp_path / "sim")), "--range", "0:1",
+                 "--out", str(tmp_path / "eval")]) == 0
+    text = (tmp_path / "eval" / "metrics.json").read_text()
+    metrics = json.loads(text, parse_constant=lambda c: pytest.fail(f"{c} in metrics.json"))
+    assert metrics["gamma_deg"] is None
+
+
+def rule4_cases():
+    """(what, value, outcome): values implausible for their unit. The measured speed of every car: negative
+    refused, beyond twice its top speed said; a calibration's focal length: too long to see anything refused;
+    predictions in degrees where radians are expected said."""
+    from steerlab.data.car import CARS
+
+    out = []
+    for geometry, car in CARS.items():
+        top = car.speeds[1]
+        out += [("speed", (geometry, -1.0), "refused"), ("speed", (geometry, -1e-3), "refused"),
+                ("speed", (geometry, 3 * top), "said"), ("speed", (geometry, 100 * top), "said"),
+                ("speed", (geometry, top), "taken")]
+    out += [("focal length", fx, "refused" if fx > 1000 else "taken") for fx in (80, 200, 400, 8000, 80000)]
+    out += [("spread", factor, "said" if factor > 10 else "taken") for factor in (1, 3, 57.3, 180 / 3.1416 * 10)]
+    return out
+
+
+@pytest.mark.parametrize("what, value, outcome", rule4_cases(), ids=str)
+def test_rule4_implausible_values_are_said(what, value, outcome, tmp_path, capsys):
+    if what == "speed":
+        from steerlab.pilot import Pilot
+
+        geometry, speed = value
+        ckpt = made(tmp_path, *(("normalized", "right") if geometry == "donkey" else ()), geometry=geometry)
+        from steerlab.data.geometry import CAMERAS
+
+        cam = CAMERAS[geometry]
+        act = lambda: Pilot(ckpt).step(np.zeros((cam.height, cam.width, 3), np.uint8), speed)  # noqa: E731
+    elif what == "focal length":
+        from steerlab.data.fisheye import load_calibration
+
+        path = tmp_path / "calib.json"
+        path.write_text(json.dumps({"image_size": [160, 120], "K": [[value, 0, 80], [0, value, 60], [0, 0, 1]],
+                                    "D": [0, 0, 0, 0]}))
+        act = lambda: load_calibration(path)  # noqa: E731
+    else:
+        from steerlab.evaluate.scoring import score
+
+        folder = ch2(tmp_path / "ch2")
+        rows = (folder / "labels.csv").read_text().splitlines()[1:]
+        pred = tmp_path / "pred.csv"
+        pred.write_text("frame_id,steering_angle\n" + "".join(
+            f"{r.split(',')[0]},{float(r.split(',')[1]) * value + 0.001 * (i % 2)}\n" for i, r in enumerate(rows)))
+        act = lambda: score(folder / "labels.csv", pred)  # noqa: E731
+    if outcome == "refused":
+        with pytest.raises(SteerlabError):
+            act()
+        return
+    capsys.readouterr()
+    act()
+    said = capsys.readouterr().err
+    assert (said.count("warning:") == 1) == (outcome == "said"), said
+
+
+def rule5_cases():
+    """(how the file was written, taken): a checkpoint as each steerlab version wrote it, and as another tool wrote
+    a sealed one again."""
+    return [("sealed", True), ("0.1.0", True), ("first versions", True), ("torch.save of a sealed one", False),
+            ("torch.save of one with an inner hash", False), ("torch.save of an earlier version's, format changed",
+                                                               False)]
+
+
+@pytest.mark.parametrize("how, taken", rule5_cases(), ids=str)
+def test_rule5_only_earlier_versions_are_taken_as_earlier_versions(how, taken, tmp_path):
+    import torch
+
+    from steerlab.checkpoint import FORMAT, content_hash, load_checkpoint
+
+    path = made(tmp_path)
+    raw = torch.load(path, weights_only=True)
+    if how == "0.1.0":
+        path = Path(__file__).parent / "fixtures" / "run-0.1.0" / "best.pt"
+    elif how == "first versions":
+        torch.save({**raw, "format": "steerlab-checkpoint-1"}, path)
+    elif how == "torch.save of a sealed one":
+        torch.save(raw, path)
+    elif how == "torch.save of one with an inner hash":
+        earlier = {**raw, "format": "steerlab-checkpoint-1"}
+        torch.save({**earlier, "content_sha256": content_hash(earlier)}, path)
+    elif how != "sealed":
+        torch.save({**raw, "format": FORMAT}, path)
+    if taken:
+        assert load_checkpoint(path)["model"] in ("pilotnet", "cg23")  # 0.1.0's run trained cg23
+        return
+    with pytest.raises(SteerlabError, match=f"^{path}: a checkpoint that steerlab sealed, without its seal"):
+        load_checkpoint(path)
+
+
+def rule_counts() -> list[tuple[str, int, int, int]]:
+    """(rule, inputs generated, refused, said) of the generated sweeps above."""
+    r1 = len(rule1_cases()) + len(rule1_world_cases()) + len(rule1_reader_cases()) + len(rule1_named_set_cases())
+    r3 = rule3_cases()
+    r4 = rule4_cases()
+    return [("1 every value checked where it enters", r1, r1, 0),
+            ("2 no output over an input or into another's folder", len(rule2_cases()), len(rule2_cases()), 0),
+            ("3 files as people save them", len(r3) + 1, sum(not t for _, _, t in r3), 0),
+            ("4 implausible values said", len(r4), sum(o == "refused" for *_, o in r4),
+             sum(o == "said" for *_, o in r4)),
+            ("5 only earlier versions as earlier versions", len(rule5_cases()), sum(not t for _, t in rule5_cases()),
+             0)]
+
+
+if __name__ == "__main__":  # the table of docs/RESULTS.md, "Bad input"
+    print("| rule | inputs generated | refused | said |\n|---|---|---|---|")
+    for rule, n, refused, said in rule_counts():
+        print(f"| {rule} | {n} | {refused} | {said} |")

@@ -55,7 +55,7 @@ class RecordOptions(Options):
                                                         "Udacity simulator's driving_log.csv")
     chunk_minutes: float = option(1.0, MINUTES, help="with several road types: minutes before the next one")
 
-    related = holds_frames("minutes")
+    related = holds_frames("minutes", "chunk_minutes")
 
 
 @dataclass(frozen=True)
