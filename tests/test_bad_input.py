@@ -752,6 +752,43 @@ BAD_INPUTS = {
                                                     "throttle; these do: cg23"),
     "set model.throttle by hand": (_train("model.throttle=true"), "model.throttle is not set by hand: training adds "
                                                                   "the throttle output when train.throttle_weight > 0"),
+    # p) found by a new user: each is a row here and a case of its rule's generated sweep below
+    "train into the recording it reads": (lambda t, s: _train(f"out={t / 'sim'}")(t, s),
+                                          "sim: the output folder (out) holds a recording ("),
+    "ensemble onto one of its members": (lambda t, s: ["ensemble", str(made(t, name="a.pt")), str(made(t, name="b.pt")),
+                                                       "--out", str(t / "a.pt")],
+                                         "a.pt: the output file (--out) is an input of this command"),
+    "ensemble of one checkpoint through a symlink": (
+        lambda t, s: (os.symlink(made(t, name="a.pt"), t / "link.pt"),
+                      ["ensemble", str(t / "a.pt"), str(t / "link.pt"), "--out", str(t / "e.pt")])[1],
+        "link.pt is named twice (as "),
+    "drive minutes that hold no frame": (_with("--minutes", "1e-9", command="sim drive"),
+                                         "--minutes must be at least one frame's time: 0.000833 min at 20 frames/s"),
+    "a Latin-1 byte in a config": (lambda t, s: (t / "c.yaml").write_bytes(b"# caf\xe9\n") and ["train", str(t / "c.yaml")],
+                                   "c.yaml, row 1: byte 0xe9 is not UTF-8 text"),
+    "a key twice in a config": (lambda t, s: (config(t, sim_log(t / "sim")).open("a").write("train: {epochs: 3}\n"),
+                                              ["train", str(t / "c.yaml")])[1],
+                                "c.yaml: not valid YAML: key 'train' is given twice (lines 5 and 6); keep one"),
+    "a reader option that is a list": (_compile(lambda t: tub(t / "tub"), "full_lock_deg=[25]"),
+                                       "reader.full_lock_deg must be a number in (0, 90) degrees, got [25]"),
+    "a reader option that is not a boolean": (_compile(lambda t: tub(t / "tub"), "skip_missing=maybe"),
+                                              "reader.skip_missing must be true or false, got 'maybe'"),
+    "latency on more threads than the machine has": (
+        lambda t, s: ["latency", "--models", "zero", "--threads", "100000"], "--threads must be an integer in [1, "),
+    "a label file that names a column twice": (
+        _compile(lambda t: (tear(ch2(t / "ch2") / "labels.csv", 1, "frame_id,steering_angle,steering_angle\n"),
+                            t / "ch2")[1]),
+        "labels.csv, row 1: the header names column(s) ['steering_angle'] twice"),
+    "a label file whose time goes back": (
+        _compile(lambda t: (tear(ch2(t / "ch2") / "labels.csv", 4, "1020000000,0.0,0\n"), t / "ch2")[1]),
+        "labels.csv, row 4: the time goes back (1020000000 ns after 1050000000 ns in the row before)"),
+    "extra data that is the training recording": (lambda t, s: _train(f"extra_data=[{t / 'sim'}]")(t, s),
+                                                  "is the training recording itself (data)"),
+    "an episode that does not exist": (_train("train.exclude_episodes=[drift-outt]"),
+                                       "train.exclude_episodes[0] must be normal, drift-out, recover or rollout"),
+    "a suite road type named twice": (_with("--roads", "twisty,twisty"),
+                                      "--roads must be a comma list of road types of country, highway, twisty, each "
+                                      "once, got 'twisty,twisty'"),
 }
 
 
@@ -1620,3 +1657,18 @@ if __name__ == "__main__":  # the table of docs/RESULTS.md, "Bad input"
     print("| rule | inputs generated | refused | said |\n|---|---|---|---|")
     for rule, n, refused, said in rule_counts():
         print(f"| {rule} | {n} | {refused} | {said} |")
+
+
+def test_an_experiment_writes_its_table_where_its_runs_train(tmp_path):
+    """`out=NEW` moves the whole experiment: its runs train below NEW and its table is written there, not over the
+    config's earlier experiment; two entries of one name would share a run folder and a row, and are refused."""
+    from steerlab.experiment import load_experiment
+
+    cfg = config(tmp_path, sim_log(tmp_path / "sim"))
+    cfg.write_text(cfg.read_text() + "models:\n  - {model: {name: zero}}\n  - {model: {name: train-mean}}\n")
+    exp = load_experiment(cfg, [f"out={tmp_path / 'new'}"])
+    assert exp.out == tmp_path / "new"
+    assert Path(exp.run_config(exp.entries[1], 2).out) == tmp_path / "new" / "train-mean" / "seed2"
+    cfg.write_text(cfg.read_text() + "  - {model: {name: zero}, train: {lr: 0.01}}\n")
+    with pytest.raises(SteerlabError, match="models entries 1 and 3 are both named 'zero'; give one a label"):
+        load_experiment(cfg)

@@ -79,7 +79,7 @@ def _mapping(loader: UniqueKeys, node: yaml.MappingNode, deep: bool = False):
             if key in seen:
                 raise yaml.constructor.ConstructorError(
                     None, None, f"key {key!r} is given twice (lines {seen[key] + 1} and "
-                    f"{key_node.start_mark.line + 1}); keep one", key_node.start_mark)
+                    f"{key_node.start_mark.line + 1}); keep one")
             seen[key] = key_node.start_mark.line
         except TypeError:  # an unhashable key: PyYAML's own error follows
             pass
