@@ -600,9 +600,11 @@ BAD_INPUTS = {
     "replay missing recording": (lambda t, s: ["replay", str(made(t)), "--data", str(t / "nothere"), "--out",
                                                str(t / "out")], "nothere: recording not found"),
     # the replay of small cars (a tub: the track world's replay)
-    "replay lane width 0": (_tub_replay("--lane-width", "0"), "--lane-width must be a number in (0, 2] m, got 0"),
+    "replay lane width 0": (_tub_replay("--lane-width", "0"), "--lane-width must be a number in (0.2, 2] m, wider than "
+                                                          "the car's 0.2 m body, got 0"),
     "replay lane width narrower than the car": (_tub_replay("--lane-width", "0.15"),
-                                                "--lane-width 0.15 m leaves no room for the car's 0.2 m wide body"),
+                                                "--lane-width must be a number in (0.2, 2] m, wider than the "
+                                                "car's 0.2 m body, got 0.15"),
     "replay tub speed nan": (_tub_replay("--speed", "nan"), "--speed must be a number in (0, 100] m/s, got nan"),
     "replay speed inf": (_with("--speed", "inf", command="replay"), "--speed must be a number in (0, 100] m/s, got inf"),
     "replay calibration that does not parse": (_tub_replay(calibration="{not json"),
@@ -720,8 +722,9 @@ BAD_INPUTS = {
         "model.pt: model 'pilotnet' predicts normalized steering without a full-lock angle"),
     "sim drive in an unknown world": (lambda t, s: ["sim", "drive", str(made(t)), "--world", "moon"],
                                       "argument --world: invalid choice: 'moon' (choose from 'road', 'track')"),
-    "track lane width 0": (_track("record", "--lane-width", "0"), "--lane-width must be a number in (0, 2] m, got 0"),
-    "track lane width -0.5": (_track("drive", "--lane-width=-0.5"), "--lane-width must be a number in (0, 2] m"),
+    "track lane width 0": (_track("record", "--lane-width", "0"), "--lane-width must be a number in (0.2, 2] m, wider "
+                                                                  "than the car's 0.2 m body, got 0"),
+    "track lane width -0.5": (_track("drive", "--lane-width=-0.5"), "--lane-width must be a number in (0.2, 2] m"),
     "track calibration that does not parse": (_track("drive", calibration="{not json"),
                                               "calib.json, row 1: not valid JSON"),
     "track calibration of another image size": (

@@ -31,8 +31,8 @@ from typing import Literal
 from steerlab.files import write_json
 from steerlab.data.car import car_of
 from steerlab.errors import SteerlabError
-from steerlab.options import (AT_LEAST_0, AT_LEAST_1, MINUTES, Options, SEED, SPEED, UNIT, as_dict, holds_frames,
-                              option, parse)
+from steerlab.options import (AT_LEAST_0, AT_LEAST_1, MINUTES, Options, SEED, SPEED, UNIT, WORKERS, as_dict,
+                              holds_frames, option, parse)
 from steerlab.paths import check_outputs
 from steerlab.sim.core.parallel import run_parallel
 from steerlab.sim.road.world import ROADS, road_types
@@ -73,7 +73,7 @@ class DaggerOptions(Options):
                                help="closed-loop suite after every round: a road suite (v1) for world road, a track "
                                "suite (t1) for world track (null: none)")
     suite_minutes: float | None = option(None, MINUTES, help="minutes per suite road or track")
-    workers: int = option(2, AT_LEAST_1, help="parallel rollouts and suite drives")
+    workers: int = option(2, WORKERS, help="parallel rollouts and suite drives")
     roads: str = option("mixed", _roads, ROADS, help="road world: road types of the rollouts")
     suite_roads: str | None = option(None, help="road world: comma list of the suite's road types to drive "
                                      "(default: all)")

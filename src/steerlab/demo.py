@@ -11,7 +11,7 @@ from pathlib import Path
 
 from steerlab.files import write_json
 from steerlab.paths import check_outputs
-from steerlab.options import AT_LEAST_1, FPS, MINUTES, Options, frames_held, option
+from steerlab.options import AT_LEAST_1, FPS, MINUTES, Options, WORKERS, frames_held, option
 
 TRAIN_SEED = 1
 ROADS = "country,twisty,highway,twisty"  # the recipe of configs/experiment_recipe.yaml: half the time on tight curves
@@ -35,7 +35,7 @@ class DemoOptions(Options):
                                          "(default: the suite's 3)")
     dagger_minutes: float = option(2.0, MINUTES, help="minutes the trained model drives a fresh twisty road in its "
                                    "DAgger round")
-    workers: int = option(2, AT_LEAST_1, help="roads driven in parallel")
+    workers: int = option(2, WORKERS, help="roads driven in parallel")
 
     @classmethod
     def related(cls, v):

@@ -44,6 +44,8 @@ class Range:
 
     def words(self, kind: type) -> str:
         unit = f" {self.unit}" if self.unit else ""
+        if kind is int and self.lo is not None and self.hi is not None and self.hi >= COUNT_MAX:
+            return f"an integer of at least {_num(self.lo)} (at most {_num(self.hi)})"
         if self.lo is not None and self.hi is not None:
             return (f"{'an integer' if kind is int else 'a number'} in {'(' if self.lo_open else '['}{_num(self.lo)}, "
                     f"{_num(self.hi)}{')' if self.hi_open else ']'}{unit}")
@@ -65,11 +67,14 @@ def _num(x: float) -> str:
 
 POSITIVE = Range(0, lo_open=True)
 FRACTION = Range(0, 1, lo_open=True)  # (0, 1]: exponential smoothing's alpha
+COUNT_MAX = 1_000_000  # epochs, trials, frames, batches...: more would run for ever, not mean more
 AT_LEAST_0 = Range(0)
-AT_LEAST_1 = Range(1)
+AT_LEAST_1 = Range(1, COUNT_MAX)  # a count
 UNIT = Range(0, 1)
 SEED = Range(0, 2**32 - 1)  # what numpy, torch and Python's random all take
 THREADS = Range(1, CORES)  # threads beyond the machine's cores only slow it (and thousands crash it)
+WORKERS = Range(1, max(8, 4 * CORES))  # worker processes: a few per core at most
+PIXELS = Range(1, 4096)  # an image's width or height
 FPS = Range(1, 240, unit="frames/s")  # a camera's frame rate
 MINUTES = Range(0, 24 * 60, lo_open=True, unit="min")  # a drive or recording of at most a day
 SPEED = Range(0, 100, lo_open=True, unit="m/s")  # a car's speed (100 m/s: 360 km/h, which no car here drives)

@@ -15,7 +15,7 @@ import cv2
 import numpy as np
 
 from steerlab.errors import SteerlabError
-from steerlab.options import AT_LEAST_1, Options, as_dict, option
+from steerlab.options import AT_LEAST_1, Options, PIXELS, as_dict, option
 
 COLORS = {"gray": 1, "yuv": 3, "hsv": 3, "rgb": 3}
 MODALITIES = ("image", "diff", "flow")
@@ -95,8 +95,8 @@ class PreprocessOptions(Options):
     preset: Literal[tuple(CROP_PRESETS)] | None = None
     crop: tuple[int, int, int, int] | None = option(None, lambda c: min(c) >= 0,
                                                     "four non-negative integers (top, bottom, left, right)")
-    width: int | None = option(None, AT_LEAST_1)
-    height: int | None = option(None, AT_LEAST_1)
+    width: int | None = option(None, PIXELS)
+    height: int | None = option(None, PIXELS)
     color: Literal[tuple(COLORS)] | None = None
     modalities: tuple[Literal[MODALITIES], ...] | None = option(
         None, lambda m: len(m) > 0 and m[0] == "image" and len(set(m)) == len(m),

@@ -24,7 +24,8 @@ from steerlab.models.registry import ModelSpec, learns_throttle, list_models
 from steerlab import files
 from steerlab.paths import distinct, same_path
 from steerlab.files import UniqueKeys
-from steerlab.options import AT_LEAST_0, AT_LEAST_1, Options, POSITIVE, Range, SEED, UNIT, as_dict, option, parse
+from steerlab.options import (AT_LEAST_0, AT_LEAST_1, Options, POSITIVE, Range, SEED, UNIT, WORKERS, as_dict, option,
+                              parse)
 
 LOSSES = {"mse": "rmse", "mae": "mae"}  # train.loss -> the validation metric that picks the best epoch
 
@@ -78,7 +79,7 @@ class TrainOptions(Options):
     throttle_weight: float = option(0.0, AT_LEAST_0, help="also learn the throttle where the recording varies it "
                                     "(a donkeycar tub's user/throttle): the loss plus this weight times the MAE of "
                                     "the throttle, as paper 002 weights steering and speed")
-    workers: int = option(0, AT_LEAST_0, help="data-loading worker processes (0: in this one; the results do not "
+    workers: int = option(0, Range(0, WORKERS.hi), help="data-loading worker processes (0: in this one; the results do not "
                                                  "depend on it)")
 
 

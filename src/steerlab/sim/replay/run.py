@@ -19,7 +19,7 @@ from steerlab.data.recording import Recording
 from steerlab.data.writer import RecordingWriter
 from steerlab.errors import DataError, SteerlabError, warn
 from steerlab.files import write_json
-from steerlab.options import AT_LEAST_1, Options, POSITIVE, Range, SPEED, option
+from steerlab.options import Options, POSITIVE, Range, SPEED, WORKERS, option
 from steerlab.pilot import smoothing_option
 from steerlab.sim.core.driving import Trajectory, autonomy, drive_loop, rollout
 from steerlab.sim.core.parallel import run_parallel, tick_reporter
@@ -49,7 +49,7 @@ class ReplayOptions(Options):
     pitch: float | None = option(None, PITCH, help="camera pitch, degrees down (default: the geometry's)")
     fov: float | None = option(None, Range(0, 180, lo_open=True, hi_open=True, unit="degrees"),
                                help="road: horizontal field of view, degrees (default: the geometry's)")
-    workers: int = option(2, AT_LEAST_1, help="checkpoints replayed in parallel")
+    workers: int = option(2, WORKERS, help="checkpoints replayed in parallel")
     smoothing: float | None = smoothing_option()
 
     def setup(self, rec: Recording) -> ReplaySetup:

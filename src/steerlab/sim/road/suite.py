@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from steerlab.options import AT_LEAST_1, MINUTES, Options, frames_held, names_from, names_held, option, parse
+from steerlab.options import MINUTES, Options, WORKERS, frames_held, names_from, names_held, option, parse
 from steerlab.pilot import smoothing_option
 from steerlab.sim.core.driving import autonomy
 from steerlab.sim.core.parallel import tick_reporter
@@ -38,7 +38,7 @@ class SuiteOptions(Options):
 
     suite: str = option("v1", lambda v: v in SUITES, " or ".join(SUITES), help="suite version")
     minutes: float | None = option(None, MINUTES, help="minutes per road (default: the suite's, 3 for v1)")
-    workers: int = option(2, AT_LEAST_1, help="roads driven in parallel")
+    workers: int = option(2, WORKERS, help="roads driven in parallel")
     smoothing: float | None = smoothing_option()
     roads: str | None = option(None, help="comma list of the suite's road types to drive (default: all)")
 

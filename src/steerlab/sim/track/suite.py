@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from steerlab.errors import SteerlabError
-from steerlab.options import AT_LEAST_1, MINUTES, Options, frames_held, names_from, names_held, option
+from steerlab.options import MINUTES, Options, WORKERS, frames_held, names_from, names_held, option
 from steerlab.pilot import smoothing_option
 from steerlab.sim.core.driving import autonomy
 from steerlab.sim.core.parallel import tick_reporter
@@ -49,7 +49,7 @@ class TrackSuiteOptions(Options):
 
     suite: str = option("t1", lambda v: v in TRACK_SUITES, " or ".join(TRACK_SUITES), help="track suite version")
     minutes: float | None = option(None, MINUTES, help="minutes per track (default: the suite's, 2 for t1)")
-    workers: int = option(2, AT_LEAST_1, help="tracks driven in parallel")
+    workers: int = option(2, WORKERS, help="tracks driven in parallel")
     smoothing: float | None = smoothing_option()
     styles: str | None = option(None, help="comma list of the suite's track styles to drive (default: all)")
     throttle: float = throttle_option()

@@ -45,7 +45,9 @@ DRIFT_EVERY_S = 12.0  # the racing expert's drift-and-recover episodes in a reco
 
 def lane_width_option(help: str = "lane width in metres: between the tape lines, or around the painted centre "
                                   "line"):
-    return option(LANE_WIDTH, Range(0, 2, lo_open=True, unit="m"), help=help)
+    body = CARS["donkey"].body.width  # a narrower lane has no room for the car: every tick off the track
+    return option(LANE_WIDTH, Range(body, 2, lo_open=True, unit="m"),
+                  f"a number in ({body:g}, 2] m, wider than the car's {body:g} m body", help=help)
 
 
 def _style():
