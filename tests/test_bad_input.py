@@ -20,6 +20,7 @@ import pytest
 from conftest import flip_bytes, made, write_jpeg
 from steerlab.cli import main
 from steerlab.errors import SteerlabError
+from steerlab.options import WORKERS
 
 ROWS = 8  # frames of the tiny driving log and tub
 
@@ -450,12 +451,12 @@ BAD_INPUTS = {
         ("train.lr=-1", "a positive finite number", "-1"),
         ("train.lr=fast", "a positive finite number", "'fast'"),
         ("train.lr=inf", "a positive finite number", "'inf'"),
-        ("train.epochs=-1", "an integer of at least 1", "-1"),
-        ("train.epochs=0", "an integer of at least 1", "0"),
-        ("train.epochs=abc", "an integer of at least 1", "'abc'"),
-        ("train.epochs=1.5", "an integer of at least 1", "1.5"),
-        ("train.batch_size=0", "an integer of at least 1", "0"),
-        ("train.batch_size=ten", "an integer of at least 1", "'ten'"),
+        ("train.epochs=-1", "an integer of at least 1 (at most 1000000)", "-1"),
+        ("train.epochs=0", "an integer of at least 1 (at most 1000000)", "0"),
+        ("train.epochs=abc", "an integer of at least 1 (at most 1000000)", "'abc'"),
+        ("train.epochs=1.5", "an integer of at least 1 (at most 1000000)", "1.5"),
+        ("train.batch_size=0", "an integer of at least 1 (at most 1000000)", "0"),
+        ("train.batch_size=ten", "an integer of at least 1 (at most 1000000)", "'ten'"),
         ("model.dropout=2", "a number in [0, 1)", "2"),
         ("train.loss=l2", "mse or mae", "'l2'"),
         ("train.keep=first", "best or last", "'first'"),
@@ -566,8 +567,8 @@ BAD_INPUTS = {
     # h) options of the closed-loop commands, checked before anything drives
     "bench smoothing 5": (_with("--smoothing", "5"), "--smoothing must be a number in (0, 1], got 5"),
     "bench smoothing 0": (_with("--smoothing", "0"), "--smoothing must be a number in (0, 1], got 0"),
-    "bench workers 0": (_with("--workers", "0"), "--workers must be an integer of at least 1, got 0"),
-    "bench workers -3": (_with("--workers", "-3"), "--workers must be an integer of at least 1, got -3"),
+    "bench workers 0": (_with("--workers", "0"), f"--workers must be {WORKERS.words(int)}, got 0"),
+    "bench workers -3": (_with("--workers", "-3"), f"--workers must be {WORKERS.words(int)}, got -3"),
     "bench minutes inf": (_with("--minutes", "inf"), "--minutes must be a number in (0, 1440] min, got inf"),
     "bench minutes nan": (_with("--minutes", "nan"), "--minutes must be a number in (0, 1440] min, got nan"),
     "drive smoothing 1.5": (_with("--smoothing", "1.5", command="sim drive"),
@@ -576,7 +577,7 @@ BAD_INPUTS = {
                            "--minutes must be a number in (0, 1440] min, got -inf"),
     "serve smoothing -1": (lambda t, s: ["serve", str(made(t)), "--smoothing", "-1"],
                            "--smoothing must be a number in (0, 1], got -1"),
-    "replay workers 0": (_with("--workers", "0", command="replay"), "--workers must be an integer of at least 1"),
+    "replay workers 0": (_with("--workers", "0", command="replay"), f"--workers must be {WORKERS.words(int)}"),
     "replay smoothing 0": (_with("--smoothing", "0", command="replay"), "--smoothing must be a number in (0, 1], got 0"),
     "replay limit -1": (_with("--limit", "-1", command="replay"), "--limit must be positive and finite, got -1"),
     "replay tub model without full lock": (
@@ -671,12 +672,12 @@ BAD_INPUTS = {
         _compile(lambda t: _renamed(tub(t / "tub") / "catalog_0.catalog", "user/angle", "user/angel")),
         "catalog_0.catalog, row 1: a record needs the keys _index, _timestamp_ms, cam/image_array, user/angle"),
     "train model.seq_len=0": (_train("model.name=lstm", "model.seq_len=0"),
-                              "model.seq_len must be an integer of at least 1, got 0"),
+                              "model.seq_len must be an integer in [1, 1000], got 0"),
     "train model.seq_len=ten": (_train("model.name=lstm", "model.seq_len=ten"),
-                                "model.seq_len must be an integer of at least 1, got 'ten'"),
+                                "model.seq_len must be an integer in [1, 1000], got 'ten'"),
     "train an input too small for the model": (_train("preprocess.width=20", "preprocess.height=10"),
                                                "model 'pilotnet' cannot take a 20x10 input"),
-    "train preprocess.width=0": (_train("preprocess.width=0"), "preprocess.width must be an integer of at least 1"),
+    "train preprocess.width=0": (_train("preprocess.width=0"), "preprocess.width must be an integer in [1, 4096]"),
     "compile a CH2 folder with --camera left": (
         lambda t, s: ["compile", "--data", str(ch2(t / "ch2")), "--camera", "left", "--cache", str(t / "cache")],
         "has no 'left' camera (it has center)"),
@@ -1645,9 +1646,13 @@ def test_rule5_only_earlier_versions_are_taken_as_earlier_versions(how, taken, t
 def rule_counts() -> list[tuple[str, int, int, int]]:
     """(rule, inputs generated, refused, said) of the generated sweeps above."""
     r1 = len(rule1_cases()) + len(rule1_world_cases()) + len(rule1_reader_cases()) + len(rule1_named_set_cases())
+    edges = [_edges(check, kind) for _, kind, check, _ in _numeric_options()]
+    cli = [_edges(check, kind) for _, _, kind, check in _cli_numeric_options()]
+    taken = sum(t for e in edges for _, t in e)
+    r1 += sum(map(len, edges)) + sum(1 for e in cli for v, t in e if not t and not isinstance(v, (bool, list)))
     r3 = rule3_cases()
     r4 = rule4_cases()
-    return [("1 every value checked where it enters", r1, r1, 0),
+    return [("1 every value checked where it enters", r1, r1 - taken, 0),
             ("2 no output over an input or into another's folder", len(rule2_cases()), len(rule2_cases()), 0),
             ("3 files as people save them", len(r3) + 1, sum(not t for _, _, t in r3), 0),
             ("4 implausible values said", len(r4), sum(o == "refused" for *_, o in r4),

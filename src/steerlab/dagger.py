@@ -88,7 +88,8 @@ class DaggerOptions(Options):
 
 # the options that belong to some worlds only: given for another, they are refused
 OWN = {"roads": ("road",), "suite_roads": ("road",), "styles": ("track",), "suite_styles": ("track",),
-       "suite": ("road", "track"), "suite_minutes": ("road", "track"), "speed": ("replay",)}
+       "suite": ("road", "track"), "suite_minutes": ("road", "track"), "minutes": ("road", "track"),
+       "speed": ("replay",)}  # minutes: replay's rollouts drive the training frames, as long as they last
 
 
 def dagger_options(cfg: TrainConfig) -> DaggerOptions:
