@@ -4,11 +4,13 @@ is one entry of BAD_INPUTS, so that the list only ever grows."""
 
 import argparse
 import contextlib
+import functools
 import json
 import os
 import shutil
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from pathlib import Path
@@ -1572,17 +1574,29 @@ def rule4_cases():
     return out
 
 
+@functools.cache
+def _checkpoint_of(geometry: str) -> dict:
+    """An untrained checkpoint of the camera `geometry`, loaded (made once per test process)."""
+    from steerlab.checkpoint import load_checkpoint
+
+    folder = Path(tempfile.mkdtemp(prefix="steerlab-rule4-"))
+    try:
+        return load_checkpoint(made(folder, *(("normalized", "right") if geometry == "donkey" else ()),
+                                    geometry=geometry))
+    finally:
+        shutil.rmtree(folder)
+
+
 @pytest.mark.parametrize("what, value, outcome", rule4_cases(), ids=str)
 def test_rule4_implausible_values_are_said(what, value, outcome, tmp_path, capsys):
     if what == "speed":
+        from steerlab.data.geometry import CAMERAS
         from steerlab.pilot import Pilot
 
         geometry, speed = value
-        ckpt = made(tmp_path, *(("normalized", "right") if geometry == "donkey" else ()), geometry=geometry)
-        from steerlab.data.geometry import CAMERAS
-
         cam = CAMERAS[geometry]
-        act = lambda: Pilot(ckpt).step(np.zeros((cam.height, cam.width, 3), np.uint8), speed)  # noqa: E731
+        act = lambda: Pilot(_checkpoint_of(geometry)).step(np.zeros((cam.height, cam.width, 3), np.uint8),  # noqa
+                                                           speed)
     elif what == "focal length":
         from steerlab.data.fisheye import load_calibration
 
