@@ -468,7 +468,8 @@ BAD_INPUTS = {
                                                 "run holds a DAgger run with another config; choose a new out"),
     "sim dagger with a suite road type that does not exist": (
         lambda t, s: ["sim", "dagger", str(config(t, sim_log(t / "sim"))), "dagger.suite_roads=twisty,mountain"],
-        "dagger.suite_roads must be a comma list of road types of country, highway, twisty, each once, got 'twisty,mountain'"),
+        "dagger.suite_roads must be a comma list of road types of country, highway, twisty, each once, got "
+        "'twisty,mountain'"),
     "sim dagger in the track world on a road recording": (
         lambda t, s: ["sim", "dagger", str(config(t, sim_log(t / "sim"))), "dagger.world=track", "dagger.suite=t1"],
         "dagger.world: track renders the donkey camera, and"),
@@ -609,7 +610,8 @@ BAD_INPUTS = {
                                                 "--lane-width must be a number in (0.2, 2] m, wider than the "
                                                 "car's 0.2 m body, got 0.15"),
     "replay tub speed nan": (_tub_replay("--speed", "nan"), "--speed must be a number in (0, 100] m/s, got nan"),
-    "replay speed inf": (_with("--speed", "inf", command="replay"), "--speed must be a number in (0, 100] m/s, got inf"),
+    "replay speed inf": (_with("--speed", "inf", command="replay"),
+                         "--speed must be a number in (0, 100] m/s, got inf"),
     "replay calibration that does not parse": (_tub_replay(calibration="{not json"),
                                                "calib.json, row 1: not valid JSON"),
     "replay calibration of another image size": (
@@ -770,7 +772,8 @@ BAD_INPUTS = {
         "link.pt is named twice (as "),
     "drive minutes that hold no frame": (_with("--minutes", "1e-9", command="sim drive"),
                                          "--minutes must be at least one frame's time: 0.000833 min at 20 frames/s"),
-    "a Latin-1 byte in a config": (lambda t, s: (t / "c.yaml").write_bytes(b"# caf\xe9\n") and ["train", str(t / "c.yaml")],
+    "a Latin-1 byte in a config": (lambda t, s: (t / "c.yaml").write_bytes(b"# caf\xe9\n")
+                                   and ["train", str(t / "c.yaml")],
                                    "c.yaml, row 1: byte 0xe9 is not UTF-8 text"),
     "a key twice in a config": (lambda t, s: (config(t, sim_log(t / "sim")).open("a").write("train: {epochs: 3}\n"),
                                               ["train", str(t / "c.yaml")])[1],
@@ -1182,7 +1185,8 @@ def test_the_pilot_and_the_donkeycar_part_refuse_what_is_not_a_frame_or_a_speed(
                   np.zeros((480, 640, 3), np.uint8)):
         with pytest.raises(SteerlabError, match=r"120x160x3 uint8|trained on the 'donkey' camera \(160x120\)"):
             pilot.step(frame)
-    with pytest.raises(SteerlabError, match="the measured speed must be a finite number of m/s, at least 0, got 'fast'"):
+    with pytest.raises(SteerlabError, match="the measured speed must be a finite number of m/s, at least 0, got "
+                                            "'fast'"):
         part.run(rgb, speed="fast")
     with pytest.raises(SteerlabError, match="got nan"):
         pilot.step(rgb, float("nan"))
@@ -1203,8 +1207,10 @@ def test_the_donkeycar_part_refuses_options_it_cannot_use(tmp_path):
         SteerlabPilot(learned, 0.3)
     assert SteerlabPilot(learned, 0.3, learned_throttle=False).run(np.zeros((120, 160, 3), np.uint8))[1] == 0.3
     for options, message in [({"learned_throttle": "no"}, "learned_throttle must be True or False, got 'no'"),
-                             ({"threads": 0}, r"threads must be an integer in \[1, \d+\] \(this machine's cores\), got 0"),
-                             ({"threads": 1.5}, r"threads must be an integer in \[1, \d+\] \(this machine's cores\), got 1.5"),
+                             ({"threads": 0}, r"threads must be an integer in \[1, \d+\] \(this machine's cores\), "
+                                              r"got 0"),
+                             ({"threads": 1.5}, r"threads must be an integer in \[1, \d+\] \(this machine's cores\), "
+                                                r"got 1.5"),
                              ({"throttle_scale": -1}, r"throttle_scale must be a number in \[0, 10\], got -1")]:
         with pytest.raises(SteerlabError, match=message):
             SteerlabPilot(learned, **options)
@@ -1468,8 +1474,9 @@ def _config_of(command, tmp_path):
     """A config that `command` takes: a training config, with a models list for an experiment and a search space
     for a study."""
     cfg = config(tmp_path, tmp_path / "rec")
-    cfg.write_text(cfg.read_text() + {"experiment": "models:\n  - {model: {name: zero}}\n",
-                                      "tune": "tune: {train.lr: {low: 1.0e-5, high: 0.1, log: true}}\n"}.get(command, ""))
+    extra = {"experiment": "models:\n  - {model: {name: zero}}\n",
+             "tune": "tune: {train.lr: {low: 1.0e-5, high: 0.1, log: true}}\n"}
+    cfg.write_text(cfg.read_text() + extra.get(command, ""))
     return cfg
 
 

@@ -179,8 +179,9 @@ def writable(path: Path, what: str = "output folder") -> None:
             "" if existing == path else f", so the {what} {path} cannot be made there")) from None
 
 
-def check_outputs(folders: dict[str, str | Path | None] = {}, files: dict[str, str | Path | None] = {},
-                  inputs: Iterable[str | Path | None] = (), kind: str | None = None) -> None:
+def check_outputs(folders: dict[str, str | Path | None] | None = None,
+                  files: dict[str, str | Path | None] | None = None, inputs: Iterable[str | Path | None] = (),
+                  kind: str | None = None) -> None:
     """The one check that every command's outputs go through, before any work: `folders` and `files` (what they
     are called in messages -> path) are the command's outputs, `inputs` every path it reads, `kind` the kind of
     folder it writes (`KINDS`). Refused in one line naming the path: an output that is an input (any spelling) or
@@ -189,7 +190,7 @@ def check_outputs(folders: dict[str, str | Path | None] = {}, files: dict[str, s
     another kind of folder writes (a run's best.pt); an output that cannot be written."""
     inputs = [Path(p) for p in inputs if p is not None]
     own = KINDS[kind] if kind else None
-    for what, folder in folders.items():
+    for what, folder in (folders or {}).items():
         if folder is None:
             continue
         folder = folder_to_write(folder, what)
@@ -211,7 +212,7 @@ def check_outputs(folders: dict[str, str | Path | None] = {}, files: dict[str, s
             if rel is not None and rel.parts and own and any(fnmatch.fnmatch(rel.parts[0], w) for w in own.writes):
                 raise DataError(folder, f"the {what} would write over its input {p}; choose another folder")
         writable(folder, what)
-    for what, file in files.items():
+    for what, file in (files or {}).items():
         if file is None:
             continue
         file = name_fits(file)
