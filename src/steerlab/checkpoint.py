@@ -25,7 +25,7 @@ from steerlab.data.recording import SteeringConvention
 from steerlab.errors import SteerlabError
 from steerlab.models import create_model, model_class
 from steerlab.models.ensemble import Ensemble
-from steerlab.paths import regular_file
+from steerlab.paths import check_outputs, distinct, regular_file
 
 # 2: always sealed; 1: sealed (with an inner content_sha256 until b827f9a, without since), or from before seals: with
 # the sha256 of its weights inside (0.1.0) or with no hash at all (the first versions)
@@ -194,6 +194,7 @@ def save_ensemble(checkpoints: list[str | Path], out: str | Path) -> Path:
     and recurrence; a one-line error names the first that differs."""
     if len(checkpoints) < 2:
         raise SteerlabError("an ensemble needs at least two checkpoints")
+    check_outputs(files={"ensemble": out}, inputs=distinct(checkpoints, "checkpoint"))
     ckpts = [load_checkpoint(c) for c in checkpoints]
     models = [Ensemble if c["model"] == "ensemble" else model_class(c["model"]) for c in ckpts]
     first, path0 = ckpts[0], checkpoints[0]

@@ -31,6 +31,7 @@ from steerlab.data.readers import Source
 from steerlab.options import AT_LEAST_1, Options, THREADS, option
 from steerlab.errors import SteerlabError
 from steerlab.export import export_onnx
+from steerlab.paths import check_outputs
 from steerlab.pilot import Pilot
 
 WARMUP = 10  # frames run before the timing starts
@@ -177,6 +178,8 @@ def run_latency(checkpoints=(), o: LatencyOptions = LatencyOptions(), source: So
     an .onnx runs there only), on the frames of `source` (its first DISTINCT_FRAMES by default) or synthetic
     ones. Writes latency.csv and latency.md into `out` when given; returns the rows. Without models nothing here
     needs torch: exported models time on a car's computer with ONNX Runtime alone."""
+    if out is not None:
+        check_outputs({"output folder": out}, inputs=[*checkpoints, source and source.data], kind="latency")
     runtimes = RUNTIMES if o.runtime == "both" else (o.runtime,)
     models, threads, count, decode = o.model_names(checkpoints), o.threads, o.frames, o.decode
     if models:

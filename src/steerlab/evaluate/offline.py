@@ -17,6 +17,7 @@ from steerlab.errors import SteerlabError, warn
 from steerlab.files import write_json
 from steerlab.evaluate.plots import plot_steering
 from steerlab.evaluate.scoring import write_predictions
+from steerlab.paths import check_outputs
 from steerlab.pilot import Pilot
 from steerlab.video import DriveVideo
 
@@ -34,6 +35,7 @@ def evaluate(checkpoint: str | Path, source: Source, out: str | Path, camera: st
     recording's convention (or compared unconverted where normalized steering has no full-lock angle). A
     recording of another camera geometry than the model's is refused too; with `other_camera` its frames are
     cropped and resized as the model's own would be, with a warning."""
+    check_outputs({"output folder": out}, {"video": video}, [checkpoint, source.data, source.labels], "evaluation")
     out = Path(out)
     rec = source.open()
     if camera not in rec.frames:

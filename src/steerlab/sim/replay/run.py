@@ -20,6 +20,7 @@ from steerlab.data.writer import RecordingWriter
 from steerlab.errors import DataError, SteerlabError, warn
 from steerlab.files import write_json
 from steerlab.options import Options, POSITIVE, Range, SPEED, WORKERS, option
+from steerlab.paths import check_outputs
 from steerlab.pilot import smoothing_option
 from steerlab.sim.core.driving import Trajectory, autonomy, drive_loop, rollout
 from steerlab.sim.core.parallel import run_parallel, tick_reporter
@@ -89,6 +90,7 @@ def run_replay(checkpoints, source: Source, out: str | Path, o=ReplayOptions(), 
     from steerlab.pilot import Pilot
 
     checkpoints, names = checkpoints_to_drive(checkpoints)
+    check_outputs({"output folder": out}, {"video": video}, [*checkpoints, source.data, source.labels], "replay")
     rec = source.open()
     if rec.geometry not in CAMERAS:
         raise DataError(rec.source, f"no camera geometry for its {rec.geometry!r} frames; replay knows "

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from steerlab.options import MINUTES, Options, WORKERS, frames_held, names_from, names_held, option, parse
+from steerlab.paths import check_outputs
 from steerlab.pilot import smoothing_option
 from steerlab.sim.core.driving import autonomy
 from steerlab.sim.core.parallel import tick_reporter
@@ -120,6 +121,7 @@ def run_suite(checkpoints, out: str | Path, o: SuiteOptions = SuiteOptions(), pr
     `suite.csv` (one row per drive), `summary.csv` and `suite.md` (per checkpoint and road type) and, with
     `plots`, one trajectory plot per road in `out/roads/`. Returns the summary rows."""
     checkpoints, labels = checkpoints_to_drive(checkpoints)
+    check_outputs({"output folder": out}, inputs=checkpoints, kind="suite")
     roads, minutes, out = o.drives(), o.road_minutes, Path(out)
     planned = []
     for label, ckpt in zip(labels, checkpoints):

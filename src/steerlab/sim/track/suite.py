@@ -24,6 +24,7 @@ import numpy as np
 
 from steerlab.errors import SteerlabError
 from steerlab.options import MINUTES, Options, WORKERS, frames_held, names_from, names_held, option
+from steerlab.paths import check_outputs
 from steerlab.pilot import smoothing_option
 from steerlab.sim.core.driving import autonomy
 from steerlab.sim.core.parallel import tick_reporter
@@ -149,6 +150,7 @@ def run_suite(checkpoints, out: str | Path, o: TrackSuiteOptions = TrackSuiteOpt
     write `suite.csv`, `summary.csv`, `suite.md` and, with `plots`, `tracks/<style>-<seed>.png`. Returns the
     summary rows."""
     checkpoints, labels = checkpoints_to_drive(checkpoints)
+    check_outputs({"output folder": out}, inputs=checkpoints, kind="suite")
     tracks, out = o.drives(), Path(out)
     if EXPERT in labels:
         raise SteerlabError(f"{checkpoints[labels.index(EXPERT)]}: its label {EXPERT!r} is the folder of the "
