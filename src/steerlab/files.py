@@ -53,6 +53,10 @@ def read_csv(path: str | Path, what: str = "CSV file") -> list[list[str]]:
     """The rows of a CSV file that hold something (blank lines and rows of empty cells left out): LF or CRLF,
     with or without a byte-order mark."""
     text = read_text(path, what)
+    body = text.rstrip("\r\n")
+    if "\0" in body[:body.rfind("\n") + 1]:  # in the last line, NUL bytes are a torn write the readers read past
+        raise DataError(path, "NUL bytes in a line before the last: not text (torn by a crash, or not a CSV file)",
+                        text[:text.index("\0")].count("\n") + 1)
     return [row for row in csv.reader(io.StringIO(text, newline="")) if row and any(c.strip() for c in row)]
 
 

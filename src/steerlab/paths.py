@@ -69,7 +69,7 @@ class Kind:
 
 
 KINDS = {
-    "recording": Kind("recording", ("recording.json", "driving_log.csv", "manifest.json", "metadata.yaml"),
+    "recording": Kind("recording", ("recording.json", "driving_log.csv", "manifest.json", "metadata.yaml", "center"),
                       ("recording.json", "log.csv", "driving_log.csv", "manifest.json", "catalog_*", "center",
                        "left", "right", "IMG", "images"), continued=False),
     "run": Kind("training run", ("last.pt",), ("best.pt", "last.pt", "log.csv", "val_predictions.csv", "metrics.json",

@@ -159,7 +159,7 @@ def train(cfg: TrainConfig, progress: bool = True, on_epoch=None) -> dict:
         if path and Path(path).suffix == ".onnx":
             raise SteerlabError(f"{path}: train.{key}: an .onnx file cannot be a {role} (it holds a graph for ONNX "
                                 "Runtime, not weights to train); name the .pt checkpoint it was exported from")
-    init, teacher = (load_checkpoint(p) if p else None for p in (cfg.train.init, cfg.train.teacher))
+    init, teacher = (_named_checkpoint(cfg.train, key) for key in ("init", "teacher"))
     car = car_of(main_recording(cfg).geometry)
     cfg = cfg.for_car(car)
     if not ranks.main:  # rank 0 holds the lock for all ranks
@@ -170,6 +170,15 @@ def train(cfg: TrainConfig, progress: bool = True, on_epoch=None) -> dict:
             tmp.unlink(missing_ok=True)
         _claim(out, cfg, car)
         return fit(build(cfg, ranks, progress, init, teacher), ranks, progress, on_epoch)
+
+
+def _named_checkpoint(options, key: str) -> dict | None:
+    """The checkpoint `train.<key>` names (None: none), its errors naming the option."""
+    path = getattr(options, key)
+    try:
+        return load_checkpoint(path) if path else None
+    except SteerlabError as e:
+        raise SteerlabError(f"train.{key}: {e}") from None
 
 
 def holds_run_of(out: Path, cfg: TrainConfig, car=None) -> bool:
