@@ -1406,8 +1406,8 @@ def rule2_cases():
         paths = parser.get_default("paths") or {}
         for dest, kind in paths.items():
             if kind == "folder":
-                out += [(command, dest, c) for c in ("a recording", "a training run", "unwritable", "long name",
-                                                     "inside a recording")]
+                out += [(command, dest, c) for c in ("a recording", "a CH2 folder", "a training run", "unwritable",
+                                                     "long name", "inside a recording")]
             elif kind == "new-file":
                 out += [(command, dest, c) for c in ("an input", "an input through a symlink",
                                                      "an input, relative", "a run's checkpoint", "long name")]
@@ -1432,7 +1432,8 @@ def _collision(tmp_path, what, file_input):
         return ro / "out"
     if (tmp_path / "a-link").exists() is False:
         os.symlink(file_input, tmp_path / "a-link")
-    return {"a recording": rec, "the recording it reads": rec, "a training run": run,
+    return {"a recording": rec, "a CH2 folder": ch2(tmp_path / "ch2-other"), "the recording it reads": rec,
+            "a training run": run,
             "inside a recording": rec / "IMG", "long name": tmp_path / ("x" * 300), "an input": file_input,
             "an input through a symlink": tmp_path / "a-link",
             "an input, relative": Path(os.path.relpath(file_input)), "a run's checkpoint": run / "best.pt"}[what]
@@ -1487,7 +1488,8 @@ def _resaved(path):
     return {"bom": b"\xef\xbb\xbf" + data, "crlf": data.replace(b"\n", b"\r\n"),
             "bom+crlf": b"\xef\xbb\xbf" + data.replace(b"\n", b"\r\n"), "blank lines": data + b"\n\n\n",
             "utf-16": data.decode().encode("utf-16"), "latin-1": data.replace(b"\n", b" \xe9\n", 2),
-            "column twice": data.replace(b",", b"," + data.split(b",")[0] + b",", 1)}
+            "column twice": data.replace(b",", b"," + data.split(b",")[0] + b",", 1),
+            "NUL bytes": data.replace(b"\n", b"\0\n", 2)}
 
 
 def rule3_cases():
@@ -1496,7 +1498,7 @@ def rule3_cases():
     taken = ("bom", "crlf", "bom+crlf", "blank lines")
     out = []
     for file in ("ch2 labels", "driving log", "native log", "answer file", "config", "calibration"):
-        for variant in (*taken, "utf-16", "latin-1", "column twice"):
+        for variant in (*taken, "utf-16", "latin-1", "column twice", "NUL bytes"):
             if variant == "column twice" and file in ("driving log", "config", "calibration"):
                 continue
             out.append((file, variant, variant in taken))

@@ -99,8 +99,10 @@ def parse_yaml(text: str, where: str | Path) -> Any:
         return yaml.load(text, Loader=UniqueKeys)
     except yaml.YAMLError as e:
         mark = getattr(e, "problem_mark", None)
-        line = f"line {mark.line + 1}: " if mark is not None else ""
-        raise SteerlabError(f"{where}: not valid YAML: {line}{getattr(e, 'problem', None) or e}") from None
+        row = (mark.line + 1 if mark is not None else
+               text[:e.position].count("\n") + 1 if isinstance(e, yaml.reader.ReaderError) else None)
+        problem = getattr(e, "problem", None) or str(e).splitlines()[0]
+        raise SteerlabError(f"{where}: not valid YAML: {'' if row is None else f'line {row}: '}{problem}") from None
 
 
 def read_yaml(path: str | Path, what: str = "YAML file") -> Any:
