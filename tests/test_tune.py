@@ -232,7 +232,8 @@ def test_bad_storage_and_changed_space(tmp_path, tiny_recording):
     assert not (tmp_path / "z").exists()
     with pytest.raises(SteerlabError, match="different search space, objective or pruning"):
         run_tune(cfg, trials=1, storage=journal, study_name="s", pruning=4, progress=False)  # workers must agree
-    with pytest.raises(SteerlabError, match="--reduction-factor must be an integer of at least 2, got 1"):
+    with pytest.raises(SteerlabError, match=r"--reduction-factor must be an integer of at least 2 \(at most "
+                                            r"1000000\), got 1"):
         run_tune(tune_config(tmp_path, tiny_recording, tmp_path / "w"), trials=1, pruning=1, progress=False)
     assert not (tmp_path / "w").exists()
 
