@@ -73,6 +73,8 @@ def check_paths(args: argparse.Namespace) -> None:
             elif kind == "new-file":
                 if path.is_dir():
                     raise SteerlabError(f"{path}: {name} names a folder; it needs a file to write")
+                if dest == "video" and path.suffix.lower() != ".mp4":
+                    raise SteerlabError(f"{path}: {name} writes an MP4 video; its name must end in .mp4")
                 files[f"output file ({name})"] = path
     inputs += [Path(getattr(args, d)) for d in READ_AS_INPUT if getattr(args, d, None)]
     inputs += [Path(r.split("=", 1)[1]) for r in getattr(args, "reader", None) or [] if r.startswith("log=")]
