@@ -39,14 +39,16 @@ def flip_bytes(path: Path) -> Path:
 
 @pytest.fixture
 def ch2_folder(tmp_path):
-    """A tiny CH2-layout folder: 6 frames of 640x480, answer-file labels."""
-    (tmp_path / "center").mkdir()
+    """A tiny CH2-layout folder (tmp_path/ch2, beside the outputs of a test): 6 frames of 640x480, answer-file
+    labels."""
+    folder = tmp_path / "ch2"
+    (folder / "center").mkdir(parents=True)
     ids = [1_000_000_000 + i * 50_000_000 for i in range(6)]
     for i, fid in enumerate(ids):
-        write_jpeg(tmp_path / "center" / f"{fid}.jpg", 40 * i, (480, 640))
+        write_jpeg(folder / "center" / f"{fid}.jpg", 40 * i, (480, 640))
     lines = ["frame_id,steering_angle,public"] + [f"{fid},{0.01 * i},{i % 2}" for i, fid in enumerate(ids)]
-    (tmp_path / "labels.csv").write_text("\n".join(lines) + "\n")
-    return tmp_path
+    (folder / "labels.csv").write_text("\n".join(lines) + "\n")
+    return folder
 
 
 # Command-line worker processes of the tests (tuning workers, as on several machines) are forked from a server process

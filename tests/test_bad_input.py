@@ -4,11 +4,13 @@ is one entry of BAD_INPUTS, so that the list only ever grows."""
 
 import argparse
 import contextlib
+import functools
 import json
 import os
 import shutil
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from pathlib import Path
@@ -20,6 +22,7 @@ import pytest
 from conftest import flip_bytes, made, write_jpeg
 from steerlab.cli import main
 from steerlab.errors import SteerlabError
+from steerlab.options import WORKERS
 
 ROWS = 8  # frames of the tiny driving log and tub
 
@@ -450,12 +453,12 @@ BAD_INPUTS = {
         ("train.lr=-1", "a positive finite number", "-1"),
         ("train.lr=fast", "a positive finite number", "'fast'"),
         ("train.lr=inf", "a positive finite number", "'inf'"),
-        ("train.epochs=-1", "an integer of at least 1", "-1"),
-        ("train.epochs=0", "an integer of at least 1", "0"),
-        ("train.epochs=abc", "an integer of at least 1", "'abc'"),
-        ("train.epochs=1.5", "an integer of at least 1", "1.5"),
-        ("train.batch_size=0", "an integer of at least 1", "0"),
-        ("train.batch_size=ten", "an integer of at least 1", "'ten'"),
+        ("train.epochs=-1", "an integer of at least 1 (at most 1000000)", "-1"),
+        ("train.epochs=0", "an integer of at least 1 (at most 1000000)", "0"),
+        ("train.epochs=abc", "an integer of at least 1 (at most 1000000)", "'abc'"),
+        ("train.epochs=1.5", "an integer of at least 1 (at most 1000000)", "1.5"),
+        ("train.batch_size=0", "an integer of at least 1 (at most 1000000)", "0"),
+        ("train.batch_size=ten", "an integer of at least 1 (at most 1000000)", "'ten'"),
         ("model.dropout=2", "a number in [0, 1)", "2"),
         ("train.loss=l2", "mse or mae", "'l2'"),
         ("train.keep=first", "best or last", "'first'"),
@@ -465,7 +468,8 @@ BAD_INPUTS = {
                                                 "run holds a DAgger run with another config; choose a new out"),
     "sim dagger with a suite road type that does not exist": (
         lambda t, s: ["sim", "dagger", str(config(t, sim_log(t / "sim"))), "dagger.suite_roads=twisty,mountain"],
-        "dagger.suite_roads: suite v1 has no mountain roads; it has country, highway, twisty"),
+        "dagger.suite_roads must be a comma list of road types of country, highway, twisty, each once, got "
+        "'twisty,mountain'"),
     "sim dagger in the track world on a road recording": (
         lambda t, s: ["sim", "dagger", str(config(t, sim_log(t / "sim"))), "dagger.world=track", "dagger.suite=t1"],
         "dagger.world: track renders the donkey camera, and"),
@@ -475,7 +479,7 @@ BAD_INPUTS = {
     "sim dagger in the track world with a track style that does not exist": (
         lambda t, s: ["sim", "dagger", str(config(t, tub(t / "tub"))), "dagger.world=track", "dagger.suite=t1",
                       "dagger.suite_styles=gravel"],
-        "dagger.suite_styles: suite t1 has no gravel tracks; choose styles of taped, centre"),
+        "dagger.suite_styles must be a comma list of track styles of taped, centre, each once, got 'gravel'"),
     "sim dagger in the track world with an option of the road world": (
         lambda t, s: ["sim", "dagger", str(config(t, tub(t / "tub"))), "dagger.world=track", "dagger.suite=t1",
                       "dagger.suite_roads=taped"],
@@ -490,7 +494,7 @@ BAD_INPUTS = {
                                                                "it: train.lr='\",\"'"),
     "sim dagger with no suite road type": (
         lambda t, s: ["sim", "dagger", str(config(t, sim_log(t / "sim"))), 'dagger.suite_roads=","'],
-        "dagger.suite_roads: no road to drive: choose road types of suite v1 (country, highway, twisty)"),
+        "dagger.suite_roads must be a comma list of road types of country, highway, twisty, each once, got ','"),
     # smoothness in the loss needs windows of consecutive frames
     "train smoothness of a single-frame model": (_train("train.smoothness=1", "model.name=pilotnet"),
                                                  "train.smoothness needs a recurrent model"),
@@ -566,17 +570,17 @@ BAD_INPUTS = {
     # h) options of the closed-loop commands, checked before anything drives
     "bench smoothing 5": (_with("--smoothing", "5"), "--smoothing must be a number in (0, 1], got 5"),
     "bench smoothing 0": (_with("--smoothing", "0"), "--smoothing must be a number in (0, 1], got 0"),
-    "bench workers 0": (_with("--workers", "0"), "--workers must be an integer of at least 1, got 0"),
-    "bench workers -3": (_with("--workers", "-3"), "--workers must be an integer of at least 1, got -3"),
-    "bench minutes inf": (_with("--minutes", "inf"), "--minutes must be positive and finite, got inf"),
-    "bench minutes nan": (_with("--minutes", "nan"), "--minutes must be positive and finite, got nan"),
+    "bench workers 0": (_with("--workers", "0"), f"--workers must be {WORKERS.words(int)}, got 0"),
+    "bench workers -3": (_with("--workers", "-3"), f"--workers must be {WORKERS.words(int)}, got -3"),
+    "bench minutes inf": (_with("--minutes", "inf"), "--minutes must be a number in (0, 1440] min, got inf"),
+    "bench minutes nan": (_with("--minutes", "nan"), "--minutes must be a number in (0, 1440] min, got nan"),
     "drive smoothing 1.5": (_with("--smoothing", "1.5", command="sim drive"),
                             "--smoothing must be a number in (0, 1], got 1.5"),
     "drive minutes -inf": (_with("--minutes=-inf", command="sim drive"),
-                           "--minutes must be positive and finite, got -inf"),
+                           "--minutes must be a number in (0, 1440] min, got -inf"),
     "serve smoothing -1": (lambda t, s: ["serve", str(made(t)), "--smoothing", "-1"],
                            "--smoothing must be a number in (0, 1], got -1"),
-    "replay workers 0": (_with("--workers", "0", command="replay"), "--workers must be an integer of at least 1"),
+    "replay workers 0": (_with("--workers", "0", command="replay"), f"--workers must be {WORKERS.words(int)}"),
     "replay smoothing 0": (_with("--smoothing", "0", command="replay"), "--smoothing must be a number in (0, 1], got 0"),
     "replay limit -1": (_with("--limit", "-1", command="replay"), "--limit must be positive and finite, got -1"),
     "replay tub model without full lock": (
@@ -584,13 +588,13 @@ BAD_INPUTS = {
                       "--out", str(t / "out")],
         "model.pt: its steering cannot become a wheel angle: normalized steering needs the car's full-lock angle"),
     "replay max heading inf": (_with("--max-heading", "inf", command="replay"),
-                               "--max-heading must be positive and finite, got inf"),
+                               "--max-heading must be a number in (0, 90] degrees, got inf"),
     # j) closed-loop replay of a recording
     "replay too short": (_with(command="replay"), "driving_log.csv: too short to replay: no segment lasts 3 s"),
     "replay another camera": (lambda t, s: ["replay", str(made(t, "steering_wheel", "left", "ch2")), "--data",
                                             str(sim_log(t / "sim")), "--out", str(t / "out")],
                               "model.pt was trained on the 'ch2' camera geometry and"),
-    "replay speed -3": (_with("--speed", "-3", command="replay"), "--speed must be positive and finite, got -3"),
+    "replay speed -3": (_with("--speed", "-3", command="replay"), "--speed must be a number in (0, 100] m/s, got -3"),
     "replay no speed to estimate": (_flat_ch2_replay, "cannot estimate the speed from the frames"),
     "replay corrupt frame": (_corrupt_frame_replay, ".jpg: cannot decode image (corrupt or not a JPEG/PNG)"),
     "train corrupt frame": (_corrupt_frame("train"), "_300.jpg: cannot decode image (corrupt or not a JPEG/PNG)",
@@ -600,13 +604,16 @@ BAD_INPUTS = {
     "replay missing recording": (lambda t, s: ["replay", str(made(t)), "--data", str(t / "nothere"), "--out",
                                                str(t / "out")], "nothere: recording not found"),
     # the replay of small cars (a tub: the track world's replay)
-    "replay lane width 0": (_tub_replay("--lane-width", "0"), "--lane-width must be a number in (0, 2] m, got 0"),
+    "replay lane width 0": (_tub_replay("--lane-width", "0"), "--lane-width must be a number in (0.2, 2] m, wider than "
+                                                          "the car's 0.2 m body, got 0"),
     "replay lane width narrower than the car": (_tub_replay("--lane-width", "0.15"),
-                                                "--lane-width 0.15 m leaves no room for the car's 0.2 m wide body"),
-    "replay tub speed nan": (_tub_replay("--speed", "nan"), "--speed must be positive and finite, got nan"),
-    "replay speed inf": (_with("--speed", "inf", command="replay"), "--speed must be positive and finite, got inf"),
+                                                "--lane-width must be a number in (0.2, 2] m, wider than the "
+                                                "car's 0.2 m body, got 0.15"),
+    "replay tub speed nan": (_tub_replay("--speed", "nan"), "--speed must be a number in (0, 100] m/s, got nan"),
+    "replay speed inf": (_with("--speed", "inf", command="replay"),
+                         "--speed must be a number in (0, 100] m/s, got inf"),
     "replay calibration that does not parse": (_tub_replay(calibration="{not json"),
-                                               "calib.json: not a JSON calibration file"),
+                                               "calib.json, row 1: not valid JSON"),
     "replay calibration of another image size": (
         _tub_replay(calibration={**CALIBRATION, "image_size": [640, 480]}),
         "calib.json: calibrated at 640x480, but the camera takes 160x120 frames"),
@@ -634,7 +641,7 @@ BAD_INPUTS = {
     "tune on a driving log with a bad row": (
         lambda t, s: _tune_space({"train.lr": {"low": 1.0e-5, "high": 0.1, "log": True}})(t, s, rows={3: "x,0.5,0,10"}),
         "driving_log.csv, row 4: ", ("run/", "cache/", "s.journal")),
-    "tune read-only journal": (_read_only_journal, "s.journal: the journal file is not writable (permission denied)"),
+    "tune read-only journal": (_read_only_journal, "s.journal: cannot be written ("),
     # k) a study's storage that cannot be opened: the URL without its password, what the server or driver said
     "tune unreachable postgres": (_tune_storage("postgresql://tuner:secret@127.0.0.1:1/steerlab"),
                                   "cannot open storage postgresql://tuner:***@127.0.0.1:1/steerlab: OperationalError: "
@@ -650,9 +657,9 @@ BAD_INPUTS = {
     "latency unknown model": (lambda t, s: ["latency", "--models", "pilotnet,pilot-net", "--out", str(t / "out")],
                               "unknown model 'pilot-net'; available: cg23,"),
     "latency threads 0": (lambda t, s: ["latency", "--models", "zero", "--threads", "0", "--out", str(t / "out")],
-                          "--threads must be an integer of at least 1, got 0"),
+                          "--threads must be an integer in [1, "),
     "latency threads -1": (lambda t, s: ["latency", "--models", "zero", "--threads", "-1", "--out", str(t / "out")],
-                           "--threads must be an integer of at least 1, got -1"),
+                           "--threads must be an integer in [1, "),
     "latency missing checkpoint": (lambda t, s: ["latency", str(t / "gone.pt"), "--out", str(t / "out")],
                                    "gone.pt: checkpoint not found"),
     "latency onnx file on torch": (lambda t, s: ["latency", str(_exported(t)), "--runtime", "torch"],
@@ -669,12 +676,12 @@ BAD_INPUTS = {
         _compile(lambda t: _renamed(tub(t / "tub") / "catalog_0.catalog", "user/angle", "user/angel")),
         "catalog_0.catalog, row 1: a record needs the keys _index, _timestamp_ms, cam/image_array, user/angle"),
     "train model.seq_len=0": (_train("model.name=lstm", "model.seq_len=0"),
-                              "model.seq_len must be an integer of at least 1, got 0"),
+                              "model.seq_len must be an integer in [1, 1000], got 0"),
     "train model.seq_len=ten": (_train("model.name=lstm", "model.seq_len=ten"),
-                                "model.seq_len must be an integer of at least 1, got 'ten'"),
+                                "model.seq_len must be an integer in [1, 1000], got 'ten'"),
     "train an input too small for the model": (_train("preprocess.width=20", "preprocess.height=10"),
                                                "model 'pilotnet' cannot take a 20x10 input"),
-    "train preprocess.width=0": (_train("preprocess.width=0"), "preprocess.width must be an integer of at least 1"),
+    "train preprocess.width=0": (_train("preprocess.width=0"), "preprocess.width must be an integer in [1, 4096]"),
     "compile a CH2 folder with --camera left": (
         lambda t, s: ["compile", "--data", str(ch2(t / "ch2")), "--camera", "left", "--cache", str(t / "cache")],
         "has no 'left' camera (it has center)"),
@@ -720,10 +727,11 @@ BAD_INPUTS = {
         "model.pt: model 'pilotnet' predicts normalized steering without a full-lock angle"),
     "sim drive in an unknown world": (lambda t, s: ["sim", "drive", str(made(t)), "--world", "moon"],
                                       "argument --world: invalid choice: 'moon' (choose from 'road', 'track')"),
-    "track lane width 0": (_track("record", "--lane-width", "0"), "--lane-width must be a number in (0, 2] m, got 0"),
-    "track lane width -0.5": (_track("drive", "--lane-width=-0.5"), "--lane-width must be a number in (0, 2] m"),
+    "track lane width 0": (_track("record", "--lane-width", "0"), "--lane-width must be a number in (0.2, 2] m, wider "
+                                                                  "than the car's 0.2 m body, got 0"),
+    "track lane width -0.5": (_track("drive", "--lane-width=-0.5"), "--lane-width must be a number in (0.2, 2] m"),
     "track calibration that does not parse": (_track("drive", calibration="{not json"),
-                                              "calib.json: not a JSON calibration file"),
+                                              "calib.json, row 1: not valid JSON"),
     "track calibration of another image size": (
         _track("bench", calibration={**CALIBRATION, "image_size": [640, 480]}),
         "calib.json: calibrated at 640x480, but the camera takes 160x120 frames"),
@@ -752,6 +760,44 @@ BAD_INPUTS = {
                                                     "throttle; these do: cg23"),
     "set model.throttle by hand": (_train("model.throttle=true"), "model.throttle is not set by hand: training adds "
                                                                   "the throttle output when train.throttle_weight > 0"),
+    # p) found by a new user: each is a row here and a case of its rule's generated sweep below
+    "train into the recording it reads": (lambda t, s: _train(f"out={t / 'sim'}")(t, s),
+                                          "sim: the output folder (out) holds a recording ("),
+    "ensemble onto one of its members": (lambda t, s: ["ensemble", str(made(t, name="a.pt")), str(made(t, name="b.pt")),
+                                                       "--out", str(t / "a.pt")],
+                                         "a.pt: the output file (--out) is an input of this command"),
+    "ensemble of one checkpoint through a symlink": (
+        lambda t, s: (os.symlink(made(t, name="a.pt"), t / "link.pt"),
+                      ["ensemble", str(t / "a.pt"), str(t / "link.pt"), "--out", str(t / "e.pt")])[1],
+        "link.pt is named twice (as "),
+    "drive minutes that hold no frame": (_with("--minutes", "1e-9", command="sim drive"),
+                                         "--minutes must be at least one frame's time: 0.000833 min at 20 frames/s"),
+    "a Latin-1 byte in a config": (lambda t, s: (t / "c.yaml").write_bytes(b"# caf\xe9\n")
+                                   and ["train", str(t / "c.yaml")],
+                                   "c.yaml, row 1: byte 0xe9 is not UTF-8 text"),
+    "a key twice in a config": (lambda t, s: (config(t, sim_log(t / "sim")).open("a").write("train: {epochs: 3}\n"),
+                                              ["train", str(t / "c.yaml")])[1],
+                                "c.yaml: not valid YAML: key 'train' is given twice (lines 5 and 6); keep one"),
+    "a reader option that is a list": (_compile(lambda t: tub(t / "tub"), "full_lock_deg=[25]"),
+                                       "reader.full_lock_deg must be a number in (0, 90) degrees, got [25]"),
+    "a reader option that is not a boolean": (_compile(lambda t: tub(t / "tub"), "skip_missing=maybe"),
+                                              "reader.skip_missing must be true or false, got 'maybe'"),
+    "latency on more threads than the machine has": (
+        lambda t, s: ["latency", "--models", "zero", "--threads", "100000"], "--threads must be an integer in [1, "),
+    "a label file that names a column twice": (
+        _compile(lambda t: (tear(ch2(t / "ch2") / "labels.csv", 1, "frame_id,steering_angle,steering_angle\n"),
+                            t / "ch2")[1]),
+        "labels.csv, row 1: the header names column(s) ['steering_angle'] twice"),
+    "a label file whose time goes back": (
+        _compile(lambda t: (tear(ch2(t / "ch2") / "labels.csv", 4, "1020000000,0.0,0\n"), t / "ch2")[1]),
+        "labels.csv, row 4: the time goes back (1020000000 ns after 1050000000 ns in the row before)"),
+    "extra data that is the training recording": (lambda t, s: _train(f"extra_data=[{t / 'sim'}]")(t, s),
+                                                  "is the training recording itself (data)"),
+    "an episode that does not exist": (_train("train.exclude_episodes=[drift-outt]"),
+                                       "train.exclude_episodes[0] must be normal, drift-out, recover or rollout"),
+    "a suite road type named twice": (_with("--roads", "twisty,twisty"),
+                                      "--roads must be a comma list of road types of country, highway, twisty, each "
+                                      "once, got 'twisty,twisty'"),
 }
 
 
@@ -890,8 +936,12 @@ def test_checkpoints_load_without_pickled_code_and_are_sealed(tmp_path):
     assert torch.load(tmp_path / "run" / "last.pt", weights_only=True)["epoch"] == 1
     data = best.read_bytes()  # the zip's comment: the seal, then the sha256 of every byte before the digest
     assert data[-64 - len(SEAL):-64] == SEAL and data[-64:] == hashlib.sha256(data[:-64]).hexdigest().encode()
-    torch.save(raw, tmp_path / "plain.pt")  # as torch.save alone writes it (no seal): still loads
-    assert load_checkpoint(tmp_path / "plain.pt")["model"] == "pilotnet"
+    torch.save(raw, tmp_path / "plain.pt")  # written again by torch.save alone (no seal): changed by another tool
+    with pytest.raises(SteerlabError, match="plain.pt: a checkpoint that steerlab sealed, without its seal: it was "
+                                            "written again by another tool"):
+        load_checkpoint(tmp_path / "plain.pt")
+    torch.save({**raw, "format": "steerlab-checkpoint-1"}, tmp_path / "first.pt")  # as the first versions wrote it
+    assert load_checkpoint(tmp_path / "first.pt")["model"] == "pilotnet"
 
 
 # ---------------------------------------------------------------- generated sweeps: every option, every path
@@ -948,6 +998,8 @@ def test_every_numeric_config_option_is_range_checked(key, kind, check, expected
     base = {"data": str(tmp_path), **({"model": {"name": model}} if model else {})}
     if key == "train.smoothness":
         base["model"] = {"name": "lstm"}
+    if key == "dagger.speed":  # an option of the replay world
+        base["dagger"] = {"world": "replay"}
 
     def parse(value):
         cfg = load_config(None, [f"{key}={json.dumps(value)}"], base=base)
@@ -1133,7 +1185,8 @@ def test_the_pilot_and_the_donkeycar_part_refuse_what_is_not_a_frame_or_a_speed(
                   np.zeros((480, 640, 3), np.uint8)):
         with pytest.raises(SteerlabError, match=r"120x160x3 uint8|trained on the 'donkey' camera \(160x120\)"):
             pilot.step(frame)
-    with pytest.raises(SteerlabError, match="the measured speed must be a finite number of m/s, got 'fast'"):
+    with pytest.raises(SteerlabError, match="the measured speed must be a finite number of m/s, at least 0, got "
+                                            "'fast'"):
         part.run(rgb, speed="fast")
     with pytest.raises(SteerlabError, match="got nan"):
         pilot.step(rgb, float("nan"))
@@ -1154,8 +1207,499 @@ def test_the_donkeycar_part_refuses_options_it_cannot_use(tmp_path):
         SteerlabPilot(learned, 0.3)
     assert SteerlabPilot(learned, 0.3, learned_throttle=False).run(np.zeros((120, 160, 3), np.uint8))[1] == 0.3
     for options, message in [({"learned_throttle": "no"}, "learned_throttle must be True or False, got 'no'"),
-                             ({"threads": 0}, "threads must be a whole number >= 1, got 0"),
-                             ({"threads": 1.5}, "threads must be a whole number >= 1, got 1.5"),
+                             ({"threads": 0}, r"threads must be an integer in \[1, \d+\] \(this machine's cores\), "
+                                              r"got 0"),
+                             ({"threads": 1.5}, r"threads must be an integer in \[1, \d+\] \(this machine's cores\), "
+                                                r"got 1.5"),
                              ({"throttle_scale": -1}, r"throttle_scale must be a number in \[0, 10\], got -1")]:
         with pytest.raises(SteerlabError, match=message):
             SteerlabPilot(learned, **options)
+
+
+# ---------------------------------------------------------------- the rules, each a sweep generated from the code
+# Rule 1: every value checked where it enters (options, reader options, other worlds' options); rule 2: no output
+# over an input or into a folder of another kind, and one line when it cannot be written; rule 3: files as people
+# save them; rule 4: implausible values said; rule 5: only earlier versions' checkpoints taken as earlier versions.
+# Each generator lists its inputs and whether each is refused or said, so that `python tests/test_bad_input.py`
+# counts them (docs/RESULTS.md, "Bad input").
+
+def _option_classes():
+    """Every options dataclass a user's values enter through: the commands' (cli.OPTIONS), the config's sections,
+    the readers' option tables."""
+    from steerlab.cli import OPTIONS, build_parser
+    from steerlab.dagger import DaggerOptions
+    from steerlab.data import bag, tub, videolog
+    from steerlab.data.simlog import SIM_OPTIONS
+    from steerlab.train.config import TrainOptions
+
+    build_parser()
+    classes = {cls for group in OPTIONS.values() for cls in group}
+    return sorted(classes | {DaggerOptions, TrainOptions, tub.OPTIONS, bag.OPTIONS, videolog.OPTIONS, SIM_OPTIONS},
+                  key=lambda c: c.__name__)
+
+
+def _wrong_values(o):
+    """Values of the wrong kind for the option `o`: what no option of its type takes."""
+    from typing import Literal, get_origin
+
+    from steerlab.options import optional
+
+    kind = optional(o.kind)[0]
+    if kind is bool:
+        return ["maybe", 1, 0, "true", [True], None if not optional(o.kind)[1] else "no"]
+    if kind in (int, float):
+        return [[1], {"a": 1}, "abc", True, *(["nan", "inf"] if kind is float else [1.5, "2"])]
+    if get_origin(kind) is Literal:
+        return ["no-such-choice", 7, [kind.__args__[0]]]
+    if kind in (dict,):
+        return [5, "text", [1]]
+    if kind is str:
+        return [5, [1], {"a": 1}]
+    if get_origin(kind) is tuple:
+        return ["text", 5, {"a": 1}]
+    return []
+
+
+def rule1_cases():
+    """(class, option, value): every option of every options class, each value of a wrong kind, and each minutes that
+    hold no frame; all refused by `parse` naming the option."""
+    from steerlab.options import MINUTES, options_of
+
+    cases = []
+    for cls in _option_classes():
+        for o in options_of(cls):
+            if o.path:
+                continue
+            cases += [(cls, o.key, v) for v in _wrong_values(o)]
+            if o.check is MINUTES:
+                cases.append((cls, o.key, 1e-7))  # no frame at any frame rate
+    return cases
+
+
+@pytest.mark.parametrize("cls, key, value", rule1_cases(), ids=lambda v: getattr(v, "__name__", str(v))[:30])
+def test_rule1_every_option_refuses_a_value_it_cannot_mean(cls, key, value):
+    from steerlab.options import parse
+
+    with pytest.raises(SteerlabError) as e:
+        parse(cls, {key: value}, "x")
+    assert f"x.{key}" in str(e.value) and "\n" not in str(e.value), str(e.value)
+
+
+def _valid_value(o):
+    """A value the option `o` takes (its default, or a number in its range), as the command line writes it."""
+    from dataclasses import MISSING
+    from typing import Literal, get_origin
+
+    from steerlab.options import optional
+
+    kind = optional(o.kind)[0]
+    if o.default not in (None, MISSING) and kind is not bool:
+        return str(o.default)
+    if get_origin(kind) is Literal:
+        return str(kind.__args__[0])
+    if kind in (int, float):
+        lo = getattr(o.check, "lo", None)
+        return str(kind((lo or 0) + 1))
+    return None if kind is bool else "x"
+
+
+def rule1_world_cases():
+    """(command, world, flag, value): every flag of every world's options, given in another world that lacks it."""
+    from steerlab.cli import flag
+    from steerlab.options import optional, options_of
+    from steerlab.sim.worlds import WORLDS
+
+    cases = []
+    for command, sub in (("record", "sim record"), ("drive", "sim drive"), ("suite", "sim bench"),
+                         ("replay", "replay")):
+        for world in WORLDS.values():
+            own = {o.key for o in options_of(getattr(world, f"{command}_options"))}
+            for other in WORLDS.values():
+                for o in options_of(getattr(other, f"{command}_options")):
+                    if o.key in own or o.path:
+                        continue
+                    kind = optional(o.kind)[0]
+                    name = flag(f"no_{o.key}" if kind is bool and o.default is True else o.key)
+                    cases.append((sub, world.name, name, _valid_value(o)))
+    return sorted(set(cases))
+
+
+@pytest.mark.parametrize("command, world, name, value", rule1_world_cases(), ids=str)
+def test_rule1_an_option_of_another_world_is_refused(command, world, name, value, tmp_path, capsys):
+    (tmp_path / "model.pt").write_bytes(b"refused before it is read")
+    ckpt = [] if command == "sim record" else [str(tmp_path / "model.pt")]
+    data = ["--data", str(sim_log(tmp_path / "sim") if world == "road" else tub(tmp_path / "tub"))] \
+        if command == "replay" else []
+    argv = [*command.split(), *ckpt, *data, "--world", world, "--out", str(tmp_path / "out"), name,
+            *([] if value is None else [value])]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{name} is an option of the" in err, err
+    assert not (tmp_path / "out").exists()
+
+
+def rule1_reader_cases():
+    """(layout, option, value): a wrong value of every option of the readers of a driving log and a tub, through
+    `--reader` on the command line (the option tables of the other readers are swept by rule1_cases)."""
+    from steerlab.data import tub as tubs
+    from steerlab.data.simlog import SIM_OPTIONS
+    from steerlab.options import options_of
+
+    out = []
+    for layout, cls in (("sim", SIM_OPTIONS), ("tub", tubs.OPTIONS)):
+        for o in options_of(cls):
+            out += [(layout, o.key, v) for v in ("maybe", "[25]", "{a: 1}", "-1", "1e400") if v != "-1" or
+                    getattr(o.check, "lo", None) is not None]
+    return out
+
+
+@pytest.mark.parametrize("layout, key, value", rule1_reader_cases(), ids=str)
+def test_rule1_reader_options_are_typed(layout, key, value, tmp_path, capsys):
+    data = sim_log(tmp_path / "sim") if layout == "sim" else tub(tmp_path / "tub")
+    assert main(["compile", "--data", str(data), "--reader", f"{key}={value}", "--cache", str(tmp_path / "c")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"reader.{key} must be" in err, err
+    assert not (tmp_path / "c").exists()
+
+
+def rule1_named_set_cases():
+    """(class, option, value): a comma list of a fixed set's names with a name twice, an unknown one, or none."""
+    from steerlab.sim.road.suite import SUITES, SuiteOptions
+    from steerlab.sim.track.suite import TRACK_SUITES, TrackSuiteOptions
+
+    out = []
+    for cls, key, suites, part in ((SuiteOptions, "roads", SUITES, "roads"),
+                                   (TrackSuiteOptions, "styles", TRACK_SUITES, "tracks")):
+        for suite, spec in suites.items():
+            for name in spec[part]:
+                out += [(cls, suite, key, f"{name},{name}"), (cls, suite, key, f"{name},{name}x"),
+                        (cls, suite, key, ",")]
+    return out
+
+
+@pytest.mark.parametrize("cls, suite, key, value", rule1_named_set_cases(), ids=str)
+def test_rule1_names_from_a_fixed_set_once_each(cls, suite, key, value):
+    from steerlab.options import parse
+
+    with pytest.raises(SteerlabError, match=f"^--{key} must be a comma list of .* each once"):
+        parse(cls, {"suite": suite, key: value}, name=lambda f: f"--{f}")
+
+
+def _commands():
+    """(command words, its parser) of every subcommand."""
+    from steerlab.cli import build_parser
+
+    out = []
+    for name, parser in build_parser()._subparsers._group_actions[0].choices.items():
+        subs = [(f"{name} {n}", p) for n, p in parser._subparsers._group_actions[0].choices.items()] \
+            if parser._subparsers else [(name, parser)]
+        out += subs
+    return out
+
+
+def rule2_cases():
+    """(command, output argument, collision): every output argument of every command (its folders and files to
+    write, and `out` of the commands that take a config) against the ways an output can destroy or mix into what
+    is not its own."""
+    out = []
+    for command, parser in _commands():
+        paths = parser.get_default("paths") or {}
+        for dest, kind in paths.items():
+            if kind == "folder":
+                out += [(command, dest, c) for c in ("a recording", "a CH2 folder", "a training run", "unwritable",
+                                                     "long name", "inside a recording")]
+            elif kind == "new-file":
+                out += [(command, dest, c) for c in ("an input", "an input through a symlink",
+                                                     "an input, relative", "a run's checkpoint", "long name")]
+        if paths.get("config") == "file":
+            out += [(command, "out=", c) for c in ("a recording", "the recording it reads", "a training run",
+                                                   "long name", "unwritable")]
+    return [c for c in out if not (c[0] == "train" and c[2] == "a training run")]  # a run continues its own
+
+
+def _collision(tmp_path, what, file_input):
+    """The path of a collision: a folder or file that the output must not be."""
+    rec = sim_log(tmp_path / "rec").parent
+    run = tmp_path / "run-of-another"
+    run.mkdir(exist_ok=True)
+    for name in ("best.pt", "last.pt"):
+        (run / name).write_bytes(b"a checkpoint")
+    if what == "unwritable":
+        ro = tmp_path / "ro"
+        ro.mkdir(exist_ok=True)
+        if subprocess.run(["chattr", "+i", str(ro)], capture_output=True).returncode:
+            pytest.skip("chattr is not available: no folder this test cannot write")
+        return ro / "out"
+    if (tmp_path / "a-link").exists() is False:
+        os.symlink(file_input, tmp_path / "a-link")
+    return {"a recording": rec, "a CH2 folder": ch2(tmp_path / "ch2-other"), "the recording it reads": rec,
+            "a training run": run,
+            "inside a recording": rec / "IMG", "long name": tmp_path / ("x" * 300), "an input": file_input,
+            "an input through a symlink": tmp_path / "a-link",
+            "an input, relative": Path(os.path.relpath(file_input)), "a run's checkpoint": run / "best.pt"}[what]
+
+
+@pytest.mark.parametrize("command, dest, what", rule2_cases(), ids=str)
+def test_rule2_no_output_over_an_input_or_into_another_kind_of_folder(command, dest, what, tmp_path, capsys):
+    from steerlab.cli import flag
+
+    parser = dict(_commands())[command]
+    file = tmp_path / "a-file.pt"
+    file.write_bytes(b"refused before it is read")
+    folder = tmp_path / "a-folder"
+    folder.mkdir()
+    target = _collision(tmp_path, what, file)
+    argv = [*command.split()]
+    for a in parser._actions:  # every other required argument, an existing input of its kind
+        if a.required and a.dest != dest and a.option_strings:
+            argv += [a.option_strings[0], str(sim_log(tmp_path / "sim").parent if a.dest == "data" else file)]
+        elif not a.option_strings and a.dest not in ("help", "overrides") and a.nargs != "*":
+            argv.append(str(_config_of(command, tmp_path) if a.dest == "config" else file))
+    if dest == "out=":
+        argv.append(f"out={target}")
+    else:
+        argv += [flag(dest), str(target)]
+    before = _files(tmp_path)
+    try:
+        assert main(argv) == 2, argv
+    finally:
+        subprocess.run(["chattr", "-i", str(tmp_path / "ro")], capture_output=True)
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and err.count("\n") == 1, err
+    shown = str(target if what != "long name" else tmp_path)
+    assert shown in err or str(target.resolve()) in err or str(file) in err, err
+    assert {p: t for p, t in _files(tmp_path).items() if p in before} == before  # nothing lost
+
+
+def _config_of(command, tmp_path):
+    """A config that `command` takes: a training config, with a models list for an experiment and a search space
+    for a study."""
+    cfg = config(tmp_path, tmp_path / "rec")
+    extra = {"experiment": "models:\n  - {model: {name: zero}}\n",
+             "tune": "tune: {train.lr: {low: 1.0e-5, high: 0.1, log: true}}\n"}
+    cfg.write_text(cfg.read_text() + extra.get(command, ""))
+    return cfg
+
+
+def _resaved(path):
+    """A copy of the file's bytes in another form: with a byte-order mark, CRLF, trailing blank lines; or in UTF-16,
+    with a Latin-1 byte, with its first column named twice."""
+    data = path.read_bytes()
+    return {"bom": b"\xef\xbb\xbf" + data, "crlf": data.replace(b"\n", b"\r\n"),
+            "bom+crlf": b"\xef\xbb\xbf" + data.replace(b"\n", b"\r\n"), "blank lines": data + b"\n\n\n",
+            "utf-16": data.decode().encode("utf-16"), "latin-1": data.replace(b"\n", b" \xe9\n", 2),
+            "column twice": data.replace(b",", b"," + data.split(b",")[0] + b",", 1),
+            "NUL bytes": data.replace(b"\n", b"\0\n", 2)}
+
+
+def rule3_cases():
+    """(file, variant, taken): every text file a user gives (the readers' CSV files, the score's, a config, a
+    calibration), saved the ways people save them (taken) or otherwise (refused naming the file)."""
+    taken = ("bom", "crlf", "bom+crlf", "blank lines")
+    out = []
+    for file in ("ch2 labels", "driving log", "native log", "answer file", "config", "calibration"):
+        for variant in (*taken, "utf-16", "latin-1", "column twice", "NUL bytes"):
+            if variant == "column twice" and file in ("driving log", "config", "calibration"):
+                continue
+            out.append((file, variant, variant in taken))
+    return out + [("config", "key twice", False), ("calibration", "key twice", False),
+                  ("calibration", "NaN", False)]
+
+
+def _rule3_input(tmp_path, file):
+    """(the file, what reads it) for a file of rule3_cases."""
+    from steerlab.data.fisheye import load_calibration
+    from steerlab.data.readers import open_recording
+    from steerlab.evaluate.scoring import score
+    from steerlab.train.config import load_config
+
+    if file == "ch2 labels":
+        d = ch2(tmp_path / "ch2")
+        return d / "labels.csv", lambda: len(open_recording(d, labels=d / "labels.csv"))
+    if file == "driving log":
+        log = sim_log(tmp_path / "sim")
+        return log, lambda: len(open_recording(log))
+    if file == "native log":
+        d = _renamed_column(tmp_path)
+        (d / "log.csv").write_text((d / "log.csv").read_text().replace(",steer,", ",steering,", 1))
+        return d / "log.csv", lambda: len(open_recording(d))
+    if file == "answer file":
+        d = ch2(tmp_path / "ch2")
+        return d / "labels.csv", lambda: score(d / "labels.csv", d / "labels.csv")["frames"]
+    if file == "config":
+        cfg = config(tmp_path, sim_log(tmp_path / "sim"))
+        return cfg, lambda: load_config(cfg).train.epochs
+    path = tmp_path / "calib.yaml"
+    path.write_text("image_size: [160, 120]\nK: [[81.0, 0.0, 80.0], [0.0, 80.0, 61.0], [0.0, 0.0, 1.0]]\n"
+                    "D: [-0.02, -0.01, 0.0, 0.005]\n")
+    return path, lambda: load_calibration(path).fx
+
+
+@pytest.mark.parametrize("file, variant, taken", rule3_cases(), ids=str)
+def test_rule3_files_as_people_save_them(file, variant, taken, tmp_path):
+    path, read = _rule3_input(tmp_path, file)
+    original = read()
+    if variant == "key twice":
+        path.write_text(path.read_text() + ("train: {epochs: 2}\n" if file == "config" else "D: [0, 0, 0, 0]\n"))
+    elif variant == "NaN":  # a calibration in JSON, with a number JSON does not have
+        from steerlab.data.fisheye import load_calibration
+
+        path = tmp_path / "calib.json"
+        path.write_text('{"image_size": [160, 120], "K": [[81, 0, 80], [0, 80, 61], [0, 0, 1]], "D": [NaN, 0, 0, 0]}')
+        read = lambda: load_calibration(path)  # noqa: E731
+    else:
+        path.write_bytes(_resaved(path)[variant])
+    if taken:
+        assert read() == original
+        return
+    with pytest.raises(SteerlabError) as e:
+        read()
+    assert str(path) in str(e.value) and "\n" not in str(e.value), str(e.value)
+
+
+def test_rule3_what_steerlab_writes_is_valid_json(tmp_path):
+    """A metric that is not a number (one frame has no gamma) is null in metrics.json, never NaN."""
+    assert main(["evaluate", str(made(tmp_path)), "--data", str(sim_log(tmp_path / "sim")), "--range", "0:1",
+                 "--out", str(tmp_path / "eval")]) == 0
+    text = (tmp_path / "eval" / "metrics.json").read_text()
+    metrics = json.loads(text, parse_constant=lambda c: pytest.fail(f"{c} in metrics.json"))
+    assert metrics["gamma_deg"] is None
+
+
+def rule4_cases():
+    """(what, value, outcome): values implausible for their unit. The measured speed of every car: negative
+    refused, beyond twice its top speed said; a calibration's focal length: too long to see anything refused;
+    predictions in degrees where radians are expected said."""
+    from steerlab.data.car import CARS
+
+    out = []
+    for geometry, car in CARS.items():
+        top = car.speeds[1]
+        out += [("speed", (geometry, -1.0), "refused"), ("speed", (geometry, -1e-3), "refused"),
+                ("speed", (geometry, 3 * top), "said"), ("speed", (geometry, 100 * top), "said"),
+                ("speed", (geometry, top), "taken")]
+    out += [("focal length", fx, "refused" if fx > 1000 else "taken") for fx in (80, 200, 400, 8000, 80000)]
+    out += [("spread", factor, "said" if factor > 10 else "taken") for factor in (1, 3, 57.3, 180 / 3.1416 * 10)]
+    return out
+
+
+@functools.cache
+def _checkpoint_of(geometry: str) -> dict:
+    """An untrained checkpoint of the camera `geometry`, loaded (made once per test process)."""
+    from steerlab.checkpoint import load_checkpoint
+
+    folder = Path(tempfile.mkdtemp(prefix="steerlab-rule4-"))
+    try:
+        return load_checkpoint(made(folder, *(("normalized", "right") if geometry == "donkey" else ()),
+                                    geometry=geometry))
+    finally:
+        shutil.rmtree(folder)
+
+
+@pytest.mark.parametrize("what, value, outcome", rule4_cases(), ids=str)
+def test_rule4_implausible_values_are_said(what, value, outcome, tmp_path, capsys):
+    if what == "speed":
+        from steerlab.data.geometry import CAMERAS
+        from steerlab.pilot import Pilot
+
+        geometry, speed = value
+        cam = CAMERAS[geometry]
+        act = lambda: Pilot(_checkpoint_of(geometry)).step(np.zeros((cam.height, cam.width, 3), np.uint8),  # noqa
+                                                           speed)
+    elif what == "focal length":
+        from steerlab.data.fisheye import load_calibration
+
+        path = tmp_path / "calib.json"
+        path.write_text(json.dumps({"image_size": [160, 120], "K": [[value, 0, 80], [0, value, 60], [0, 0, 1]],
+                                    "D": [0, 0, 0, 0]}))
+        act = lambda: load_calibration(path)  # noqa: E731
+    else:
+        from steerlab.evaluate.scoring import score
+
+        folder = ch2(tmp_path / "ch2")
+        rows = (folder / "labels.csv").read_text().splitlines()[1:]
+        pred = tmp_path / "pred.csv"
+        pred.write_text("frame_id,steering_angle\n" + "".join(
+            f"{r.split(',')[0]},{float(r.split(',')[1]) * value + 0.001 * (i % 2)}\n" for i, r in enumerate(rows)))
+        act = lambda: score(folder / "labels.csv", pred)  # noqa: E731
+    if outcome == "refused":
+        with pytest.raises(SteerlabError):
+            act()
+        return
+    capsys.readouterr()
+    act()
+    said = capsys.readouterr().err
+    assert (said.count("warning:") == 1) == (outcome == "said"), said
+
+
+def rule5_cases():
+    """(how the file was written, taken): a checkpoint as each steerlab version wrote it, and as another tool wrote
+    a sealed one again."""
+    return [("sealed", True), ("0.1.0", True), ("first versions", True), ("torch.save of a sealed one", False),
+            ("torch.save of one with an inner hash", False), ("torch.save of an earlier version's, format changed",
+                                                               False)]
+
+
+@pytest.mark.parametrize("how, taken", rule5_cases(), ids=str)
+def test_rule5_only_earlier_versions_are_taken_as_earlier_versions(how, taken, tmp_path):
+    import torch
+
+    from steerlab.checkpoint import FORMAT, content_hash, load_checkpoint
+
+    path = made(tmp_path)
+    raw = torch.load(path, weights_only=True)
+    if how == "0.1.0":
+        path = Path(__file__).parent / "fixtures" / "run-0.1.0" / "best.pt"
+    elif how == "first versions":
+        torch.save({**raw, "format": "steerlab-checkpoint-1"}, path)
+    elif how == "torch.save of a sealed one":
+        torch.save(raw, path)
+    elif how == "torch.save of one with an inner hash":
+        earlier = {**raw, "format": "steerlab-checkpoint-1"}
+        torch.save({**earlier, "content_sha256": content_hash(earlier)}, path)
+    elif how != "sealed":
+        torch.save({**raw, "format": FORMAT}, path)
+    if taken:
+        assert load_checkpoint(path)["model"] in ("pilotnet", "cg23")  # 0.1.0's run trained cg23
+        return
+    with pytest.raises(SteerlabError, match=f"^{path}: a checkpoint that steerlab sealed, without its seal"):
+        load_checkpoint(path)
+
+
+def rule_counts() -> list[tuple[str, int, int, int]]:
+    """(rule, inputs generated, refused, said) of the generated sweeps above."""
+    r1 = len(rule1_cases()) + len(rule1_world_cases()) + len(rule1_reader_cases()) + len(rule1_named_set_cases())
+    edges = [_edges(check, kind) for _, kind, check, _ in _numeric_options()]
+    cli = [_edges(check, kind) for _, _, kind, check in _cli_numeric_options()]
+    taken = sum(t for e in edges for _, t in e)
+    r1 += sum(map(len, edges)) + sum(1 for e in cli for v, t in e if not t and not isinstance(v, (bool, list)))
+    r3 = rule3_cases()
+    r4 = rule4_cases()
+    return [("1 every value checked where it enters", r1, r1 - taken, 0),
+            ("2 no output over an input or into another's folder", len(rule2_cases()), len(rule2_cases()), 0),
+            ("3 files as people save them", len(r3) + 1, sum(not t for _, _, t in r3), 0),
+            ("4 implausible values said", len(r4), sum(o == "refused" for *_, o in r4),
+             sum(o == "said" for *_, o in r4)),
+            ("5 only earlier versions as earlier versions", len(rule5_cases()), sum(not t for _, t in rule5_cases()),
+             0)]
+
+
+if __name__ == "__main__":  # the table of docs/RESULTS.md, "Bad input"
+    print("| rule | inputs generated | refused | said |\n|---|---|---|---|")
+    for rule, n, refused, said in rule_counts():
+        print(f"| {rule} | {n} | {refused} | {said} |")
+
+
+def test_an_experiment_writes_its_table_where_its_runs_train(tmp_path):
+    """`out=NEW` moves the whole experiment: its runs train below NEW and its table is written there, not over the
+    config's earlier experiment; two entries of one name would share a run folder and a row, and are refused."""
+    from steerlab.experiment import load_experiment
+
+    cfg = config(tmp_path, sim_log(tmp_path / "sim"))
+    cfg.write_text(cfg.read_text() + "models:\n  - {model: {name: zero}}\n  - {model: {name: train-mean}}\n")
+    exp = load_experiment(cfg, [f"out={tmp_path / 'new'}"])
+    assert exp.out == tmp_path / "new"
+    assert Path(exp.run_config(exp.entries[1], 2).out) == tmp_path / "new" / "train-mean" / "seed2"
+    cfg.write_text(cfg.read_text() + "  - {model: {name: zero}, train: {lr: 0.01}}\n")
+    with pytest.raises(SteerlabError, match="models entries 1 and 3 are both named 'zero'; give one a label"):
+        load_experiment(cfg)

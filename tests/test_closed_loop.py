@@ -128,7 +128,7 @@ def test_suite_bad_input(tiny_checkpoint, tmp_path, capsys):
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "missing.pt: checkpoint not found" in err
     assert main(["sim", "bench", str(tiny_checkpoint), "--roads", ""]) == 2
-    assert "no road to drive" in capsys.readouterr().err
+    assert "--roads must be a comma list of road types of country, highway, twisty, each once" in capsys.readouterr().err
 
 
 def test_rollout_labels_are_the_experts(tmp_path):

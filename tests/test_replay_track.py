@@ -215,7 +215,7 @@ def test_steerlab_replay_on_a_track_world_tub(track_tub, tmp_path, capsys):
 def test_the_shared_real_tubs_replay_the_humans_steering_without_intervention(tub, frames):
     """Real tubs get the default fisheye and the speed of their recorded throttle; the human's own steering
     needs no intervention, driving straight does."""
-    rec = Source(str(TUBS / tub), frames, None, {"full_lock_deg": "25", "skip_missing": "true"}).open()
+    rec = Source(str(TUBS / tub), frames, None, {"full_lock_deg": 25, "skip_missing": True}).open()
     assert rec.fisheye is None and rec.throttle is not None
     human, _ = replay_recording(Scripted(rec), TrackReplay(CAMERAS["donkey"], DONKEY), rec)
     straight, _ = replay_recording(Scripted(rec, None), TrackReplay(CAMERAS["donkey"], DONKEY), rec)

@@ -253,7 +253,8 @@ def test_bad_storage_and_changed_space(tmp_path, tiny_recording):
     assert not (tmp_path / "z").exists()
     with pytest.raises(SteerlabError, match="different search space, objective or pruning"):
         run_tune(cfg, trials=1, storage=journal, study_name="s", pruning=4, progress=False)  # workers must agree
-    with pytest.raises(SteerlabError, match="--reduction-factor must be an integer of at least 2, got 1"):
+    with pytest.raises(SteerlabError, match=r"--reduction-factor must be an integer of at least 2 \(at most "
+                                            r"1000000\), got 1"):
         run_tune(tune_config(tmp_path, tiny_recording, tmp_path / "w"), trials=1, pruning=1, progress=False)
     assert not (tmp_path / "w").exists()
 
@@ -309,8 +310,8 @@ def test_autonomy_objective_drives_the_suite_of_the_config(tmp_path, tiny_record
     for bad in ({"suite": "v9"}, {"minutes": -1}, {"minutes": 0}):
         broken = tmp_path / "broken.yaml"
         broken.write_text(yaml.safe_dump({**text, "out": str(tmp_path / "broken"), "closed_loop": bad}))
-        with pytest.raises(SteerlabError, match=r"closed_loop.(suite must be v1, got 'v9'|minutes must be positive "
-                                                r"and finite, got (-1|0))"):
+        with pytest.raises(SteerlabError, match=r"closed_loop.(suite must be v1, got 'v9'|minutes must be a number "
+                                                r"in \(0, 1440\] min, got (-1|0))"):
             run_tune(broken, trials=1, objective="autonomy", progress=False)
         assert not (tmp_path / "broken").exists()  # nothing trained, nothing written
     run_tune(cfg, trials=2, objective="autonomy", seed=0, progress=False)

@@ -25,9 +25,12 @@ from steerlab.data.recording import SteeringConvention
 from steerlab.errors import SteerlabError
 from steerlab.models import create_model, model_class
 from steerlab.models.ensemble import Ensemble
-from steerlab.paths import regular_file
+from steerlab.paths import check_outputs, distinct, regular_file
 
-FORMAT = "steerlab-checkpoint-1"
+# 2: always sealed; 1: sealed (with an inner content_sha256 until b827f9a, without since), or from before seals: with
+# the sha256 of its weights inside (0.1.0) or with no hash at all (the first versions)
+FORMAT = "steerlab-checkpoint-2"
+FORMATS = ("steerlab-checkpoint-1", FORMAT)
 
 
 def _hash_into(h, value) -> None:
@@ -98,7 +101,7 @@ def save_payload(path: str | Path, payload: dict) -> None:
     of all the bytes before it, so that every stored byte is covered (also the zip's own headers and padding, which
     reading does not check). Written to a temporary file first: never a half-written checkpoint."""
     buffer = io.BytesIO()
-    torch.save(_plain(payload), buffer)
+    torch.save(_plain({**payload, "format": FORMAT}), buffer)
     data = buffer.getbuffer()  # no copies of the bytes: a checkpoint with its optimiser state is tens of MB
     if data[-22:-18] != EOCD or data[-2:] != b"\0\0":
         raise SteerlabError("checkpoint: torch.save wrote an unexpected file layout (no plain zip end record)")
@@ -155,7 +158,7 @@ def load_checkpoint(path: str | Path) -> dict:
                             "file") from None
     except Exception as e:  # noqa: BLE001 - any reading failure means the same thing to the user
         raise SteerlabError(f"{path}: not a readable checkpoint ({e.__class__.__name__})") from None
-    if not isinstance(ckpt, dict) or ckpt.get("format") != FORMAT or not isinstance(ckpt.get("state_dict"), dict):
+    if not isinstance(ckpt, dict) or ckpt.get("format") not in FORMATS or not isinstance(ckpt.get("state_dict"), dict):
         raise SteerlabError(f"{path}: not a steerlab checkpoint")
     seal = _seal_intact(data)
     if not seal:  # damaged, or written before seals: those carry inner hashes (the earliest: the weights' or none)
@@ -167,6 +170,10 @@ def load_checkpoint(path: str | Path) -> dict:
         if seal is False:
             raise SteerlabError(f"{path}: the file's bytes do not match the sha256 stored with them: the file is "
                                 "damaged")
+        if ckpt["format"] == FORMAT or "content_sha256" in ckpt:  # steerlab sealed every file of these when it wrote it
+            raise SteerlabError(f"{path}: a checkpoint that steerlab sealed, without its seal: it was written again "
+                                "by another tool (torch.save?), which may have changed anything in it; steerlab does "
+                                "not load it (save with steerlab.checkpoint.save_payload, or use the original file)")
     if "preset" in ckpt:  # the camera geometry's earlier name
         ckpt.setdefault("geometry", ckpt.pop("preset"))
     return ckpt
@@ -187,6 +194,7 @@ def save_ensemble(checkpoints: list[str | Path], out: str | Path) -> Path:
     and recurrence; a one-line error names the first that differs."""
     if len(checkpoints) < 2:
         raise SteerlabError("an ensemble needs at least two checkpoints")
+    check_outputs(files={"ensemble": out}, inputs=distinct(checkpoints, "checkpoint"))
     ckpts = [load_checkpoint(c) for c in checkpoints]
     models = [Ensemble if c["model"] == "ensemble" else model_class(c["model"]) for c in ckpts]
     first, path0 = ckpts[0], checkpoints[0]

@@ -28,10 +28,12 @@ from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Literal
 
+from steerlab.files import write_json
 from steerlab.data.car import car_of
 from steerlab.errors import SteerlabError
-from steerlab.options import AT_LEAST_0, AT_LEAST_1, Options, POSITIVE, UNIT, Range, as_dict, option, parse
-from steerlab.paths import folder_to_write
+from steerlab.options import (AT_LEAST_0, AT_LEAST_1, MINUTES, Options, SEED, SPEED, UNIT, WORKERS, Range, as_dict,
+                              holds_frames, option, parse)
+from steerlab.paths import check_outputs
 from steerlab.sim.core.parallel import run_parallel
 from steerlab.sim.road.world import ROADS, road_types
 from steerlab.sim.worlds import WORLDS, suite_world, track_styles
@@ -60,9 +62,9 @@ class DaggerOptions(Options):
         "road", help="where the rollouts drive: fresh roads of the road world, the config's recording in replay, or "
         "fresh tracks of the track world (a config of donkeycar tubs)")
     iterations: int = option(3, AT_LEAST_0, help="rounds of rollout + retraining after the first training")
-    minutes: float = option(4.0, POSITIVE, help="minutes of rollouts per round, shared by the road types (the "
+    minutes: float = option(4.0, MINUTES, help="minutes of rollouts per round, shared by the road types (the "
                             "track world: by the track styles)")
-    seeds_from: int = option(5000, help="round r drives road (or track) seeds seeds_from + 100 r + k")
+    seeds_from: int = option(5000, SEED, help="round r drives road (or track) seeds seeds_from + 100 r + k")
     beta: float = option(0.5, UNIT, help="probability that the expert drives a tick, in round 1")
     beta_decay: float = option(0.5, UNIT, help="beta is multiplied by this every round")
     epochs: int = option(4, AT_LEAST_1, help="epochs of every retraining (round 0 uses train.epochs)")
@@ -70,9 +72,8 @@ class DaggerOptions(Options):
     suite: str | None = option("v1", lambda v: v in ALL_SUITES, " or ".join(ALL_SUITES),
                                help="closed-loop suite after every round: a road suite (v1) for world road, a track "
                                "suite (t1) for world track (null: none)")
-    suite_minutes: float | None = option(None, POSITIVE, "positive and finite",
-                                         help="minutes per suite road or track")
-    workers: int = option(2, AT_LEAST_1, help="parallel rollouts and suite drives")
+    suite_minutes: float | None = option(None, MINUTES, help="minutes per suite road or track")
+    workers: int = option(2, WORKERS, help="parallel rollouts and suite drives")
     roads: str = option("mixed", _roads, ROADS, help="road world: road types of the rollouts")
     suite_roads: str | None = option(None, help="road world: comma list of the suite's road types to drive "
                                      "(default: all)")
@@ -82,13 +83,15 @@ class DaggerOptions(Options):
                                       "(default: all)")
     max_throttle: float = option(0.5, Range(0, 1, lo_open=True), help="track world: the cap of the learned throttle "
                                  "in the rollouts and the suite, and of the expert's throttle labels (1: uncapped)")
-    speed: float | None = option(None, POSITIVE, help="replay: m/s for a recording without speed")
+    speed: float | None = option(None, SPEED, help="replay: m/s for a recording without speed")
+
+    related = holds_frames("minutes", "suite_minutes", fps=20.0)
 
 
 # the options that belong to some worlds only: given for another, they are refused
 OWN = {"roads": ("road",), "suite_roads": ("road",), "styles": ("track",), "suite_styles": ("track",),
        "max_throttle": ("track",), "suite": ("road", "track"), "suite_minutes": ("road", "track"),
-       "speed": ("replay",)}
+       "minutes": ("road", "track"), "speed": ("replay",)}  # minutes: replay's rollouts drive the training frames
 
 
 def dagger_options(cfg: TrainConfig) -> DaggerOptions:
@@ -122,10 +125,13 @@ def round_suite(o: DaggerOptions):
     if o.suite and o.suite not in world.suites:
         raise SteerlabError(f"dagger.suite: {o.suite} is a {suite_world(o.suite).name} suite; world {o.world} "
                             f"drives a {o.world} suite ({', '.join(world.suites)}) or none (null)")
-    shared = {"workers", "max_throttle"} & {f.name for f in fields(world.suite_options)}
-    return world.suite_options(**({"suite": o.suite} if o.suite else {}), minutes=o.suite_minutes,
-                               **{world.kinds: getattr(o, f"suite_{world.kinds}")},
-                               **{k: getattr(o, k) for k in shared})
+    given = {"suite": o.suite, "minutes": o.suite_minutes, "workers": o.workers,
+             world.kinds: getattr(o, f"suite_{world.kinds}")}
+    if "max_throttle" in {f.name for f in fields(world.suite_options)}:
+        given["max_throttle"] = o.max_throttle
+    names = {"minutes": "suite_minutes", world.kinds: f"suite_{world.kinds}"}  # as the dagger section names them
+    return parse(world.suite_options, {k: v for k, v in given.items() if v is not None},
+                 name=lambda f: f"dagger.{names.get(f, f)}")
 
 
 def _check_world(o: DaggerOptions, rec) -> None:
@@ -155,7 +161,8 @@ def run_dagger(cfg: TrainConfig, progress: bool = True) -> Path:
             suite.drives()
         except SteerlabError as e:
             raise SteerlabError(f"dagger.suite_{world.kinds}: {e}") from None
-    out = folder_to_write(cfg.out, "output folder (out)")
+    check_outputs({"output folder (out)": cfg.out}, inputs=cfg.inputs(), kind="dagger")
+    out = Path(cfg.out)
     car = car_of(rec.geometry)
     cfg = cfg.for_car(car)
     _claim(out, cfg, o, car)
@@ -200,7 +207,7 @@ def run_dagger(cfg: TrainConfig, progress: bool = True) -> Path:
             if progress:
                 print(f"== DAgger round {r}: training on {1 + len(extra)} recording(s)")
             metrics = train(round_cfg, progress=progress)
-            (run / "metrics.json").write_text(json.dumps(metrics, indent=1))
+            write_json(run / "metrics.json", metrics)
         metrics = json.loads((run / "metrics.json").read_text())
         if replay:
             closed = replay.evaluate(run / "best.pt", run / "replay", progress)
@@ -240,7 +247,7 @@ def _claim(out: Path, cfg: TrainConfig, o: DaggerOptions, car) -> None:
             raise SteerlabError(f"{out} holds a DAgger run with another config; choose a new out directory or "
                                 "delete it")
     out.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps({**as_dict(cfg), "dagger": as_dict(o)}, indent=1))
+    write_json(path, {**as_dict(cfg), "dagger": as_dict(o)})
 
 
 FIELDS = ["round", "beta", "recordings", "rollout_autonomy", "val_rmse", "autonomy_country", "autonomy_highway",

@@ -5,12 +5,13 @@ with plots. Every step reuses what an interrupted earlier run already finished."
 from __future__ import annotations
 
 import csv
-import json
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
-from steerlab.options import AT_LEAST_1, Options, POSITIVE, option
+from steerlab.files import write_json
+from steerlab.paths import check_outputs
+from steerlab.options import AT_LEAST_1, FPS, MINUTES, Options, WORKERS, frames_held, option
 
 TRAIN_SEED = 1
 ROADS = "country,twisty,highway,twisty"  # the recipe of configs/experiment_recipe.yaml: half the time on tight curves
@@ -25,17 +26,21 @@ class DemoOptions(Options):
     3, with batches of 64 where the demo takes 16 (four times the updates: the single-frame models drive twisty
     roads better with them, docs/RESULTS.md "Batches of 16")."""
 
-    out: str = option("runs/demo", help="output folder", path="folder")
-    minutes: float = option(8.0, POSITIVE, "positive and finite",
-                            help="minutes of expert driving on mixed roads to train on")
-    fps: float = option(10.0, POSITIVE, "positive and finite",
-                        help="frames per second of the recording (the DAgger round and the suite drive at 20)")
+    out: str = option("runs/demo", help="output folder", path="folder", makes="demo")
+    minutes: float = option(8.0, MINUTES, help="minutes of expert driving on mixed roads to train on")
+    fps: float = option(10.0, FPS, help="frames per second of the recording (the DAgger round and the suite drive "
+                        "at 20)")
     epochs: int = option(5, AT_LEAST_1, help="epochs of the first training")
-    suite_minutes: float | None = option(None, POSITIVE, "positive and finite",
-                                         help="minutes on each road of the closed-loop suite (default: the suite's 3)")
-    dagger_minutes: float = option(2.0, POSITIVE, "positive and finite",
-                                   help="minutes the trained model drives a fresh twisty road in its DAgger round")
-    workers: int = option(2, AT_LEAST_1, help="roads driven in parallel")
+    suite_minutes: float | None = option(None, MINUTES, help="minutes on each road of the closed-loop suite "
+                                         "(default: the suite's 3)")
+    dagger_minutes: float = option(2.0, MINUTES, help="minutes the trained model drives a fresh twisty road in its "
+                                   "DAgger round")
+    workers: int = option(2, WORKERS, help="roads driven in parallel")
+
+    @classmethod
+    def related(cls, v):
+        yield from frames_held(v, "minutes")
+        yield from frames_held(v, "suite_minutes", "dagger_minutes", fps=20.0)
 
 
 def run_demo(o: DemoOptions = DemoOptions(), progress: bool = True) -> Path:
@@ -53,6 +58,7 @@ def run_demo(o: DemoOptions = DemoOptions(), progress: bool = True) -> Path:
     out, minutes, fps, epochs, suite_minutes, dagger_minutes, workers = (
         o.out, o.minutes, o.fps, o.epochs, o.suite_minutes, o.dagger_minutes, o.workers)
     out = Path(out)
+    check_outputs({"output folder (out)": out}, kind="demo")
     out.mkdir(parents=True, exist_ok=True)
     rec_dir = out / "recording"
     stages = Stages()
@@ -86,9 +92,8 @@ def run_demo(o: DemoOptions = DemoOptions(), progress: bool = True) -> Path:
     report = out / "report.md"
     report.write_text(_report(offline, rounds, dagger_minutes, (out / "replay" / "replay.md").read_text(),
                               (out / "closed-loop" / "suite.md").read_text(), split, n))
-    (out / "summary.json").write_text(json.dumps({"open_loop": offline, "dagger": rounds, "replay": replay,
-                                                 "closed_loop": [asdict(s) for s in summary],
-                                                 "seconds": stages.seconds}, indent=1))
+    write_json(out / "summary.json", {"open_loop": offline, "dagger": rounds, "replay": replay,
+                                      "closed_loop": [asdict(s) for s in summary], "seconds": stages.seconds})
     return report
 
 

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from steerlab.files import write_json
 from steerlab.dagger import dagger_options, round_suite, run_dagger
 from steerlab.data.labels import COMMANDS, speed_targets
 from steerlab.data.preprocess import PreprocessConfig
@@ -27,13 +28,13 @@ from steerlab.evaluate.metrics import (SMOOTHING_ALPHA, accuracy, all_metrics, e
                                        steering_metrics)
 from steerlab.evaluate.plots import plot_open_vs_closed, plot_recovery, plot_steering, rank_correlation
 from steerlab.evaluate.scoring import read_steering_csv
-from steerlab.paths import folder_to_write
-from steerlab.options import Options, POSITIVE, as_dict, option, parse
+from steerlab.paths import check_outputs
+from steerlab.options import Options, SPEED, as_dict, option, parse
 from steerlab.pilot import Pilot
 from steerlab.sim.road.suite import SuiteOptions, closed_loop_metrics
 from steerlab.split_replay import SplitReplay
-from steerlab.train.config import TrainConfig, parse_config, read_yaml
-from steerlab.train.loop import train
+from steerlab.train.config import TrainConfig, layered, parse_config, read_yaml
+from steerlab.train.loop import holds_run_of, train
 from steerlab.train.sources import main_recording, prepare_dataset
 
 LATENCY_FRAMES = 200
@@ -44,7 +45,7 @@ class ReplayOn(Options):
     """An experiment's `replay:` section: replay every run on its validation frames ({} for the recorded or
     estimated speed, or {speed: M/S})."""
 
-    speed: float | None = option(None, POSITIVE)
+    speed: float | None = option(None, SPEED)
 
 
 @dataclass(frozen=True)
@@ -75,18 +76,19 @@ class ExperimentConfig:
 
     @property
     def out(self) -> Path:
-        return Path(self.shared.get("out", "runs/experiment"))
+        """The experiment's folder: the config's `out`, or an `out=...` override of it."""
+        out = layered(self.shared, overrides=[o for o in self.overrides if o.split("=", 1)[0].strip() == "out"])
+        return Path(out.get("out", "runs/experiment"))
 
     def run_config(self, entry: Entry, seed: int) -> TrainConfig:
         """The training config of one run: the shared sections, then the entry's, then the overrides; written to
-        <out>/<label>/seed<seed>."""
+        <out>/<label>/seed<seed> (whatever the overrides say of `out`)."""
         base = {**self.shared, "model": entry.model,
                 "preprocess": {**self.shared.get("preprocess", {}), **entry.preprocess},
-                "train": {**self.shared.get("train", {}), **entry.train, "seed": seed},
-                "out": str(self.out / entry.name / f"seed{seed}")}
+                "train": {**self.shared.get("train", {}), **entry.train, "seed": seed}}
         if entry.dagger is not None or self.shared.get("dagger") is not None:
             base["dagger"] = {**(self.shared.get("dagger") or {}), **(entry.dagger or {})}
-        return parse_config(base, overrides=self.overrides)
+        return parse_config(base, overrides=[*self.overrides, f"out={self.out / entry.name / f'seed{seed}'}"])
 
 
 def load_experiment(path: str | Path, overrides=()) -> ExperimentConfig:
@@ -110,6 +112,11 @@ def load_experiment(path: str | Path, overrides=()) -> ExperimentConfig:
         except SteerlabError as e:
             raise SteerlabError(f"{path}: models entry {i + 1}: {e}") from None
     exp = ExperimentConfig(shared, tuple(entries), closed, replay, tuple(overrides))
+    names = [e.name for e in exp.entries]
+    for i, name in enumerate(names):  # two entries of one name would share their run folders and their row
+        if name in names[:i]:
+            raise SteerlabError(f"{path}: models entries {names.index(name) + 1} and {i + 1} are both named "
+                                f"{name!r}; give one a label")
     for i, entry in enumerate(exp.entries):  # a bad entry is an error before the first model trains
         try:
             cfg = exp.run_config(entry, 0)
@@ -129,7 +136,9 @@ def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: boo
     recording itself (`steerlab replay`). Finished runs and drives are reused, so an
     interrupted experiment continues where it stopped."""
     exp = load_experiment(path, overrides)
-    out = folder_to_write(exp.out, "output folder (out)")
+    out = exp.out
+    check_outputs({"output folder (out)": out}, inputs=[path, *exp.run_config(exp.entries[0], 0).inputs()],
+                  kind="experiment")
     rows, preds, drives = [], {}, []
     labels = frames = deg = split_replay = cfg = None
     for entry in exp.entries:
@@ -138,13 +147,16 @@ def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: boo
             cfg = exp.run_config(entry, seed)
             run_dir = Path(cfg.out)
             done = run_dir / "metrics.json"
+            if done.exists() and not holds_run_of(run_dir, cfg):
+                raise SteerlabError(f"{run_dir} holds a run with another config; choose a new out for the "
+                                    "experiment or delete it")
             if not done.exists():
                 if progress:
                     print(f"== {entry.name}, seed {seed}")
                 if cfg.dagger is not None:
                     run_dagger(cfg, progress=progress)  # writes metrics.json
                 else:
-                    done.write_text(json.dumps(train(cfg, progress=progress), indent=1))
+                    write_json(done, train(cfg, progress=progress))
             if labels is None:
                 ds = prepare_dataset(cfg, progress=False)
                 labels, deg = ds.labels, SteeringConvention(**ds.meta["convention"]).degrees_per_unit

@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from steerlab.errors import SteerlabError
+from steerlab.paths import check_outputs
 from steerlab.runtime import FORMAT, HASH_KEY, META_KEY, content_sha256
 
 OPSET = 18
@@ -45,6 +46,7 @@ def export_onnx(checkpoint: str | Path, out: str | Path, calib: str | Path | Non
     out = Path(out)
     if out.suffix != ".onnx":
         raise SteerlabError(f"{out}: the export file must end in .onnx")
+    check_outputs(files={"export": out}, inputs=[checkpoint, calib])
     if calib is not None:
         from steerlab.data.readers import open_recording
 

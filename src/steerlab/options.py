@@ -18,6 +18,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import math
+import os
 import types
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import MISSING, dataclass, field, fields
@@ -43,9 +44,11 @@ class Range:
 
     def words(self, kind: type) -> str:
         unit = f" {self.unit}" if self.unit else ""
+        if kind is int and self.lo is not None and self.hi is not None and self.hi >= COUNT_MAX:
+            return f"an integer of at least {_num(self.lo)} (at most {_num(self.hi)})"
         if self.lo is not None and self.hi is not None:
-            return (f"a number in {'(' if self.lo_open else '['}{self.lo:g}, {self.hi:g}"
-                    f"{')' if self.hi_open else ']'}{unit}")
+            return (f"{'an integer' if kind is int else 'a number'} in {'(' if self.lo_open else '['}{_num(self.lo)}, "
+                    f"{_num(self.hi)}{')' if self.hi_open else ']'}{unit}")
         if kind is int:
             return "an integer" + (f" of at least {self.lo:g}" if self.lo is not None else "")
         if self.lo == 0 and self.lo_open:
@@ -55,16 +58,85 @@ class Range:
         return f"a finite number{unit}"
 
 
+CORES = os.cpu_count() or 1  # what "threads" may ask of this machine
+
+def _num(x: float) -> str:
+    """A bound as people write it: 0.5, 25, 4294967295."""
+    return str(int(x)) if float(x).is_integer() else f"{x:g}"
+
+
 POSITIVE = Range(0, lo_open=True)
 FRACTION = Range(0, 1, lo_open=True)  # (0, 1]: exponential smoothing's alpha
+COUNT_MAX = 1_000_000  # epochs, trials, frames, batches...: more would run for ever, not mean more
 AT_LEAST_0 = Range(0)
-AT_LEAST_1 = Range(1)
+AT_LEAST_1 = Range(1, COUNT_MAX)  # a count
 UNIT = Range(0, 1)
+SEED = Range(0, 2**32 - 1)  # what numpy, torch and Python's random all take
+THREADS = Range(1, CORES)  # threads beyond the machine's cores only slow it (and thousands crash it)
+WORKERS = Range(1, max(8, 4 * CORES))  # worker processes: a few per core at most
+PIXELS = Range(1, 4096)  # an image's width or height
+FPS = Range(1, 240, unit="frames/s")  # a camera's frame rate
+MINUTES = Range(0, 24 * 60, lo_open=True, unit="min")  # a drive or recording of at most a day
+SPEED = Range(0, 100, lo_open=True, unit="m/s")  # a car's speed (100 m/s: 360 km/h, which no car here drives)
+
+
+def frames_in(minutes: float, fps: float) -> int:
+    """The frames of `minutes` at `fps` (the driving loop's count)."""
+    return int(round(minutes * 60 * fps))
+
+
+def one_frame(minutes: float | None, fps: float) -> str | None:
+    """Why `minutes` at `fps` cannot be driven or recorded (no frame), or None."""
+    if minutes is None or frames_in(minutes, fps) >= 1:
+        return None
+    return f"at least one frame's time: {1 / (60 * fps):.3g} min at {fps:g} frames/s"
+
+
+def frames_held(v, *names: str, fps: float | None = None) -> Iterator[tuple[str, str]]:
+    """(option, what it must be) for each of the minutes `names` of the options `v` that holds no frame at their
+    `fps` option, or at the fixed frame rate `fps` (a suite's)."""
+    for name in names:
+        why = one_frame(getattr(v, name), fps or v.fps)
+        if why:
+            yield name, why
+
+
+def holds_frames(*names: str, fps: float | None = None):
+    """`related` for options whose minutes `names` must each hold a frame (see `frames_held`)."""
+    return classmethod(lambda cls, v: frames_held(v, *names, fps=fps))
+
+
+def names_from(text: str | None, choices, what: str, owner: str = "it") -> list[str] | None:
+    """A comma list of names from the fixed set `choices` (road types, track styles; `owner` has them), each named
+    once: a one-line error for an unknown name, one named twice, or none; None stays None (all of them)."""
+    if text is None:
+        return None
+    names = [t.strip() for t in text.split(",") if t.strip()]
+    unknown = [t for t in names if t not in choices]
+    twice = sorted({t for t in names if names.count(t) > 1})
+    if unknown or twice or not names:
+        problem = (f"{owner} has no {', '.join(unknown)} {what}" if unknown else
+                   f"{', '.join(twice)} named twice" if twice else f"no {what} named")
+        raise SteerlabError(f"{problem}; choose {what} of {', '.join(choices)}, each once")
+    return names
+
+
+def names_held(v, name: str, choices, what: str) -> Iterator[tuple[str, str]]:
+    """(option, what it must be) when the comma list `name` of the options `v` is not `names_from` `choices`."""
+    try:
+        names_from(getattr(v, name), choices, what)
+    except SteerlabError:
+        yield name, f"a comma list of {what} of {', '.join(choices)}, each once"
 
 
 class Options:
     """Base of the option dataclasses: made directly in Python (not through `parse`), every value is still
-    checked (`ClassName.field must be ...`)."""
+    checked (`ClassName.field must be ...`). `related(values)` states what several options must satisfy
+    together (minutes that hold a frame at the frame rate): (option, what it must be) for each that does not."""
+
+    @classmethod
+    def related(cls, values) -> Iterator[tuple[str, str]]:
+        return iter(())
 
     def __post_init__(self):
         hints = _hints(type(self))
@@ -79,14 +151,17 @@ class Options:
             if not ok:
                 raise _bad(f"{type(self).__name__}.{f.name}", f.metadata.get("expected") or words(hints[f.name], check),
                            value)
+        for name, expected in self.related(self):
+            raise _bad(f"{type(self).__name__}.{name}", expected, getattr(self, name))
 
 
 def option(default: Any = MISSING, check: Callable | None = None, expected: str | None = None, help: str = "",
-           path: str | None = None):
+           path: str | None = None, makes: str | None = None):
     """A dataclass field with its check (a `Range`, or any `check(value) -> bool` on the parsed value), the
     words an error uses for what is expected (derived from a Range when not given), its help, and for a path what
-    it names (`path`: "file" to read, "folder" to write into, "new-file" to write; the command line checks it)."""
-    meta = {"check": check, "expected": expected, "help": help, "path": path}
+    it names (`path`: "file" to read, "folder" to write into, "new-file" to write; the command line checks it) and
+    for a folder the kind of folder written there (`makes`, one of `paths.KINDS`)."""
+    meta = {"check": check, "expected": expected, "help": help, "path": path, "makes": makes}
     if isinstance(default, (list, dict, set)):
         return field(default_factory=lambda: copy.deepcopy(default), metadata=meta)
     return field(default=default, metadata=meta)
@@ -101,6 +176,7 @@ class OptionInfo:
     expected: str
     help: str
     path: str | None = None
+    makes: str | None = None
 
 
 def _shown(value) -> str:
@@ -234,6 +310,14 @@ def parse(cls, data, where: str = "", name: Callable[[str], str] | None = None):
                                       f.metadata.get("expected"))
         elif f.default is MISSING and f.default_factory is MISSING:
             raise SteerlabError(f"{key} is missing: it must be {words(hints[f.name], f.metadata.get('check'))}")
+    if issubclass(cls, Options):  # what several options must satisfy together, named as the caller names them
+        values = types.SimpleNamespace(**{f.name: kwargs[f.name] if f.name in kwargs else
+                                          f.default if f.default is not MISSING else f.default_factory()
+                                          for f in own if f.name in kwargs or f.default is not MISSING
+                                          or f.default_factory is not MISSING})
+        for option_name, expected in cls.related(values):
+            key = name(option_name) if name else f"{where}.{option_name}" if where else option_name
+            raise _bad(key, expected, getattr(values, option_name))
     return cls(**kwargs)
 
 
@@ -273,4 +357,4 @@ def options_of(cls, prefix: str = "") -> Iterator[OptionInfo]:
             f.default_factory() if f.default_factory is not MISSING else MISSING)
         check = f.metadata.get("check")
         yield OptionInfo(key, kind, default, check, f.metadata.get("expected") or words(kind, check),
-                         f.metadata.get("help", ""), f.metadata.get("path"))
+                         f.metadata.get("help", ""), f.metadata.get("path"), f.metadata.get("makes"))

@@ -23,11 +23,12 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from steerlab.data.car import CARS, car_of
 from steerlab.data.geometry import CAMERAS
 from steerlab.data.modalities import frame_difference, optical_flow
 from steerlab.data.preprocess import preprocess
-from steerlab.errors import SteerlabError
-from steerlab.options import FRACTION, POSITIVE, Options, option
+from steerlab.errors import SteerlabError, warn
+from steerlab.options import FRACTION, POSITIVE, THREADS, Options, option
 from steerlab.runtime import load_model
 
 
@@ -70,10 +71,10 @@ class Controls:
 
 
 def _check_speed(speed):
-    """A measured speed must be a real, finite number of m/s (or None: not measured)."""
+    """A measured speed must be a real, finite number of m/s, at least 0 (or None: not measured)."""
     if speed is not None and (isinstance(speed, bool) or not isinstance(speed, (int, float, np.number))
-                              or not np.isfinite(speed)):
-        raise SteerlabError(f"the measured speed must be a finite number of m/s, got {speed!r}")
+                              or not np.isfinite(speed) or speed < 0):
+        raise SteerlabError(f"the measured speed must be a finite number of m/s, at least 0, got {speed!r}")
     return speed
 
 
@@ -90,8 +91,8 @@ class Pilot:
             raise SteerlabError(f"smoothing must be a number in (0, 1], got {smoothing!r}")
         if steering_step is not None and not POSITIVE(steering_step):
             raise SteerlabError(f"steering_step must be a positive finite number, got {steering_step!r}")
-        if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or threads < 1):
-            raise SteerlabError(f"threads must be a whole number >= 1, got {threads!r}")
+        if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or not THREADS(threads)):
+            raise SteerlabError(f"threads must be {THREADS.words(int)} (this machine's cores), got {threads!r}")
         self.net = load_model(checkpoint, threads)
         self.source = f"checkpoint of {checkpoint['model']}" if isinstance(checkpoint, dict) else str(checkpoint)
         self.name, self.config, self.convention = self.net.name, self.net.config, self.net.convention
@@ -99,11 +100,22 @@ class Pilot:
         cam = None if other_camera else CAMERAS.get(self.geometry)
         self.frame_size = None if cam is None else (cam.height, cam.width)
         self.smoothing, self.steering_step = smoothing, steering_step
+        self._said_speed = False
         self._channels, c = {}, 0  # each modality's channels of the network input, in input order
         for m, n in self.config.channels().items():
             self._channels[m], c = slice(c, c + n), c + n
         self._x = np.empty((1, self.config.height, self.config.width, c), np.float32)  # refilled every frame
         self.reset()
+
+    def _plausible(self, speed: float | None) -> float | None:
+        """A measured speed beyond twice the fastest the model's car drives is said once: m/s is expected, and km/h
+        or mph are the likely cause."""
+        top = car_of(self.geometry if self.geometry in CARS else None).speeds[1]
+        if speed is not None and speed > 2 * top and not self._said_speed:
+            self._said_speed = True
+            warn(f"{self.source}: a measured speed of {speed:g} m/s is beyond what its car drives (up to {top:g} m/s):"
+                 " km/h or mph where m/s is expected?")
+        return speed
 
     def reset(self) -> None:
         """Forget the past: the next frame is treated as the first of a segment."""
@@ -123,7 +135,7 @@ class Pilot:
     def step(self, frame: np.ndarray | bytes, speed: float | None = None) -> Controls:
         """One raw frame (and the measured speed in m/s, for models that use it) -> controls. The frame is a
         BGR array or an encoded image (JPEG or PNG bytes, or a 1-D uint8 array of them)."""
-        _check_speed(speed)
+        self._plausible(_check_speed(speed))
         cur = self._prepare(frame)
         return self._drive(cur, self._motion(cur if self._prev is None else self._prev, cur), speed)
 
@@ -135,7 +147,8 @@ class Pilot:
         segment). `load`, when given, turns each item into a BGR frame on the worker threads (a frame index or
         a file, say)."""
         prepare = self._prepare if load is None else lambda item: self._prepare(load(item))
-        pairs = zip(frames, repeat(None)) if speeds is None else zip(frames, map(_check_speed, speeds), strict=True)
+        checked = None if speeds is None else map(self._plausible, map(_check_speed, speeds))
+        pairs = zip(frames, repeat(None)) if speeds is None else zip(frames, checked, strict=True)
         before = self._prev  # the frame before the first one (None: the first starts a segment)
 
         def motion(prev: Future | None, cur: Future) -> tuple:

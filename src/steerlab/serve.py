@@ -34,7 +34,7 @@ from steerlab.data.geometry import CAMERAS
 from steerlab.data.preprocess import crop_resize
 from steerlab.data.simlog import MPH_TO_MS, image_name, log_row, to_sim_steering
 from steerlab.errors import SteerlabError, warn
-from steerlab.options import Options, Range, option
+from steerlab.options import SPEED, Options, Range, option
 from steerlab.pilot import Pilot, smoothing_option
 
 SIM_FRAME = (CAMERAS["sim"].width, CAMERAS["sim"].height)  # the simulator's centre camera: 320x160
@@ -186,10 +186,11 @@ class ServeOptions(Options):
     """`steerlab serve`'s options."""
 
     port: int = option(4567, Range(1, 65535), help="port (4567: the simulator's)")
-    set_speed: float = option(4.0, Range(0), "a finite number of at least 0 (m/s)",
+    set_speed: float = option(4.0, Range(0, SPEED.hi, unit="m/s"),
                               help="speed the PI controller holds, m/s")
     smoothing: float | None = smoothing_option()
-    record: str | None = option(None, help="folder to record the drive to (driving_log.csv + IMG/)", path="folder")
+    record: str | None = option(None, help="folder to record the drive to (driving_log.csv + IMG/)", path="folder",
+                               makes="recording")
 
 
 def serve(checkpoint: str | Path, o: ServeOptions = ServeOptions(), host: str = "0.0.0.0") -> None:

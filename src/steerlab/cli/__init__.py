@@ -38,30 +38,47 @@ READ = {"checkpoint": "checkpoint", "checkpoints": "checkpoint", "config": "conf
         "truth": "answer file", "pred": "predictions file"}  # what a file to read is called in messages
 
 
-def path_option(q: argparse.ArgumentParser, *names: str, kind: str, **kw) -> None:
-    """An argument that names a path (`kind`: a file to read, a folder to write into, a file to write),
-    checked before the command runs (`check_paths`)."""
+def path_option(q: argparse.ArgumentParser, *names: str, kind: str, makes: str | None = None, **kw) -> None:
+    """An argument that names a path (`kind`: a file to read, a folder to write into, a file to write), checked
+    before the command runs (`check_paths`); `makes`: the kind of folder the command writes there (`paths.KINDS`)."""
     action = q.add_argument(*names, **kw)
     q.set_defaults(paths={**(q.get_default("paths") or {}), action.dest: kind})
+    if makes:
+        q.set_defaults(makes=makes)
+
+
+READ_AS_INPUT = ("data", "calib")  # arguments that name a recording the command reads (a file or a folder)
 
 
 def check_paths(args: argparse.Namespace) -> None:
     """Every path argument: a file to read exists and is a regular file; a folder to write into is not a file;
-    a file to write is not a folder. One line naming the path and the argument."""
-    from steerlab.paths import folder_to_write, regular_file
+    a file to write is not a folder; then every output together against every input (`paths.check_outputs`: no
+    output over an input or into a folder of another kind, and writable). One line naming the path."""
+    from steerlab.paths import check_outputs, distinct, regular_file
 
+    inputs, folders, files = [], {}, {}
     for dest, kind in (getattr(args, "paths", None) or {}).items():
         values = getattr(args, dest, None)
-        for value in values if isinstance(values, list) else [values]:
-            if value is None:
-                continue
-            path, name = Path(value), flag(dest)
+        name = flag(dest)
+        given = [v for v in (values if isinstance(values, list) else [values]) if v is not None]
+        if kind == "file" and isinstance(values, list):
+            distinct(given, READ.get(dest, "file"))
+        for value in given:
+            path = Path(value)
             if kind == "file":
                 regular_file(path, READ.get(dest, f"file for {name}"))
+                inputs.append(path)
             elif kind == "folder":
-                folder_to_write(path, f"output folder ({name})")
-            elif kind == "new-file" and path.is_dir():
-                raise SteerlabError(f"{path}: {name} names a folder; it needs a file to write")
+                folders[f"output folder ({name})"] = path
+            elif kind == "new-file":
+                if path.is_dir():
+                    raise SteerlabError(f"{path}: {name} names a folder; it needs a file to write")
+                if dest == "video" and path.suffix.lower() != ".mp4":
+                    raise SteerlabError(f"{path}: {name} writes an MP4 video; its name must end in .mp4")
+                files[f"output file ({name})"] = path
+    inputs += [Path(getattr(args, d)) for d in READ_AS_INPUT if getattr(args, d, None)]
+    inputs += [Path(r.split("=", 1)[1]) for r in getattr(args, "reader", None) or [] if r.startswith("log=")]
+    check_outputs(folders, files, inputs, getattr(args, "makes", None))
 
 
 def add_options(q: argparse.ArgumentParser, command: str, *classes: type, skip=(), label: str | None = None) -> None:
@@ -91,6 +108,8 @@ def add_options(q: argparse.ArgumentParser, command: str, *classes: type, skip=(
             if o.path:
                 q.add_argument(flag(o.key), dest=o.key, default=None, help=helptext)
                 q.set_defaults(paths={**(q.get_default("paths") or {}), o.key: o.path})
+                if o.makes:
+                    q.set_defaults(makes=o.makes)
             elif kind is bool:
                 q.add_argument(flag(f"no_{o.key}" if negated else o.key), dest=o.key, default=None,
                                action="store_false" if negated else "store_true",
@@ -175,6 +194,11 @@ def main(argv=None) -> int:
         args.func(args)
     except SteerlabError as e:
         print(f"error: {e}", file=sys.stderr)
+        return 2
+    except OSError as e:  # a write that failed half-way (disk full, permissions changed) or a path the OS refused
+        from steerlab.paths import os_error
+
+        print(f"error: {os_error(e)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)

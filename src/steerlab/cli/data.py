@@ -99,7 +99,8 @@ def register(sub) -> None:
     q.add_argument("--color", default="gray", help="gray, yuv, hsv or rgb (default gray)")
     q.add_argument("--modalities", default="image", help="comma list of image,diff,flow (default image)")
     q.add_argument("--flow", default="farneback", help="farneback or dis (default farneback)")
-    path_option(q, "--cache", kind="folder", help="cache folder (default: $STEERLAB_CACHE, else .steerlab-cache)")
+    path_option(q, "--cache", kind="folder", makes="cache",
+                help="cache folder (default: $STEERLAB_CACHE, else .steerlab-cache)")
     q.set_defaults(func=cmd_compile)
 
     q = sub.add_parser("evaluate", help="open-loop evaluation of a checkpoint, frame by frame",
@@ -107,7 +108,8 @@ def register(sub) -> None:
                               "--range 1800:2400 --out runs/eval")
     path_option(q, "checkpoint", kind="file", help="checkpoint (.pt) or exported model (.onnx)")
     data_args(q)
-    path_option(q, "--out", kind="folder", default="runs/eval", help="output folder (default runs/eval)")
+    path_option(q, "--out", kind="folder", makes="evaluation", default="runs/eval",
+                help="output folder (default runs/eval)")
     path_option(q, "--video", kind="new-file", help="also write an MP4 of the frames with predicted and recorded steering")
     q.add_argument("--allow-convention-mismatch", action="store_true",
                    help="evaluate a checkpoint whose steering convention (e.g. simulator road wheel, positive "
@@ -153,7 +155,7 @@ def register(sub) -> None:
     path_option(q, "checkpoints", kind="file", nargs="*", help="checkpoints (.pt) or exported models (.onnx) to time")
     add_options(q, "latency", LatencyOptions)
     data_args(q, "its frames, START:STOP, cycled through (default 0:100)", camera=False, required=False)
-    path_option(q, "--out", kind="folder", help="folder for latency.csv and latency.md")
+    path_option(q, "--out", kind="folder", makes="latency", help="folder for latency.csv and latency.md")
     q.set_defaults(func=cmd_latency)
 
     q = sub.add_parser("models", help="list the registered models", epilog="example: steerlab models")

@@ -120,7 +120,8 @@ def register(sub) -> None:
     q = sim.add_parser("record", help="record the expert driver on a procedural road or track",
                        epilog="example: steerlab sim record --seed 3 --minutes 6 --road mixed --out runs/mixed-seed3; "
                               "steerlab sim record --world track --seed 3 --minutes 10 --out runs/tub-seed3")
-    path_option(q, "--out", kind="folder", required=True, help="folder to write the recording to (new or empty)")
+    path_option(q, "--out", kind="folder", makes="recording", required=True,
+                help="folder to write the recording to (new or empty)")
     world(q, "record", "sim record")
     q.set_defaults(func=cmd_sim_record)
 
@@ -129,7 +130,8 @@ def register(sub) -> None:
                               "steerlab sim drive runs/tub/best.pt --world track --minutes 2 --out runs/track-drive")
     path_option(q, "checkpoint", kind="file", help="checkpoint (.pt) or exported model (.onnx)")
     world(q, "drive", "sim drive", DriveWith)
-    path_option(q, "--out", kind="folder", default="runs/drive", help="output folder (default runs/drive)")
+    path_option(q, "--out", kind="folder", makes="drive", default="runs/drive",
+                help="output folder (default runs/drive)")
     path_option(q, "--video", kind="new-file",
                 help="also write an MP4 of the drive with the model's and the expert's steering")
     q.set_defaults(func=cmd_sim_drive)
@@ -138,7 +140,8 @@ def register(sub) -> None:
                        epilog="example: steerlab sim bench runs/a/best.pt runs/b/best.pt --out runs/bench; "
                               "steerlab sim bench runs/tub/best.pt --world track --out runs/track-bench")
     path_option(q, "checkpoints", kind="file", nargs="+", help="checkpoints to compare")
-    path_option(q, "--out", kind="folder", default="runs/bench", help="output folder (default runs/bench)")
+    path_option(q, "--out", kind="folder", makes="suite", default="runs/bench",
+                help="output folder (default runs/bench)")
     world(q, "suite", "sim bench")
     q.set_defaults(func=cmd_sim_bench)
 
@@ -157,7 +160,8 @@ def register(sub) -> None:
                        "full_lock_deg=25 --lane-width 0.9 --out runs/replay-hall")
     path_option(q, "checkpoints", kind="file", nargs="+", help="checkpoints (.pt) or exported models (.onnx) to replay")
     data_args(q, camera=False)
-    path_option(q, "--out", kind="folder", default="runs/replay", help="output folder (default runs/replay)")
+    path_option(q, "--out", kind="folder", makes="replay", default="runs/replay",
+                help="output folder (default runs/replay)")
     path_option(q, "--video", kind="new-file",
                 help="also write an MP4 of the warped view with the model's and the human's steering "
                      "(one per checkpoint)")

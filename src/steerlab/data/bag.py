@@ -19,6 +19,7 @@ import hashlib
 import json
 import os
 import shutil
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -29,14 +30,32 @@ from steerlab.data.ch2 import CH2_CONVENTION
 from steerlab.data.rows import apply_range, check_unique, nearest
 from steerlab.data.recording import Recording
 from steerlab.errors import DataError, SteerlabError
+from steerlab.options import Options, option
 
-OPTIONS = ("topics",)
+
+
 TOPICS = {
     "center": "/center_camera/image_color/compressed",
     "left": "/left_camera/image_color/compressed",
     "right": "/right_camera/image_color/compressed",
     "steering": "/vehicle/steering_report",
 }
+
+
+def _topic_names(topics) -> bool:
+    return all(isinstance(k, str) and k in TOPICS and isinstance(v, str) and v for k, v in topics.items())
+
+
+@dataclass(frozen=True)
+class BagOptions(Options):
+    """A bag's reader options."""
+
+    topics: dict | None = option(None, _topic_names, "a mapping of center, left, right or steering to topic names",
+                                 help="the bag's topics of the cameras and the steering report, where they differ "
+                                      "from Udacity's")
+
+
+OPTIONS = BagOptions
 # dbw_mkz_msgs/SteeringReport as recorded in the Udacity datasets: used for ROS 2 bags that carry no message
 # definitions (ROS 1 bags always carry their own).
 STEERING_REPORT = """std_msgs/Header header

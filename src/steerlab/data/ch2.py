@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 
 from steerlab.data.recording import Recording, SteeringConvention
-from steerlab.data.rows import apply_range, check_images, check_unique, nearest, number, read_rows
+from steerlab.data.rows import (apply_range, check_images, check_increasing, check_unique, csv_header, nearest,
+                                number, read_rows)
 from steerlab.errors import DataError
 
 CH2_CONVENTION = SteeringConvention("steering_wheel", "left")
@@ -35,7 +36,7 @@ def read_ch2(folder: str | Path, frame_range=None, labels: str | Path | None = N
     rows = read_rows(label_path, "label file")
     if not rows:
         raise DataError(label_path, "the label file is empty")
-    header = [h.strip() for h in rows[0]]
+    header = csv_header(label_path, rows[0])
     body = rows[1:]
     if "frame_id" in header and "steering_angle" in header:
         ids, steer, speed, cams = _ch2_answer_rows(label_path, header, body)
@@ -47,6 +48,7 @@ def read_ch2(folder: str | Path, frame_range=None, labels: str | Path | None = N
     if len(ids) == 0:
         raise DataError(label_path, "no labelled frames")
     check_unique(ids, label_path, 2)
+    check_increasing(ids, label_path, 2)
     cut = apply_range(len(ids), frame_range, label_path)
     first_row = 2 + cut.start
     ids, steer = ids[cut], steer[cut]

@@ -36,8 +36,12 @@ import yaml
 
 from steerlab.data.geometry import CAMERAS
 from steerlab.errors import DataError, SteerlabError
+from steerlab.files import UniqueKeys, parse_json, read_text
 
 PINHOLE = CAMERAS["donkey"]  # the pinhole view `undistort` makes by default: the donkey geometry's focal length
+
+
+MIN_VIEW_DEG = 10.0  # a camera that sees less across renders one colour: nothing to steer by
 
 
 @dataclass(frozen=True)
@@ -74,6 +78,12 @@ class FisheyeCamera:
         if top <= reach:
             raise SteerlabError(f"fisheye coefficients D={tuple(self.d)} do not map the image corners to rays: "
                                 "theta_d must rise with theta past the corners")
+        left, right = self.ray(np.array([0.0, self.width - 1.0]), np.array([self.cy, self.cy]))
+        across = math.degrees(math.acos(float(np.clip(left @ right, -1, 1))))
+        if across < MIN_VIEW_DEG:  # every pixel would see nearly the same point: a blank frame
+            raise SteerlabError(f"the camera sees {across:.2g} degrees across its {self.width} px (fx={self.fx:g} px): "
+                                f"a blank frame; K in pixels of the {self.width}x{self.height} image is expected (a K "
+                                "of a larger image, or in other units?)")
 
     @property
     def K(self) -> np.ndarray:
@@ -260,7 +270,7 @@ def _check_frame(img: np.ndarray, cam: FisheyeCamera) -> None:
 
 # --- calibration files -------------------------------------------------------------------------------------------
 
-class _Loader(yaml.SafeLoader):
+class _Loader(UniqueKeys):
     """YAML as OpenCV's FileStorage writes it: `%YAML:1.0` and `!!opencv-matrix` {rows, cols, dt, data}."""
 
 
@@ -274,13 +284,10 @@ SIZE_KEYS = ("image_size", "DIM", "image_width/image_height")
 
 
 def _parse(path: Path) -> dict:
-    try:
-        text = path.read_text()
-    except OSError as e:
-        raise DataError(path, f"cannot read the calibration file ({e.strerror})") from None
+    text = read_text(path, "calibration file")
     try:
         if path.suffix.lower() == ".json":
-            data = json.loads(text)
+            data = parse_json(text, path)
         else:
             if text.startswith("%YAML:"):  # OpenCV's FileStorage header, which PyYAML does not take
                 text = text.split("\n", 1)[1] if "\n" in text else ""

@@ -3,15 +3,15 @@ convention) + `log.csv` (one row per frame, NATIVE_COLUMNS) + one folder of JPEG
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
 from steerlab.data.fisheye import fisheye_from
 from steerlab.data.recording import Recording, SteeringConvention
-from steerlab.data.rows import apply_range, check_images, check_unique, number, read_rows
+from steerlab.data.rows import apply_range, check_images, check_increasing, check_unique, csv_header, number, read_rows
 from steerlab.errors import DataError
+from steerlab.files import read_json
 
 NATIVE_COLUMNS = ["frame", "timestamp_ns", "center", "left", "right", "steering", "speed", "throttle", "brake",
                   "lateral_offset", "heading_error", "curvature", "episode"]
@@ -21,14 +21,13 @@ EPISODES = ("normal", "drift-out", "recover", "rollout")  # rollout: a DAgger fr
 def read_native(folder: str | Path, frame_range=None) -> Recording:
     folder = Path(folder)
     meta_path, log = folder / "recording.json", folder / "log.csv"
-    try:
-        meta = json.loads(meta_path.read_text())
-    except (OSError, json.JSONDecodeError) as e:
-        raise DataError(meta_path, f"cannot read recording metadata: {e}") from None
+    meta = read_json(meta_path, "recording metadata")
+    if not isinstance(meta, dict):
+        raise DataError(meta_path, "recording metadata must be a JSON object")
     rows = read_rows(log, "log")
     if not rows:
         raise DataError(log, "missing or empty log")
-    header = [h.strip() for h in rows[0]]
+    header = csv_header(log, rows[0])
     missing = [c for c in NATIVE_COLUMNS if c not in header]
     if missing:
         raise DataError(log, f"header lacks columns {missing}; expected {','.join(NATIVE_COLUMNS)}", 1)
@@ -60,6 +59,7 @@ def read_native(folder: str | Path, frame_range=None) -> Recording:
         episodes.append(ep)
     stamps_a = np.array(stamps, dtype=np.int64)
     check_unique(stamps_a, log, first)
+    check_increasing(stamps_a, log, first)
     for paths in frames.values():
         check_images(paths, log, first)
     conv = meta.get("steering", {})

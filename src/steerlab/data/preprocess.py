@@ -15,7 +15,7 @@ import cv2
 import numpy as np
 
 from steerlab.errors import SteerlabError
-from steerlab.options import AT_LEAST_1, Options, as_dict, option
+from steerlab.options import Options, PIXELS, Range, as_dict, option
 
 COLORS = {"gray": 1, "yuv": 3, "hsv": 3, "rgb": 3}
 MODALITIES = ("image", "diff", "flow")
@@ -95,14 +95,14 @@ class PreprocessOptions(Options):
     preset: Literal[tuple(CROP_PRESETS)] | None = None
     crop: tuple[int, int, int, int] | None = option(None, lambda c: min(c) >= 0,
                                                     "four non-negative integers (top, bottom, left, right)")
-    width: int | None = option(None, AT_LEAST_1)
-    height: int | None = option(None, AT_LEAST_1)
+    width: int | None = option(None, PIXELS)
+    height: int | None = option(None, PIXELS)
     color: Literal[tuple(COLORS)] | None = None
     modalities: tuple[Literal[MODALITIES], ...] | None = option(
         None, lambda m: len(m) > 0 and m[0] == "image" and len(set(m)) == len(m),
         "a list of modalities starting with image, each once (image, diff, flow)")
     flow: Literal[FLOW_METHODS] | None = None
-    stack: int | None = option(None, AT_LEAST_1)
+    stack: int | None = option(None, Range(1, 64))  # frames stacked as channels
 
     def resolve(self, geometry: str | None = None) -> PreprocessConfig:
         """The preprocessing of a recording of this camera `geometry` (its crop preset unless one is set)."""

@@ -18,6 +18,8 @@ from steerlab.data.recording import Recording
 from steerlab.data.rows import parse_range
 from steerlab.data.simlog import SIM_OPTIONS, read_sim_log
 from steerlab.errors import DataError, SteerlabError
+from steerlab.files import UniqueKeys
+from steerlab.options import options_of, parse
 
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mkv", ".mov")
 
@@ -32,7 +34,7 @@ def reader_options(items: list[str]) -> dict:
         if "=" not in item:
             raise SteerlabError(f"--reader {item!r} must look like key=value, e.g. full_lock_deg=25")
         key, value = item.split("=", 1)
-        out[key.strip()] = yaml.safe_load(value)
+        out[key.strip()] = yaml.load(value, Loader=UniqueKeys)
     return out
 
 
@@ -61,12 +63,17 @@ def open_recording(path: str | Path, frame_range: str | tuple | None = None, lab
     if not path.exists():
         raise DataError(path, "recording not found")
     rng = parse_range(frame_range) if isinstance(frame_range, str) or frame_range is None else frame_range
-    reader, known = _reader_of(path)
-    options = dict(options or {})
-    unknown = sorted(set(options) - set(known))
+    reader, kind = _reader_of(path)
+    known = [o.key for o in options_of(kind)] if kind else []
+    unknown = sorted(set(options or {}) - set(known))
     if unknown:
         raise DataError(path, f"unknown reader option(s) {unknown}; this recording's reader takes "
                               f"{', '.join(known) or 'none'}")
+    try:  # typed and range-checked, as every option is (a boolean is a boolean: skip_missing=maybe is refused)
+        typed = parse(kind, options, "reader") if kind else None
+    except SteerlabError as e:
+        raise DataError(path, str(e)) from None
+    options = {k: getattr(typed, k) for k in known}
     if labels is not None:
         if reader is not read_ch2:
             raise DataError(path, "a label file (--labels) belongs to CH2 folders only")
@@ -80,20 +87,20 @@ def _reader_of(path: Path):
     """The reader function for a path and the options it takes."""
     if path.is_file() and path.suffix == ".csv":
         if path.name == "log.csv" and (path.parent / "recording.json").exists():
-            return _native_folder, ()
+            return _native_folder, None
         return read_sim_log, SIM_OPTIONS
     if path.is_file() and path.suffix.lower() in VIDEO_SUFFIXES:
         return videolog.read_video, videolog.OPTIONS
     if bag.is_bag(path):
         return bag.read_bag, bag.OPTIONS
     if path.is_dir() and (path / "recording.json").exists():
-        return read_native, ()
+        return read_native, None
     if path.is_dir() and (path / "driving_log.csv").exists():
         return _sim_folder, SIM_OPTIONS
     if path.is_dir() and tub.is_tub(path):
         return tub.read_tub, tub.OPTIONS
     if path.is_dir() and (path / "center").is_dir():
-        return read_ch2, ()
+        return read_ch2, None
     raise DataError(path, "not a recording: expected a CH2 folder (center/ + CSV), a driving_log.csv, a steerlab "
                           "recording (recording.json), a donkeycar tub (manifest.json + catalogs), a ROS bag "
                           f"(.bag, or a ROS 2 folder with metadata.yaml) or a video ({', '.join(VIDEO_SUFFIXES)})")

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 import cv2
 import numpy as np
 
+from steerlab.options import Range
 from steerlab.errors import DataError, SteerlabError
 
 if TYPE_CHECKING:
@@ -19,6 +20,9 @@ if TYPE_CHECKING:
 KINDS = ("steering_wheel", "road_wheel", "normalized")
 
 SEGMENT_GAP_NS = 500_000_000  # a gap longer than 0.5 s between frames, or a new session, starts a new segment
+
+
+FULL_LOCK_DEG = Range(0, 90, lo_open=True, hi_open=True, unit="degrees")  # a car's largest road-wheel angle
 
 
 @dataclass(frozen=True)

@@ -3,14 +3,13 @@ unique frame ids, and matching frames by time."""
 
 from __future__ import annotations
 
-import csv
 import math
 from pathlib import Path
 
 import numpy as np
 
 from steerlab.errors import DataError
-from steerlab.paths import regular_file
+from steerlab.files import csv_header, read_csv  # noqa: F401 - csv_header: the readers' header
 
 
 def parse_range(text: str | None) -> tuple[int | None, int | None] | None:
@@ -41,12 +40,8 @@ def apply_range(n: int, rng, source: Path) -> slice:
 
 
 def read_rows(path: Path, what: str = "CSV file") -> list[list[str]]:
-    regular_file(path, what)
-    try:
-        with open(path, newline="") as f:
-            return [row for row in csv.reader(f) if row and any(c.strip() for c in row)]
-    except UnicodeDecodeError:
-        raise DataError(path, "not a text CSV file") from None
+    """The rows of a CSV file as people save it (`files.read_csv`)."""
+    return read_csv(path, what)
 
 
 def number(path: Path, row: int, column: str, text: str, allow_nan: bool = False) -> float:
@@ -72,6 +67,15 @@ def nearest(sorted_times: np.ndarray, times: np.ndarray) -> np.ndarray:
         return np.zeros(len(times), dtype=np.int64)
     j = np.clip(np.searchsorted(sorted_times, times), 1, len(sorted_times) - 1)
     return np.where(np.abs(sorted_times[j - 1] - times) <= np.abs(sorted_times[j] - times), j - 1, j)
+
+
+def check_increasing(times: np.ndarray, path: Path, first_row: int) -> None:
+    """Capture times in row order: a time that goes back is a one-line error naming the file and its row."""
+    back = np.flatnonzero(np.diff(times) < 0)
+    if back.size:
+        i = int(back[0]) + 1
+        raise DataError(path, f"the time goes back ({int(times[i])} ns after {int(times[i - 1])} ns in the row "
+                              "before): the rows must be in the order they were recorded", first_row + i)
 
 
 def check_unique(ids: np.ndarray, path: Path, first_row: int) -> None:

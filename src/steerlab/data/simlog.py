@@ -6,14 +6,17 @@ image names (`center_YYYY_MM_DD_HH_MM_SS_mmm.jpg`)."""
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 
 import numpy as np
 
 from steerlab.data.recording import Recording, SteeringConvention
-from steerlab.data.rows import apply_range, check_images, check_unique, ends_torn, number, read_rows
+from steerlab.data.rows import (apply_range, check_images, check_increasing, check_unique, csv_header, ends_torn,
+                                number, read_rows)
 from steerlab.errors import DataError, warn
+from steerlab.options import Options, option
 
 MPH_TO_MS = 0.44704
 SIM_FULL_LOCK_RAD = math.radians(25.0)  # the simulator's steering value +-1 is +-25 degrees
@@ -36,7 +39,16 @@ def log_row(center, left, right, steering: float, throttle: float, brake: float,
     return [str(center), str(left), str(right), f"{steering:.6f}", f"{throttle:.6f}", f"{brake:.6f}",
             f"{speed_ms / MPH_TO_MS:.6f}"]
 SIM_COLUMNS = ["center", "left", "right", "steering", "throttle", "brake", "speed"]
-SIM_OPTIONS = ("strict",)
+
+
+@dataclass(frozen=True)
+class SimLogOptions(Options):
+    """A driving log's reader options."""
+
+    strict: bool = option(False, help="refuse a torn last line instead of reading past it")
+
+
+SIM_OPTIONS = SimLogOptions
 # the physical range of each recorded value: steering +-1 = full lock, pedals 0..1, speed in mph
 SIM_RANGES = {"steering": (-1.0, 1.0, "in [-1, 1]"), "throttle": (0.0, 1.0, "in [0, 1]"),
               "brake": (0.0, 1.0, "in [0, 1]"), "speed": (0.0, math.inf, "of at least 0 (mph)")}
@@ -92,7 +104,7 @@ def read_sim_log(log: str | Path, frame_range=None, strict: bool = False) -> Rec
     log = Path(log)
     rows = read_rows(log)
     if rows and rows[0][0].strip() == "center":
-        header = [h.strip() for h in rows[0]]
+        header = csv_header(log, rows[0])
         missing = [c for c in SIM_COLUMNS if c not in header]
         if missing:
             raise DataError(log, f"header lacks columns {missing}; expected {','.join(SIM_COLUMNS)}", 1)
@@ -125,6 +137,7 @@ def read_sim_log(log: str | Path, frame_range=None, strict: bool = False) -> Rec
     frames = {c: p for c, p in frames.items() if len(p) == len(rows)}
     stamps_a = np.array(stamps, dtype=np.int64)
     check_unique(stamps_a, log, first)
+    check_increasing(stamps_a, log, first)
     for paths in frames.values():
         check_images(paths, log, first)
     return Recording(

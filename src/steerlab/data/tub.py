@@ -19,17 +19,31 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from steerlab.data.fisheye import fisheye_from
 from steerlab.data.rows import apply_range
-from steerlab.data.recording import Recording, SteeringConvention
+from steerlab.data.recording import FULL_LOCK_DEG, Recording, SteeringConvention
+from steerlab.options import Options, option
 from steerlab.paths import regular_file
 from steerlab.errors import DataError, SteerlabError, warn
 
-OPTIONS = ("full_lock_deg", "skip_missing", "strict")
+
+
+@dataclass(frozen=True)
+class TubOptions(Options):
+    """A tub's reader options."""
+
+    full_lock_deg: float | None = option(None, FULL_LOCK_DEG, help="the car's full-lock angle: user/angle 1 is this "
+                                         "many degrees of road wheel (unknown to the tub)")
+    skip_missing: bool = option(False, help="leave out the records whose image is missing (with a warning)")
+    strict: bool = option(False, help="refuse torn catalog lines and lost records instead of reading past them")
+
+
+OPTIONS = TubOptions
 MANIFEST_LINES = ("record keys", "record types", "metadata", "sessions", "catalog list")
 REQUIRED = ("_index", "_timestamp_ms", "cam/image_array", "user/angle")
 

@@ -12,17 +12,34 @@ default "steering_wheel"), `positive` (default "left"), `full_lock_deg` (for nor
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 import cv2
 import numpy as np
 
 from steerlab.data.preprocess import CROP_PRESETS
-from steerlab.data.rows import apply_range, check_unique, number, read_rows
-from steerlab.data.recording import Recording, SteeringConvention, VideoFrames
+from steerlab.data.rows import apply_range, check_increasing, check_unique, csv_header, number, read_rows
+from steerlab.data.recording import FULL_LOCK_DEG, KINDS, Recording, SteeringConvention, VideoFrames
 from steerlab.errors import DataError
+from steerlab.options import Options, option
 
-OPTIONS = ("log", "steering", "positive", "full_lock_deg", "geometry")
+
+
+@dataclass(frozen=True)
+class VideoOptions(Options):
+    """A video's reader options: its log and what its steering means."""
+
+    log: str | None = option(None, help="the CSV log (default: the video's name with .csv)")
+    steering: Literal[KINDS] = option("steering_wheel", help="what the log's steering is: steering_wheel, road_wheel "
+                                      "or normalized")
+    positive: Literal["left", "right"] = option("left", help="the side positive steering turns to")
+    full_lock_deg: float | None = option(None, FULL_LOCK_DEG, help="normalized steering: the full-lock angle")
+    geometry: Literal[tuple(CROP_PRESETS)] = option("ch2", help="the camera geometry of the video")
+
+
+OPTIONS = VideoOptions
 
 
 def read_video(path: str | Path, frame_range=None, log: str | Path | None = None, steering: str = "steering_wheel",
@@ -49,7 +66,7 @@ def read_video(path: str | Path, frame_range=None, log: str | Path | None = None
     rows = read_rows(log)
     if len(rows) < 2:
         raise DataError(log, "the log has no rows")
-    header = [h.strip() for h in rows[0]]
+    header = csv_header(log, rows[0])
     col = {h: i for i, h in enumerate(header)}
     time_col = next((c for c in ("timestamp_ns", "timestamp", "frame") if c in col), None)
     if "steering" not in col or time_col is None:
@@ -83,6 +100,7 @@ def read_video(path: str | Path, frame_range=None, log: str | Path | None = None
     else:
         stamps = np.round(positions * 1e9 / (fps if fps > 0 else 30.0)).astype(np.int64)
     check_unique(stamps, log, 2)
+    check_increasing(stamps, log, 2)
     cut = apply_range(len(body), frame_range, log)
     stamps, positions, steer = stamps[cut], positions[cut], steer[cut]
     return Recording(

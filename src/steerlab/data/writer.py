@@ -13,6 +13,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from steerlab.files import write_json
 from steerlab.data.car import car_of
 from steerlab.data.native import EPISODES, NATIVE_COLUMNS
 from steerlab.data.recording import SteeringConvention
@@ -70,9 +71,8 @@ class RecordingWriter:
             w.writeheader()
             for r in self.rows:
                 w.writerow({k: (f"{v:.6f}" if isinstance(v, float) else v) for k, v in r.items()})
-        (self.out / "recording.json").write_text(json.dumps(
-            {"format": "steerlab-recording-1", **meta, "geometry": self.geometry, "steering": self.convention.as_dict(),
-             "episodes": list(EPISODES)}, indent=1))
+        write_json(self.out / "recording.json", {"format": "steerlab-recording-1", **meta, "geometry": self.geometry,
+                                                 "steering": self.convention.as_dict(), "episodes": list(EPISODES)})
         return self.out
 
 

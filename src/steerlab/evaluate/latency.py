@@ -28,9 +28,10 @@ from tqdm import tqdm
 
 from steerlab.data.geometry import camera
 from steerlab.data.readers import Source
-from steerlab.options import AT_LEAST_1, Options, option
+from steerlab.options import AT_LEAST_1, Options, THREADS, option
 from steerlab.errors import SteerlabError
 from steerlab.export import export_onnx
+from steerlab.paths import check_outputs
 from steerlab.pilot import Pilot
 
 WARMUP = 10  # frames run before the timing starts
@@ -154,7 +155,8 @@ class LatencyOptions(Options):
     geometry: Literal["donkey", "ch2", "sim"] | None = option(None, help="camera geometry of the untrained models "
                                                               "and the synthetic frames (default: the recording's "
                                                               "with --data, else donkey, 160x120)")
-    threads: int = option(1, AT_LEAST_1, help="threads of torch, OpenCV and ONNX Runtime (1: one core)")
+    threads: int = option(1, THREADS, help="threads of torch, OpenCV and ONNX Runtime (1: one core; at most the "
+                          "machine's cores)")
     runtime: Literal["torch", "onnx", "both"] = option("both", help="PyTorch, ONNX Runtime (a .pt is exported "
                                                        "first) or both")
     frames: int = option(500, AT_LEAST_1, help="frames timed, after 10 warm-up frames")
@@ -176,6 +178,8 @@ def run_latency(checkpoints=(), o: LatencyOptions = LatencyOptions(), source: So
     an .onnx runs there only), on the frames of `source` (its first DISTINCT_FRAMES by default) or synthetic
     ones. Writes latency.csv and latency.md into `out` when given; returns the rows. Without models nothing here
     needs torch: exported models time on a car's computer with ONNX Runtime alone."""
+    if out is not None:
+        check_outputs({"output folder": out}, inputs=[*checkpoints, source and source.data], kind="latency")
     runtimes = RUNTIMES if o.runtime == "both" else (o.runtime,)
     models, threads, count, decode = o.model_names(checkpoints), o.threads, o.frames, o.decode
     if models:

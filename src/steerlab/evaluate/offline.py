@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from functools import partial
 from itertools import islice
 from pathlib import Path
@@ -15,8 +14,10 @@ from steerlab.data.labels import speed_targets
 from steerlab.data.readers import Source
 from steerlab.evaluate.metrics import SMOOTHING_ALPHA, all_metrics, exponential_smoothing, steering_metrics
 from steerlab.errors import SteerlabError, warn
+from steerlab.files import write_json
 from steerlab.evaluate.plots import plot_steering
 from steerlab.evaluate.scoring import write_predictions
+from steerlab.paths import check_outputs
 from steerlab.pilot import Pilot
 from steerlab.video import DriveVideo
 
@@ -34,6 +35,7 @@ def evaluate(checkpoint: str | Path, source: Source, out: str | Path, camera: st
     recording's convention (or compared unconverted where normalized steering has no full-lock angle). A
     recording of another camera geometry than the model's is refused too; with `other_camera` its frames are
     cropped and resized as the model's own would be, with a warning."""
+    check_outputs({"output folder": out}, {"video": video}, [checkpoint, source.data, source.labels], "evaluation")
     out = Path(out)
     rec = source.open()
     if camera not in rec.frames:
@@ -118,5 +120,5 @@ def evaluate(checkpoint: str | Path, source: Source, out: str | Path, camera: st
                   title=f"{rec.name} {source.range or ''}: RMSE {metrics['rmse']:.4f} rad, "
                         f"gamma {metrics['gamma_deg']:.3f} vs target {metrics['target_gamma_deg']:.3f} deg",
                   throttle=(rec.throttle, pred["throttle"]) if "throttle" in metrics else None)
-    (out / "metrics.json").write_text(json.dumps(metrics, indent=1))
+    write_json(out / "metrics.json", metrics)
     return metrics

@@ -8,19 +8,18 @@ from pathlib import Path
 
 import numpy as np
 
-from steerlab.paths import regular_file
-from steerlab.errors import DataError
+from steerlab.files import csv_header, read_csv
+from steerlab.errors import DataError, warn
 from steerlab.evaluate.metrics import gamma_deg, mae_deg, rmse
 
 
 def read_steering_csv(path: str | Path, need_public: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """Read `frame_id,steering_angle[,public]`; returns ids, angles and the public flags (or None)."""
-    path = regular_file(Path(path), "predictions file")
-    with open(path, newline="") as f:
-        rows = [r for r in csv.reader(f) if r]
+    path = Path(path)
+    rows = read_csv(path, "predictions file")
     if not rows:
         raise DataError(path, "the file is empty")
-    header = [h.strip() for h in rows[0]]
+    header = csv_header(path, rows[0])
     if "frame_id" not in header or "steering_angle" not in header:
         raise DataError(path, f"expected columns 'frame_id,steering_angle', got {header}", 1)
     if need_public and "public" not in header:
@@ -52,6 +51,19 @@ def read_steering_csv(path: str | Path, need_public: bool = False) -> tuple[np.n
     return np.array(ids, np.int64), np.array(vals), (np.array(pub) if i_pub is not None else None)
 
 
+SPREAD = 10.0  # predictions spread this many times as far as the truth are in another unit, not just poor
+
+
+def spread_said(pred: np.ndarray, truth: np.ndarray) -> str | None:
+    """What to say of predictions whose spread is far beyond the truth's (degrees where radians are expected: 57
+    times), or None."""
+    p, t = float(np.std(pred)), float(np.std(truth))
+    if t > 0 and p > SPREAD * t:
+        return (f"the predictions spread {p / t:.0f} times as far as the answers (std {p:.4g} against {t:.4g}): "
+                f"degrees where radians are expected{'' if p / t > 30 else ', or another unit'}?")
+    return None
+
+
 def score(truth_path: str | Path, pred_path: str | Path) -> dict[str, float]:
     """RMSE on all/public/private rows, MAE (deg), gamma of prediction and truth (deg).
 
@@ -69,6 +81,9 @@ def score(truth_path: str | Path, pred_path: str | Path) -> dict[str, float]:
         first = next(int(f) for f in p_ids if int(f) not in known)
         raise DataError(pred_path, f"{extra} frame ids are not in the answer file, first {first}")
     aligned = pred[[pos[int(f)] for f in t_ids]]
+    said = spread_said(aligned, truth)
+    if said:
+        warn(f"{pred_path}: {said}")
     return {
         "rmse": rmse(aligned, truth),
         "rmse_public": rmse(aligned[public], truth[public]) if public.any() else float("nan"),

@@ -26,7 +26,7 @@ import torch.nn as nn
 
 from steerlab.data.preprocess import PreprocessConfig, PreprocessOptions
 from steerlab.errors import SteerlabError
-from steerlab.options import AT_LEAST_0, AT_LEAST_1, Range, value_of
+from steerlab.options import AT_LEAST_0, Range, value_of
 
 
 class SteeringModel(nn.Module):
@@ -113,8 +113,8 @@ def create_model(name: str, in_channels: int | None = None, height: int | None =
 
 
 # The range of a model option, by its name, for every model that has it.
-OPTION_CHECKS = {"dropout": Range(0, 1, hi_open=True), "hidden": AT_LEAST_1, "seq_len": AT_LEAST_1,
-                 "speed_history": AT_LEAST_1, "weight_gain": AT_LEAST_0, "command_weight": AT_LEAST_0,
+OPTION_CHECKS = {"dropout": Range(0, 1, hi_open=True), "hidden": Range(1, 4096), "seq_len": Range(1, 1000),
+                 "speed_history": Range(1, 1000), "weight_gain": AT_LEAST_0, "command_weight": AT_LEAST_0,
                  "speed_weight": AT_LEAST_0}
 
 

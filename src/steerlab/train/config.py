@@ -15,15 +15,25 @@ from typing import Literal
 import yaml
 
 from steerlab.data.car import Car
+from steerlab.data.native import EPISODES
 from steerlab.data.preprocess import PreprocessConfig, PreprocessOptions
 from steerlab.data.splits import Split
 from steerlab.data.tub import is_tub
 from steerlab.errors import SteerlabError
 from steerlab.models.registry import ModelSpec, learns_throttle, list_models
-from steerlab.paths import regular_file
-from steerlab.options import AT_LEAST_0, AT_LEAST_1, Options, POSITIVE, Range, UNIT, as_dict, option, parse
+from steerlab import files
+from steerlab.paths import distinct, same_path
+from steerlab.files import UniqueKeys
+from steerlab.options import (AT_LEAST_0, AT_LEAST_1, Options, POSITIVE, Range, SEED, UNIT, WORKERS, as_dict, option,
+                              parse)
 
 LOSSES = {"mse": "rmse", "mae": "mae"}  # train.loss -> the validation metric that picks the best epoch
+
+
+def _folder(recording: str) -> Path:
+    """A recording's folder: a driving log or a native log.csv names the folder it lies in."""
+    path = Path(recording)
+    return path.parent if path.suffix == ".csv" and path.is_file() else path
 
 
 def _pairs(views) -> bool:
@@ -39,12 +49,12 @@ class TrainOptions(Options):
     lr: float = option(1e-4, POSITIVE)
     patience: int = option(5, AT_LEAST_1)
     flip: bool = False
-    seed: int = 0
+    seed: int = option(0, SEED)
     loss: Literal[tuple(LOSSES)] = option("mse", help="mse or mae of the steering (models with a loss of their "
                                           "own keep it); the best epoch has the lowest validation RMSE or MAE")
     smoothness: float = option(0.0, AT_LEAST_0, help="recurrent models: plus this weight times the same loss on "
                                "the steering's change between consecutive frames (paper 000's outlook)")
-    exclude_episodes: tuple[str, ...] = option((), expected="a list of episode names",
+    exclude_episodes: tuple[Literal[EPISODES], ...] = option((), expected=f"a list of episode names ({', '.join(EPISODES)})",
                                                help="e.g. [drift-out]: train on the recovery half of drift episodes")
     side_cameras: bool = option(False, help="side-camera recovery synthesis (paper 002 Eq. 3)")
     side_offset_m: float | None = option(None, Range(), help="side cameras' offset (default: the car's)")
@@ -69,7 +79,7 @@ class TrainOptions(Options):
     throttle_weight: float = option(0.0, AT_LEAST_0, help="also learn the throttle where the recording varies it "
                                     "(a donkeycar tub's user/throttle): the loss plus this weight times the MAE of "
                                     "the throttle, as paper 002 weights steering and speed")
-    workers: int = option(0, AT_LEAST_0, help="data-loading worker processes (0: in this one; the results do not "
+    workers: int = option(0, Range(0, WORKERS.hi), help="data-loading worker processes (0: in this one; the results do not "
                                                  "depend on it)")
 
 
@@ -97,6 +107,11 @@ class TrainConfig(Options):
         super().__post_init__()
         if not self.data:
             raise SteerlabError("the config names no data (set data: PATH or pass data=PATH)")
+        for i, extra in enumerate(self.extra_data):  # every frame of an extra recording trains
+            if same_path(_folder(extra), _folder(self.data)):
+                raise SteerlabError(f"extra_data[{i}] {extra} is the training recording itself (data): its "
+                                    "validation frames would be trained on")
+        distinct(self.extra_data, "recording of extra_data")
         t, cls = self.train, self.model.cls
         if t.smoothness > 0 and not cls.recurrent:
             raise SteerlabError(f"train.smoothness needs a recurrent model (it trains on windows of consecutive "
@@ -118,6 +133,11 @@ class TrainConfig(Options):
             raise SteerlabError(f"train.throttle_weight: model {self.model.name!r} does not learn a throttle; "
                                 f"these do: {able}")
         self.model.check(self.preprocessing())  # the input fits the model's layers
+
+    def inputs(self) -> list[str]:
+        """Every path the run reads: recordings, a label file or video log, checkpoints. No output may be one."""
+        return [p for p in (self.data, *self.extra_data, self.labels, self.reader.get("log"), self.train.init,
+                            self.train.teacher) if isinstance(p, str)]
 
     def preprocessing(self, geometry: str | None = None) -> PreprocessConfig:
         """The preprocessing of this config's model on a recording of the camera `geometry`."""
@@ -172,7 +192,7 @@ def apply_override(cfg: dict, text: str) -> None:
         node[parts[-1]] = value
         return
     try:
-        node[parts[-1]] = yaml.safe_load(value)
+        node[parts[-1]] = yaml.load(value, Loader=UniqueKeys)
     except yaml.YAMLError as e:
         raise SteerlabError(f"override {text!r}: the value is not valid YAML ({getattr(e, 'problem', None) or e}); "
                             f"quote it: {key}='\"{value}\"'") from None
@@ -180,11 +200,8 @@ def apply_override(cfg: dict, text: str) -> None:
 
 def read_yaml(path: str | Path, what: str = "sections (data, split, model, train, ...)") -> dict:
     """A YAML config file as a mapping, with one-line errors."""
-    path = regular_file(path, "config file")
-    try:
-        data = yaml.safe_load(path.read_text()) or {}
-    except yaml.YAMLError as e:
-        raise SteerlabError(f"{path}: not valid YAML: {e}") from None
+    path = Path(path)
+    data = files.read_yaml(path, "config file") or {}
     if not isinstance(data, dict):
         raise SteerlabError(f"{path}: expected a mapping of {what}")
     return data

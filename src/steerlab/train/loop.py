@@ -19,6 +19,7 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
+from steerlab.files import write_json
 from steerlab.checkpoint import load_checkpoint, save_checkpoint
 from steerlab.data.cache import cache_root
 from steerlab.data.car import car_of
@@ -30,7 +31,7 @@ from steerlab.errors import SteerlabError
 from steerlab.evaluate.metrics import all_metrics
 from steerlab.evaluate.scoring import write_predictions
 from steerlab.locks import folder_lock
-from steerlab.paths import folder_to_write
+from steerlab.paths import check_outputs
 from steerlab.models import SteeringModel, create_model
 from steerlab.models.registry import predicted
 from steerlab.options import as_dict
@@ -145,8 +146,9 @@ def train(cfg: TrainConfig, progress: bool = True, on_epoch=None) -> dict:
     `on_epoch(epoch, metrics)` is called after every epoch's checkpoint (steerlab tune reports and prunes
     there: an exception it raises ends the run, which stays resumable). The run holds a lock on `out`: a
     second run into the same folder is refused while the first one runs."""
-    out = folder_to_write(cfg.out, "output folder (out)")
-    folder_to_write(cache_root(cfg.cache), "cache folder (cache)")
+    check_outputs({"output folder (out)": cfg.out}, inputs=cfg.inputs(), kind="run")
+    check_outputs({"cache folder (cache)": cache_root(cfg.cache)}, inputs=cfg.inputs(), kind="cache")
+    out = Path(cfg.out)
     ranks = setup(cfg.train.device)
     if cfg.train.batch_size % ranks.world:
         raise SteerlabError(f"train.batch_size {cfg.train.batch_size} is the global batch; it must divide evenly "
@@ -157,7 +159,7 @@ def train(cfg: TrainConfig, progress: bool = True, on_epoch=None) -> dict:
         if path and Path(path).suffix == ".onnx":
             raise SteerlabError(f"{path}: train.{key}: an .onnx file cannot be a {role} (it holds a graph for ONNX "
                                 "Runtime, not weights to train); name the .pt checkpoint it was exported from")
-    init, teacher = (load_checkpoint(p) if p else None for p in (cfg.train.init, cfg.train.teacher))
+    init, teacher = (_named_checkpoint(cfg.train, key) for key in ("init", "teacher"))
     car = car_of(main_recording(cfg).geometry)
     cfg = cfg.for_car(car)
     if not ranks.main:  # rank 0 holds the lock for all ranks
@@ -170,19 +172,32 @@ def train(cfg: TrainConfig, progress: bool = True, on_epoch=None) -> dict:
         return fit(build(cfg, ranks, progress, init, teacher), ranks, progress, on_epoch)
 
 
+def _named_checkpoint(options, key: str) -> dict | None:
+    """The checkpoint `train.<key>` names (None: none), its errors naming the option."""
+    path = getattr(options, key)
+    try:
+        return load_checkpoint(path) if path else None
+    except SteerlabError as e:
+        raise SteerlabError(f"train.{key}: {e}") from None
+
+
+def holds_run_of(out: Path, cfg: TrainConfig, car=None) -> bool:
+    """Whether the run folder `out` holds a run of `cfg` (a run of an earlier version's config, with fewer
+    options, text for numbers or the car's values written out, is the same run when it parses to the same
+    settings). `car`: the recording's, found when not given."""
+    car = car or car_of(main_recording(cfg).geometry)
+    try:
+        earlier = parse_config(json.loads((out / "config.json").read_text())).for_car(car).identity()
+    except (OSError, ValueError, SteerlabError):
+        return False
+    return earlier == cfg.for_car(car).identity()
+
+
 def _claim(out: Path, cfg: TrainConfig, car) -> None:
-    """A folder that holds a run of another config is refused; a run of an earlier version's config (fewer
-    options, text for numbers, the car's values written out) is the same run when it parses to the same
-    settings."""
-    cfg_file = out / "config.json"
-    if (out / "last.pt").exists():
-        try:
-            earlier = parse_config(json.loads(cfg_file.read_text())).for_car(car).identity()
-        except (OSError, ValueError, SteerlabError):
-            earlier = None
-        if earlier != cfg.identity():
-            raise SteerlabError(f"{out} holds a run with another config; choose a new out directory or delete it")
-    cfg_file.write_text(json.dumps(as_dict(cfg), indent=1))
+    """A folder that holds a run of another config is refused."""
+    if (out / "last.pt").exists() and not holds_run_of(out, cfg, car):
+        raise SteerlabError(f"{out} holds a run with another config; choose a new out directory or delete it")
+    write_json(out / "config.json", as_dict(cfg))
 
 
 def throttle_learned(cfg: TrainConfig, ds: CompiledDataset, say: bool) -> bool:

@@ -14,7 +14,7 @@ from tqdm import tqdm
 
 from steerlab.errors import DataError, SteerlabError, warn
 from steerlab.locks import pid_alive, waiting_lock
-from steerlab.paths import folder_to_write
+from steerlab.paths import check_outputs
 from steerlab.options import as_dict
 from steerlab.sim.road.suite import closed_loop_metrics, suite_options
 from steerlab.train.config import TrainConfig
@@ -84,7 +84,11 @@ def run_tune(cfg: TrainConfig, o: TuneOptions, progress: bool = True) -> Path:
     optuna = storage_optuna()
     space = search_space(cfg.tune, cfg)
     closed = suite_options(cfg.closed_loop, "closed_loop") if o.objective == "autonomy" else None
-    out = folder_to_write(cfg.out, "output folder (out)")
+    url = o.storage or ""
+    local = (url[len("sqlite:///"):] if url.startswith("sqlite:///") else None if "://" in url
+             else url.removeprefix("journal:") or None)  # a storage file of this machine: an output too
+    check_outputs({"output folder (out)": cfg.out}, {"study's storage (--storage)": local}, cfg.inputs(), "study")
+    out = Path(cfg.out)
     name = o.study or out.name
     epochs, trials, objective = cfg.train.epochs, o.trials, o.objective
     store = storage_of(o.storage, out, o.join)

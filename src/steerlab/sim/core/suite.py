@@ -16,6 +16,7 @@ from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
+from steerlab import files
 from steerlab.errors import SteerlabError
 from steerlab.sim.core.parallel import run_parallel
 
@@ -120,7 +121,7 @@ def from_json(cls: type, data: dict):
 
 def write_json(path: Path, result, meta: dict | None = None) -> None:
     """A drive's result (a dataclass) and `meta` (its cache key) as drive.json."""
-    path.write_text(json.dumps({**dataclasses.asdict(result), **(meta or {})}, indent=1))
+    files.write_json(path, {**dataclasses.asdict(result), **(meta or {})})
 
 
 def grouped(drives: list, key: str) -> Iterator[tuple[str, str, list]]:

@@ -7,7 +7,6 @@ the replay of a recording (`setup`) and refuse what they cannot replay (`check_p
 from __future__ import annotations
 
 import csv
-import json
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
@@ -19,7 +18,9 @@ from steerlab.data.readers import Source
 from steerlab.data.recording import Recording
 from steerlab.data.writer import RecordingWriter
 from steerlab.errors import DataError, SteerlabError, warn
-from steerlab.options import AT_LEAST_1, Options, POSITIVE, option
+from steerlab.files import write_json
+from steerlab.options import Options, POSITIVE, Range, SPEED, WORKERS, option
+from steerlab.paths import check_outputs
 from steerlab.pilot import smoothing_option
 from steerlab.sim.core.driving import Trajectory, autonomy, drive_loop, rollout
 from steerlab.sim.core.parallel import run_parallel, tick_reporter
@@ -37,18 +38,19 @@ POSITIVE_WORDS = "positive and finite"
 class ReplayOptions(Options):
     """`steerlab replay`'s options (the road world's replay: a car seen through a pinhole camera)."""
 
-    speed: float | None = option(None, POSITIVE, POSITIVE_WORDS,
-                                 help="speed in m/s (default: the recorded one, else estimated from the frames)")
+    speed: float | None = option(None, SPEED, help="speed in m/s (default: the recorded one, else estimated from "
+                                 "the frames)")
     limit: float | None = option(None, POSITIVE, POSITIVE_WORDS, help="road: metres off the human's path that "
                                  "count as an intervention (default: the car's: 1 for cars, 0.3 for donkeycars)")
-    max_heading: float = option(MAX_HEADING_DEG, POSITIVE, POSITIVE_WORDS, help="road: degrees of heading error "
-                                "beyond which the warped view is not trusted: an intervention")
+    max_heading: float = option(MAX_HEADING_DEG, Range(0, 90, lo_open=True, unit="degrees"),
+                                help="road: degrees of heading error beyond which the warped view is not trusted: "
+                                "an intervention")
     mount_height: float | None = option(None, MOUNT_HEIGHT, help="camera height above the road, m (default: the "
                                         "geometry's)")
     pitch: float | None = option(None, PITCH, help="camera pitch, degrees down (default: the geometry's)")
-    fov: float | None = option(None, POSITIVE, POSITIVE_WORDS,
+    fov: float | None = option(None, Range(0, 180, lo_open=True, hi_open=True, unit="degrees"),
                                help="road: horizontal field of view, degrees (default: the geometry's)")
-    workers: int = option(2, AT_LEAST_1, help="checkpoints replayed in parallel")
+    workers: int = option(2, WORKERS, help="checkpoints replayed in parallel")
     smoothing: float | None = smoothing_option()
 
     def setup(self, rec: Recording) -> ReplaySetup:
@@ -88,6 +90,7 @@ def run_replay(checkpoints, source: Source, out: str | Path, o=ReplayOptions(), 
     from steerlab.pilot import Pilot
 
     checkpoints, names = checkpoints_to_drive(checkpoints)
+    check_outputs({"output folder": out}, {"video": video}, [*checkpoints, source.data, source.labels], "replay")
     rec = source.open()
     if rec.geometry not in CAMERAS:
         raise DataError(rec.source, f"no camera geometry for its {rec.geometry!r} frames; replay knows "
@@ -123,8 +126,8 @@ def run_replay(checkpoints, source: Source, out: str | Path, o=ReplayOptions(), 
                          for r in rows if keep(r)])
     whole = [r for r in rows if r["segment"] == "all"]
     (out / "replay.md").write_text(markdown(whole, setup.criterion, o.smoothing))
-    (out / "replay.json").write_text(json.dumps({"data": source.data, "range": source.range, **setup.camera,
-                                                 "car": asdict(car), "smoothing": o.smoothing, "rows": rows}, indent=1))
+    write_json(out / "replay.json", {"data": source.data, "range": source.range, **setup.camera, "car": asdict(car),
+                                     "smoothing": o.smoothing, "rows": rows})
     from steerlab.sim.replay.plots import plot_offsets  # matplotlib: imported where it draws, not with the options
 
     plot_offsets(out / "replay.png", {n: Trajectory.read(out / n / "trajectory.csv") for n in names},

@@ -28,7 +28,7 @@ from steerlab.data.fisheye import DONKEY_FISHEYE, FisheyeCamera, load_calibratio
 from steerlab.data.geometry import CAMERAS
 from steerlab.data.recording import Recording
 from steerlab.errors import DataError, SteerlabError
-from steerlab.options import AT_LEAST_1, Options, POSITIVE, option
+from steerlab.options import Options, SPEED, WORKERS, option
 from steerlab.pilot import smoothing_option
 from steerlab.sim.replay.path import HumanPath
 from steerlab.sim.replay.world import MOUNT_HEIGHT, PITCH, Replay, ReplaySetup, ReplayWorld
@@ -41,7 +41,7 @@ from steerlab.sim.track.world import lane_width_option
 class TrackReplayOptions(Options):
     """`steerlab replay --world track`'s options (the world of donkeycar tubs)."""
 
-    speed: float | None = option(None, POSITIVE, "positive and finite", help="a constant speed in m/s (default: "
+    speed: float | None = option(None, SPEED, help="a constant speed in m/s (default: "
                                  "from the throttle through the small car's throttle model)")
     throttle: Literal["recorded", "model"] = option("recorded", help="track: the throttle that sets the replayed "
                                                     "car's speed, the recorded one or the model's learned one")
@@ -53,7 +53,7 @@ class TrackReplayOptions(Options):
     mount_height: float | None = option(None, MOUNT_HEIGHT, help="camera height above the floor, m (default: the "
                                         "fisheye's, 0.15)")
     pitch: float | None = option(None, PITCH, help="camera pitch, degrees down (default: the fisheye's, 20)")
-    workers: int = option(2, AT_LEAST_1, help="checkpoints replayed in parallel")
+    workers: int = option(2, WORKERS, help="checkpoints replayed in parallel")
     smoothing: float | None = smoothing_option()
 
     def setup(self, rec: Recording) -> ReplaySetup:

@@ -15,8 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from steerlab.errors import SteerlabError
-from steerlab.options import AT_LEAST_1, Options, POSITIVE, option, parse
+from steerlab.options import MINUTES, Options, WORKERS, frames_held, names_from, names_held, option, parse
+from steerlab.paths import check_outputs
 from steerlab.pilot import DriveWith, smoothing_option, steering_step_option
 from steerlab.sim.core.driving import autonomy
 from steerlab.sim.core.parallel import tick_reporter
@@ -38,12 +38,17 @@ class SuiteOptions(Options):
     """The closed-loop suite: `steerlab sim bench`'s options and a config's `closed_loop:` section."""
 
     suite: str = option("v1", lambda v: v in SUITES, " or ".join(SUITES), help="suite version")
-    minutes: float | None = option(None, POSITIVE, "positive and finite",
-                                   help="minutes per road (default: the suite's, 3 for v1)")
-    workers: int = option(2, AT_LEAST_1, help="roads driven in parallel")
+    minutes: float | None = option(None, MINUTES, help="minutes per road (default: the suite's, 3 for v1)")
+    workers: int = option(2, WORKERS, help="roads driven in parallel")
     smoothing: float | None = smoothing_option()
     steering_step: float | None = steering_step_option()
     roads: str | None = option(None, help="comma list of the suite's road types to drive (default: all)")
+
+    @classmethod
+    def related(cls, v):
+        yield from frames_held(v, "minutes", fps=FPS)
+        if v.suite in SUITES:
+            yield from names_held(v, "roads", SUITES[v.suite]["roads"], "road types")
 
     @property
     def road_minutes(self) -> float:
@@ -52,14 +57,7 @@ class SuiteOptions(Options):
     def drives(self) -> list[tuple[str, int]]:
         """(road type, seed) of every road to drive."""
         spec = SUITES[self.suite]
-        types = list(spec["roads"]) if self.roads is None else [t.strip() for t in self.roads.split(",") if t.strip()]
-        unknown = [t for t in types if t not in spec["roads"]]
-        if unknown:
-            raise SteerlabError(f"suite {self.suite} has no {', '.join(unknown)} roads; it has "
-                                f"{', '.join(spec['roads'])}")
-        if not types:
-            raise SteerlabError(f"no road to drive: choose road types of suite {self.suite} "
-                                f"({', '.join(spec['roads'])})")
+        types = names_from(self.roads, spec["roads"], "road types", f"suite {self.suite}") or list(spec["roads"])
         return [(t, s) for t in types for s in spec["roads"][t]]
 
     def record_options(self, road: str, seed: int) -> RecordOptions:
@@ -130,6 +128,7 @@ def run_suite(checkpoints, out: str | Path, o: SuiteOptions = SuiteOptions(), pr
     `suite.csv` (one row per drive), `summary.csv` and `suite.md` (per checkpoint and road type) and, with
     `plots`, one trajectory plot per road in `out/roads/`. Returns the summary rows."""
     checkpoints, labels = checkpoints_to_drive(checkpoints)
+    check_outputs({"output folder": out}, inputs=checkpoints, kind="suite")
     roads, minutes, out = o.drives(), o.road_minutes, Path(out)
     planned = []
     for label, ckpt in zip(labels, checkpoints):

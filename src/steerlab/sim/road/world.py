@@ -12,7 +12,7 @@ import numpy as np
 
 from steerlab.data.car import car_of
 from steerlab.errors import SteerlabError
-from steerlab.options import Options, POSITIVE, option
+from steerlab.options import FPS, MINUTES, Options, POSITIVE, SEED, holds_frames, option
 from steerlab.sim.core.vehicle import Vehicle, VehicleState
 from steerlab.sim.road.expert import cruise, pure_pursuit
 from steerlab.sim.road.render import Renderer
@@ -44,30 +44,33 @@ ROADS = "highway, country, twisty, mixed (all three) or a comma list of them"
 class RecordOptions(Options):
     """`steerlab sim record`: the expert on roads made from `seed`."""
 
-    seed: int = option(0, help="road seed (9000-9999 are the closed-loop suite's, never recorded)")
-    minutes: float = option(1.0, POSITIVE, "positive and finite", help="minutes of driving")
+    seed: int = option(0, SEED, help="road seed (9000-9999 are the closed-loop suite's, never recorded)")
+    minutes: float = option(1.0, MINUTES, help="minutes of driving")
     road: str = option("country", _roads, ROADS, help=f"road type: {ROADS}")
     geometry: Literal["sim", "ch2"] = option("sim", help="camera geometry: sim (320x160) or ch2 (640x480)")
-    fps: float = option(20.0, POSITIVE, "positive and finite", help="frames per second")
+    fps: float = option(20.0, FPS, help="frames per second")
     drift: bool = option(True, help="drift-and-recover episodes")
     side_cameras: bool = option(True, help="the left and right cameras")
     layout: Literal["steerlab", "udacity-sim"] = option("steerlab", help="steerlab's own recording layout, or the "
                                                         "Udacity simulator's driving_log.csv")
-    chunk_minutes: float = option(1.0, POSITIVE, "positive and finite",
-                                  help="with several road types: minutes before the next one")
+    chunk_minutes: float = option(1.0, MINUTES, help="with several road types: minutes before the next one")
+
+    related = holds_frames("minutes", "chunk_minutes")
 
 
 @dataclass(frozen=True)
 class DriveOptions(Options):
     """`steerlab sim drive`: a model on a road made from `seed` (100 by default: not used for training data)."""
 
-    seed: int = option(100, help="road seed (100: not used for training data)")
-    minutes: float = option(1.0, POSITIVE, "positive and finite", help="minutes of driving")
+    seed: int = option(100, SEED, help="road seed (100: not used for training data)")
+    minutes: float = option(1.0, MINUTES, help="minutes of driving")
     road: str = option("country", _roads, ROADS, help=f"road type: {ROADS}")
     geometry: Literal["sim", "ch2"] | None = option(None, help="camera geometry (default: the checkpoint's)")
-    fps: float = option(20.0, POSITIVE, "positive and finite", help="frames per second")
+    fps: float = option(20.0, FPS, help="frames per second")
     limit_m: float = option(1.0, POSITIVE, "positive and finite",
                             help="metres off the lane centre that count as an intervention")
+
+    related = holds_frames("minutes")
 
 
 def start_state(road: Road, s: float = 5.0, v: float | None = None) -> VehicleState:

@@ -27,7 +27,8 @@ from pathlib import Path
 import numpy as np
 
 from steerlab.errors import SteerlabError
-from steerlab.options import AT_LEAST_1, Options, POSITIVE, option
+from steerlab.options import MINUTES, Options, WORKERS, frames_held, names_from, names_held, option
+from steerlab.paths import check_outputs
 from steerlab.pilot import DriveWith, smoothing_option, steering_step_option
 from steerlab.sim.core.driving import autonomy
 from steerlab.sim.core.parallel import tick_reporter
@@ -55,9 +56,8 @@ class TrackSuiteOptions(Options):
     """`steerlab sim bench --world track`."""
 
     suite: str = option("t1", lambda v: v in TRACK_SUITES, " or ".join(TRACK_SUITES), help="track suite version")
-    minutes: float | None = option(None, POSITIVE, "positive and finite",
-                                   help="minutes per track (default: the suite's, 2 for t1)")
-    workers: int = option(2, AT_LEAST_1, help="tracks driven in parallel")
+    minutes: float | None = option(None, MINUTES, help="minutes per track (default: the suite's, 2 for t1)")
+    workers: int = option(2, WORKERS, help="tracks driven in parallel")
     smoothing: float | None = smoothing_option()
     steering_step: float | None = steering_step_option()
     styles: str | None = option(None, help="comma list of the suite's track styles to drive (default: all)")
@@ -66,6 +66,12 @@ class TrackSuiteOptions(Options):
     latency: int = latency_option()
     calibration: str | None = calibration_option()
 
+    @classmethod
+    def related(cls, v):
+        yield from frames_held(v, "minutes", fps=FPS)
+        if v.suite in TRACK_SUITES:
+            yield from names_held(v, "styles", TRACK_SUITES[v.suite]["tracks"], "track styles")
+
     @property
     def track_minutes(self) -> float:
         return TRACK_SUITES[self.suite]["minutes"] if self.minutes is None else self.minutes
@@ -73,11 +79,7 @@ class TrackSuiteOptions(Options):
     def drives(self) -> list[tuple[str, int]]:
         """(style, seed) of every track to drive."""
         tracks = TRACK_SUITES[self.suite]["tracks"]
-        styles = list(tracks) if self.styles is None else [t.strip() for t in self.styles.split(",") if t.strip()]
-        unknown = [t for t in styles if t not in tracks]
-        if unknown or not styles:
-            raise SteerlabError(f"suite {self.suite} has no {', '.join(unknown) or 'such'} tracks; choose styles "
-                                f"of {', '.join(tracks)}")
+        styles = names_from(self.styles, tracks, "track styles", f"suite {self.suite}") or list(tracks)
         return [(style, seed) for style in styles for seed in tracks[style]]
 
     def drive_options(self, style: str, seed: int) -> TrackDriveOptions:
@@ -182,6 +184,7 @@ def race(checkpoints, out: str | Path, o: TrackSuiteOptions, progress: bool = Tr
     """Every checkpoint's drive of every track of the suite, with the expert's on the same track (under the same
     cap): drives kept in `out/<label>/<style>-<seed>/` and reused."""
     checkpoints, labels = checkpoints_to_drive(checkpoints)
+    check_outputs({"output folder": out}, inputs=checkpoints, kind="suite")
     tracks, out = o.drives(), Path(out)
     taken = [c for c, label in zip(checkpoints, labels) if label.startswith(EXPERT)]
     if taken:

@@ -31,7 +31,7 @@ import numpy as np
 from steerlab.data.car import CARS, Car
 from steerlab.data.fisheye import DONKEY_FISHEYE, FisheyeCamera, load_calibration
 from steerlab.data.recording import SteeringConvention
-from steerlab.options import AT_LEAST_0, Options, POSITIVE, Range, UNIT, option
+from steerlab.options import AT_LEAST_0, FPS, MINUTES, Options, Range, SEED, UNIT, holds_frames, option
 from steerlab.pilot import Controls
 from steerlab.sim.core.vehicle import VehicleState
 from steerlab.sim.track.expert import Racer, expert_controls, pursuit
@@ -45,7 +45,9 @@ DRIFT_EVERY_S = 12.0  # the racing expert's drift-and-recover episodes in a reco
 
 def lane_width_option(help: str = "lane width in metres: between the tape lines, or around the painted centre "
                                   "line"):
-    return option(LANE_WIDTH, Range(0, 2, lo_open=True, unit="m"), help=help)
+    body = CARS["donkey"].body.width  # a narrower lane has no room for the car: every tick off the track
+    return option(LANE_WIDTH, Range(body, 2, lo_open=True, unit="m"),
+                  f"a number in ({body:g}, 2] m, wider than the car's {body:g} m body", help=help)
 
 
 def _style():
@@ -80,9 +82,9 @@ def latency_option():
 class TrackRecordOptions(Options):
     """`steerlab sim record --world track`: the racing expert on the track made from `seed`."""
 
-    seed: int = option(0, help="track seed (9000-9999 are the track suite's, never recorded)")
-    minutes: float = option(1.0, POSITIVE, "positive and finite", help="minutes of driving")
-    fps: float = option(20.0, POSITIVE, "positive and finite", help="frames per second")
+    seed: int = option(0, SEED, help="track seed (9000-9999 are the track suite's, never recorded)")
+    minutes: float = option(1.0, MINUTES, help="minutes of driving")
+    fps: float = option(20.0, FPS, help="frames per second")
     drift: bool = option(True, help="drift-and-recover episodes")
     layout: Literal["tub", "steerlab"] = option("tub", help="a donkeycar tub v2, or steerlab's own layout (with "
                                                 "the episode of every frame)")
@@ -101,14 +103,16 @@ class TrackRecordOptions(Options):
         mount = {"mount_height": self.mount_height, "pitch_deg": self.pitch}
         return replace(camera_of(self.calibration), **{k: v for k, v in mount.items() if v is not None})
 
+    related = holds_frames("minutes")
+
 
 @dataclass(frozen=True)
 class TrackDriveOptions(Options):
     """`steerlab sim drive --world track`: a model on the track made from `seed` (100: not used for training)."""
 
-    seed: int = option(100, help="track seed (100: not used for training data)")
-    minutes: float = option(1.0, POSITIVE, "positive and finite", help="minutes of driving")
-    fps: float = option(20.0, POSITIVE, "positive and finite", help="frames per second")
+    seed: int = option(100, SEED, help="track seed (100: not used for training data)")
+    minutes: float = option(1.0, MINUTES, help="minutes of driving")
+    fps: float = option(20.0, FPS, help="frames per second")
     limit_m: float = option(0.0, AT_LEAST_0, help="metres the car's body may overhang the lane edge before it is "
                             "an off-track event")
     lane_width: float = lane_width_option()
@@ -117,6 +121,8 @@ class TrackDriveOptions(Options):
     throttle: float = throttle_option()
     max_throttle: float = max_throttle_option()
     latency: int = latency_option()
+
+    related = holds_frames("minutes")
 
 
 def camera_of(calibration: str | None) -> FisheyeCamera:

@@ -1,0 +1,174 @@
+"""Text files read and written one way: the CSV, YAML and JSON files people give steerlab are read as they save
+them (UTF-8 with or without a byte-order mark, LF or CRLF line ends, a trailing blank line), anything else is
+refused naming the encoding, the file and the row; a CSV header that names a column twice, and a YAML or JSON
+mapping that names a key twice, are refused (which of the two would count?); what steerlab writes is valid JSON
+(a number that is not finite becomes null, as JSON has no NaN)."""
+
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import os
+import secrets
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from steerlab.errors import DataError, SteerlabError
+from steerlab.paths import regular_file
+
+BOMS = {b"\xff\xfe\x00\x00": "UTF-32", b"\x00\x00\xfe\xff": "UTF-32", b"\xff\xfe": "UTF-16", b"\xfe\xff": "UTF-16"}
+
+
+def decode(data: bytes, path: str | Path) -> str:
+    """The text of a file's bytes: UTF-8, a byte-order mark dropped. Another encoding is a one-line error that
+    names it where it can be told (UTF-16 and UTF-32 by their marks), else the first byte that is not UTF-8 and its
+    row."""
+    for mark, name in BOMS.items():
+        if data.startswith(mark):
+            raise DataError(path, f"{name} text (its byte-order mark says so); steerlab reads UTF-8: save it as UTF-8")
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as e:
+        row = data[:e.start].count(b"\n") + 1
+        try:
+            data.decode("cp1252")
+            guess = " (Latin-1 or Windows-1252?)"
+        except UnicodeDecodeError:
+            guess = ""
+        raise DataError(path, f"byte 0x{data[e.start]:02x} is not UTF-8 text{guess}; save the file as UTF-8",
+                        row) from None
+
+
+def read_text(path: str | Path, what: str = "file") -> str:
+    """A text file as people save it (see `decode`); line ends stay as they are (the readers split lines)."""
+    path = regular_file(Path(path), what)
+    return decode(path.read_bytes(), path)
+
+
+def read_csv(path: str | Path, what: str = "CSV file") -> list[list[str]]:
+    """The rows of a CSV file that hold something (blank lines and rows of empty cells left out): LF or CRLF,
+    with or without a byte-order mark."""
+    text = read_text(path, what)
+    body = text.rstrip("\r\n")
+    if "\0" in body[:body.rfind("\n") + 1]:  # in the last line, NUL bytes are a torn write the readers read past
+        raise DataError(path, "NUL bytes in a line before the last: not text (torn by a crash, or not a CSV file)",
+                        text[:text.index("\0")].count("\n") + 1)
+    return [row for row in csv.reader(io.StringIO(text, newline="")) if row and any(c.strip() for c in row)]
+
+
+def csv_header(path: str | Path, row: list[str]) -> list[str]:
+    """A CSV header's column names, stripped; a name given twice is a one-line error (which column would it
+    be?)."""
+    names = [h.strip() for h in row]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise DataError(path, f"the header names column(s) {twice} twice; every column needs a name of its own", 1)
+    return names
+
+
+class UniqueKeys(yaml.SafeLoader):
+    """YAML's safe loader that refuses a mapping naming a key twice (YAML says keys are unique; PyYAML keeps the
+    last silently, dropping the first block)."""
+
+
+def _mapping(loader: UniqueKeys, node: yaml.MappingNode, deep: bool = False):
+    seen = {}
+    for key_node, _ in node.value:
+        key = loader.construct_object(key_node, deep=True)
+        try:
+            if key in seen:
+                raise yaml.constructor.ConstructorError(
+                    None, None, f"key {key!r} is given twice (lines {seen[key] + 1} and "
+                    f"{key_node.start_mark.line + 1}); keep one")
+            seen[key] = key_node.start_mark.line
+        except TypeError:  # an unhashable key: PyYAML's own error follows
+            pass
+    return yaml.SafeLoader.construct_mapping(loader, node, deep)
+
+
+UniqueKeys.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _mapping)
+
+
+def parse_yaml(text: str, where: str | Path) -> Any:
+    """YAML text as plain values, keys unique; a one-line error naming `where` and the line."""
+    try:
+        return yaml.load(text, Loader=UniqueKeys)
+    except yaml.YAMLError as e:
+        mark = getattr(e, "problem_mark", None)
+        row = (mark.line + 1 if mark is not None else
+               text[:e.position].count("\n") + 1 if isinstance(e, yaml.reader.ReaderError) else None)
+        problem = getattr(e, "problem", None) or str(e).splitlines()[0]
+        raise SteerlabError(f"{where}: not valid YAML: {'' if row is None else f'line {row}: '}{problem}") from None
+
+
+def read_yaml(path: str | Path, what: str = "YAML file") -> Any:
+    """A YAML file as people save it, keys unique."""
+    path = Path(path)
+    return parse_yaml(read_text(path, what), path)
+
+
+def _unique_pairs(path):
+    def hook(pairs):
+        keys = [k for k, _ in pairs]
+        twice = sorted({k for k in keys if keys.count(k) > 1})
+        if twice:
+            raise DataError(path, f"the JSON object names key(s) {twice} twice; keep one")
+        return dict(pairs)
+    return hook
+
+
+def parse_json(text: str, where: str | Path) -> Any:
+    """JSON text as plain values: keys unique, no NaN or Infinity (not JSON); a one-line error naming `where`."""
+    def constant(name):
+        raise DataError(where, f"{name} is not JSON (a number that is not finite); write null")
+
+    try:
+        return json.loads(text, object_pairs_hook=_unique_pairs(where), parse_constant=constant)
+    except json.JSONDecodeError as e:
+        raise DataError(where, f"not valid JSON: {e.msg}", e.lineno) from None
+
+
+def read_json(path: str | Path, what: str = "JSON file") -> Any:
+    """A JSON file as people save it, keys unique."""
+    path = Path(path)
+    return parse_json(read_text(path, what), path)
+
+
+def plain(value: Any) -> Any:
+    """`value` with every number that is not finite as None (JSON's null), numpy scalars and arrays as plain
+    numbers and lists, tuples as lists: what `json_text` writes."""
+    if isinstance(value, dict):
+        return {k: plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [plain(v) for v in value]
+    if hasattr(value, "tolist") and not isinstance(value, (str, bytes)):  # numpy arrays and scalars
+        return plain(value.tolist())
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def json_text(value: Any, **kw) -> str:
+    """Valid JSON of `value` (see `plain`)."""
+    return json.dumps(plain(value), allow_nan=False, **kw)
+
+
+def write_text(path: str | Path, text: str) -> Path:
+    """`text` written to `path` through a temporary file renamed when complete: never a half-written file."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}-{secrets.token_hex(4)}")
+    try:
+        tmp.write_text(text)
+        tmp.replace(path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return path
+
+
+def write_json(path: str | Path, value: Any, indent: int | None = 1) -> Path:
+    """`value` as valid JSON in `path` (see `json_text`)."""
+    return write_text(path, json_text(value, indent=indent) + "\n")
