@@ -3,13 +3,14 @@
 benchmarks/ on sys.path in its first lines.
 
 - Where things are: `ROOT`, `SHARED` (the real recordings of ../shared/data), `CH2`, `need_ch2`, `track_tubs`.
-- Timing: `machine` (what every result is measured on), `timed`, `median_seconds`, `per_second`, `each_ms`.
+- Timing: `machine` (what every result is measured on), `timed`, `median_seconds`, `per_second`, `each_ms`; a
+  study's start, `begin_study`.
 - A timing's report: `arguments` (its command line, with `--json`) and `Report`, the numbers it prints as JSON.
 - donkeycar's own environment, in which the studies run donkeycar's trainer and parts (steerlab never imports
-  donkeycar): `donkey_python`, `donkey_car`.
+  donkeycar): `donkey_python`, `donkey_car`, and `DonkeycarPart`, donkeycar's pilot part behind a pipe.
 - Replay against the truth of a world's suite (`studies/replay_vs_road_suite.py`, `studies/replay_vs_track_suite.py`):
-  `record_expert`, `train_baseline`, `train_snapshots`, `replay_missing`, `correlations`, `correlation_table`,
-  `scatter_axes`, `write_table`.
+  `record_expert`, `train_baseline`, `train_snapshots`, `replayed`, `replay_missing`, `r2`, `correlations`,
+  `correlation_table`, `scatter_axes`, `write_table`.
 """
 
 from __future__ import annotations
@@ -17,7 +18,6 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-import math
 import os
 import platform
 import shutil
@@ -29,6 +29,8 @@ from pathlib import Path
 
 import numpy as np
 import torch
+
+from steerlab.files import json_text, plain
 
 ROOT = Path(__file__).resolve().parents[1]
 SHARED = ROOT.parent / "shared" / "data"
@@ -58,6 +60,15 @@ def machine() -> str:
 
 
 # timing
+
+def begin_study(out: Path, workers: int) -> tuple[float, float]:
+    """A study's start: one torch thread a process (its drives run `workers` at a time), `out` made, the machine
+    said; returns the wall and CPU clocks to say its cost at the end."""
+    torch.set_num_threads(1)
+    out.mkdir(parents=True, exist_ok=True)
+    print(f"machine: {machine()}; workers {workers}", flush=True)
+    return time.time(), time.process_time()
+
 
 def timed(fn) -> float:
     """Seconds that one call of `fn` takes."""
@@ -112,17 +123,17 @@ class Report:
         name = Path(script).stem
         self.path = Path(path) if path else ROOT / "runs" / "benchmarks" / f"{name}.json"
         self.data = {"script": name, "machine": machine(), "commit": _commit(),
-                     "load_average": {"start": os.getloadavg()[0]}, "settings": _plain(settings), "results": {}}
+                     "load_average": {"start": os.getloadavg()[0]}, "settings": plain(settings), "results": {}}
 
     def add(self, name: str, **numbers) -> None:
         """Numbers under `name`, e.g. `add("country", render_fps=1051.0, decode_fps=700.0, render_vs_decode=1.5)`;
         a number that is not finite (not measured) is written as null."""
-        self.data["results"].setdefault(name, {}).update(_plain(numbers))
+        self.data["results"].setdefault(name, {}).update(plain(numbers))
 
     def write(self) -> Path:
         self.data["load_average"]["end"] = os.getloadavg()[0]
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        self.path.write_text(json.dumps(self.data, indent=1) + "\n")
+        self.path.write_text(json_text(self.data, indent=1) + "\n")
         print(f"wrote {self.path}")
         return self.path
 
@@ -135,21 +146,6 @@ def _commit() -> str | None:
     except OSError:
         return None
     return done.stdout.strip() or None
-
-
-def _plain(value):
-    """A value as JSON holds it: numpy's numbers and arrays as Python's, a number that is not finite as None."""
-    if isinstance(value, dict):
-        return {str(k): _plain(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple, np.ndarray)):
-        return [_plain(v) for v in value]
-    if isinstance(value, np.generic):
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, Path):
-        return str(value)
-    return value
 
 
 # donkeycar's own environment
@@ -186,9 +182,10 @@ class DonkeycarPart:
 
     def __init__(self, python: Path, car: Path, model: Path, log: Path, max_throttle: float, kind: str = "linear"):
         self.log, self.max_throttle = log, max_throttle
+        self.stderr = open(log, "wb")
         self.process = subprocess.Popen([str(python), str(ROOT / "studies" / "_donkey_part.py"),
                                          str(car / "config.py"), str(model), kind], cwd=car,
-                                        stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=open(log, "wb"))
+                                        stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self.stderr)
         if self.process.stdout.readline() != b"ready\n":
             raise RuntimeError(f"donkeycar's part did not start; see {log}")
 
@@ -204,6 +201,7 @@ class DonkeycarPart:
     def close(self) -> None:
         self.process.stdin.close()
         self.process.wait()
+        self.stderr.close()
 
 
 # replay against the truth of a world's suite

@@ -31,10 +31,9 @@ import time
 from pathlib import Path
 
 import numpy as np
-import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from common import (correlation_table, correlations, machine, record_expert, replay_missing,  # noqa: E402
+from common import (correlation_table, begin_study, correlations, record_expert, replay_missing,  # noqa: E402
                     scatter_axes, train_baseline, train_snapshots, write_table)
 
 from steerlab.sim.core.suite import labels_for  # noqa: E402
@@ -216,11 +215,8 @@ def main() -> None:
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--skip-warp", action="store_true", help="leave out the warp-error table")
     a = p.parse_args()
-    torch.set_num_threads(1)
     out = Path(a.out)
-    out.mkdir(parents=True, exist_ok=True)
-    t_start, cpu_start = time.time(), time.process_time()
-    print(f"machine: {machine()}; workers {a.workers}", flush=True)
+    t_start, cpu_start = begin_study(out, a.workers)
 
     if not a.skip_warp:
         t0 = time.time()

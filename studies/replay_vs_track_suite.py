@@ -33,10 +33,9 @@ import sys
 import time
 from pathlib import Path
 
-import torch
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from common import (ROOT, correlation_table, correlations, machine, record_expert, replay_missing,  # noqa: E402
+from common import (ROOT, correlation_table, begin_study, correlations, record_expert, replay_missing,  # noqa: E402
                     replayed, scatter_axes, train_baseline, train_snapshots, write_table)
 
 from steerlab.data.car import CARS  # noqa: E402
@@ -188,11 +187,8 @@ def main() -> None:
                    "throttle's speed); recorded = the recorded throttle's")
     p.add_argument("--extra", nargs="*", default=[], help="more checkpoints of the donkey camera to include")
     a = p.parse_args()
-    torch.set_num_threads(1)
     out = Path(a.out)
-    out.mkdir(parents=True, exist_ok=True)
-    t_start, cpu_start = time.time(), time.process_time()
-    print(f"machine: {machine()}; workers {a.workers}", flush=True)
+    t_start, cpu_start = begin_study(out, a.workers)
 
     recs = record_expert("track", out, a.minutes)
     ckpts = checkpoints(out, [Path(t) for t in a.tubs], [Path(c) for c in a.extra])

@@ -8,16 +8,17 @@ recipe towards steerlab's tub default, and the levers of small-car racing. Each 
 (`train.seed`) and races the track suite `--suite` (default s1, the selection tracks; t1 scores) at every
 `--caps` throttle cap, through the donkeycar part. donkeycar's linear model, trained by donkeycar's own trainer on
 the same tubs in its own environment (`donkey train --type linear`, its default config: a random 80/20 split,
-early stopping; three runs, its runs are not seeded), races the same tracks behind a pipe (`_donkey_part.py`).
+early stopping; `--donkeycar-runs` runs, three by default: they are not seeded), races the same tracks behind a
+pipe (`_donkey_part.py`).
 
 Per cap, every checkpoint is summarised over the same tracks (`track.suite.summarize`): laps, clean laps and their
 share, tracks finished, off-track events per lap and the pace over the tracks that every checkpoint compared
-finished. `OUT/table.md`, `table.csv`, `table.json`: per recipe, the mean over its seeds and each seed's values;
-`OUT/<suite>-max<cap>/`: the suite's own tables and every drive. Everything is kept and reused: a rerun trains and
-drives only what is missing.
+finished. `OUT/<--table>.md`, `.csv`, `.json` (default `table`): per recipe, the mean over its seeds and each
+seed's values; `OUT/<suite>-max<cap>/`: the suite's own tables and every drive. Everything is kept and reused: a
+rerun trains and drives only what is missing.
 
 python studies/track_recipes.py [--recipes donkey,gray,...] [--seeds 0,1] [--suite s1] [--caps 1,0.5]
-    [--donkeycar] [--workers 2] [--out runs/race]
+    [--donkeycar [--donkeycar-runs 3] [--donkeycar-tubs donkey]] [--workers 2] [--out runs/race] [--table table]
 """
 
 from __future__ import annotations
@@ -36,6 +37,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 from common import ROOT, DonkeycarPart, donkey_car, donkey_python, machine  # noqa: E402
 
 from steerlab.data.car import CARS  # noqa: E402
+from steerlab.data.readers import open_recording  # noqa: E402
 from steerlab.sim.core.part import PartPilot  # noqa: E402
 from steerlab.sim.core.suite import from_json  # noqa: E402
 from steerlab.sim.track.run import TrackDrive, drive, drive_expert  # noqa: E402
@@ -44,7 +46,6 @@ from steerlab.sim.track.suite import TrackSuiteOptions, drive_row, race, report,
 TUBS = [f"{style}-{seed}" for style in ("taped", "centre") for seed in (1, 2, 3, 4)]
 TUB_MINUTES = 2.0
 DONKEYCAR = "donkeycar"          # the label of donkeycar's own runs
-DONKEY_RUNS = 3
 
 
 def base(tubs: Path) -> dict:
@@ -64,13 +65,15 @@ def base(tubs: Path) -> dict:
 class Recipe:
     """What differs from donkeycar's recipe (`what`): config overrides (`{init}` in one stands for the checkpoint of
     the recipe `starts` with the same seed), options of the suite it races with (`race`: a steering step, a
-    latency), more tubs to train on (`tubs`: names of `AUGMENT`), and `starts`: the recipe it builds on (with no
-    overrides it races that recipe's checkpoint as it is)."""
+    latency), more tubs to train on (`tubs`: names of `AUGMENT`; with `only`, these tubs instead of `TUBS`, the
+    first validating on its last `only` records), and `starts`: the recipe it builds on (with no overrides it races
+    that recipe's checkpoint as it is)."""
 
     what: str
     overrides: tuple[str, ...] = ()
     race: dict = field(default_factory=dict)
     tubs: tuple[str, ...] = ()
+    only: int = 0
     starts: str | None = None
 
 
@@ -78,6 +81,10 @@ class Recipe:
 AUGMENT = {f"{style}-{seed}-room": [style, str(seed), "--room", str(100 + seed), "--mount-height",
                                     str(round(0.15 + 0.02 * (seed - 2.5), 3)), "--pitch", str(20 + 2 * (seed - 2.5))]
            for style in ("taped", "centre") for seed in (1, 2, 3, 4)}
+# sixteen other tracks, each in its own room, one minute each: the same 16 minutes as TUBS from 16 rooms, not 4
+AUGMENT |= {f"{style}-{seed}-1min": [style, str(seed), "--minutes", "1"]
+            for style, seeds in (("taped", range(5, 17)), ("centre", range(17, 21))) for seed in seeds}
+ROOMS = tuple(name for name in AUGMENT if name.endswith("-1min"))
 CROP, GRAY_200x66 = ["preprocess.crop=[40,0,0,0]", "preprocess.height=80"], ["preprocess.width=200",
                                                                              "preprocess.height=66"]
 RECIPES = {
@@ -111,7 +118,9 @@ RECIPES = {
                               ("train.target_shift_s=0.05",), race={"latency": 1}),
     "stack-3": Recipe("+ three stacked frames", ("preprocess.stack=3",)),
     "augment": Recipe("+ the same tracks in other rooms and from other camera mounts (8 more tubs)",
-                      tubs=tuple(AUGMENT)),
+                      tubs=tuple(name for name in AUGMENT if name.endswith("-room"))),
+    "rooms": Recipe("16 tracks in 16 rooms, 1 minute each, instead of 4 tracks in 4 rooms, 2 minutes each (12 taped, "
+                    "4 centre-line; as many records)", tubs=ROOMS, only=240),
 }
 
 
@@ -120,9 +129,9 @@ def record_tubs(tubs: Path, names) -> None:
     for name in names:
         if not (tubs / name / "manifest.json").exists():
             style, seed, *extra = AUGMENT.get(name) or name.split("-")
+            minutes = [] if "--minutes" in extra else ["--minutes", str(TUB_MINUTES)]
             subprocess.run([sys.executable, "-m", "steerlab", "sim", "record", "--world", "track", "--style", style,
-                            "--seed", seed, "--minutes", str(TUB_MINUTES), *extra, "--out", str(tubs / name)],
-                           check=True)
+                            "--seed", seed, *minutes, *extra, "--out", str(tubs / name)], check=True)
 
 
 def train_recipe(name: str, seed: int, out: Path, tubs: Path) -> Path:
@@ -142,6 +151,11 @@ def train_recipe(name: str, seed: int, out: Path, tubs: Path) -> Path:
         record_tubs(tubs, recipe.tubs)
         cfg = base(tubs)
         cfg["extra_data"] += [str(tubs / t) for t in recipe.tubs]
+        if recipe.only:
+            first, *rest = recipe.tubs
+            usable = len(open_recording(str(tubs / first), options=cfg["reader"]))
+            cfg.update(data=str(tubs / first), extra_data=[str(tubs / t) for t in rest],
+                       split={"train": f"0:{usable - recipe.only}", "val": f"{usable - recipe.only}:{usable}"})
         cfg = load_config(None, base=cfg, overrides=[*(o.replace("{init}", str(init)) for o in recipe.overrides),
                                                      f"train.seed={seed}", f"out={run}"])
         metrics = run_dagger(cfg, progress=False) if cfg.dagger else train(cfg, progress=False)
@@ -149,25 +163,33 @@ def train_recipe(name: str, seed: int, out: Path, tubs: Path) -> Path:
     return run / "best.pt"
 
 
-def donkey_models(out: Path, tubs: Path) -> tuple[Path, list[Path]]:
-    """donkeycar's car folder and its linear models, trained by `donkey train` on every tub (once each)."""
+def recipe_tubs(name: str) -> tuple[str, ...]:
+    """The tubs a recipe trains on."""
+    recipe = RECIPES[name]
+    return recipe.tubs if recipe.only else (*TUBS, *recipe.tubs)
+
+
+def donkey_models(out: Path, tubs: Path, runs: int, names: tuple[str, ...] = tuple(TUBS),
+                  work: str = "donkey") -> tuple[Path, list[Path]]:
+    """donkeycar's car folder and its first `runs` linear models, trained by `donkey train` on the tubs `names`
+    (once each), in out/`work`."""
     python = donkey_python()
-    work = out / "donkey"
+    work = out / work
     car = donkey_car(python, work / "car")
     models = []
-    for k in range(DONKEY_RUNS):
+    for k in range(runs):
         model = work / f"linear-{k}.h5"
         if not model.exists():
             print(f"== training donkeycar's linear model, run {k} (donkey train)", flush=True)
             with open(work / f"train-{k}.log", "w") as log:
-                subprocess.run([str(python.parent / "donkey"), "train", "--tub", ",".join(str(tubs / t) for t in TUBS),
+                subprocess.run([str(python.parent / "donkey"), "train", "--tub", ",".join(str(tubs / t) for t in names),
                                 "--model", str(model), "--type", "linear", "--framework", "tensorflow"], cwd=car,
                                check=True, stdout=log, stderr=subprocess.STDOUT)
         models.append(model)
     return car, models
 
 
-def race_donkeycar(car: Path, models: list[Path], out: Path, o: TrackSuiteOptions) -> list:
+def race_donkeycar(car: Path, models: list[Path], out: Path, o: TrackSuiteOptions, label: str = DONKEYCAR) -> list:
     """donkeycar's models on every track of the suite, as suite rows against the expert's drives under the same
     cap (drives kept in `out` and reused)."""
     python = donkey_python()
@@ -188,7 +210,7 @@ def race_donkeycar(car: Path, models: list[Path], out: Path, o: TrackSuiteOption
                 finally:
                     part.close()
             r = from_json(TrackDrive, json.loads((folder / "drive.json").read_text()))
-            rows.append(drive_row(r, expert, f"{DONKEYCAR}/run{k}", str(model), style, seed))
+            rows.append(drive_row(r, expert, f"{label}/run{k}", str(model), style, seed))
     return rows
 
 
@@ -218,7 +240,8 @@ def table(rows: list, cap: float) -> list[dict]:
 
 
 def markdown(rows: list[dict], suite: str) -> str:
-    what = {**{n: r.what for n, r in RECIPES.items()}, DONKEYCAR: "donkeycar's own trainer and part"}
+    what = {**{n: r.what for n, r in RECIPES.items()}, DONKEYCAR: "donkeycar's own trainer and part",
+            **{f"{DONKEYCAR}-{n}": f"donkeycar's own trainer and part, on the tubs of {n}" for n in RECIPES}}
     lines = [f"Track suite {suite}, every checkpoint over the same tracks (pace: over the tracks every checkpoint of "
              "the same cap finished, their number beside it). Means over the runs (seeds).", "",
              "| recipe | what differs from donkeycar's recipe | cap | runs | laps | clean laps [%] | finished | "
@@ -241,11 +264,15 @@ def main() -> None:
     ap.add_argument("--suite", default="s1", help="the track suite raced (s1: selection tracks; t1 scores)")
     ap.add_argument("--caps", default="1,0.5", help="throttle caps (the learned throttle's and the expert's)")
     ap.add_argument("--donkeycar", action="store_true", help="also donkeycar's linear model (its own trainer)")
+    ap.add_argument("--donkeycar-runs", type=int, default=3, help="how many runs of donkeycar's trainer race")
+    ap.add_argument("--donkeycar-tubs", default="donkey", help="the recipe whose tubs donkeycar's trainer trains on "
+                    "(default: the 8 tubs of donkeycar's recipe)")
     ap.add_argument("--workers", type=int, default=2, help="tracks driven in parallel")
     ap.add_argument("--out", default=str(ROOT / "runs" / "race"))
+    ap.add_argument("--table", default="table", help="the name of the table files in OUT (.md, .csv, .json)")
     a = ap.parse_args()
     recipes = [r for r in a.recipes.split(",") if r]
-    unknown = [r for r in recipes if r not in RECIPES]
+    unknown = [r for r in [*recipes, a.donkeycar_tubs] if r not in RECIPES]
     if unknown:
         sys.exit(f"error: unknown recipes {unknown}; known: {', '.join(RECIPES)}")
     out = Path(a.out)
@@ -256,7 +283,11 @@ def main() -> None:
         ckpts = [train_recipe(name, int(seed), out, tubs) for seed in a.seeds.split(",")]
         for cap in caps:
             race(ckpts, out / f"{a.suite}-max{cap:g}" / name, suite_options(name, a.suite, cap, a.workers))
-    donkey = donkey_models(out, tubs) if a.donkeycar else None
+    suffix = "" if a.donkeycar_tubs == "donkey" else f"-{a.donkeycar_tubs}"  # donkeycar on another recipe's tubs
+    folder, donkey = f"{DONKEYCAR}{suffix}", None
+    if a.donkeycar:
+        record_tubs(tubs, recipe_tubs(a.donkeycar_tubs))
+        donkey = donkey_models(out, tubs, a.donkeycar_runs, recipe_tubs(a.donkeycar_tubs), f"donkey{suffix}")
     results = []
     for cap in caps:
         o = TrackSuiteOptions(suite=a.suite, max_throttle=cap, workers=a.workers)
@@ -265,16 +296,16 @@ def main() -> None:
                 for r in race([train_recipe(name, int(seed), out, tubs) for seed in a.seeds.split(",")],
                               suite / name, suite_options(name, a.suite, cap, a.workers))]
         if donkey:
-            rows += race_donkeycar(*donkey, suite / DONKEYCAR, o)
+            rows += race_donkeycar(*donkey, suite / folder, o, folder)
         report(rows, suite, o, plots=False)
         results += table(rows, cap)
-    (out / "table.md").write_text(f"machine: {machine()}\n\n" + markdown(results, a.suite))
-    (out / "table.json").write_text(json.dumps(results, indent=1))
-    with open(out / "table.csv", "w", newline="") as f:
+    (out / f"{a.table}.md").write_text(f"machine: {machine()}\n\n" + markdown(results, a.suite))
+    (out / f"{a.table}.json").write_text(json.dumps(results, indent=1))
+    with open(out / f"{a.table}.csv", "w", newline="") as f:
         w = csv.DictWriter(f, [k for k in results[0] if k != "each"])
         w.writeheader()
         w.writerows([{k: v for k, v in r.items() if k != "each"} for r in results])
-    print((out / "table.md").read_text())
+    print((out / f"{a.table}.md").read_text())
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""Replay of small-car recordings (`sim/replay_track.py`): the fisheye warp, the speed from the throttle, the lane
+"""Replay of small-car recordings (`sim/replay/track.py`): the fisheye warp, the speed from the throttle, the lane
 criterion of the car's body, a round trip on a track-world tub and the shared real tubs."""
 
 import csv

@@ -1,4 +1,5 @@
 import csv
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -133,8 +134,9 @@ def test_exclude_episodes_drops_the_drift_out_frames_of_training_only(tmp_path):
     with open(rec / "log.csv") as f:
         episode = [row["episode"] for row in csv.DictReader(f)]
     assert [i for i, e in enumerate(episode) if e == "drift-out"] == list(range(26, 33))
+    shutil.copytree(rec, tmp_path / "again")  # the same drive, as another recording
     cfg = _cfg(rec, tmp_path, epochs=1, side_cameras=True, exclude_episodes=["drift-out"],
-               split={"train": "0:30", "val": "30:60"}, extra=[str(rec)])
+               split={"train": "0:30", "val": "30:60"}, extra=[str(tmp_path / "again")])
     run = loop.build(cfg.for_car(CH2_CAR), Ranks(), False, None, None)
     drawn = np.concatenate([batch.codes for batch in run.sampler])
     assert len(drawn) == len(set(drawn.tolist()))  # each once an epoch

@@ -88,3 +88,13 @@ def test_sim_drive_of_each_world_prints_its_result(tmp_path, tiny_checkpoint, ca
         result = json.loads((out / "drive.json").read_text())
         assert result["label"] == "pilotnet" and f"wrote {out}/{WORLDS[world].drive_files}" in printed
         assert all(name in printed for name in result)  # every field of the typed result in the table
+
+def test_dagger_drives_the_suite_of_its_own_world_unless_told():
+    from steerlab.dagger import dagger_options
+    from steerlab.train.config import load_config
+
+    def suite(**dagger):
+        return dagger_options(load_config(None, base={"data": "x", "dagger": dagger})).suite
+
+    assert suite() == "v1" and suite(world="track") == "t1" and suite(world="track", suite="s1") == "s1"
+    assert suite(world="track", suite=None) is None and suite(world="replay") is None

@@ -70,8 +70,8 @@ class DaggerOptions(Options):
     epochs: int = option(4, AT_LEAST_1, help="epochs of every retraining (round 0 uses train.epochs)")
     warm_start: bool = option(True, help="retrain from the previous round's weights (else from scratch)")
     suite: str | None = option("v1", lambda v: v in ALL_SUITES, " or ".join(ALL_SUITES),
-                               help="closed-loop suite after every round: a road suite (v1) for world road, a track "
-                               "suite (t1) for world track (null: none)")
+                               help="closed-loop suite after every round: a road suite for world road, a track "
+                               "suite for world track (default: the world's first, v1 or t1; null: none)")
     suite_minutes: float | None = option(None, MINUTES, help="minutes per suite road or track")
     workers: int = option(2, WORKERS, help="parallel rollouts and suite drives")
     roads: str = option("mixed", _roads, ROADS, help="road world: road types of the rollouts")
@@ -103,6 +103,8 @@ def dagger_options(cfg: TrainConfig) -> DaggerOptions:
         if o.world not in OWN[key]:
             raise SteerlabError(f"dagger.{key} is an option of dagger.world {' and '.join(OWN[key])}; dagger.world "
                                 f"{o.world} does not take it")
+    if "suite" not in raw:  # the default suite is the world's own (replay drives none)
+        o = replace(o, suite=next(iter(WORLDS[o.world].suites)) if o.world in WORLDS else None)
     return o
 
 

@@ -140,9 +140,11 @@ def read_json(path: str | Path, what: str = "JSON file") -> Any:
 
 def plain(value: Any) -> Any:
     """`value` with every number that is not finite as None (JSON's null), numpy scalars and arrays as plain
-    numbers and lists, tuples as lists: what `json_text` writes."""
+    numbers and lists, tuples as lists, paths as text: what `json_text` writes."""
     if isinstance(value, dict):
         return {k: plain(v) for k, v in value.items()}
+    if isinstance(value, os.PathLike):
+        return os.fspath(value)
     if isinstance(value, (list, tuple)):
         return [plain(v) for v in value]
     if hasattr(value, "tolist") and not isinstance(value, (str, bytes)):  # numpy arrays and scalars

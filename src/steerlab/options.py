@@ -30,7 +30,7 @@ from steerlab.errors import SteerlabError
 
 @dataclass(frozen=True)
 class Range:
-    """A number in [lo, hi] (either bound open or absent); finite unless `finite` is False."""
+    """A finite number in [lo, hi] (either bound open or absent)."""
 
     lo: float | None = None
     hi: float | None = None

@@ -52,7 +52,7 @@ def steering_step_option():
 
 @dataclass(frozen=True)
 class DriveWith(Options):
-    """How `steerlab sim drive` makes its Pilot."""
+    """How a drive makes its Pilot (`sim drive`, the suites, DAgger's rollouts)."""
 
     smoothing: float | None = smoothing_option()
     steering_step: float | None = steering_step_option()
@@ -60,9 +60,10 @@ class DriveWith(Options):
 
 @dataclass(frozen=True)
 class Controls:
-    """One frame's output: steering in the checkpoint's convention (radians); for speed models also the next
-    frame's speed (m/s) or the speed command (0 decelerate, 1 maintain, 2 accelerate); for models that learned
-    the throttle (donkeycar tubs' `user/throttle`) the throttle in [-1, 1]."""
+    """One frame's output: steering in the checkpoint's convention (radians, or servo units in [-1, 1] for models
+    of donkeycar tubs); for speed models also the next frame's speed (m/s) or the speed command (0 decelerate, 1
+    maintain, 2 accelerate); for models that learned the throttle (donkeycar tubs' `user/throttle`) the throttle in
+    [-1, 1]."""
 
     steering: float
     speed: float | None = None

@@ -5,15 +5,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from steerlab.data.car import CARS
 from steerlab.data.geometry import CAMERAS
 from steerlab.data.readers import Source
 from steerlab.data.splits import make_split
 from steerlab.errors import SteerlabError
 from steerlab.sim.core.parallel import run_parallel, tick_reporter
-from steerlab.sim.replay.path import replay_speed
-from steerlab.sim.replay.run import ReplayOptions, rollout_recording, run_replay
+from steerlab.sim.replay.run import rollout_recording, run_replay
 from steerlab.sim.replay.world import Replay
+from steerlab.sim.worlds import world_of
 from steerlab.train.config import TrainConfig
 from steerlab.train.sources import main_recording
 
@@ -26,16 +25,17 @@ def _rollout_job(checkpoint: str, out: str, source: Source, replay: Replay, beta
 
 
 class SplitReplay:
-    """The recording of `cfg`, its split, camera, car and speed (`speed`, else the recorded or estimated one)."""
+    """The recording of `cfg`, its split, and its replay as `steerlab replay` makes it in the world of its camera
+    (`speed`, else the recorded or estimated one)."""
 
     def __init__(self, cfg: TrainConfig, speed: float | None = None):
         rec = main_recording(cfg)
         if rec.geometry not in CAMERAS:
             raise SteerlabError(f"{rec.source}: replay knows no camera geometry for {rec.geometry!r} frames")
         self.train_idx, self.val_idx = make_split(cfg.split, len(rec), rec.extra.get("session"))
-        cam, car = CAMERAS[rec.geometry], CARS[rec.geometry]
-        self.speed, self.speed_source = replay_speed(rec, cam, car, speed)
-        self.replay = Replay(cam, car, self.speed)
+        self.options = world_of(rec.geometry).replay_options(speed=speed, workers=1)
+        setup = self.options.setup(rec)
+        self.replay = setup.replay
         self.source = Source(cfg.data, cfg.range, cfg.labels, cfg.reader)
 
     def _frames(self, idx) -> Source:
@@ -46,7 +46,6 @@ class SplitReplay:
         return run_parallel(_rollout_job, [job], 1, len(self.train_idx), progress, "replay rollouts")
 
     def evaluate(self, checkpoint: Path, out: Path, progress: bool) -> dict:
-        row = run_replay([checkpoint], self._frames(self.val_idx), out, ReplayOptions(speed=self.speed, workers=1),
-                         progress=progress)[0]
+        row = run_replay([checkpoint], self._frames(self.val_idx), out, self.options, progress=progress)[0]
         return {"replay_autonomy": row["autonomy"], "replay_interventions_per_km": row["interventions_per_km"],
                 "replay_mean_offset_m": row["mean_offset_m"]}

@@ -48,7 +48,7 @@ class WorldEntry:
     - its suite: `suite_options`, `suite(checkpoints, out, options, progress, plots)` -> summary rows, its versions
       and figures, and `round_columns(summary)`: a DAgger round's columns of dagger.csv;
     - replay of its recordings: `replay_options` (their `setup(rec)` makes the replay);
-    - DAgger's rollouts: `rollout(checkpoint, out, seed, minutes, kind, beta, camera)` (run in a worker process),
+    - DAgger's rollouts: `rollout(checkpoint, out, seed, minutes, kind, beta, camera, suite)` (run in a worker process),
       `rollout_camera(rec)`: what the rollouts render through for a training recording, and `rollout_done`: the
       file a finished rollout has.
     """

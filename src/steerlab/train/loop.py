@@ -40,7 +40,8 @@ from steerlab.train.batches import (Batch, EpochSampler, FrameBatches, balance_w
 from steerlab.train.config import LOSSES, TrainConfig, parse_config
 from steerlab.train.distributed import Ranks, setup, wrap
 from steerlab.train.log import EpochLog
-from steerlab.train.sources import main_recording, prepare_dataset, steering_ahead, training_sources, usable_frames
+from steerlab.train.sources import (check_camera, main_recording, prepare_dataset, steering_ahead, training_sources,
+                                    usable_frames)
 
 
 def _mean_error(error: torch.Tensor, loss: str) -> torch.Tensor:
@@ -160,7 +161,9 @@ def train(cfg: TrainConfig, progress: bool = True, on_epoch=None) -> dict:
             raise SteerlabError(f"{path}: train.{key}: an .onnx file cannot be a {role} (it holds a graph for ONNX "
                                 "Runtime, not weights to train); name the .pt checkpoint it was exported from")
     init, teacher = (_named_checkpoint(cfg.train, key) for key in ("init", "teacher"))
-    car = car_of(main_recording(cfg).geometry)
+    rec = main_recording(cfg)
+    check_camera(cfg, rec)  # before the run folder is made
+    car = car_of(rec.geometry)
     cfg = cfg.for_car(car)
     if not ranks.main:  # rank 0 holds the lock for all ranks
         return fit(build(cfg, ranks, progress, init, teacher), ranks, False, on_epoch)

@@ -23,15 +23,20 @@ def main_recording(cfg: TrainConfig) -> Recording:
     return open_recording(cfg.data, cfg.range, cfg.labels, cfg.reader, cfg.cache)
 
 
+def check_camera(cfg: TrainConfig, rec: Recording) -> None:
+    """A recording of another camera than the config's crop preset is for is refused."""
+    preset = cfg.preprocess.preset
+    if preset is not None and rec.geometry in CROP_PRESETS and rec.geometry != preset:
+        raise SteerlabError(f"{rec.source} holds frames of the {rec.geometry!r} camera; the config's preprocess.preset "
+                            f"{preset} is for the {preset!r} camera: train it on recordings of that camera")
+
+
 def prepare_dataset(cfg: TrainConfig, progress: bool = True, camera: str | None = None, view: tuple | None = None,
                     data: str | None = None) -> CompiledDataset:
     """The compiled main recording of a config (or the whole recording `data`), one camera stream of it, or a
     virtual view (shift_m, yaw_deg) synthesised from its centre camera."""
     rec = main_recording(cfg) if data is None else open_recording(data, cache=cfg.cache)
-    preset = cfg.preprocess.preset
-    if preset is not None and rec.geometry in CROP_PRESETS and rec.geometry != preset:
-        raise SteerlabError(f"{rec.source} holds frames of the {rec.geometry!r} camera; the config's preprocess.preset "
-                            f"{preset} is for the {preset!r} camera: train it on recordings of that camera")
+    check_camera(cfg, rec)
     camera = camera or cfg.camera
     if camera not in rec.frames:
         raise SteerlabError(f"{rec.source} has no {camera!r} camera (it has {', '.join(rec.cameras)})")

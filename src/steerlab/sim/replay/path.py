@@ -48,9 +48,7 @@ def human_path(road_wheel: np.ndarray, speed: np.ndarray, times_s: np.ndarray, c
 def replay_speed(rec: Recording, cam: Camera, car: Car, speed: float | None) -> tuple[float | None, str]:
     """The speed to replay `rec` at (None: the recorded one) and where it comes from: given, recorded, or
     estimated from the frames (printed; refused when it is not a speed the car drives at)."""
-    if speed is not None:
-        if not 0 < speed < 100:
-            raise SteerlabError(f"--speed must lie in (0, 100) m/s, got {speed}")
+    if speed is not None:  # checked where it enters (options.SPEED)
         return speed, "given (--speed)"
     if rec.speed is not None:
         return None, "recorded"
@@ -59,9 +57,9 @@ def replay_speed(rec: Recording, cam: Camera, car: Car, speed: float | None) -> 
     if not low <= speed <= high:
         raise DataError(rec.source, f"no speed recorded, and the one estimated from the frames, {speed:.2f} m/s, is "
                                     f"not one this car drives at ({low:g}-{high:g} m/s): the camera geometry may not "
-                                    "fit (--mount-height, --pitch, --fov); give the speed with --speed M/S")
+                                    "fit (the camera's mount height, pitch, field of view); give the speed (M/S)")
     print(f"{rec.source} has no speed signal; estimated from the frames: {speed:.2f} m/s ({speed * 3.6:.0f} km/h); "
-          "override with --speed")
+          "give the speed to override it")
     return speed, "estimated from the frames"
 
 

@@ -4,7 +4,7 @@ unseen roads, and the drives are summarised per road type.
 The roads of a suite version never change, and their seeds (9000-9999) are refused by `sim record` and by
 DAgger's rollouts, so no model has seen them. Drives run in parallel worker processes (one torch thread each);
 a finished drive is reused when the suite is run again with the same cache key: the checkpoint's content hash,
-suite version, minutes and smoothing (`SuiteOptions.key`; `core.suite`).
+suite version, minutes, smoothing and the steering step (`SuiteOptions.key`; `core.suite`).
 """
 
 from __future__ import annotations

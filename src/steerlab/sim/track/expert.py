@@ -8,7 +8,7 @@ throttle time constant ahead, times a pace that wanders slowly around 0.9 (a hum
 reached by a feed-forward throttle (`smallcar.throttle_for`) with a proportional-integral correction. The hand
 on the controls lags by `lag_s` (first order) and wanders (Ornstein-Uhlenbeck noise on the road wheel).
 
-Drift episodes, as the road expert has them (`driver.py`): about every `drift_every_s` seconds the driver lets
+Drift episodes, as the road expert has them (`road/expert.py`): about every `drift_every_s` seconds the driver lets
 the car drift towards one lane line (`drift-out`, aiming DRIFT_TARGET of the room the body has beside the lane
 centre), notices at DRIFT_TURN of it and steers back (`recover`), and drives `normal` again within RECOVERED;
 the room is half the lane width less half the car's width, so the body stays in the lane while drifting.

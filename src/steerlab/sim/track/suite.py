@@ -7,7 +7,8 @@ expert (no drift episodes, from the car's state, without a camera): its lap time
 are put against, driven under the same throttle cap as the models (`--max-throttle`; its drives are kept per cap,
 in `expert-max<cap>/`). Drives run in parallel worker processes; a finished drive is reused when the suite runs
 again with the same cache key (`core.suite`): the checkpoint's content hash, suite version, minutes, smoothing,
-the constant throttle, the learned throttle's cap and the camera (`TrackSuiteOptions.key`); the expert's drives
+the constant throttle, the learned throttle's cap, the steering step, the latency and the camera
+(`TrackSuiteOptions.key`); the expert's drives
 with the same suite version, minutes and cap.
 
 Per drive (`suite.csv`): laps completed, clean laps (no off-track event), best and mean clean lap time, the
@@ -271,7 +272,7 @@ def markdown(summary: list[SuiteSummary], drives: list[SuiteDrive], o: TrackSuit
              "starts standing); a track is finished with a clean lap; pace: mean clean lap over the expert's on the "
              "same track, the summary's over the tracks every checkpoint finished (their number beside it); "
              "autonomy = (1 - off-track events x 6 s / elapsed s) x 100.", "",
-             "| checkpoint | tracks | finished | laps | clean laps | clean [%] | off track | off track / lap | "
+             "| checkpoint | style | finished | laps | clean laps | clean [%] | off track | off track / lap | "
              "off track / km | autonomy [%] | pace (tracks) | km | command gamma [deg] |", "|---" * 13 + "|"]
     for r in summary:
         lines.append(f"| {r.label} | {r.style} | {r.finished} of {r.tracks} | {r.laps} | {r.clean_laps} | "

@@ -1,0 +1,287 @@
+"""A new user's round: a few hundred inputs that the bad-input tests do not list, tried on the CLI and the Python API
+of the build on PYTHONPATH; each classified as handled (refused in one line, taken, or said) or as one of five
+failures: lost (an input changed or gone), traceback, silent (taken without a word where it should be refused or
+said), unclear (refused, but not in one line naming what is wrong), hang.
+
+The fixtures are those of tests/test_bad_input.py; every case runs in a forked process of its own with a 45 s
+limit; the counts are printed, and every input not handled is written to OUT_DIR/failures.txt.
+
+usage: PYTHONPATH=src python studies/bad_input_round.py OUT_DIR    (from the repository root; PYTHONPATH picks
+the build that is tried)"""
+
+import contextlib
+import io
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import traceback
+from collections import Counter
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+
+from _round_cases import FIX, ROOT, WORK, main_cases  # noqa: E402
+
+TIMEOUT = 45
+ROWS = 8
+
+
+def sim_log(folder):
+    from conftest import write_jpeg
+    (folder / "IMG").mkdir(parents=True, exist_ok=True)
+    lines = []
+    for i in range(ROWS):
+        name = f"center_2020_01_01_00_00_00_{100 * i:03d}.jpg"
+        write_jpeg(folder / "IMG" / name, 20 * i)
+        lines.append(f"/elsewhere/IMG/{name},,,{0.1 * (i % 3):.1f},0.5,0,10")
+    (folder / "driving_log.csv").write_text("\n".join(lines) + "\n")
+    return folder / "driving_log.csv"
+
+
+def tub(folder):
+    from conftest import write_jpeg
+    (folder / "images").mkdir(parents=True)
+    lines = []
+    for i in range(ROWS):
+        name = f"{i}_cam_image_array_.jpg"
+        write_jpeg(folder / "images" / name, 20 * i, (120, 160))
+        rec = {"_index": i, "_session_id": "s", "_timestamp_ms": 1000 + 50 * i, "cam/image_array": name,
+               "user/angle": 0.1 * (i % 3), "user/throttle": 0.3, "user/mode": "user"}
+        lines.append(json.dumps(rec))
+    (folder / "catalog_0.catalog").write_text("\n".join(lines) + "\n")
+    (folder / "catalog_0.catalog_manifest").write_text(json.dumps(
+        {"created_at": 0.0, "line_lengths": [len(line) + 1 for line in lines], "path": "catalog_0.catalog",
+         "start_index": 0}) + "\n")
+    manifest = [["cam/image_array", "user/angle", "user/throttle", "user/mode"], ["image_array", "float", "float",
+                "str"], {}, {"created_at": 0.0, "sessions": {"all_full_ids": ["s"]}},
+                {"paths": ["catalog_0.catalog"], "current_index": ROWS, "max_len": 1000, "deleted_indexes": []}]
+    (folder / "manifest.json").write_text("\n".join(json.dumps(m) for m in manifest) + "\n")
+    return folder
+
+
+def ch2(folder):
+    from conftest import write_jpeg
+    (folder / "center").mkdir(parents=True)
+    ids = [1_000_000_000 + i * 50_000_000 for i in range(6)]
+    for i, fid in enumerate(ids):
+        write_jpeg(folder / "center" / f"{fid}.jpg", 40 * i, (480, 640))
+    (folder / "labels.csv").write_text("frame_id,steering_angle,public\n"
+                                       + "".join(f"{fid},{0.01 * i},{i % 2}\n" for i, fid in enumerate(ids)))
+    return folder
+
+
+def setup():
+    from conftest import made
+
+    subprocess.run(["chattr", "-i", str(ROOT / "ro")], capture_output=True)
+    shutil.rmtree(FIX, ignore_errors=True)
+    FIX.mkdir(parents=True)
+    sim_log(FIX / "sim")
+    tub(FIX / "tub")
+    ch2(FIX / "ch2")
+    made(FIX, name="a.pt")
+    made(FIX, name="b.pt")
+    made(FIX, "normalized", "right", "donkey", name="donkey.pt", full_lock_deg=25)
+    (FIX / "run").mkdir()
+    shutil.copy(FIX / "a.pt", FIX / "run" / "best.pt")
+    shutil.copy(FIX / "a.pt", FIX / "run" / "last.pt")
+    (FIX / "run" / "config.json").write_text("{}")
+    from steerlab.sim.road.run import RecordOptions, record
+
+    record(FIX / "rec", RecordOptions(seed=0, minutes=0.05, side_cameras=False), progress=False)
+    (FIX / "c.yaml").write_text(f"data: {FIX / 'sim'}\ncache: {ROOT / 'cache'}\nout: {WORK / 'run'}\n"
+                                "split: {train: '0:6', val: '6:8'}\ntrain: {epochs: 1, batch_size: 2}\n")
+    os.symlink(FIX / "a.pt", FIX / "a-link.pt")
+    os.symlink(FIX / "sim", FIX / "sim-link")
+
+
+def snapshot():
+    return {p: (p.stat().st_size, p.stat().st_mtime_ns) for p in FIX.rglob("*") if p.is_file()}
+
+
+def run_case(fn):
+    """fn() in a forked child: (code, stderr, exception text, hung, crashed)."""
+    r, w = os.pipe()
+    pid = os.fork()
+    if pid == 0:
+        os.setpgid(0, 0)
+        os.close(r)
+        err = io.StringIO()
+        out = {"code": None, "err": "", "exc": ""}
+        try:
+            WORK.mkdir(parents=True, exist_ok=True)
+            os.chdir(WORK)
+            with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+                try:
+                    if getattr(fn, "stage", False):
+                        stop_before_work()
+                    out["code"] = fn()
+                except SystemExit as e:
+                    out["code"] = e.code
+                except Reached:
+                    out["code"] = 0
+                except Exception as e:  # noqa: BLE001
+                    from steerlab.errors import SteerlabError
+
+                    if isinstance(e, SteerlabError):
+                        out["code"] = "refused"
+                        out["err"] = f"error: {e}\n"
+                    else:
+                        out["exc"] = traceback.format_exc()
+        finally:
+            out["err"] += err.getvalue()
+            os.write(w, json.dumps(out, default=str).encode())
+            os.close(w)
+            os._exit(0)
+    os.close(w)
+    import select
+    import time
+
+    chunks, deadline = [], time.monotonic() + TIMEOUT
+    while True:
+        left = deadline - time.monotonic()
+        ready = select.select([r], [], [], max(0.0, left))[0] if left > 0 else []
+        if not ready:  # a hang: the case and whatever it started are ended
+            try:
+                os.killpg(pid, signal.SIGKILL)
+            except OSError:
+                os.kill(pid, signal.SIGKILL)
+            os.waitpid(pid, 0)
+            os.close(r)
+            return None, "", "", True, False
+        c = os.read(r, 65536)
+        if not c:
+            break
+        chunks.append(c)
+        if c.endswith(b"}"):
+            try:
+                json.loads(b"".join(chunks))
+                break
+            except ValueError:
+                pass
+    try:
+        os.killpg(pid, signal.SIGKILL)  # workers the case left behind
+    except OSError:
+        pass
+    os.waitpid(pid, 0)
+    os.close(r)
+    if not chunks:
+        return None, "", "", False, True
+    d = json.loads(b"".join(chunks))
+    return d["code"], d["err"], d["exc"], False, False
+
+
+class Reached(Exception):
+    """The command got past every check of its input: the work would start here."""
+
+
+def stop_before_work():
+    """Every command's work replaced by Reached, so that a value a command takes costs nothing: what is tried is
+    whether the value is refused before the work starts."""
+    import dataclasses
+
+    import steerlab.demo
+    import steerlab.evaluate.latency
+    import steerlab.experiment
+    import steerlab.serve
+    import steerlab.sim.replay.run
+    import steerlab.sim.worlds
+    import steerlab.train.loop
+    import steerlab.tune
+
+    def stop(*a, **k):
+        raise Reached
+
+    for name, entry in list(steerlab.sim.worlds.WORLDS.items()):
+        steerlab.sim.worlds.WORLDS[name] = dataclasses.replace(entry, record=stop, drive=stop, suite=stop)
+    for module, attr in ((steerlab.sim.replay.run, "run_replay"), (steerlab.serve, "serve"),
+                         (steerlab.demo, "run_demo"), (steerlab.evaluate.latency, "run_latency"),
+                         (steerlab.train.loop, "train"), (steerlab.experiment, "run_experiment"),
+                         (steerlab.tune, "run_tune")):
+        setattr(module, attr, stop)
+
+
+def classify(case, result, before, after):
+    code, err, exc, hung, crashed = result
+    expect, hint = case["expect"], case.get("hint")
+    if hung:
+        return "hang"
+    if {p: t for p, t in after.items() if p in before} != before:
+        return "lost"
+    if crashed or exc or "Traceback" in err or code not in (0, 2, None, "refused"):
+        return "traceback"
+    refused = code in (2, "refused")
+    lines = [line for line in err.splitlines() if line.strip()]
+    warned = any(line.startswith("warning:") for line in lines)
+    if expect == "refuse":
+        if not refused:
+            return "silent"
+        last = [line for line in lines if line.startswith("error:")]
+        if len(last) != 1 or (hint and not any(h.lower() in last[0].lower() for h in hint)):
+            return "unclear"
+        return "handled"
+    if expect == "warn":
+        if refused:
+            last = [line for line in lines if line.startswith("error:")]
+            return "handled" if len(last) == 1 and (not hint or any(h.lower() in last[0].lower() for h in hint)) \
+                else "unclear"
+        return "handled" if warned else "silent"
+    # expect ok
+    return "handled" if not refused else ("handled" if case.get("refuse_ok") else "silent-refusal")
+
+
+
+
+def preload():
+    """What the commands import, imported once here: each case's process is forked from this one."""
+    import importlib
+
+    for name in ("steerlab.demo", "steerlab.evaluate.latency", "steerlab.experiment", "steerlab.serve",
+                 "steerlab.sim.replay.run", "steerlab.sim.worlds", "steerlab.train.loop", "steerlab.tune",
+                 "steerlab.tune.run", "steerlab.dagger", "steerlab.evaluate.offline", "steerlab.export",
+                 "steerlab.pilot", "steerlab.data.readers", "steerlab.sim.road.suite", "steerlab.sim.track.suite",
+                 "steerlab.sim.road.run", "steerlab.sim.track.run", "optuna", "matplotlib.pyplot"):
+        try:
+            importlib.import_module(name)
+        except ImportError:
+            pass
+
+
+def main():
+    import torch
+
+    torch.set_num_threads(1)  # no OpenMP thread team in this process: a forked child using one would hang
+    if ROOT.exists() and not (ROOT / "fx").is_dir():
+        sys.exit(f"error: {ROOT} exists and is not an earlier round's folder (it has no fx/): name a new one")
+    preload()
+    subprocess.run(["chattr", "-i", str(ROOT / "ro")], capture_output=True)
+    shutil.rmtree(ROOT, ignore_errors=True)
+    setup()
+    cases = main_cases()
+    counts, bad = Counter(), []
+    for n, case in enumerate(cases):
+        if n % 50 == 0:
+            print(f"{n}/{len(cases)}", file=sys.stderr, flush=True)
+        before = snapshot()
+        result = run_case(case["fn"])
+        after = snapshot()
+        cls = classify(case, result, before, after)
+        if cls == "silent-refusal":
+            cls = "handled"  # refused though acceptable: a stricter build; counted as handled
+        counts[cls] += 1
+        if cls != "handled":
+            code, err, exc, *_ = result
+            bad.append(f"{cls:<10} {case['name'][:150]}\n           {(exc.strip().splitlines() or [''])[-1][:200] if exc else err.strip()[-200:]}")
+        if cls == "lost":  # put the fixtures back for the next case
+            shutil.rmtree(FIX)
+            setup()
+    print(f"{len(cases)} inputs: " + ", ".join(f"{k} {v}" for k, v in counts.most_common()))
+    (ROOT / "failures.txt").write_text("\n".join(bad) + "\n")
+    print("\n".join(bad))
+
+
+if __name__ == "__main__":
+    main()
