@@ -32,7 +32,7 @@ from steerlab.files import write_json
 from steerlab.data.car import car_of
 from steerlab.errors import SteerlabError
 from steerlab.options import (AT_LEAST_0, AT_LEAST_1, MINUTES, Options, SEED, SPEED, UNIT, WORKERS, Range, as_dict,
-                              holds_frames, option, parse)
+                              frames_in, holds_frames, option, parse)
 from steerlab.paths import check_outputs
 from steerlab.sim.core.parallel import run_parallel
 from steerlab.sim.road.world import ROADS, road_types
@@ -198,7 +198,7 @@ def run_dagger(cfg: TrainConfig, progress: bool = True) -> Path:
                 print(f"== DAgger round {r}: rolling out round {r - 1}'s model in {len(jobs)} fresh place(s) of the "
                       f"{world.name} world, beta {beta:.3f}")
             autonomies = [m.autonomy for m in run_parallel(world.rollout, jobs, o.workers,
-                                                           int(round(o.minutes / len(kinds) * 60 * 20)), progress,
+                                                           frames_in(o.minutes / len(kinds), 20.0), progress,
                                                            "rollouts")]
         round_cfg = replace(base, out=str(run), extra_data=tuple(extra))
         if r > 0:

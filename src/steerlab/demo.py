@@ -11,7 +11,7 @@ from pathlib import Path
 
 from steerlab.files import write_json
 from steerlab.paths import check_outputs
-from steerlab.options import AT_LEAST_1, FPS, MINUTES, Options, WORKERS, frames_held, option
+from steerlab.options import AT_LEAST_1, FPS, MINUTES, Options, WORKERS, frames_held, frames_in, option
 
 TRAIN_SEED = 1
 ROADS = "country,twisty,highway,twisty"  # the recipe of configs/experiment_recipe.yaml: half the time on tight curves
@@ -65,7 +65,7 @@ def run_demo(o: DemoOptions = DemoOptions(), progress: bool = True) -> Path:
     if not (rec_dir / "recording.json").exists():
         stages.start(f"[1/5] recording {minutes} min of expert driving on mixed roads (road seed {TRAIN_SEED})")
         record(rec_dir, RecordOptions(seed=TRAIN_SEED, minutes=minutes, road=ROADS, fps=fps), progress=progress)
-    n = int(round(minutes * 60 * fps))
+    n = frames_in(minutes, fps)
     split = int(n * 0.8)
     cfg = load_config(None, base={
         "data": str(rec_dir), "cache": str(out / "cache"), "out": str(out / "pilotnet"),

@@ -132,11 +132,6 @@ def check_steers(pilot, car) -> None:
                             "reader option full_lock_deg)") from None
 
 
-def ticks(minutes: float, fps: float) -> int:
-    """The frames of a drive of `minutes` at `fps`."""
-    return int(round(minutes * 60 * fps))
-
-
 def autonomy(interventions: int, elapsed_s: float) -> float:
     """NVIDIA's autonomy: (1 - interventions * 6 s / elapsed s) * 100."""
     return (1.0 - interventions * 6.0 / elapsed_s) * 100.0

@@ -13,8 +13,9 @@ from tqdm import tqdm
 from steerlab.data.car import car_of
 from steerlab.data.writer import CONVENTION, RecordingWriter
 from steerlab.errors import SteerlabError, warn
+from steerlab.options import frames_in
 from steerlab.pilot import DriveWith
-from steerlab.sim.core.driving import check_steers, drive_loop, rollout as drive_rollout, ticks
+from steerlab.sim.core.driving import check_steers, drive_loop, rollout as drive_rollout
 from steerlab.sim.core.parallel import tick_reporter
 from steerlab.sim.core.plots import write_strip
 from steerlab.sim.core.suite import check_seed, write_json
@@ -57,9 +58,9 @@ def record(out: str | Path, o: RecordOptions = RecordOptions(), progress: bool =
     shows the suite's own road."""
     if not suite_ok:
         check_seed(o.seed, "road")
-    n = ticks(o.minutes, o.fps)
+    n = frames_in(o.minutes, o.fps)
     types = road_types(o.road)
-    chunk = n if len(types) == 1 else ticks(o.chunk_minutes, o.fps)
+    chunk = n if len(types) == 1 else frames_in(o.chunk_minutes, o.fps)
     schedule = [types[(i // chunk) % len(types)] for i in range(n)]  # a type may be listed twice for a larger share
     extra = 0 if suite_ok else chunk  # the suite's roads: as long as `drive` makes them
     worlds = {t: World(o.seed, t, o.geometry, (schedule.count(t) + extra) / o.fps, o.fps) for t in dict.fromkeys(types)}
@@ -117,7 +118,7 @@ def drive(pilot, out: str | Path | None, o: DriveOptions = DriveOptions(), video
     geometry = geometry_for(pilot, o.geometry)
     check_steers(pilot, car_of(geometry))
     mismatch(pilot, geometry)
-    n = ticks(o.minutes, o.fps)
+    n = frames_in(o.minutes, o.fps)
     world = World(o.seed, o.road, geometry, n / o.fps, o.fps)
     ratio = world.steering_ratio
     strip = []
@@ -173,7 +174,7 @@ def rollout(pilot, out: str | Path, seed: int, minutes: float, road: str = "coun
     """DAgger's data collection on a fresh road (`core.driving.rollout`), recorded as a steerlab recording in
     `out`. Interventions as in `drive`. Returns the drive's result."""
     check_seed(seed, "road")
-    n = ticks(minutes, fps)
+    n = frames_in(minutes, fps)
     geometry = geometry_for(pilot, geometry)
     check_steers(pilot, car_of(geometry))
     mismatch(pilot, geometry)

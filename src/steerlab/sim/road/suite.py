@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from steerlab.options import MINUTES, Options, WORKERS, frames_held, names_from, names_held, option, parse
+from steerlab.options import MINUTES, Options, WORKERS, frames_held, frames_in, names_from, names_held, option, parse
 from steerlab.paths import check_outputs
 from steerlab.pilot import DriveWith, smoothing_option, steering_step_option
 from steerlab.sim.core.driving import autonomy
@@ -138,7 +138,7 @@ def run_suite(checkpoints, out: str | Path, o: SuiteOptions = SuiteOptions(), pr
             planned.append(Planned((label, road, seed), folder, key,
                                    (str(ckpt), road, seed, minutes, str(folder),
                                     DriveWith(o.smoothing, o.steering_step), key)))
-    results = run_drives(_job, RoadDrive, planned, o.workers, round(minutes * 60 * FPS), progress, f"suite {o.suite}")
+    results = run_drives(_job, RoadDrive, planned, o.workers, frames_in(minutes, FPS), progress, f"suite {o.suite}")
     drives = []
     for label, ckpt in zip(labels, checkpoints):
         for road, seed in roads:

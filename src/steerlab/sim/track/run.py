@@ -27,8 +27,9 @@ from steerlab.data.fisheye import DONKEY_FISHEYE, FisheyeCamera
 from steerlab.data.recording import SteeringConvention
 from steerlab.data.writer import RecordingWriter, TubWriter
 from steerlab.errors import SteerlabError
+from steerlab.options import frames_in
 from steerlab.pilot import DriveWith
-from steerlab.sim.core.driving import Trajectory, check_steers, drive_loop, ticks
+from steerlab.sim.core.driving import Trajectory, check_steers, drive_loop
 from steerlab.sim.core.parallel import tick_reporter
 from steerlab.sim.core.plots import write_strip
 from steerlab.sim.core.suite import check_seed, write_json
@@ -98,7 +99,7 @@ def record(out: str | Path, o: TrackRecordOptions = TrackRecordOptions(), progre
                 "lateral_offset": t.offset, "heading_error": t.heading, "episode": expert.episode,
                 "steering": float(convention.from_road_wheel_left(t.model, car.steering_ratio))})
 
-    drive_loop(world, expert, ticks(o.minutes, o.fps), 0.0, o.fps, on_step=write, desc=f"record track {o.seed}",
+    drive_loop(world, expert, frames_in(o.minutes, o.fps), 0.0, o.fps, on_step=write, desc=f"record track {o.seed}",
                progress=progress)
     if o.layout == "tub":
         return tub.close()
@@ -153,7 +154,7 @@ def drive(pilot, out: str | Path | None, o: TrackDriveOptions = TrackDriveOption
             movie.add(t.frame, t.model, t.expert, t.offset, f"track {o.seed}  lap {len(world.laps.crossings)}  "
                       f"{world.state.v:3.1f} m/s  off track {events}", limit=room)
 
-    t = drive_loop(world, pilot, ticks(o.minutes, o.fps), o.limit_m, o.fps, on_step=on_step,
+    t = drive_loop(world, pilot, frames_in(o.minutes, o.fps), o.limit_m, o.fps, on_step=on_step,
                    desc=f"drive track {o.seed}", progress=progress, on_tick=on_tick, latency=o.latency)
     if movie:
         movie.close()
@@ -189,7 +190,7 @@ def drive_expert(out: str | Path, o: TrackDriveOptions, on_tick=None, meta: dict
     the track suite. Writes trajectory.csv and drive.json into `out`."""
     world = TrackWorld(o.seed, o.lane_width, o.style, o.fps, camera=None)
     expert = RacerPilot(world, o.seed, max_throttle=o.max_throttle)
-    t = drive_loop(world, expert, ticks(o.minutes, o.fps), o.limit_m, o.fps, progress=False, on_tick=on_tick)
+    t = drive_loop(world, expert, frames_in(o.minutes, o.fps), o.limit_m, o.fps, progress=False, on_tick=on_tick)
     result = result_of(expert.name, o, t, world)
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -221,7 +222,7 @@ def rollout(pilot, out: str | Path, seed: int, minutes: float, style: str = "tap
         expert["controls"] = (wheel, float(np.clip(throttle, -max_throttle, max_throttle)))
         tub.add(t.frame, int(round(t.index * 1e9 / fps)), *expert["controls"])
 
-    t = drive_loop(world, pilot, ticks(minutes, fps), 0.0, fps, on_step=label, desc=f"rollout track {seed}",
+    t = drive_loop(world, pilot, frames_in(minutes, fps), 0.0, fps, on_step=label, desc=f"rollout track {seed}",
                    progress=False, on_tick=on_tick, latency=latency,
                    choose=lambda t: expert["controls"] if rng.random() < beta else (t.model, t.throttle))
     tub.close()

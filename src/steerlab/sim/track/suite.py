@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from steerlab.errors import SteerlabError
-from steerlab.options import MINUTES, Options, WORKERS, frames_held, names_from, names_held, option
+from steerlab.options import MINUTES, Options, WORKERS, frames_held, frames_in, names_from, names_held, option
 from steerlab.paths import check_outputs
 from steerlab.pilot import DriveWith, smoothing_option, steering_step_option
 from steerlab.sim.core.driving import autonomy
@@ -197,7 +197,7 @@ def race(checkpoints, out: str | Path, o: TrackSuiteOptions, progress: bool = Tr
     planned = [Planned((label, seed), out / label / f"{style}-{seed}", key,
                        (ckpt, o, style, seed, str(out / label / f"{style}-{seed}"), key))
                for label, ckpt, key in runs for style, seed in tracks]
-    rows = run_drives(_job, TrackDrive, planned, o.workers, round(o.track_minutes * 60 * FPS), progress,
+    rows = run_drives(_job, TrackDrive, planned, o.workers, frames_in(o.track_minutes, FPS), progress,
                       f"track suite {o.suite}")
     return [drive_row(rows[(label, seed)], rows[(o.expert_folder(), seed)], label, ckpt, style, seed)
             for label, ckpt, _ in runs[1:] for style, seed in tracks]
