@@ -1693,12 +1693,6 @@ def rule_counts() -> list[tuple[str, int, int, int]]:
              0)]
 
 
-if __name__ == "__main__":  # the table of docs/RESULTS.md, "Bad input"
-    print("| rule | inputs generated | refused | said |\n|---|---|---|---|")
-    for rule, n, refused, said in rule_counts():
-        print(f"| {rule} | {n} | {refused} | {said} |")
-
-
 def test_an_experiment_writes_its_table_where_its_runs_train(tmp_path):
     """`out=NEW` moves the whole experiment: its runs train below NEW and its table is written there, not over the
     config's earlier experiment; two entries of one name would share a run folder and a row, and are refused."""
@@ -1712,3 +1706,9 @@ def test_an_experiment_writes_its_table_where_its_runs_train(tmp_path):
     cfg.write_text(cfg.read_text() + "  - {model: {name: zero}, train: {lr: 0.01}}\n")
     with pytest.raises(SteerlabError, match="models entries 1 and 3 are both named 'zero'; give one a label"):
         load_experiment(cfg)
+
+
+if __name__ == "__main__":  # the table of docs/RESULTS.md, "Bad input"
+    print("| rule | inputs generated | refused | said |\n|---|---|---|---|")
+    for rule, n, refused, said in rule_counts():
+        print(f"| {rule} | {n} | {refused} | {said} |")

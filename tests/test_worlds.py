@@ -98,3 +98,18 @@ def test_dagger_drives_the_suite_of_its_own_world_unless_told():
 
     assert suite() == "v1" and suite(world="track") == "t1" and suite(world="track", suite="s1") == "s1"
     assert suite(world="track", suite=None) is None and suite(world="replay") is None
+
+
+def test_dagger_and_experiments_replay_a_recording_in_the_world_of_its_camera(tmp_path, tiny_recording):
+    """A track-world tub is replayed as `steerlab replay` replays it (the fisheye, the body in the lane), a
+    road-world recording as a road."""
+    from steerlab.sim.track.run import record
+    from steerlab.sim.track.world import TrackRecordOptions
+    from steerlab.split_replay import SplitReplay
+    from steerlab.train.config import load_config
+
+    tub = record(tmp_path / "tub", TrackRecordOptions(seed=3, minutes=0.05), progress=False)
+    for data, kind in ((tub, TrackReplay), (tiny_recording, Replay)):
+        cfg = load_config(None, base={"data": str(data), "split": {"train": "0:40", "val": "40:60"}})
+        replay = SplitReplay(cfg, speed=1.5).replay
+        assert type(replay) is kind and replay.speed == 1.5
