@@ -480,6 +480,9 @@ BAD_INPUTS = {
         lambda t, s: ["sim", "dagger", str(config(t, tub(t / "tub"))), "dagger.world=track", "dagger.suite=t1",
                       "dagger.suite_styles=gravel"],
         "dagger.suite_styles must be a comma list of track styles of taped, centre, each once, got 'gravel'"),
+    "sim dagger in replay on a tub without its full-lock angle": (
+        lambda t, s: ["sim", "dagger", str(config(t, tub(t / "tub"))), "dagger.world=replay"],
+        "tub: replay cannot turn its steering into a wheel angle: normalized steering needs the car's full-lock angle"),
     "sim dagger in the track world with zero rollout minutes": (
         lambda t, s: ["sim", "dagger", str(config(t, tub(t / "tub"))), "dagger.world=track", "dagger.suite=t1",
                       "dagger.minutes=0"],

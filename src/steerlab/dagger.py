@@ -167,9 +167,9 @@ def run_dagger(cfg: TrainConfig, progress: bool = True) -> Path:
     out = Path(cfg.out)
     car = car_of(rec.geometry)
     cfg = cfg.for_car(car)
+    replay = SplitReplay(cfg, o.speed) if o.world == "replay" else None  # its checks before anything is written
     _claim(out, cfg, o, car)
     base = replace(cfg, dagger=None)
-    replay = SplitReplay(cfg, o.speed) if o.world == "replay" else None
     rows, extra = _read_log(out), list(cfg.extra_data)
     for r in range(o.iterations + 1):
         run = out / f"round{r}"

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from steerlab.data.car import CARS
 from steerlab.data.geometry import CAMERAS
 from steerlab.data.readers import Source
 from steerlab.data.splits import make_split
@@ -33,6 +34,10 @@ class SplitReplay:
         if rec.geometry not in CAMERAS:
             raise SteerlabError(f"{rec.source}: replay knows no camera geometry for {rec.geometry!r} frames")
         self.train_idx, self.val_idx = make_split(cfg.split, len(rec), rec.extra.get("session"))
+        try:  # before any training: the models of this recording must steer the replayed car
+            rec.convention.to_road_wheel_left(0.0, CARS[rec.geometry].steering_ratio)
+        except SteerlabError as e:
+            raise SteerlabError(f"{rec.source}: replay cannot turn its steering into a wheel angle: {e}") from None
         self.options = world_of(rec.geometry).replay_options(speed=speed, workers=1)
         setup = self.options.setup(rec)
         self.replay = setup.replay
