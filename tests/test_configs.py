@@ -21,8 +21,8 @@ CONFIGS = sorted((Path(__file__).parent.parent / "configs").glob("*.yaml"))
 # record --world track` writes tubs). A tub's config gets the tub defaults under its own settings, so what such a
 # config builds depends on the data being a tub; the test puts stand-in tubs there.
 TUBS = ["../shared/data/donkeycar/hall", "../shared/data/donkeycar/taped-track",
-        *(f"runs/track/tub-{k}" for k in range(1, 5)), *(f"runs/race/tubs/{s}-{k}" for s in ("taped", "centre")
-                                                             for k in range(1, 5))]
+        *(f"runs/track/tub-{k}" for k in range(1, 5)), *(f"runs/race/tubs/taped-{k}-1min" for k in range(5, 17)),
+        *(f"runs/race/tubs/centre-{k}-1min" for k in range(17, 21))]
 
 # What each config builds, by hand from its comments and docs/RESULTS.md (whose tables print the input as
 # channels@width x height): the run (an experiment: every entry's run, in order, with its label), then its sections.
@@ -295,8 +295,8 @@ EXPECTED = {
         "min, workers 2",
     ],
     "track_best.yaml": [
-        "donkey-linear() 3@160x120 rgb, split 0:1800/1800:2338, epochs 15 with patience 3, batch 128, lr 0.001, "
-        "mse, throttle weight 1, 7 extra recordings",
+        "donkey-linear() 3@160x120 rgb, split 0:933/933:1173, epochs 15 with patience 3, batch 128, lr 0.001, "
+        "mse, throttle weight 1, 15 extra recordings",
     ],
     "track_default.yaml": [
         "multimodal-lstm() 3@200x66 gray farneback flow, split 0:3000/3000:3538, epochs 8 with patience 3, batch 32, "
