@@ -24,7 +24,7 @@ def config(tmp_path, recording, out, model="pilotnet"):
     return path
 
 
-@pytest.mark.parametrize("model", ["pilotnet", "lstm"])
+@pytest.mark.parametrize("model", ["lstm"])  # a recurrent model: windows of frames sharded over the ranks, flipped
 def test_two_ranks_match_one_process(tmp_path, tiny_recording, model, monkeypatch):
     train(load_config(config(tmp_path, tiny_recording, "one", model)), progress=False)
     # the command runs here (no interpreter of its own to start); the ranks it starts with torchrun get 5 minutes

@@ -25,8 +25,9 @@ from steerlab.train.distributed import Ranks
 
 def _raw(rec, tmp_path, model=None, split=None, preprocess=None, extra=(), **train):
     """A run's config: PilotNet on 64x64 frames (a third of 200x66's pixels, the same paths) unless `model` or
-    `preprocess` say otherwise."""
-    return {"data": str(rec), "cache": str(tmp_path / "cache"), "out": str(tmp_path / "run"),
+    `preprocess` say otherwise. The compiled frames are kept in one cache for all tests of a worker process (its
+    entries are named by the recording's content and the preprocessing, so each is compiled once)."""
+    return {"data": str(rec), "cache": str(tmp_path.parent / "train-cache"), "out": str(tmp_path / "run"),
             "split": split or {"train": "0:240", "val": "240:300"}, "extra_data": list(extra),
             "model": model or {"name": "pilotnet", "dropout": 0.0},
             "preprocess": {"width": 64, "height": 64} if preprocess is None and model is None else preprocess or {},
@@ -318,8 +319,8 @@ def test_config_errors(tmp_path):
 @pytest.mark.parametrize("model, pre", [(n, {}) for n in list_models()] + [
     ("pilotnet", {"modalities": ["image", "diff", "flow"], "stack": 3, "color": "yuv"})])
 def test_every_model_learns_and_streams_as_in_batch(model, pre, tiny_recording, tmp_path):
-    """Two epochs lower the training loss; then the Pilot, fed the raw frames (and speeds) of the whole
-    recording one by one, reproduces the batch path (which runs recurrent models statefully through the range)
+    """Two epochs lower the training loss; then the Pilot, fed the raw frames (and speeds) of the first 40 frames
+    one by one, reproduces the batch path (which runs recurrent models statefully through the range)
     for every output: stacked frames, difference, flow, speed history and LSTM state."""
     from steerlab.checkpoint import load_checkpoint, model_from_checkpoint
 
@@ -334,13 +335,13 @@ def test_every_model_learns_and_streams_as_in_batch(model, pre, tiny_recording, 
     if cls.trainable:
         rows = _log(tmp_path)
         assert float(rows[-1]["train_loss"]) < float(rows[0]["train_loss"])
-    evaluate(tmp_path / "run" / "best.pt", Source(str(tiny_recording), "0:80"), tmp_path / "eval", progress=False)
+    evaluate(tmp_path / "run" / "best.pt", Source(str(tiny_recording), "0:40"), tmp_path / "eval", progress=False)
     with open(tmp_path / "eval" / "predictions.csv") as f:
         streamed = list(csv.DictReader(f))
     ckpt = load_checkpoint(tmp_path / "run" / "best.pt")
     net = model_from_checkpoint(ckpt)[0]
     ds = sources.prepare_dataset(cfg, progress=False)
-    batch = loop.predict(net, FrameBatches([(ds, ds.steering)], ckpt["stats"], net.speed_history), np.arange(80),
+    batch = loop.predict(net, FrameBatches([(ds, ds.steering)], ckpt["stats"], net.speed_history), np.arange(40),
                          batch_size=64)
     np.testing.assert_allclose([float(r["steering_angle"]) for r in streamed], batch["steering"], atol=1e-4)
     for k in set(batch) - {"steering"}:

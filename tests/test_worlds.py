@@ -110,6 +110,7 @@ def test_dagger_and_experiments_replay_a_recording_in_the_world_of_its_camera(tm
 
     tub = record(tmp_path / "tub", TrackRecordOptions(seed=3, minutes=0.05), progress=False)
     for data, kind in ((tub, TrackReplay), (tiny_recording, Replay)):
-        cfg = load_config(None, base={"data": str(data), "split": {"train": "0:40", "val": "40:60"}})
+        cfg = load_config(None, base={"data": str(data), "split": {"train": "0:40", "val": "40:60"},
+                                      **({"reader": {"full_lock_deg": 25}} if data == tub else {})})
         replay = SplitReplay(cfg, speed=1.5).replay
         assert type(replay) is kind and replay.speed == 1.5
