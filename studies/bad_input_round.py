@@ -3,7 +3,7 @@ of the build on PYTHONPATH; each classified as handled (refused in one line, tak
 failures: lost (an input changed or gone), traceback, silent (taken without a word where it should be refused or
 said), unclear (refused, but not in one line naming what is wrong), hang.
 
-The fixtures are those of tests/test_bad_input.py; every case runs in a forked process of its own with a 45 s
+The fixtures are those of tests/test_bad_input.py (made in OUT_DIR/fx); every case runs in a forked process of its own with a 45 s
 limit; the counts are printed, and every input not handled is written to OUT_DIR/failures.txt.
 
 usage: PYTHONPATH=src python studies/bad_input_round.py OUT_DIR    (from the repository root; PYTHONPATH picks
@@ -24,53 +24,9 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 
 from _round_cases import FIX, ROOT, WORK, main_cases  # noqa: E402
+from test_bad_input import ch2, sim_log, tub  # noqa: E402  (the bad-input tests' fixtures)
 
 TIMEOUT = 45
-ROWS = 8
-
-
-def sim_log(folder):
-    from conftest import write_jpeg
-    (folder / "IMG").mkdir(parents=True, exist_ok=True)
-    lines = []
-    for i in range(ROWS):
-        name = f"center_2020_01_01_00_00_00_{100 * i:03d}.jpg"
-        write_jpeg(folder / "IMG" / name, 20 * i)
-        lines.append(f"/elsewhere/IMG/{name},,,{0.1 * (i % 3):.1f},0.5,0,10")
-    (folder / "driving_log.csv").write_text("\n".join(lines) + "\n")
-    return folder / "driving_log.csv"
-
-
-def tub(folder):
-    from conftest import write_jpeg
-    (folder / "images").mkdir(parents=True)
-    lines = []
-    for i in range(ROWS):
-        name = f"{i}_cam_image_array_.jpg"
-        write_jpeg(folder / "images" / name, 20 * i, (120, 160))
-        rec = {"_index": i, "_session_id": "s", "_timestamp_ms": 1000 + 50 * i, "cam/image_array": name,
-               "user/angle": 0.1 * (i % 3), "user/throttle": 0.3, "user/mode": "user"}
-        lines.append(json.dumps(rec))
-    (folder / "catalog_0.catalog").write_text("\n".join(lines) + "\n")
-    (folder / "catalog_0.catalog_manifest").write_text(json.dumps(
-        {"created_at": 0.0, "line_lengths": [len(line) + 1 for line in lines], "path": "catalog_0.catalog",
-         "start_index": 0}) + "\n")
-    manifest = [["cam/image_array", "user/angle", "user/throttle", "user/mode"], ["image_array", "float", "float",
-                "str"], {}, {"created_at": 0.0, "sessions": {"all_full_ids": ["s"]}},
-                {"paths": ["catalog_0.catalog"], "current_index": ROWS, "max_len": 1000, "deleted_indexes": []}]
-    (folder / "manifest.json").write_text("\n".join(json.dumps(m) for m in manifest) + "\n")
-    return folder
-
-
-def ch2(folder):
-    from conftest import write_jpeg
-    (folder / "center").mkdir(parents=True)
-    ids = [1_000_000_000 + i * 50_000_000 for i in range(6)]
-    for i, fid in enumerate(ids):
-        write_jpeg(folder / "center" / f"{fid}.jpg", 40 * i, (480, 640))
-    (folder / "labels.csv").write_text("frame_id,steering_angle,public\n"
-                                       + "".join(f"{fid},{0.01 * i},{i % 2}\n" for i, fid in enumerate(ids)))
-    return folder
 
 
 def setup():
