@@ -101,6 +101,7 @@ class Pilot:
         cam = None if other_camera else CAMERAS.get(self.geometry)
         self.frame_size = None if cam is None else (cam.height, cam.width)
         self.smoothing, self.steering_step = smoothing, steering_step
+        self._top_speed = car_of(self.geometry if self.geometry in CARS else None).speeds[1]  # of the model's car
         self._said_speed = False
         self._channels, c = {}, 0  # each modality's channels of the network input, in input order
         for m, n in self.config.channels().items():
@@ -111,7 +112,7 @@ class Pilot:
     def _plausible(self, speed: float | None) -> float | None:
         """A measured speed beyond twice the fastest the model's car drives is said once: m/s is expected, and km/h
         or mph are the likely cause."""
-        top = car_of(self.geometry if self.geometry in CARS else None).speeds[1]
+        top = self._top_speed
         if speed is not None and speed > 2 * top and not self._said_speed:
             self._said_speed = True
             warn(f"{self.source}: a measured speed of {speed:g} m/s is beyond what its car drives (up to {top:g} m/s):"
