@@ -121,6 +121,15 @@ RECIPES = {
                       tubs=tuple(name for name in AUGMENT if name.endswith("-room"))),
     "rooms": Recipe("16 tracks in 16 rooms, 1 minute each, instead of 4 tracks in 4 rooms, 2 minutes each (12 taped, "
                     "4 centre-line; as many records)", tubs=ROOMS, only=240),
+    "rooms-colour": Recipe("rooms + the colours and light of other rooms: the hue turned within +-180 degrees and "
+                           "the brightness scaled within 1 +- 0.25 (train.hue_deg, train.brightness)",
+                           ("train.hue_deg=180", "train.brightness=0.25"), tubs=ROOMS, only=240),
+    "rooms-dagger": Recipe("rooms + DAgger in the track world: 3 rounds of 4 minutes of rollouts on fresh tracks, "
+                           "uncapped, the expert's labels at the car's speed, 2 epochs a round",
+                           ("train.init={init}", "train.epochs=1",
+                            "dagger={world: track, suite: s1, suite_minutes: 1.0, iterations: 3, minutes: 4.0, "
+                            "beta: 0.5, beta_decay: 0.5, epochs: 2, max_throttle: 1.0, seeds_from: 6000}"),
+                           tubs=ROOMS, only=240, starts="rooms"),
 }
 
 

@@ -510,6 +510,9 @@ BAD_INPUTS = {
     # smoothness in the loss needs windows of consecutive frames
     "train smoothness of a single-frame model": (_train("train.smoothness=1", "model.name=pilotnet"),
                                                  "train.smoothness needs a recurrent model"),
+    # the hue turns RGB colours only
+    "train hue of a gray input": (_train("train.hue_deg=90", "preprocess.color=gray"),
+                                  "train.hue_deg turns the hue of RGB inputs; preprocess.color is gray"),
     # d) a loss that is not finite stops training and never becomes the best checkpoint
     "train diverges": (_train("train.lr=1e30", "train.epochs=2"), "training diverged in epoch 1: the training loss is",
                        ("run/", "cache/")),
@@ -1010,6 +1013,8 @@ def test_every_numeric_config_option_is_range_checked(key, kind, check, expected
     base = {"data": str(tmp_path), **({"model": {"name": model}} if model else {})}
     if key == "train.smoothness":
         base["model"] = {"name": "lstm"}
+    if key == "train.hue_deg":  # the hue of RGB inputs
+        base["preprocess"] = {"color": "rgb"}
     if key.startswith("preprocess."):  # a model without layers: a 4096-pixel frame builds nothing large
         base["model"] = {"name": "zero"}
     worlds = OWN.get(key.removeprefix("dagger."), ("road",)) if key.startswith("dagger.") else ("road",)

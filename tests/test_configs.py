@@ -296,7 +296,7 @@ EXPECTED = {
     ],
     "track_best.yaml": [
         "donkey-linear() 3@160x120 rgb, split 0:933/933:1173, epochs 15 with patience 3, batch 128, lr 0.001, "
-        "mse, throttle weight 1, 15 extra recordings",
+        "mse, throttle weight 1, brightness 1 +- 0.25, hue +-180 deg, 15 extra recordings",
     ],
     "track_default.yaml": [
         "multimodal-lstm() 3@200x66 gray farneback flow, split 0:3000/3000:3538, epochs 8 with patience 3, batch 32, "
@@ -342,31 +342,23 @@ def run_line(cfg) -> str:
     line += f", split {cfg.split.train}/{cfg.split.val}, epochs {t.epochs}"
     line += " keeping the last" if t.keep == "last" else f" with patience {t.patience}"
     line += f", batch {t.batch_size}, lr {t.lr:g}, {t.loss}"
-    parts = [line]
-    if t.throttle_weight:
-        parts.append(f"throttle weight {t.throttle_weight:g}")
-    if t.flip:
-        parts.append("flips")
-    if t.side_cameras:
-        parts.append("side cameras")
-    if t.min_speed:
-        parts.append(f"from {t.min_speed:g} m/s")
-    if t.motion_dropout:
-        parts.append(f"motion dropout {t.motion_dropout:g}")
-    if t.target_shift_s:
-        parts.append(f"target {t.target_shift_s:g} s ahead")
-    if t.recovery_weight > 1:
-        parts.append(f"recover episodes drawn {t.recovery_weight} times")
-    if t.exclude_episodes:
-        parts.append("without " + " and ".join(t.exclude_episodes))
-    if t.views:
-        parts.append("views " + " ".join(f"{x:+g} m {y:+g} deg" for x, y in t.views))
-    if t.recovery_distance_m:
-        parts.append(f"returning within {t.recovery_distance_m:g} m")
-    if cfg.extra_data:
-        parts.append(f"{len(cfg.extra_data)} extra recordings")
-    if t.init:
-        parts.append(f"from {t.init}")
+    parts = [line] + [words for given, words in [
+        (t.throttle_weight, f"throttle weight {t.throttle_weight:g}"),
+        (t.flip, "flips"),
+        (t.side_cameras, "side cameras"),
+        (t.min_speed, f"from {t.min_speed:g} m/s"),
+        (t.motion_dropout, f"motion dropout {t.motion_dropout:g}"),
+        (t.rotation_deg, f"rotation +-{t.rotation_deg:g} deg"),
+        (t.brightness, f"brightness 1 +- {t.brightness:g}"),
+        (t.hue_deg, f"hue +-{t.hue_deg:g} deg"),
+        (t.target_shift_s, f"target {t.target_shift_s:g} s ahead"),
+        (t.recovery_weight > 1, f"recover episodes drawn {t.recovery_weight} times"),
+        (t.exclude_episodes, "without " + " and ".join(t.exclude_episodes)),
+        (t.views, "views " + " ".join(f"{x:+g} m {y:+g} deg" for x, y in t.views)),
+        (t.recovery_distance_m, f"returning within {t.recovery_distance_m or 0:g} m"),
+        (cfg.extra_data, f"{len(cfg.extra_data)} extra recordings"),
+        (t.init, f"from {t.init}"),
+    ] if given]
     return ", ".join(parts)
 
 

@@ -117,18 +117,33 @@ def no_motion(x_nhwc: np.ndarray, cfg: PreprocessConfig) -> np.ndarray:
 LUMA = {"gray": [0], "rgb": [0, 1, 2], "yuv": [0], "hsv": [2]}  # the channels that carry brightness
 
 
+def hue_turn(deg: float) -> np.ndarray:
+    """The 3x3 matrix that turns RGB colours by `deg` about the gray axis (1, 1, 1): grays stay, saturation and
+    brightness stay, the hue turns (120 degrees: red -> green -> blue -> red)."""
+    u, a = np.full(3, 1 / np.sqrt(3)), np.radians(deg)
+    cross = np.array([[0, -u[2], u[1]], [u[2], 0, -u[0]], [-u[1], u[0], 0]])
+    return (np.cos(a) * np.eye(3) + np.sin(a) * cross + (1 - np.cos(a)) * np.outer(u, u)).astype(np.float32)
+
+
 def augment(x_nhwc: np.ndarray, cfg: PreprocessConfig, rng: np.random.Generator, rotation_deg: float,
-            brightness: float) -> np.ndarray:
+            brightness: float, hue_deg: float = 0.0) -> np.ndarray:
     """Training augmentation of paper 002 IV-B1, in place on unstandardised inputs:
 
     - rotation: every sample is turned about the image centre by an angle drawn from +-rotation_deg (camera
       vibration); every channel turns with it, and flow vectors are turned by the same angle;
     - brightness: the brightness channels of the image (gray, RGB, Y of YUV, V of HSV) are scaled by a factor
-      drawn from 1 +- brightness, clipped to 0..255."""
+      drawn from 1 +- brightness, clipped to 0..255;
+    - hue (RGB inputs): the colours of every frame of the sample turned about the gray axis by an angle drawn
+      from +-hue_deg (`hue_turn`), clipped to 0..255: tape, paint and floors of colours the recordings lack."""
     h, w = x_nhwc.shape[1:3]
     flow = _first_channel(cfg, "flow") if "flow" in cfg.modalities else None
     luma = [f * cfg.image_channels + c for f in range(cfg.stack) for c in LUMA[cfg.color]]
     for i in range(len(x_nhwc)):
+        if hue_deg:
+            turn = hue_turn(rng.uniform(-hue_deg, hue_deg)).T
+            for f in range(cfg.stack):  # the image's channels come first
+                rgb = x_nhwc[i, ..., 3 * f: 3 * f + 3]
+                rgb[...] = np.clip(rgb @ turn, 0, 255)
         if rotation_deg:
             m = cv2.getRotationMatrix2D((w / 2, h / 2), rng.uniform(-rotation_deg, rotation_deg), 1.0)
             turned = cv2.warpAffine(x_nhwc[i], m, (w, h), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)

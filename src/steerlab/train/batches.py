@@ -52,7 +52,7 @@ class FrameBatches(Dataset):
     `throttle` the recorded "throttle". Windows (B, T) come back with a time axis: (B, T, ...)."""
 
     def __init__(self, sources: list[tuple[CompiledDataset, np.ndarray]], stats: dict, speed_history: int = 0,
-                 rotation_deg: float = 0.0, brightness: float = 0.0, throttle: bool = False):
+                 rotation_deg: float = 0.0, brightness: float = 0.0, throttle: bool = False, hue_deg: float = 0.0):
         self.sources, self.cfg, self.standardize = sources, sources[0][0].config, Standardizer(stats)
         self.offsets = np.cumsum([0] + [len(ds) for ds, _ in sources])
         self.local_starts = [segment_starts(ds.labels["segment"]) for ds, _ in sources]
@@ -72,6 +72,7 @@ class FrameBatches(Dataset):
                                     "(train.throttle_weight=0 learns the steering alone)")
             self.targets["throttle"] = np.concatenate([ds.labels["throttle"] for ds, _ in sources])
         self.speed_history, self.rotation_deg, self.brightness = speed_history, rotation_deg, brightness
+        self.hue_deg = hue_deg
 
     def steering(self, codes: np.ndarray) -> np.ndarray:
         return self._steering[codes]
@@ -100,8 +101,9 @@ class FrameBatches(Dataset):
         if batch.flip is not None and batch.flip.any():
             x[batch.flip] = flip_horizontal(x[batch.flip], self.cfg)
             y[batch.flip] *= -1
-        if batch.seed is not None and (self.rotation_deg or self.brightness):
-            x = augment(x, self.cfg, np.random.default_rng(batch.seed), self.rotation_deg, self.brightness)
+        if batch.seed is not None and (self.rotation_deg or self.brightness or self.hue_deg):
+            x = augment(x, self.cfg, np.random.default_rng(batch.seed), self.rotation_deg, self.brightness,
+                        self.hue_deg)
         inputs = {"x": self.standardize(x)}
         if self.speed_history:
             inputs["speeds"] = torch.from_numpy(

@@ -68,6 +68,8 @@ class TrainOptions(Options):
     balance: bool = option(False, help="thin out straight driving, redrawn every epoch (paper 003)")
     rotation_deg: float = option(0.0, Range(0, 180, unit="degrees"), help="augmentation (paper 002 IV-B1)")
     brightness: float = option(0.0, Range(0, 1, hi_open=True), help="brightness scaled within 1 +- this")
+    hue_deg: float = option(0.0, Range(0, 180, unit="degrees"), help="RGB inputs: the hue turned by an angle "
+                            "within +- this (colours of tape, paint and floor the recordings did not show)")
     motion_dropout: float = option(0.0, UNIT, help="fraction of samples shown 'no motion seen'")
     target_shift_s: float = option(0.0, AT_LEAST_0, help="train on the steering this many seconds ahead")
     recovery_weight: int = option(1, AT_LEAST_1, help="samples in recovery episodes are drawn this many times")
@@ -132,7 +134,11 @@ class TrainConfig(Options):
             able = ", ".join(m for m in list_models() if learns_throttle(m))
             raise SteerlabError(f"train.throttle_weight: model {self.model.name!r} does not learn a throttle; "
                                 f"these do: {able}")
-        self.model.check(self.preprocessing())  # the input fits the model's layers
+        inputs = self.preprocessing()
+        if t.hue_deg and inputs.color != "rgb":
+            raise SteerlabError(f"train.hue_deg turns the hue of RGB inputs; preprocess.color is {inputs.color}: "
+                                "set preprocess.color: rgb or train.hue_deg: 0")
+        self.model.check(inputs)  # the input fits the model's layers
 
     def inputs(self) -> list[str]:
         """Every path the run reads: recordings, a label file or video log, checkpoints. No output may be one."""

@@ -271,7 +271,8 @@ def build(cfg: TrainConfig, ranks: Ranks, progress: bool, init: dict | None, tea
         model.load_state_dict(_with_throttle_row(init["state_dict"], model.state_dict(), t.init, ranks.main))
     if (model.targets or model.speed_history) and "speed" not in ds.labels:
         raise SteerlabError(f"model {cfg.model.name!r} needs a recording with speed; {ds.meta['source']} has none")
-    data = FrameBatches(sources, stats, model.speed_history, t.rotation_deg, t.brightness, model.learns_throttle)
+    data = FrameBatches(sources, stats, model.speed_history, t.rotation_deg, t.brightness, model.learns_throttle,
+                        t.hue_deg)
     samples = train_codes
     if model.recurrent:
         samples = sequence_windows(train_codes, data.starts, model.seq_len)
