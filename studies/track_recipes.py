@@ -1,8 +1,9 @@
 """Racing the track world: recipes chosen in the closed loop, and donkeycar's own linear model beside them.
 
 Every recipe trains on the same tubs: the racing expert recorded with `steerlab sim record --world track` on tracks
-1-4 in both styles (taped and a painted centre line), 2 minutes each (recorded here where they are missing, with
-the commands of configs/track_best.yaml's header). A recipe is the config `BASE` (donkeycar linear's recipe written
+1-4 in both styles (taped and a painted centre line), 2 minutes each (recorded here where they are missing), or, for
+a recipe with `tubs` and `only` (`rooms` and the recipes on it), on tracks 5-20 in rooms of their own, one minute
+each (configs/track_best.yaml's header records these). A recipe is the config `BASE` (donkeycar linear's recipe written
 as a steerlab config) with a few `section.key=value` overrides (`RECIPES`): one factor at a time from donkeycar's
 recipe towards steerlab's tub default, and the levers of small-car racing. Each trains with every `--seeds` seed
 (`train.seed`) and races the track suite `--suite` (default s1, the selection tracks; t1 scores) at every
