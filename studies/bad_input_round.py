@@ -3,8 +3,8 @@ of the build on PYTHONPATH; each classified as handled (refused in one line, tak
 failures: lost (an input changed or gone), traceback, silent (taken without a word where it should be refused or
 said), unclear (refused, but not in one line naming what is wrong), hang.
 
-The fixtures are those of tests/test_bad_input.py (made in OUT_DIR/fx); every case runs in a forked process of its own with a 45 s
-limit; the counts are printed, and every input not handled is written to OUT_DIR/failures.txt.
+The fixtures are those of tests/test_bad_input.py (made in OUT_DIR/fx); every case runs in a forked process of its
+own with a 45 s limit; the counts are printed, and every input not handled is written to OUT_DIR/failures.txt.
 
 usage: PYTHONPATH=src python studies/bad_input_round.py OUT_DIR    (from the repository root; PYTHONPATH picks
 the build that is tried)"""
