@@ -597,7 +597,7 @@ BAD_INPUTS = {
                            "--smoothing must be a number in (0, 1], got -1"),
     "replay workers 0": (_with("--workers", "0", command="replay"), f"--workers must be {WORKERS.words(int)}"),
     "replay smoothing 0": (_with("--smoothing", "0", command="replay"), "--smoothing must be a number in (0, 1], got 0"),
-    "replay limit -1": (_with("--limit", "-1", command="replay"), "--limit must be positive and finite, got -1"),
+    "replay limit -1": (_with("--limit", "-1", command="replay"), "--limit must be a positive finite number, got -1"),
     "replay tub model without full lock": (
         lambda t, s: ["replay", str(made(t, "normalized", "right", "donkey")), "--data", str(tub(t / "tub")),
                       "--out", str(t / "out")],

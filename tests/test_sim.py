@@ -155,3 +155,20 @@ def test_mixed_recording_interleaves_one_road_per_type(tmp_path):
     assert abs(speed[2][0] - speed[1][-1]) < 0.1  # the second twisty chunk continues the first one's drive
     with pytest.raises(SteerlabError, match="unknown road type"):
         record(tmp_path / "x", RecordOptions(road="country,mountain", minutes=0.01), progress=False)
+
+
+def test_a_drive_plot_draws_the_intervention_limit_it_drove_with(tmp_path, monkeypatch):
+    """`sim drive --limit-m 0.4`'s path.png marks +-0.4 m on the offset axis, not the default 1 m."""
+    import matplotlib.axes
+
+    from steerlab.sim.core.driving import Trajectory
+    from steerlab.sim.road.plots import plot_trajectory
+    from steerlab.sim.road.world import make_road
+
+    drawn = []
+    monkeypatch.setattr(matplotlib.axes.Axes, "axhline", lambda ax, y=0, **kw: drawn.append(y))
+    n = 5
+    t = Trajectory(*(np.linspace(0.0, 1.0, n) for _ in range(9)))
+    plot_trajectory(tmp_path / "path.png", make_road(1, "highway", 10), {"model": t}, "title", limit_m=0.4)
+    assert drawn == [-0.4, 0.4]
+    assert (tmp_path / "path.png").stat().st_size > 0

@@ -31,7 +31,6 @@ from steerlab.sim.replay.world import MAX_HEADING_DEG, MOUNT_HEIGHT, PITCH, Repl
 RESULT_FIELDS = ["checkpoint", "recording", "segment", "frames", "km", "seconds", "speed_mps", "speed_source",
                  "autonomy", "interventions", "interventions_per_km", "mean_offset_m", "max_offset_m",
                  "mean_heading_deg", "max_heading_deg", "gamma"]
-POSITIVE_WORDS = "positive and finite"
 
 
 @dataclass(frozen=True)
@@ -40,8 +39,8 @@ class ReplayOptions(Options):
 
     speed: float | None = option(None, SPEED, help="speed in m/s (default: the recorded one, else estimated from "
                                  "the frames)")
-    limit: float | None = option(None, POSITIVE, POSITIVE_WORDS, help="road: metres off the human's path that "
-                                 "count as an intervention (default: the car's: 1 for cars, 0.3 for donkeycars)")
+    limit: float | None = option(None, POSITIVE, help="road: metres off the human's path that count as an "
+                                 "intervention (default: the car's: 1 for cars, 0.3 for donkeycars)")
     max_heading: float = option(MAX_HEADING_DEG, Range(0, 90, lo_open=True, unit="degrees"),
                                 help="road: degrees of heading error beyond which the warped view is not trusted: "
                                 "an intervention")

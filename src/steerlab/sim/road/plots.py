@@ -12,8 +12,9 @@ from steerlab.sim.core.driving import Trajectory
 from steerlab.sim.road.road import EDGE, LANE_CENTER
 
 
-def plot_trajectory(path: str | Path, road, trajs: dict[str, Trajectory], title: str) -> None:
-    """Top-down view of closed-loop drives on one road against its lane, and their lateral offsets over time."""
+def plot_trajectory(path: str | Path, road, trajs: dict[str, Trajectory], title: str, limit_m: float = 1.0) -> None:
+    """Top-down view of closed-loop drives on one road against its lane, and their lateral offsets over time with
+    the intervention limit (`limit_m` off the lane centre) drawn on both sides."""
     with figure(path, 1, 2, figsize=(13, 5), gridspec_kw={"width_ratios": [1, 1.4]},
                 margins=dict(left=0.06, right=0.99, bottom=0.1, top=0.9, wspace=0.16)) as (fig, (ax, ax2)):
         s_all = np.concatenate([t.s for t in trajs.values()])
@@ -30,7 +31,7 @@ def plot_trajectory(path: str | Path, road, trajs: dict[str, Trajectory], title:
         ax.set_xlabel("x [m]")
         ax.set_ylabel("y [m]")
         ax.legend(fontsize=7)
-        for limit in (-1.0, 1.0):
+        for limit in (-limit_m, limit_m):
             ax2.axhline(limit, color="tab:red", ls=":", lw=0.8)
         ax2.set_xlabel("time [s]")
         ax2.set_ylabel("offset from lane centre [m] (left +)")

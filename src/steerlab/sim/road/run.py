@@ -150,7 +150,7 @@ def drive(pilot, out: str | Path | None, o: DriveOptions = DriveOptions(), video
 
             plot_trajectory(out / "path.png", world.road, {pilot.name: t},
                             f"{pilot.name} on {o.road} road {o.seed}: autonomy {result.autonomy:.1f} %, "
-                            f"{interventions} interventions, mean |offset| {result.mean_abs_offset_m:.2f} m")
+                            f"{interventions} interventions, mean |offset| {result.mean_abs_offset_m:.2f} m", o.limit_m)
         write_strip(out / "frames.png", strip)
         write_json(out / "drive.json", result, meta)
     return result

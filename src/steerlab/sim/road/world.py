@@ -67,8 +67,7 @@ class DriveOptions(Options):
     road: str = option("country", _roads, ROADS, help=f"road type: {ROADS}")
     geometry: Literal["sim", "ch2"] | None = option(None, help="camera geometry (default: the checkpoint's)")
     fps: float = option(20.0, FPS, help="frames per second")
-    limit_m: float = option(1.0, POSITIVE, "positive and finite",
-                            help="metres off the lane centre that count as an intervention")
+    limit_m: float = option(1.0, POSITIVE, help="metres off the lane centre that count as an intervention")
 
     related = holds_frames("minutes")
 
