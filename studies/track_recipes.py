@@ -3,9 +3,10 @@
 Every recipe trains on the same tubs: the racing expert recorded with `steerlab sim record --world track` on tracks
 1-4 in both styles (taped and a painted centre line), 2 minutes each (recorded here where they are missing), or, for
 a recipe with `tubs` and `only` (`rooms` and the recipes on it), on tracks 5-20 in rooms of their own, one minute
-each (configs/track_best.yaml's header records these). A recipe is the config `BASE` (donkeycar linear's recipe written
-as a steerlab config) with a few `section.key=value` overrides (`RECIPES`): one factor at a time from donkeycar's
-recipe towards steerlab's tub default, and the levers of small-car racing. Each trains with every `--seeds` seed
+each (configs/track_best.yaml's header records these), or tracks 21-52, 30 s each (`rooms-32`). A recipe is the
+config `BASE` (donkeycar linear's recipe written as a steerlab config) with a few `section.key=value` overrides
+(`RECIPES`): one factor at a time from donkeycar's recipe towards steerlab's tub default, and the levers of
+small-car racing. Each trains with every `--seeds` seed
 (`train.seed`) and races the track suite `--suite` (default s1, the selection tracks; t1 scores) at every
 `--caps` throttle cap, through the donkeycar part. donkeycar's linear model, trained by donkeycar's own trainer on
 the same tubs in its own environment (`donkey train --type linear`, its default config: a random 80/20 split,
