@@ -91,6 +91,7 @@ ROOMS = tuple(name for name in AUGMENT if name.endswith("-1min"))
 AUGMENT |= {f"{style}-{seed}-30s": [style, str(seed), "--minutes", "0.5"]
             for style, seeds in (("taped", range(21, 45)), ("centre", range(45, 53))) for seed in seeds}
 ROOMS_32 = tuple(name for name in AUGMENT if name.endswith("-30s"))
+COLOUR = ("train.hue_deg=180", "train.brightness=0.25")  # the colours and light of other rooms
 CROP, GRAY_200x66 = ["preprocess.crop=[40,0,0,0]", "preprocess.height=80"], ["preprocess.width=200",
                                                                              "preprocess.height=66"]
 RECIPES = {
@@ -129,15 +130,14 @@ RECIPES = {
                     "4 centre-line; as many records)", tubs=ROOMS, only=240),
     "rooms-colour": Recipe("rooms + the colours and light of other rooms: the hue turned within +-180 degrees and "
                            "the brightness scaled within 1 +- 0.25 (train.hue_deg, train.brightness)",
-                           ("train.hue_deg=180", "train.brightness=0.25"), tubs=ROOMS, only=240),
+                           COLOUR, tubs=ROOMS, only=240),
     "rooms-colour-15": Recipe("rooms-colour trained all 15 epochs and the last kept, not stopped early on the "
                               "240-record validation block (donkeycar's trainer stops on a random 20 % of every "
                               "tub, which keeps falling: it trains 30 epochs)",
-                              ("train.hue_deg=180", "train.brightness=0.25", "train.keep=last"), tubs=ROOMS,
-                              only=240),
+                              (*COLOUR, "train.keep=last"), tubs=ROOMS, only=240),
     "rooms-32": Recipe("rooms-colour-15 on 32 tracks in 32 rooms, 30 s each (24 taped, 8 centre-line; as many "
                        "records), instead of 16 in 16, a minute each",
-                       ("train.hue_deg=180", "train.brightness=0.25", "train.keep=last"), tubs=ROOMS_32, only=240),
+                       (*COLOUR, "train.keep=last"), tubs=ROOMS_32, only=240),
     "rooms-dagger": Recipe("rooms + DAgger in the track world: 3 rounds of 4 minutes of rollouts on fresh tracks, "
                            "uncapped, the expert's labels at the car's speed, 2 epochs a round",
                            ("train.init={init}", "train.epochs=1",
