@@ -6,12 +6,11 @@ a recipe with `tubs` and `only` (`rooms` and the recipes on it), on tracks 5-20 
 each (configs/track_best.yaml's header records these), or tracks 21-52, 30 s each (`rooms-32`). A recipe is the
 config `BASE` (donkeycar linear's recipe written as a steerlab config) with a few `section.key=value` overrides
 (`RECIPES`): one factor at a time from donkeycar's recipe towards steerlab's tub default, and the levers of
-small-car racing. Each trains with every `--seeds` seed
-(`train.seed`) and races the track suite `--suite` (default s1, the selection tracks; t1 scores) at every
-`--caps` throttle cap, through the donkeycar part. donkeycar's linear model, trained by donkeycar's own trainer on
-the same tubs in its own environment (`donkey train --type linear`, its default config: a random 80/20 split,
-early stopping; `--donkeycar-runs` runs, three by default: they are not seeded), races the same tracks behind a
-pipe (`_donkey_part.py`).
+small-car racing. Each trains with every `--seeds` seed (`train.seed`) and races the track suite `--suite` (default
+s1, the selection tracks; t1 scores) at every `--caps` throttle cap, through the donkeycar part. donkeycar's linear
+model, trained by donkeycar's own trainer on the same tubs in its own environment (`donkey train --type linear`, its
+default config: a random 80/20 split, early stopping; `--donkeycar-runs` runs, three by default: they are not
+seeded), races the same tracks behind a pipe (`_donkey_part.py`).
 
 Per cap, every checkpoint is summarised over the same tracks (`track.suite.summarize`): laps, clean laps and their
 share, tracks finished, off-track events per lap and the pace over the tracks that every checkpoint compared
@@ -92,6 +91,17 @@ AUGMENT |= {f"{style}-{seed}-30s": [style, str(seed), "--minutes", "0.5"]
             for style, seeds in (("taped", range(21, 45)), ("centre", range(45, 53))) for seed in seeds}
 ROOMS_32 = tuple(name for name in AUGMENT if name.endswith("-30s"))
 COLOUR = ("train.hue_deg=180", "train.brightness=0.25")  # the colours and light of other rooms
+
+
+def dagger_rounds(epochs: int) -> tuple[str, ...]:
+    """The overrides of DAgger in the track world from the recipe a recipe `starts` with: one more epoch, then 3
+    rounds of 4 minutes of uncapped rollouts on fresh tracks, `epochs` epochs a round, s1 at 1 minute a track after
+    each."""
+    return ("train.init={init}", "train.epochs=1",
+            "dagger={world: track, suite: s1, suite_minutes: 1.0, iterations: 3, minutes: 4.0, beta: 0.5, "
+            f"beta_decay: 0.5, epochs: {epochs}, max_throttle: 1.0, seeds_from: 6000}}")
+
+
 CROP, GRAY_200x66 = ["preprocess.crop=[40,0,0,0]", "preprocess.height=80"], ["preprocess.width=200",
                                                                              "preprocess.height=66"]
 RECIPES = {
@@ -113,10 +123,7 @@ RECIPES = {
                            "train.throttle_weight=0.5")),
     # the levers of small-car racing, on donkeycar's recipe
     "dagger": Recipe("+ DAgger in the track world: 3 rounds of 4 minutes of rollouts, uncapped, the expert's labels "
-                     "at the car's speed", ("train.init={init}", "train.epochs=1",
-                                            "dagger={world: track, suite: s1, suite_minutes: 1.0, iterations: 3, "
-                                            "minutes: 4.0, beta: 0.5, beta_decay: 0.5, epochs: 3, max_throttle: 1.0, "
-                                            "seeds_from: 6000}"), starts="donkey"),
+                     "at the car's speed", dagger_rounds(3), starts="donkey"),
     "steering-step": Recipe("+ the steering's change limited to 0.1 of full lock per frame",
                             race={"steering_step": 0.1}, starts="donkey"),
     "latency": Recipe("+ a frame one tick old (a real part's latency), labels not shifted", race={"latency": 1},
@@ -140,10 +147,7 @@ RECIPES = {
                        (*COLOUR, "train.keep=last"), tubs=ROOMS_32, only=240),
     "rooms-dagger": Recipe("rooms + DAgger in the track world: 3 rounds of 4 minutes of rollouts on fresh tracks, "
                            "uncapped, the expert's labels at the car's speed, 2 epochs a round",
-                           ("train.init={init}", "train.epochs=1",
-                            "dagger={world: track, suite: s1, suite_minutes: 1.0, iterations: 3, minutes: 4.0, "
-                            "beta: 0.5, beta_decay: 0.5, epochs: 2, max_throttle: 1.0, seeds_from: 6000}"),
-                           tubs=ROOMS, only=240, starts="rooms"),
+                           dagger_rounds(2), tubs=ROOMS, only=240, starts="rooms"),
 }
 
 

@@ -167,8 +167,7 @@ def test_a_drive_plot_draws_the_intervention_limit_it_drove_with(tmp_path, monke
 
     drawn = []
     monkeypatch.setattr(matplotlib.axes.Axes, "axhline", lambda ax, y=0, **kw: drawn.append(y))
-    n = 5
-    t = Trajectory(*(np.linspace(0.0, 1.0, n) for _ in range(9)))
+    t = Trajectory(*(np.linspace(0.0, 1.0, 5) for _ in range(9)))
     plot_trajectory(tmp_path / "path.png", make_road(1, "highway", 10), {"model": t}, "title", limit_m=0.4)
     assert drawn == [-0.4, 0.4]
     assert (tmp_path / "path.png").stat().st_size > 0

@@ -120,9 +120,7 @@ LUMA = {"gray": [0], "rgb": [0, 1, 2], "yuv": [0], "hsv": [2]}  # the channels t
 def hue_turn(deg: float) -> np.ndarray:
     """The 3x3 matrix that turns RGB colours by `deg` about the gray axis (1, 1, 1): grays stay, saturation and
     brightness stay, the hue turns (120 degrees: red -> green -> blue -> red)."""
-    u, a = np.full(3, 1 / np.sqrt(3)), np.radians(deg)
-    cross = np.array([[0, -u[2], u[1]], [u[2], 0, -u[0]], [-u[1], u[0], 0]])
-    return (np.cos(a) * np.eye(3) + np.sin(a) * cross + (1 - np.cos(a)) * np.outer(u, u)).astype(np.float32)
+    return cv2.Rodrigues(np.full(3, np.radians(deg) / np.sqrt(3)))[0].astype(np.float32)
 
 
 def augment(x_nhwc: np.ndarray, cfg: PreprocessConfig, rng: np.random.Generator, rotation_deg: float,

@@ -71,8 +71,8 @@ class FrameBatches(Dataset):
                 raise SteerlabError(f"the throttle is learned from the main recording, but {missing[0]} has none "
                                     "(train.throttle_weight=0 learns the steering alone)")
             self.targets["throttle"] = np.concatenate([ds.labels["throttle"] for ds, _ in sources])
-        self.speed_history, self.rotation_deg, self.brightness = speed_history, rotation_deg, brightness
-        self.hue_deg = hue_deg
+        self.speed_history, self.rotation_deg, self.brightness, self.hue_deg = (speed_history, rotation_deg,
+                                                                               brightness, hue_deg)
 
     def steering(self, codes: np.ndarray) -> np.ndarray:
         return self._steering[codes]
