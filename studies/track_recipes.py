@@ -138,6 +138,17 @@ RECIPES = {
     "rooms-colour": Recipe("rooms + the colours and light of other rooms: the hue turned within +-180 degrees and "
                            "the brightness scaled within 1 +- 0.25 (train.hue_deg, train.brightness)",
                            COLOUR, tubs=ROOMS, only=240),
+    "rooms-colour-flip": Recipe("rooms-colour + each sample mirrored left-right with probability 0.5, its steering "
+                                "negated (paper 002 IV-B1's flips; train.flip): each tub turns one way round its "
+                                "loop, 10 of the 16 to the right",
+                                (*COLOUR, "train.flip=true"), tubs=ROOMS, only=240),
+    "flip-smooth-0.5": Recipe("rooms-colour-flip driven with its steering smoothed, s = 0.5 y + 0.5 s' (paper 002's "
+                              "exponential smoothing; --smoothing 0.5)", race={"smoothing": 0.5},
+                              starts="rooms-colour-flip"),
+    "flip-smooth-0.7": Recipe("rooms-colour-flip driven with its steering smoothed, s = 0.7 y + 0.3 s' "
+                              "(--smoothing 0.7)", race={"smoothing": 0.7}, starts="rooms-colour-flip"),
+    "flip-step": Recipe("rooms-colour-flip driven with the steering's change limited to 0.1 of full lock per frame",
+                        race={"steering_step": 0.1}, starts="rooms-colour-flip"),
     "rooms-colour-15": Recipe("rooms-colour trained all 15 epochs and the last kept, not stopped early on the "
                               "240-record validation block (donkeycar's trainer stops on a random 20 % of every "
                               "tub, which keeps falling: it trains 30 epochs)",

@@ -48,7 +48,8 @@ class TrainOptions(Options):
     batch_size: int = option(100, AT_LEAST_1)
     lr: float = option(1e-4, POSITIVE)
     patience: int = option(5, AT_LEAST_1)
-    flip: bool = False
+    flip: bool = option(False, help="mirror each sample left-right with probability 0.5, its steering negated "
+                        "(paper 002 IV-B1)")
     seed: int = option(0, SEED)
     loss: Literal[tuple(LOSSES)] = option("mse", help="mse or mae of the steering (models with a loss of their "
                                           "own keep it); the best epoch has the lowest validation RMSE or MAE")
