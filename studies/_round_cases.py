@@ -13,7 +13,7 @@ from pathlib import Path
 if len(sys.argv) != 2:
     print("usage: PYTHONPATH=src python studies/bad_input_round.py OUT_DIR", file=sys.stderr)
     sys.exit(2)
-ROOT = Path(sys.argv[1])
+ROOT = Path(sys.argv[1]).resolve()  # the cases run in WORK
 FIX = ROOT / "fx"
 WORK = ROOT / "work"
 # values an option's type takes that mean nothing for it (a new user would call them mistakes)

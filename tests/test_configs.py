@@ -3,6 +3,7 @@ input, the split and the train options, and its dagger:, closed_loop:, replay: a
 value a config writes reaches what is built. A typo in a config, or a default that changes what a config trains,
 is caught here rather than an hour into an experiment."""
 
+import sys
 from pathlib import Path
 
 import pytest
@@ -15,7 +16,8 @@ from steerlab.sim.road.suite import suite_options
 from steerlab.train.config import load_config
 from steerlab.tune.space import search_space
 
-CONFIGS = sorted((Path(__file__).parent.parent / "configs").glob("*.yaml"))
+ROOT = Path(__file__).resolve().parent.parent
+CONFIGS = sorted((ROOT / "configs").glob("*.yaml"))
 
 # The donkeycar tubs the configs train on: the two real tubs and the track world's recordings (`steerlab sim
 # record --world track` writes tubs). A tub's config gets the tub defaults under its own settings, so what such a
@@ -517,3 +519,24 @@ def test_a_donkeycar_tub_gets_the_tub_defaults_under_the_users_settings(tmp_path
     assert (cfg.train.loss, cfg.train.batch_size) == ("mse", 32)
     cfg = load_config(None, [f"data={tmp_path / 'ch2'}"])
     assert (cfg.model.name, cfg.train.loss, cfg.train.batch_size) == ("pilotnet", "mse", 100)
+
+
+def test_track_best_is_the_recipe_the_closed_loop_chose(stand_in_tubs, monkeypatch):
+    """configs/track_best.yaml trains what `studies/track_recipes.py` raced as its chosen recipe: the same tubs, input,
+    network and training options (docs/RESULTS.md, "Racing the track world")."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("track_recipes", ROOT / "studies" / "track_recipes.py")
+    recipes = importlib.util.module_from_spec(spec)
+    monkeypatch.setitem(sys.modules, spec.name, recipes)  # its dataclasses look their module up there
+    monkeypatch.setattr(sys, "path", list(sys.path))  # it puts benchmarks/ on the path
+    spec.loader.exec_module(recipes)
+    chosen = recipes.RECIPES["rooms-colour-flip"]
+    best = load_config(ROOT / "configs" / "track_best.yaml")
+    tubs = Path("runs/race/tubs")
+    raced = recipes.base(tubs) | {"data": str(tubs / chosen.tubs[0]),
+                                  "extra_data": [str(tubs / t) for t in chosen.tubs[1:]], "split": as_dict(best.split)}
+    raced = load_config(None, base=raced, overrides=[*chosen.overrides, "train.seed=0"])
+    assert [best.data, *best.extra_data] == [raced.data, *raced.extra_data]
+    for section in ("reader", "preprocess", "model", "train"):
+        assert as_dict(getattr(best, section)) == as_dict(getattr(raced, section)), section
