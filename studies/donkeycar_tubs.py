@@ -13,7 +13,8 @@ and splits it itself, as its users run it (`donkey train`, default config: 80/20
 stopping). Training time is the wall-clock time of each trainer (for steerlab both of its runs). steerlab's
 settings are its defaults for a tub (`TUB_DEFAULTS` in train/config.py: batch 32, Adam 3e-4, MAE loss, the
 throttle learned with weight 0.5 where the model can), only the model is named; multimodal-lstm is the tub
-default.
+default. `--models track-best` trains the recipe of configs/track_best.yaml (its input, network and training) on
+the same blocks instead.
 
 Each model, steerlab's and donkeycar's (its own part behind a pipe), is also replayed in closed loop on the held-out
 block with the small cars' replay (`steerlab replay --world track`: the fisheye frames warped to the car's view, the
@@ -39,6 +40,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+import yaml
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 from common import ROOT, SHARED, DonkeycarPart, donkey_car, donkey_python, machine  # noqa: E402
@@ -53,6 +55,9 @@ from steerlab.train.loop import train  # noqa: E402
 TUBS = SHARED / "donkeycar"
 OUT = ROOT / "runs" / "donkeycar-tubs"
 STEERLAB_MODELS = ["pilotnet", "cg23", "multimodal-lstm", "train-mean"]
+# a steerlab "model" of this name is a recipe: the input, network and training of configs/track_best.yaml (the
+# track world's closed loop chose it), on the tub's own blocks
+TRACK_BEST = "track-best"
 DONKEY_MODELS = ["linear"]
 FULL_LOCK_DEG = 25.0  # assumed: the tubs do not record it
 READER = {"skip_missing": True, "full_lock_deg": FULL_LOCK_DEG}
@@ -167,11 +172,15 @@ def run_steerlab(tub: Path, n: int, epochs: int, work: Path, models: list[str], 
                     break  # a baseline: nothing to select
                 run_dir = work / f"{name}-{seed}-{stage}"
                 shutil.rmtree(run_dir, ignore_errors=True)  # a fresh run: its time is what is measured
+                recipe = {"model": {"name": name}, "train": {"epochs": epochs, "patience": 5}}
+                if name == TRACK_BEST:
+                    best = yaml.safe_load((ROOT / "configs" / "track_best.yaml").read_text())
+                    recipe = {k: best[k] for k in ("preprocess", "model", "train")}
+                select = recipe["train"]["epochs"]
                 cfg = load_config(None, base={
-                    "data": str(tub), "reader": READER, "cache": str(OUT / "cache"), "out": str(run_dir),
-                    "split": split, "model": {"name": name},
-                    "train": {"epochs": n_epochs or run["epoch"], "patience": 5, "seed": seed,
-                              "keep": "best" if n_epochs else "last"}})
+                    **recipe, "data": str(tub), "reader": READER, "cache": str(OUT / "cache"), "out": str(run_dir),
+                    "split": split, "train": {**recipe["train"], "epochs": (n_epochs and select) or run["epoch"],
+                                              "seed": seed, "keep": "best" if n_epochs else "last"}})
                 t = time.time()
                 run = train(cfg, progress=False)  # the refit keeps its last epoch: its validation block is held out
                 seconds += time.time() - t
@@ -223,7 +232,7 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, default=3, help="runs of every trainer and model")
     ap.add_argument("--skip-donkey", action="store_true", help="steerlab models only")
     ap.add_argument("--models", default=",".join(STEERLAB_MODELS), help="steerlab models (comma list; default "
-                    f"{','.join(STEERLAB_MODELS)})")
+                    f"{','.join(STEERLAB_MODELS)}; {TRACK_BEST}: configs/track_best.yaml's recipe)")
     ap.add_argument("--donkey-models", default=",".join(DONKEY_MODELS), help="donkeycar models (comma list; "
                     f"default {','.join(DONKEY_MODELS)})")
     ap.add_argument("--tubs", default="hall,taped-track", help="the shared tubs to run on")
