@@ -165,22 +165,22 @@ def run_steerlab(tub: Path, n: int, epochs: int, work: Path, models: list[str], 
             key = f"steerlab {name} {seed}"
             if "mae" in results.get(key, {}):
                 continue
+            recipe = {"model": {"name": name}, "train": {"epochs": epochs, "patience": 5}}
+            if name == TRACK_BEST:
+                best = yaml.safe_load((ROOT / "configs" / "track_best.yaml").read_text())
+                recipe = {k: best[k] for k in ("preprocess", "model", "train")}
             seconds, run = 0.0, None
-            for stage, split, n_epochs in (("select", {"train": f"0:{a}", "val": f"{a}:{b}"}, epochs),
-                                           ("refit", {"train": f"0:{b}", "val": f"{b}:{n}"}, None)):
+            stages = (("select", {"train": f"0:{a}", "val": f"{a}:{b}"}, recipe["train"]["epochs"]),
+                      ("refit", {"train": f"0:{b}", "val": f"{b}:{n}"}, None))
+            for stage, split, n_epochs in stages:
                 if stage == "refit" and run.get("epoch", 0) == 0:
                     break  # a baseline: nothing to select
                 run_dir = work / f"{name}-{seed}-{stage}"
                 shutil.rmtree(run_dir, ignore_errors=True)  # a fresh run: its time is what is measured
-                recipe = {"model": {"name": name}, "train": {"epochs": epochs, "patience": 5}}
-                if name == TRACK_BEST:
-                    best = yaml.safe_load((ROOT / "configs" / "track_best.yaml").read_text())
-                    recipe = {k: best[k] for k in ("preprocess", "model", "train")}
-                select = recipe["train"]["epochs"]
                 cfg = load_config(None, base={
                     **recipe, "data": str(tub), "reader": READER, "cache": str(OUT / "cache"), "out": str(run_dir),
-                    "split": split, "train": {**recipe["train"], "epochs": (n_epochs and select) or run["epoch"],
-                                              "seed": seed, "keep": "best" if n_epochs else "last"}})
+                    "split": split, "train": {**recipe["train"], "epochs": n_epochs or run["epoch"], "seed": seed,
+                                              "keep": "best" if n_epochs else "last"}})
                 t = time.time()
                 run = train(cfg, progress=False)  # the refit keeps its last epoch: its validation block is held out
                 seconds += time.time() - t

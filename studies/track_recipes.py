@@ -172,6 +172,13 @@ def record_tubs(tubs: Path, names) -> None:
                             "--seed", seed, *minutes, *extra, "--out", str(tubs / name)], check=True)
 
 
+def recipe_base(name: str, tubs: Path) -> dict:
+    """`base` on the tubs the recipe trains on (`recipe_tubs`); with `only`, the split is set where they are
+    recorded."""
+    first, *rest = recipe_tubs(name)
+    return base(tubs) | {"data": str(tubs / first), "extra_data": [str(tubs / t) for t in rest]}
+
+
 def train_recipe(name: str, seed: int, out: Path, tubs: Path) -> Path:
     """The recipe's checkpoint for `seed` (trained once; an interrupted training resumes; DAgger where the recipe
     has a `dagger` section)."""
@@ -187,13 +194,10 @@ def train_recipe(name: str, seed: int, out: Path, tubs: Path) -> Path:
     if not (run / "done.json").exists():
         print(f"== training {name}, seed {seed}", flush=True)
         record_tubs(tubs, recipe.tubs)
-        cfg = base(tubs)
-        cfg["extra_data"] += [str(tubs / t) for t in recipe.tubs]
+        cfg = recipe_base(name, tubs)
         if recipe.only:
-            first, *rest = recipe.tubs
-            usable = len(open_recording(str(tubs / first), options=cfg["reader"]))
-            cfg.update(data=str(tubs / first), extra_data=[str(tubs / t) for t in rest],
-                       split={"train": f"0:{usable - recipe.only}", "val": f"{usable - recipe.only}:{usable}"})
+            usable = len(open_recording(cfg["data"], options=cfg["reader"]))
+            cfg["split"] = {"train": f"0:{usable - recipe.only}", "val": f"{usable - recipe.only}:{usable}"}
         cfg = load_config(None, base=cfg, overrides=[*(o.replace("{init}", str(init)) for o in recipe.overrides),
                                                      f"train.seed={seed}", f"out={run}"])
         metrics = run_dagger(cfg, progress=False) if cfg.dagger else train(cfg, progress=False)

@@ -531,12 +531,10 @@ def test_track_best_is_the_recipe_the_closed_loop_chose(stand_in_tubs, monkeypat
     monkeypatch.setitem(sys.modules, spec.name, recipes)  # its dataclasses look their module up there
     monkeypatch.setattr(sys, "path", list(sys.path))  # it puts benchmarks/ on the path
     spec.loader.exec_module(recipes)
-    chosen = recipes.RECIPES["rooms-colour-flip"]
     best = load_config(ROOT / "configs" / "track_best.yaml")
-    tubs = Path("runs/race/tubs")
-    raced = recipes.base(tubs) | {"data": str(tubs / chosen.tubs[0]),
-                                  "extra_data": [str(tubs / t) for t in chosen.tubs[1:]], "split": as_dict(best.split)}
-    raced = load_config(None, base=raced, overrides=[*chosen.overrides, "train.seed=0"])
+    raced = recipes.recipe_base("rooms-colour-flip", Path("runs/race/tubs")) | {"split": as_dict(best.split)}
+    overrides = recipes.RECIPES["rooms-colour-flip"].overrides
+    raced = load_config(None, base=raced, overrides=[*overrides, "train.seed=0"])
     assert [best.data, *best.extra_data] == [raced.data, *raced.extra_data]
     for section in ("reader", "preprocess", "model", "train"):
         assert as_dict(getattr(best, section)) == as_dict(getattr(raced, section)), section
