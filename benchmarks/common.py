@@ -178,10 +178,12 @@ def donkey_car(python: Path, car: Path) -> Path:
 
 class DonkeycarPart:
     """donkeycar's own pilot part for a model of `kind` trained by `donkey train`, run in donkeycar's environment:
-    `run(img_arr)` sends the frame down a pipe and returns the part's (angle, throttle), the throttle capped."""
+    `run(img_arr)` sends the frame down a pipe and returns the part's (angle, throttle), the throttle times
+    `throttle_scale` (donkeycar's AI_THROTTLE_MULT) and capped."""
 
-    def __init__(self, python: Path, car: Path, model: Path, log: Path, max_throttle: float, kind: str = "linear"):
-        self.log, self.max_throttle = log, max_throttle
+    def __init__(self, python: Path, car: Path, model: Path, log: Path, max_throttle: float,
+                 throttle_scale: float = 1.0, kind: str = "linear"):
+        self.log, self.max_throttle, self.throttle_scale = log, max_throttle, throttle_scale
         self.stderr = open(log, "wb")
         self.process = subprocess.Popen([str(python), str(ROOT / "studies" / "_donkey_part.py"),
                                          str(car / "config.py"), str(model), kind], cwd=car,
@@ -196,7 +198,7 @@ class DonkeycarPart:
         if len(answer) != 16:
             raise RuntimeError(f"donkeycar's part stopped; see {self.log}")
         angle, throttle = (float(v) for v in np.frombuffer(answer, np.float64))
-        return angle, float(np.clip(throttle, -self.max_throttle, self.max_throttle))
+        return angle, float(np.clip(self.throttle_scale * throttle, -self.max_throttle, self.max_throttle))
 
     def close(self) -> None:
         self.process.stdin.close()

@@ -144,7 +144,7 @@ def replay_donkey(python: Path, car: Path, model: Path, kind: str, tub: Path, b:
 
     rec = Source(str(tub), reader=READER).open()
     replay = TrackReplayOptions(workers=1).setup(rec).replay
-    part = DonkeycarPart(python, car, model, log.with_suffix(".part.log"), 1.0, kind)
+    part = DonkeycarPart(python, car, model, log.with_suffix(".part.log"), 1.0, kind=kind)
     try:
         rows, _ = replay_recording(PartPilot(part, FULL_LOCK_DEG, name=f"donkeycar {kind}", source=str(model)),
                                    replay, rec, np.arange(b, n))

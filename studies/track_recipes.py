@@ -51,9 +51,9 @@ DONKEYCAR = "donkeycar"          # the label of donkeycar's own runs
 
 def base(tubs: Path) -> dict:
     """donkeycar linear's recipe as a steerlab config: its network (`donkey-linear`) on the whole 160x120 RGB
-    frame, the MSE of the steering and the throttle's error with weight 1, batches of 128, Adam 1e-3, early
-    stopping with patience 3 (at most 15 epochs); validation on a block (the last 538 records of the first taped
-    tub)."""
+    frame, the MSE of the steering plus the MAE of the throttle with weight 1 (donkeycar's trainer: the MSE of
+    both), batches of 128, Adam 1e-3, early stopping with patience 3 (at most 15 epochs); validation on a block (the
+    last 538 records of the first taped tub)."""
     return {"data": str(tubs / TUBS[0]), "extra_data": [str(tubs / t) for t in TUBS[1:]],
             "reader": {"full_lock_deg": CARS["donkey"].full_lock_deg}, "cache": str(tubs.parent / "cache"),
             "preprocess": {"crop": [0, 0, 0, 0], "width": 160, "height": 120, "color": "rgb"},
@@ -149,6 +149,14 @@ RECIPES = {
                               "(--smoothing 0.7)", race={"smoothing": 0.7}, starts="rooms-colour-flip"),
     "flip-step": Recipe("rooms-colour-flip driven with the steering's change limited to 0.1 of full lock per frame",
                         race={"steering_step": 0.1}, starts="rooms-colour-flip"),
+    "flip-mae": Recipe("rooms-colour-flip trained on the MAE of the steering (the tub default's loss) instead of "
+                       "its MSE (the throttle's error is the MAE in both)",
+                       (*COLOUR, "train.flip=true", "train.loss=mae"), tubs=ROOMS, only=240),
+    "flip-throttle-1.2": Recipe("rooms-colour-flip driven with its learned throttle times 1.2 before the cap "
+                                "(--throttle-scale 1.2, donkeycar's AI_THROTTLE_MULT)", race={"throttle_scale": 1.2},
+                                starts="rooms-colour-flip"),
+    "flip-throttle-1.5": Recipe("rooms-colour-flip driven with its learned throttle times 1.5 before the cap "
+                                "(--throttle-scale 1.5)", race={"throttle_scale": 1.5}, starts="rooms-colour-flip"),
     "rooms-colour-15": Recipe("rooms-colour trained all 15 epochs and the last kept, not stopped early on the "
                               "240-record validation block (donkeycar's trainer stops on a random 20 % of every "
                               "tub, which keeps falling: it trains 30 epochs)",
@@ -233,7 +241,7 @@ def donkey_models(out: Path, tubs: Path, runs: int, names: tuple[str, ...] = tup
 
 def race_donkeycar(car: Path, models: list[Path], out: Path, o: TrackSuiteOptions, label: str = DONKEYCAR) -> list:
     """donkeycar's models on every track of the suite, as suite rows against the expert's drives under the same
-    cap (drives kept in `out` and reused)."""
+    cap (drives kept in `out` and reused), their throttle times `o.throttle_scale` before the cap."""
     python = donkey_python()
     rows = []
     for style, seed in o.drives():
@@ -245,7 +253,7 @@ def race_donkeycar(car: Path, models: list[Path], out: Path, o: TrackSuiteOption
         for k, model in enumerate(models):
             folder = out / f"run{k}" / f"{style}-{seed}"
             if not (folder / "drive.json").exists():
-                part = DonkeycarPart(python, car, model, out / "part.log", o.max_throttle)
+                part = DonkeycarPart(python, car, model, out / "part.log", o.max_throttle, o.throttle_scale)
                 try:
                     drive(PartPilot(part, CARS["donkey"].full_lock_deg, name=DONKEYCAR, source=str(model)), folder, d,
                           progress=False, plot=False)
@@ -309,6 +317,8 @@ def main() -> None:
     ap.add_argument("--donkeycar-runs", type=int, default=3, help="how many runs of donkeycar's trainer race")
     ap.add_argument("--donkeycar-tubs", default="donkey", help="the recipe whose tubs donkeycar's trainer trains on "
                     "(default: the 8 tubs of donkeycar's recipe)")
+    ap.add_argument("--donkeycar-throttle-scale", type=float, default=1.0, help="donkeycar's throttle times this "
+                    "before the cap (its AI_THROTTLE_MULT; default 1, its config's)")
     ap.add_argument("--workers", type=int, default=2, help="tracks driven in parallel")
     ap.add_argument("--out", default=str(ROOT / "runs" / "race"))
     ap.add_argument("--table", default="table", help="the name of the table files in OUT (.md, .csv, .json)")
@@ -326,13 +336,15 @@ def main() -> None:
         for cap in caps:
             race(ckpts, out / f"{a.suite}-max{cap:g}" / name, suite_options(name, a.suite, cap, a.workers))
     suffix = "" if a.donkeycar_tubs == "donkey" else f"-{a.donkeycar_tubs}"  # donkeycar on another recipe's tubs
-    folder, donkey = f"{DONKEYCAR}{suffix}", None
+    scaled = "" if a.donkeycar_throttle_scale == 1 else f"-throttle-{a.donkeycar_throttle_scale:g}"
+    folder, donkey = f"{DONKEYCAR}{suffix}{scaled}", None
     if a.donkeycar:
         record_tubs(tubs, recipe_tubs(a.donkeycar_tubs))
         donkey = donkey_models(out, tubs, a.donkeycar_runs, recipe_tubs(a.donkeycar_tubs), f"donkey{suffix}")
     results = []
     for cap in caps:
-        o = TrackSuiteOptions(suite=a.suite, max_throttle=cap, workers=a.workers)
+        o = TrackSuiteOptions(suite=a.suite, max_throttle=cap, workers=a.workers,
+                              throttle_scale=a.donkeycar_throttle_scale)
         suite = out / f"{a.suite}-max{cap:g}"
         rows = [replace(r, label=f"{name}/{r.label}") for name in recipes
                 for r in race([train_recipe(name, int(seed), out, tubs) for seed in a.seeds.split(",")],

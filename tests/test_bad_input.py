@@ -1228,7 +1228,7 @@ def test_the_donkeycar_part_refuses_options_it_cannot_use(tmp_path):
                                               r"got 0"),
                              ({"threads": 1.5}, r"threads must be an integer in \[1, \d+\] \(this machine's cores\), "
                                                 r"got 1.5"),
-                             ({"throttle_scale": -1}, r"throttle_scale must be a number in \[0, 10\], got -1")]:
+                             ({"throttle_scale": 0}, r"throttle_scale must be a number in \(0, 10\], got 0")]:
         with pytest.raises(SteerlabError, match=message):
             SteerlabPilot(learned, **options)
 

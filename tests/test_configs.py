@@ -523,7 +523,8 @@ def test_a_donkeycar_tub_gets_the_tub_defaults_under_the_users_settings(tmp_path
 
 def test_track_best_is_the_recipe_the_closed_loop_chose(stand_in_tubs, monkeypatch):
     """configs/track_best.yaml trains what `studies/track_recipes.py` raced as its chosen recipe: the same tubs, input,
-    network and training options (docs/RESULTS.md, "Racing the track world")."""
+    network and training options, and the races of its header drive as the recipe raced (its throttle scale;
+    docs/RESULTS.md, "Racing the track world")."""
     import importlib.util
 
     spec = importlib.util.spec_from_file_location("track_recipes", ROOT / "studies" / "track_recipes.py")
@@ -532,8 +533,14 @@ def test_track_best_is_the_recipe_the_closed_loop_chose(stand_in_tubs, monkeypat
     monkeypatch.setattr(sys, "path", list(sys.path))  # it puts benchmarks/ on the path
     spec.loader.exec_module(recipes)
     best = load_config(ROOT / "configs" / "track_best.yaml")
-    raced = recipes.recipe_base("rooms-colour-flip", Path("runs/race/tubs")) | {"split": as_dict(best.split)}
-    overrides = recipes.RECIPES["rooms-colour-flip"].overrides
+    chosen = recipes.RECIPES["flip-throttle-1.2"]
+    trained = chosen.starts
+    assert not chosen.overrides and set(chosen.race) == {"throttle_scale"}
+    benches = [line for line in (ROOT / "configs" / "track_best.yaml").read_text().split("\n#   .venv/bin/steerlab ")
+               if line.startswith("sim bench")]
+    assert len(benches) == 2 and all(f"--throttle-scale {chosen.race['throttle_scale']:g} " in b for b in benches)
+    raced = recipes.recipe_base(trained, Path("runs/race/tubs")) | {"split": as_dict(best.split)}
+    overrides = recipes.RECIPES[trained].overrides
     raced = load_config(None, base=raced, overrides=[*overrides, "train.seed=0"])
     assert [best.data, *best.extra_data] == [raced.data, *raced.extra_data]
     for section in ("reader", "preprocess", "model", "train"):

@@ -292,6 +292,29 @@ def test_a_model_that_learned_the_throttle_drives_the_track_with_its_own(tmp_pat
     assert max(capped) <= steady_speed(0.05, 1 / 20, CARS["donkey"]) + 1e-4 < max(speeds[0])
 
 
+def test_the_throttle_scale_multiplies_the_learned_throttle_before_the_cap(tmp_path):
+    """--throttle-scale (donkeycar's AI_THROTTLE_MULT): the part's throttle is the model's times the scale, then
+    capped; a scale of 0.1 under a cap of 1 drives no faster than a tenth of the model's largest throttle holds."""
+    from steerlab.pilot import Pilot
+
+    ckpt = made(tmp_path, "normalized", "right", "donkey", full_lock_deg=25, throttle=True)
+    frame = TrackWorld(9401, 0.9, "taped", 20.0).render()
+    learned = Pilot(ckpt).step(frame, 0.0).throttle
+    assert learned > 0
+    for scale, cap, expected in [(1.0, 1.0, learned), (0.5, 1.0, 0.5 * learned), (3.0, 1.0, min(3 * learned, 1.0)),
+                                 (2.0, learned, learned)]:
+        got = donkey_pilot(ckpt, 0.3, max_throttle=cap, throttle_scale=scale).step(frame, 0.0).throttle
+        assert got == pytest.approx(expected, abs=1e-5)
+    speeds = {}
+    for scale in ("1", "0.1"):
+        out = tmp_path / scale
+        assert main(["sim", "drive", str(ckpt), "--world", "track", "--minutes", "0.02", "--max-throttle", "1",
+                     "--throttle-scale", scale, "--out", str(out)]) == 0
+        with open(out / "trajectory.csv") as f:
+            speeds[scale] = max(float(r["speed"]) for r in csv.DictReader(f))
+    assert 0 < speeds["0.1"] < speeds["1"] / 2
+
+
 def test_sim_bench_world_track_writes_its_tables_and_reuses_drives(tmp_path, capsys):
     (tmp_path / "a").mkdir()
     ckpt = made(tmp_path / "a", "normalized", "right", "donkey", name="best.pt", full_lock_deg=25)
@@ -320,6 +343,10 @@ def test_sim_bench_world_track_writes_its_tables_and_reuses_drives(tmp_path, cap
     assert (out / "a" / "centre-9451" / "drive.json").stat().st_mtime_ns == stamp
     assert main([*argv, "--throttle", "0.4"]) == 0  # another throttle: driven anew
     assert (out / "a" / "centre-9451" / "drive.json").stat().st_mtime_ns != stamp
+    assert "throttle_scale" not in key  # at its default: drives kept before the option existed stay reusable
+    assert main([*argv, "--throttle-scale", "1.5"]) == 0
+    key = json.loads((out / "a" / "centre-9451" / "drive.json").read_text())["cache_key"]
+    assert key["throttle_scale"] == 1.5 and "(the learned one times 1.5 first)" in (out / "suite.md").read_text()
 
 
 def test_the_suites_tracks_are_recorded_only_for_evaluation(tmp_path):

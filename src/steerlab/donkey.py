@@ -105,7 +105,7 @@ class SteerlabPilot:
                  clock: Callable[[], float] = time.monotonic):
         forced = throttle is not None
         self.throttle = _check("throttle", DEFAULT_THROTTLE if throttle is None else throttle, 0.0, 1.0)
-        self.throttle_scale = _check("throttle_scale", throttle_scale, 0.0, 10.0)
+        self.throttle_scale = _check("throttle_scale", throttle_scale, 0.0, 10.0, low_open=True)
         self.full_lock = None if full_lock_deg is None else math.radians(
             _check("full_lock_deg", full_lock_deg, 0.0, 89.0, low_open=True))
         if smoothing is not None:

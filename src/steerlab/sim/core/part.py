@@ -63,16 +63,18 @@ class PartPilot:
 
 
 def donkey_pilot(checkpoint: str | Path, throttle: float, smoothing: float | None = None, max_throttle: float = 0.5,
-                 car: Car = CARS["donkey"], steering_step: float | None = None) -> PartPilot:
+                 car: Car = CARS["donkey"], steering_step: float | None = None,
+                 throttle_scale: float = 1.0) -> PartPilot:
     """steerlab's donkeycar part on `checkpoint` driving `car`: its full lock turns the angles of models trained
     on angles into servo commands, `throttle` is the part's constant throttle for models that predict none (a
-    model that learned the throttle drives with its own, capped at `max_throttle`), `smoothing` and `steering_step`
-    shape its steering as the Pilot's do, the measured speed is its
-    second input (speed models need it), and it forgets the past when the world puts the car back, not after a gap
-    in wall-clock time (a simulation keeps no wall-clock pace)."""
+    model that learned the throttle drives with its own times `throttle_scale`, capped at `max_throttle`),
+    `smoothing` and `steering_step` shape its steering as the Pilot's do, the measured speed is its second input
+    (speed models need it), and it forgets the past when the world puts the car back, not after a gap in
+    wall-clock time (a simulation keeps no wall-clock pace)."""
     def part_with(constant: float | None) -> SteerlabPilot:
         return SteerlabPilot(checkpoint, constant, full_lock_deg=car.full_lock_deg, smoothing=smoothing,
-                             steering_step=steering_step, max_throttle=max_throttle, reset_after_s=None)
+                             steering_step=steering_step, max_throttle=max_throttle, reset_after_s=None,
+                             throttle_scale=throttle_scale)
 
     part = part_with(None)  # the learned throttle of a model that learned one
     if not part.learned:

@@ -13,7 +13,7 @@ import dataclasses
 import hashlib
 import json
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 from steerlab import files
@@ -68,9 +68,10 @@ def file_sha256(path: Path) -> str:
 
 
 def when_set(options, *names: str) -> dict:
-    """The options `names` that are set (not None, not 0): what a cache key adds of options that came after drives
-    were first kept, so that those drives stay reusable."""
-    return {n: getattr(options, n) for n in names if getattr(options, n) not in (None, 0)}
+    """The options `names` that are set (not at their defaults): what a cache key adds of options that came after
+    drives were first kept, so that those drives stay reusable."""
+    default = {f.name: f.default for f in fields(options)}
+    return {n: getattr(options, n) for n in names if getattr(options, n) != default[n]}
 
 
 def as_stored(key: dict) -> dict:

@@ -176,11 +176,12 @@ def drive_checkpoint(checkpoint: str | Path, out: str | Path | None, o: TrackDri
                      video: str | Path | None = None, progress: bool = True, on_tick=None, plot: bool = True,
                      meta: dict | None = None) -> TrackDrive:
     """`drive` with steerlab's donkeycar part on `checkpoint` (`core.part.donkey_pilot`: the constant throttle
-    `o.throttle` for a model that predicts none, its learned throttle capped at `o.max_throttle`, its steering
-    shaped as `w` says)."""
+    `o.throttle` for a model that predicts none, its learned throttle times `o.throttle_scale` capped at
+    `o.max_throttle`, its steering shaped as `w` says)."""
     from steerlab.sim.core.part import donkey_pilot
 
-    pilot = donkey_pilot(checkpoint, o.throttle, w.smoothing, o.max_throttle, steering_step=w.steering_step)
+    pilot = donkey_pilot(checkpoint, o.throttle, w.smoothing, o.max_throttle, steering_step=w.steering_step,
+                         throttle_scale=o.throttle_scale)
     return drive(pilot, out, o, video, progress, on_tick, plot, meta)
 
 
@@ -232,12 +233,12 @@ def rollout(pilot, out: str | Path, seed: int, minutes: float, style: str = "tap
 def rollout_job(checkpoint: str, out: str, seed: int, minutes: float, style: str, beta: float, camera: FisheyeCamera,
                 suite) -> TrackDrive:
     """A DAgger rollout in a worker process: the model races through the donkeycar part as the round's track suite
-    drives it (`suite`: its options; the constant throttle, the cap of the learned throttle and of the labels,
+    drives it (`suite`: its options; the constant throttle, the learned throttle's scale, its cap and the labels',
     smoothing, steering step and latency), seen through the recording's fisheye."""
     from steerlab.sim.core.part import donkey_pilot
 
     pilot = donkey_pilot(checkpoint, suite.throttle, suite.smoothing, suite.max_throttle,
-                         steering_step=suite.steering_step)
+                         steering_step=suite.steering_step, throttle_scale=suite.throttle_scale)
     return rollout(pilot, out, seed, minutes, style, beta, camera, on_tick=tick_reporter(),
                    max_throttle=suite.max_throttle, latency=suite.latency)
 

@@ -37,7 +37,8 @@ from steerlab.sim.core.suite import (Planned, as_stored, checkpoints_to_drive, f
                                      when_set, write_csv)
 from steerlab.sim.track.run import TrackDrive, drive_checkpoint, drive_expert
 from steerlab.sim.track.world import (TrackDriveOptions, TrackRecordOptions, calibration_option, camera_of,
-                                      latency_option, max_throttle_option, throttle_option)
+                                      latency_option, max_throttle_option, throttle_option,
+                                      throttle_scale_option)
 
 TRACK_SUITES = {
     # 8 tracks of 2 minutes, 0.9 m lanes: six taped, two with a painted centre line (28-54 m laps; the expert
@@ -64,6 +65,7 @@ class TrackSuiteOptions(Options):
     styles: str | None = option(None, help="comma list of the suite's track styles to drive (default: all)")
     throttle: float = throttle_option()
     max_throttle: float = max_throttle_option()
+    throttle_scale: float = throttle_scale_option()
     latency: int = latency_option()
     calibration: str | None = calibration_option()
 
@@ -85,7 +87,8 @@ class TrackSuiteOptions(Options):
 
     def drive_options(self, style: str, seed: int) -> TrackDriveOptions:
         return TrackDriveOptions(seed, self.track_minutes, FPS, 0.0, TRACK_SUITES[self.suite]["lane_width"], style,
-                                 self.calibration, self.throttle, self.max_throttle, self.latency)
+                                 self.calibration, self.throttle, self.max_throttle, self.latency,
+                                 self.throttle_scale)
 
     def expert_folder(self) -> str:
         """The folder of the expert's drives under this cap."""
@@ -102,13 +105,13 @@ class TrackSuiteOptions(Options):
     def key(self, checkpoint: Path) -> dict:
         """Everything that changes a drive's result besides its track: the checkpoint's content, the suite
         version, minutes, smoothing, the constant throttle, the learned throttle's cap, the camera's calibration
-        (its K and D), and where set the steering step and the latency (drives made before they existed stay
-        reusable)."""
+        (its K and D), and where set the steering step, the latency and the throttle's scale (drives made before
+        they existed stay reusable)."""
         camera = None if self.calibration is None else list(astuple(camera_of(self.calibration)))
         return as_stored({"checkpoint_sha256": file_sha256(checkpoint), "suite": self.suite,
                           "minutes": self.track_minutes, "smoothing": self.smoothing, "throttle": self.throttle,
                           "max_throttle": self.max_throttle, "camera": camera,
-                          **when_set(self, "steering_step", "latency")})
+                          **when_set(self, "steering_step", "latency", "throttle_scale")})
 
 
 @dataclass(frozen=True)
@@ -266,8 +269,9 @@ def _num(v, fmt: str) -> str:
 
 
 def markdown(summary: list[SuiteSummary], drives: list[SuiteDrive], o: TrackSuiteOptions) -> str:
+    scaled = "" if o.throttle_scale == 1 else f" (the learned one times {o.throttle_scale:g} first)"
     lines = [f"Track suite {o.suite}: {o.track_minutes:g} min per track, {TRACK_SUITES[o.suite]['lane_width']:g} m "
-             f"lanes, the learned throttle and the expert's capped at {o.max_throttle:g}, constant throttle "
+             f"lanes, the learned throttle and the expert's capped at {o.max_throttle:g}{scaled}, constant throttle "
              f"{o.throttle:g} for models that predict none. A lap is clean without an off-track event (the first "
              "starts standing); a track is finished with a clean lap; pace: mean clean lap over the expert's on the "
              "same track, the summary's over the tracks every checkpoint finished (their number beside it); "

@@ -72,6 +72,12 @@ def max_throttle_option():
                   "expert's on the suite (the donkeycar part's max_throttle; 1: uncapped)")
 
 
+def throttle_scale_option():
+    """The option of every track command that drives a model: the gain of its learned throttle."""
+    return option(1.0, Range(0, 10, lo_open=True), help="the learned throttle times this before the cap (donkeycar's "
+                  "AI_THROTTLE_MULT): more speed where the model slows")
+
+
 def latency_option():
     """The option of every track command that drives a model: the age of the frame it steers on."""
     return option(0, Range(0, 20), help="ticks the frame the model steers on is late (a real part's camera and "
@@ -121,6 +127,7 @@ class TrackDriveOptions(Options):
     throttle: float = throttle_option()
     max_throttle: float = max_throttle_option()
     latency: int = latency_option()
+    throttle_scale: float = throttle_scale_option()
 
     related = holds_frames("minutes")
 
