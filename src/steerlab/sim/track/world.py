@@ -74,8 +74,8 @@ def max_throttle_option():
 
 def throttle_scale_option():
     """The option of every track command that drives a model: the gain of its learned throttle."""
-    return option(1.0, Range(0, 10, lo_open=True), help="the learned throttle times this before the cap (donkeycar's "
-                  "AI_THROTTLE_MULT): more speed where the model slows")
+    return option(1.0, Range(0, 10, lo_open=True), help="the learned throttle times this, then capped: more speed "
+                  "where the model slows (as donkeycar's AI_THROTTLE_MULT, which scales after the cap)")
 
 
 def latency_option():
