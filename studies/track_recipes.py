@@ -152,6 +152,8 @@ RECIPES = {
     "flip-mae": Recipe("rooms-colour-flip trained on the MAE of the steering (the tub default's loss) instead of "
                        "its MSE (the throttle's error is the MAE in both)",
                        (*COLOUR, "train.flip=true", "train.loss=mae"), tubs=ROOMS, only=240),
+    "mae-throttle-1.2": Recipe("flip-mae driven with its learned throttle times 1.2 before the cap "
+                               "(--throttle-scale 1.2)", race={"throttle_scale": 1.2}, starts="flip-mae"),
     "flip-throttle-1.2": Recipe("rooms-colour-flip driven with its learned throttle times 1.2 before the cap "
                                 "(--throttle-scale 1.2, donkeycar's AI_THROTTLE_MULT)", race={"throttle_scale": 1.2},
                                 starts="rooms-colour-flip"),
