@@ -163,12 +163,13 @@ def run_steerlab(tub: Path, n: int, epochs: int, work: Path, models: list[str], 
     for name in models:
         for seed in range(seeds):
             key = f"steerlab {name} {seed}"
-            if "mae" in results.get(key, {}):
-                continue
             recipe = {"model": {"name": name}, "train": {"epochs": epochs, "patience": 5}}
-            if name == TRACK_BEST:
+            if name == TRACK_BEST:  # kept with its result: a result of another recipe is not reused
                 best = yaml.safe_load((ROOT / "configs" / "track_best.yaml").read_text())
                 recipe = {k: best[k] for k in ("preprocess", "model", "train")}
+            done = results.get(key, {})
+            if "mae" in done and (name != TRACK_BEST or done.get("recipe") == recipe):
+                continue
             seconds, run = 0.0, None
             stages = (("select", {"train": f"0:{a}", "val": f"{a}:{b}"}, recipe["train"]["epochs"]),
                       ("refit", {"train": f"0:{b}", "val": f"{b}:{n}"}, None))
@@ -190,7 +191,8 @@ def run_steerlab(tub: Path, n: int, epochs: int, work: Path, models: list[str], 
                            progress=False)[0]
             results[key] = {"mae": m["mae"], "train_s": seconds, "interventions_per_km": r["interventions_per_km"],
                             "interventions": r["interventions"], "autonomy": r["autonomy"], "km": r["km"],
-                            **({"throttle_mae": m["throttle_mae"]} if "throttle_mae" in m else {})}
+                            **({"throttle_mae": m["throttle_mae"]} if "throttle_mae" in m else {}),
+                            **({"recipe": recipe} if name == TRACK_BEST else {})}
             throttle = f", throttle MAE {m['throttle_mae']:.4f}" if "throttle_mae" in m else ""
             print(f"  steerlab {name} seed {seed}: held-out MAE {m['mae']:.4f}{throttle}, {seconds:.0f} s; replay "
                   f"{r['interventions']} interventions in {r['km']:.2f} km", flush=True)

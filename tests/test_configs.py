@@ -298,7 +298,7 @@ EXPECTED = {
     ],
     "track_best.yaml": [
         "donkey-linear() 3@160x120 rgb, split 0:933/933:1173, epochs 15 with patience 3, batch 128, lr 0.001, "
-        "mse, throttle weight 1, flips, brightness 1 +- 0.25, hue +-180 deg, 15 extra recordings",
+        "mae, throttle weight 1, flips, brightness 1 +- 0.25, hue +-180 deg, 15 extra recordings",
     ],
     "track_default.yaml": [
         "multimodal-lstm() 3@200x66 gray farneback flow, split 0:3000/3000:3538, epochs 8 with patience 3, batch 32, "
@@ -533,7 +533,7 @@ def test_track_best_is_the_recipe_the_closed_loop_chose(stand_in_tubs, monkeypat
     monkeypatch.setattr(sys, "path", list(sys.path))  # it puts benchmarks/ on the path
     spec.loader.exec_module(recipes)
     best = load_config(ROOT / "configs" / "track_best.yaml")
-    chosen = recipes.RECIPES["flip-throttle-1.2"]
+    chosen = recipes.RECIPES["mae-throttle-1.2"]
     trained = chosen.starts
     assert not chosen.overrides and set(chosen.race) == {"throttle_scale"}
     benches = [line for line in (ROOT / "configs" / "track_best.yaml").read_text().split("\n#   .venv/bin/steerlab ")
