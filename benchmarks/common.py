@@ -179,7 +179,7 @@ def donkey_car(python: Path, car: Path) -> Path:
 class DonkeycarPart:
     """donkeycar's own pilot part for a model of `kind` trained by `donkey train`, run in donkeycar's environment:
     `run(img_arr)` sends the frame down a pipe and returns the part's (angle, throttle), the throttle times
-    `throttle_scale` (donkeycar's AI_THROTTLE_MULT) and capped."""
+    `throttle_scale` (as donkeycar's AI_THROTTLE_MULT, but before the cap) and capped."""
 
     def __init__(self, python: Path, car: Path, model: Path, log: Path, max_throttle: float,
                  throttle_scale: float = 1.0, kind: str = "linear"):

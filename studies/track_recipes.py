@@ -155,7 +155,7 @@ RECIPES = {
     "mae-throttle-1.2": Recipe("flip-mae driven with its learned throttle times 1.2 before the cap "
                                "(--throttle-scale 1.2)", race={"throttle_scale": 1.2}, starts="flip-mae"),
     "flip-throttle-1.2": Recipe("rooms-colour-flip driven with its learned throttle times 1.2 before the cap "
-                                "(--throttle-scale 1.2, donkeycar's AI_THROTTLE_MULT)", race={"throttle_scale": 1.2},
+                                "(--throttle-scale 1.2, as donkeycar's AI_THROTTLE_MULT)", race={"throttle_scale": 1.2},
                                 starts="rooms-colour-flip"),
     "flip-throttle-1.5": Recipe("rooms-colour-flip driven with its learned throttle times 1.5 before the cap "
                                 "(--throttle-scale 1.5)", race={"throttle_scale": 1.5}, starts="rooms-colour-flip"),
@@ -320,7 +320,7 @@ def main() -> None:
     ap.add_argument("--donkeycar-tubs", default="donkey", help="the recipe whose tubs donkeycar's trainer trains on "
                     "(default: the 8 tubs of donkeycar's recipe)")
     ap.add_argument("--donkeycar-throttle-scale", type=float, default=1.0, help="donkeycar's throttle times this "
-                    "before the cap (its AI_THROTTLE_MULT; default 1, its config's)")
+                    "before the cap (as its AI_THROTTLE_MULT, which is 1 in its default config)")
     ap.add_argument("--workers", type=int, default=2, help="tracks driven in parallel")
     ap.add_argument("--out", default=str(ROOT / "runs" / "race"))
     ap.add_argument("--table", default="table", help="the name of the table files in OUT (.md, .csv, .json)")

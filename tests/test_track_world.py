@@ -293,8 +293,8 @@ def test_a_model_that_learned_the_throttle_drives_the_track_with_its_own(tmp_pat
 
 
 def test_the_throttle_scale_multiplies_the_learned_throttle_before_the_cap(tmp_path):
-    """--throttle-scale (donkeycar's AI_THROTTLE_MULT): the part's throttle is the model's times the scale, then
-    capped; a scale of 0.1 under a cap of 1 drives no faster than a tenth of the model's largest throttle holds."""
+    """--throttle-scale: the part's throttle is the model's times the scale, then capped (hand-computed products and
+    caps); a scale of 0.1 under a cap of 1 drives at less than half the top speed of the model's own throttle."""
     from steerlab.pilot import Pilot
 
     ckpt = made(tmp_path, "normalized", "right", "donkey", full_lock_deg=25, throttle=True)
