@@ -329,6 +329,8 @@ def main() -> None:
     unknown = [r for r in [*recipes, a.donkeycar_tubs] if r not in RECIPES]
     if unknown:
         sys.exit(f"error: unknown recipes {unknown}; known: {', '.join(RECIPES)}")
+    if not 0 < a.donkeycar_throttle_scale <= 10:  # as --throttle-scale of the track commands
+        sys.exit(f"error: --donkeycar-throttle-scale must be a number in (0, 10], got {a.donkeycar_throttle_scale:g}")
     out = Path(a.out)
     tubs = out / "tubs"
     record_tubs(tubs, TUBS)
@@ -345,14 +347,14 @@ def main() -> None:
         donkey = donkey_models(out, tubs, a.donkeycar_runs, recipe_tubs(a.donkeycar_tubs), f"donkey{suffix}")
     results = []
     for cap in caps:
-        o = TrackSuiteOptions(suite=a.suite, max_throttle=cap, workers=a.workers,
-                              throttle_scale=a.donkeycar_throttle_scale)
+        o = TrackSuiteOptions(suite=a.suite, max_throttle=cap, workers=a.workers)
         suite = out / f"{a.suite}-max{cap:g}"
         rows = [replace(r, label=f"{name}/{r.label}") for name in recipes
                 for r in race([train_recipe(name, int(seed), out, tubs) for seed in a.seeds.split(",")],
                               suite / name, suite_options(name, a.suite, cap, a.workers))]
         if donkey:
-            rows += race_donkeycar(*donkey, suite / folder, o, folder)
+            rows += race_donkeycar(*donkey, suite / folder, replace(o, throttle_scale=a.donkeycar_throttle_scale),
+                                   folder)
         report(rows, suite, o, plots=False)
         results += table(rows, cap)
     (out / f"{a.table}.md").write_text(f"machine: {machine()}\n\n" + markdown(results, a.suite))
