@@ -154,6 +154,10 @@ RECIPES = {
                        (*COLOUR, "train.flip=true", "train.loss=mae"), tubs=ROOMS, only=240),
     "mae-throttle-1.2": Recipe("flip-mae driven with its learned throttle times 1.2 before the cap "
                                "(--throttle-scale 1.2)", race={"throttle_scale": 1.2}, starts="flip-mae"),
+    "mae-throttle-1.5": Recipe("flip-mae driven with its learned throttle times 1.5 before the cap "
+                               "(--throttle-scale 1.5)", race={"throttle_scale": 1.5}, starts="flip-mae"),
+    "mae-throttle-2": Recipe("flip-mae driven with its learned throttle times 2 before the cap "
+                             "(--throttle-scale 2)", race={"throttle_scale": 2.0}, starts="flip-mae"),
     "flip-throttle-1.2": Recipe("rooms-colour-flip driven with its learned throttle times 1.2 before the cap "
                                 "(--throttle-scale 1.2, as donkeycar's AI_THROTTLE_MULT)", race={"throttle_scale": 1.2},
                                 starts="rooms-colour-flip"),
@@ -298,11 +302,15 @@ def markdown(rows: list[dict], suite: str) -> str:
              "the same cap finished, their number beside it). Means over the runs (seeds).", "",
              "| recipe | what differs from donkeycar's recipe | cap | runs | laps | clean laps [%] | finished | "
              "off track / lap | off track | pace (tracks) |", "|---" * 10 + "|"]
+    def describe(recipe):  # donkeycar's runs with --donkeycar-throttle-scale K are labelled ...-throttle-K
+        base, _, scale = recipe.partition("-throttle-") if recipe.startswith(DONKEYCAR) else (recipe, "", "")
+        return what.get(base, "") + (f", its throttle times {scale} before the cap" if scale else "")
+
     for r in rows:
         def f(v, fmt):
             return "-" if v is None else format(v, fmt)
 
-        lines.append(f"| {r['recipe']} | {what.get(r['recipe'], '')} | {r['cap']:g} | {r['runs']} | "
+        lines.append(f"| {r['recipe']} | {describe(r['recipe'])} | {r['cap']:g} | {r['runs']} | "
                      f"{f(r['laps'], '.1f')} | {f(r['clean_pct'], '.1f')} | {f(r['finished'], '.1f')} of "
                      f"{r['tracks']} | {f(r['off_track_per_lap'], '.2f')} | {f(r['off_track'], '.1f')} | "
                      f"{f(r['pace'], '.3f')} ({r['pace_tracks']}) |")

@@ -521,10 +521,8 @@ def test_a_donkeycar_tub_gets_the_tub_defaults_under_the_users_settings(tmp_path
     assert (cfg.model.name, cfg.train.loss, cfg.train.batch_size) == ("pilotnet", "mse", 100)
 
 
-def test_track_best_is_the_recipe_the_closed_loop_chose(stand_in_tubs, monkeypatch):
-    """configs/track_best.yaml trains what `studies/track_recipes.py` raced as its chosen recipe: the same tubs, input,
-    network and training options, and the races of its header drive as the recipe raced (its throttle scale;
-    docs/RESULTS.md, "Racing the track world")."""
+def track_recipes(monkeypatch):
+    """studies/track_recipes.py as a module."""
     import importlib.util
 
     spec = importlib.util.spec_from_file_location("track_recipes", ROOT / "studies" / "track_recipes.py")
@@ -532,16 +530,42 @@ def test_track_best_is_the_recipe_the_closed_loop_chose(stand_in_tubs, monkeypat
     monkeypatch.setitem(sys.modules, spec.name, recipes)  # its dataclasses look their module up there
     monkeypatch.setattr(sys, "path", list(sys.path))  # it puts benchmarks/ on the path
     spec.loader.exec_module(recipes)
+    return recipes
+
+
+def test_track_best_is_the_recipe_the_closed_loop_chose(stand_in_tubs, monkeypatch):
+    """configs/track_best.yaml trains what `studies/track_recipes.py` raced as its chosen recipe: the same tubs, input,
+    network and training options, and each race of its header drives as the recipe raced at that cap (its throttle
+    scale; docs/RESULTS.md, "Racing the track world")."""
+    recipes = track_recipes(monkeypatch)
     best = load_config(ROOT / "configs" / "track_best.yaml")
-    chosen = recipes.RECIPES["mae-throttle-1.2"]
-    trained = chosen.starts
-    assert not chosen.overrides and set(chosen.race) == {"throttle_scale"}
+    chosen = {"1": recipes.RECIPES["mae-throttle-1.2"], "0.5": recipes.RECIPES["mae-throttle-2"]}  # by the cap
+    trained = chosen["1"].starts
+    for recipe in chosen.values():
+        assert recipe.starts == trained and not recipe.overrides and set(recipe.race) == {"throttle_scale"}
     benches = [line for line in (ROOT / "configs" / "track_best.yaml").read_text().split("\n#   .venv/bin/steerlab ")
                if line.startswith("sim bench")]
-    assert len(benches) == 2 and all(f"--throttle-scale {chosen.race['throttle_scale']:g} " in b for b in benches)
+    assert len(benches) == 2
+    for bench in benches:
+        cap = bench.split("--max-throttle ")[1].split()[0]
+        assert f"--throttle-scale {chosen[cap].race['throttle_scale']:g} " in bench, bench
     raced = recipes.recipe_base(trained, Path("runs/race/tubs")) | {"split": as_dict(best.split)}
     overrides = recipes.RECIPES[trained].overrides
     raced = load_config(None, base=raced, overrides=[*overrides, "train.seed=0"])
     assert [best.data, *best.extra_data] == [raced.data, *raced.extra_data]
     for section in ("reader", "preprocess", "model", "train"):
         assert as_dict(getattr(best, section)) == as_dict(getattr(raced, section)), section
+
+
+def test_the_recipe_table_says_what_each_row_raced(monkeypatch):
+    """The study's table names each row's recipe; donkeycar's runs on another recipe's tubs, and with their throttle
+    scaled (`--donkeycar-throttle-scale`), say so."""
+    recipes = track_recipes(monkeypatch)
+    row = dict(cap=0.5, runs=3, laps=55.0, clean_pct=61.0, finished=4.7, tracks=8, off_track_per_lap=2.45,
+               off_track=139.3, pace=0.997, pace_tracks=3)
+    names = ("mae-throttle-2", "donkeycar-rooms", "donkeycar-rooms-throttle-2")
+    lines = recipes.markdown([dict(row, recipe=name) for name in names], "t1").splitlines()[-3:]
+    assert [line.split(" | ")[1] for line in lines] == [
+        recipes.RECIPES["mae-throttle-2"].what, "donkeycar's own trainer and part, on the tubs of rooms",
+        "donkeycar's own trainer and part, on the tubs of rooms, its throttle times 2 before the cap"]
+    assert lines[0].endswith("| 0.5 | 3 | 55.0 | 61.0 | 4.7 of 8 | 2.45 | 139.3 | 0.997 (3) |")
