@@ -302,6 +302,7 @@ def markdown(rows: list[dict], suite: str) -> str:
              "the same cap finished, their number beside it). Means over the runs (seeds).", "",
              "| recipe | what differs from donkeycar's recipe | cap | runs | laps | clean laps [%] | finished | "
              "off track / lap | off track | pace (tracks) |", "|---" * 10 + "|"]
+
     def describe(recipe):  # donkeycar's runs with --donkeycar-throttle-scale K are labelled ...-throttle-K
         base, _, scale = recipe.partition("-throttle-") if recipe.startswith(DONKEYCAR) else (recipe, "", "")
         return what.get(base, "") + (f", its throttle times {scale} before the cap" if scale else "")
