@@ -2,7 +2,8 @@
 (`python benchmarks/bench_render.py`, `python studies/speed_estimate.py`); a study finds this module by putting
 benchmarks/ on sys.path in its first lines.
 
-- Where things are: `ROOT`, `SHARED` (the real recordings of ../shared/data), `CH2`, `need_ch2`, `track_tubs`.
+- Where things are: `ROOT`, `SHARED` (the real recordings of ../shared/data), `CH2`, `need_ch2`, `track_tubs`,
+  `record_race_tubs`.
 - Timing: `machine` (what every result is measured on), `timed`, `median_seconds`, `per_second`, `each_ms`; a
   study's start, `begin_study`.
 - A timing's report: `arguments` (its command line, with `--json`) and `Report`, the numbers it prints as JSON.
@@ -51,6 +52,22 @@ def track_tubs() -> list[Path]:
         if not (tub / "manifest.json").exists():
             subprocess.run([sys.executable, "-m", "steerlab", "sim", "record", "--world", "track", "--seed", str(seed),
                             "--minutes", "3", "--out", str(tub)], check=True)
+    return tubs
+
+
+def record_race_tubs(config: Path) -> list[Path]:
+    """The tubs a track config (configs/track_best.yaml) trains on, its `data` then its `extra_data`, each recorded
+    as its header says where it is missing: a folder named <style>-<seed>-<minutes>min is `steerlab sim record
+    --world track --style <style> --seed <seed> --minutes <minutes>`."""
+    from steerlab.files import read_yaml
+
+    cfg = read_yaml(config)
+    tubs = [ROOT / t for t in [cfg["data"], *cfg.get("extra_data", [])]]
+    for tub in tubs:
+        if not (tub / "manifest.json").exists():
+            style, seed, minutes = tub.name.removesuffix("min").split("-")
+            subprocess.run([sys.executable, "-m", "steerlab", "sim", "record", "--world", "track", "--style", style,
+                            "--seed", seed, "--minutes", minutes, "--out", str(tub)], check=True)
     return tubs
 
 

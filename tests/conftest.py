@@ -267,12 +267,21 @@ def legend_of(ax) -> list[str]:
     return [text.get_text() for text in legend.get_texts()]
 
 
-def drawn_pixels(img: np.ndarray, ax, color) -> int:
-    """How many pixels of the saved figure `img` inside the axes `ax` (their frame and legend left out) show the
-    matplotlib colour `color`, alone or blended with the white background as the edges of an antialiased line
-    are (at least a third of the colour): what the artists of that colour drew."""
+def _inked(img: np.ndarray, color) -> np.ndarray:
+    """Which pixels of a saved figure show the matplotlib colour `color`, alone or blended with the white background
+    as the edges of an antialiased line are (at least a third of the colour)."""
     from matplotlib.colors import to_rgb
 
+    white, ink = np.full(3, 255.0), np.array(to_rgb(color))[::-1] * 255  # BGR, as OpenCV reads
+    pixels = img.astype(float)
+    share = ((white - pixels) @ (white - ink)) / max(float((white - ink) @ (white - ink)), 1.0)
+    residual = np.linalg.norm(pixels - (white + share[..., None] * (ink - white)), axis=2)
+    return (share >= 1 / 3) & (residual < 30)
+
+
+def drawn_pixels(img: np.ndarray, ax, color) -> int:
+    """How many pixels of the saved figure `img` inside the axes `ax` (their frame and legend left out) show the
+    matplotlib colour `color` (`_inked`): what the artists of that colour drew."""
     height = img.shape[0]
 
     def box(artist, inset=0):  # the artist's extent in the image's pixel rows and columns
@@ -280,11 +289,7 @@ def drawn_pixels(img: np.ndarray, ax, color) -> int:
         return (max(int(height - b.y1) + inset, 0), int(height - b.y0) - inset,
                 max(int(b.x0) + inset, 0), int(b.x1) - inset)
 
-    white, ink = np.full(3, 255.0), np.array(to_rgb(color))[::-1] * 255  # BGR, as OpenCV reads
-    pixels = img.astype(float)
-    share = ((white - pixels) @ (white - ink)) / max(float((white - ink) @ (white - ink)), 1.0)
-    residual = np.linalg.norm(pixels - (white + share[..., None] * (ink - white)), axis=2)
-    near = (share >= 1 / 3) & (residual < 30)
+    near = _inked(img, color)
     inside = np.zeros_like(near)
     r0, r1, c0, c1 = box(ax, inset=3)
     inside[r0:r1, c0:c1] = True
@@ -292,6 +297,19 @@ def drawn_pixels(img: np.ndarray, ax, color) -> int:
         r0, r1, c0, c1 = box(ax.get_legend())
         inside[r0:r1, c0:c1] = False
     return int((near & inside).sum())
+
+
+def drawn_along(img: np.ndarray, ax, line) -> float:
+    """The share of a line's points (its finite data points) at which the saved figure `img` shows the line's colour
+    within a pixel: a line drawn invisibly (no width, transparent, hidden) is near 0 however many markers of its
+    colour the axes hold elsewhere."""
+    xy = line.get_xydata()
+    xy = xy[np.isfinite(xy).all(axis=1)]
+    cols, rows = ax.transData.transform(xy).T
+    rows = img.shape[0] - rows
+    near = _inked(img, line.get_color())
+    seen = [near[max(int(r) - 1, 0): int(r) + 2, max(int(c) - 1, 0): int(c) + 2].any() for r, c in zip(rows, cols)]
+    return float(np.mean(seen)) if seen else 0.0
 
 
 def video_frames(path) -> list[np.ndarray]:

@@ -8,7 +8,7 @@ from pathlib import Path
 PACKAGE = Path(__file__).resolve().parents[1] / "src" / "steerlab"
 
 LAYERS = [
-    ("base", ["errors", "locks", "video", "figures", "options", "control", "paths", "files"]),
+    ("base", ["errors", "locks", "video", "figures", "options", "control", "paths", "files", "processes"]),
     ("data", ["data"]),
     ("models", ["models", "checkpoint", "runtime", "export", "pilot", "donkey"]),
     ("train / sim", ["train", "sim", "evaluate", "serve"]),
@@ -26,11 +26,22 @@ def layer_of(module: str) -> int:
     raise AssertionError(f"steerlab.{module} belongs to no layer: add it to LAYERS and to docs/ARCHITECTURE.md")
 
 
-def imports(path: Path) -> set[str]:
-    """Every steerlab module that a file imports (at the top or inside functions)."""
+def imports(path: Path, package: str | None = None) -> set[str]:
+    """Every steerlab module that a file imports (at the top or inside functions), relative imports resolved
+    against its package: `package` (dotted below steerlab, "" for steerlab itself), by default the folder the file
+    lies in below src/steerlab."""
+    if package is None:
+        package = ".".join(path.resolve().parent.relative_to(PACKAGE).parts)
     found = set()
     for node in ast.walk(ast.parse(path.read_text())):
-        if isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("steerlab"):
+        if isinstance(node, ast.ImportFrom) and node.level:  # from . import x, from ..train.loop import f
+            parts = package.split(".") if package else []
+            base = parts[: len(parts) - node.level + 1]
+            if node.module:
+                found.add(".".join([*base, node.module]))
+            else:
+                found.update(".".join([*base, a.name]) for a in node.names)
+        elif isinstance(node, ast.ImportFrom) and node.module and node.module.startswith("steerlab"):
             found.add(node.module.removeprefix("steerlab").lstrip(".") or node.names[0].name)
         elif isinstance(node, ast.Import):
             found.update(a.name.removeprefix("steerlab.") for a in node.names if a.name.startswith("steerlab."))
@@ -103,7 +114,10 @@ def test_the_checks_see_a_violation(tmp_path):
     """The rules would catch a data module that imports the trainer, even inside a function, and a loop."""
     bad = tmp_path / "bad.py"
     bad.write_text("def f():\n    from steerlab.train.loop import train\n")
-    assert imports(bad) == {"train.loop"} and layer_of("train.loop") > layer_of("data.readers")
+    assert imports(bad, "data") == {"train.loop"} and layer_of("train.loop") > layer_of("data.readers")
+    # relative imports, as a module of data/ would write them
+    bad.write_text("from ..train.loop import train\nfrom . import readers\nfrom .tub import read\n")
+    assert imports(bad, "data") == {"train.loop", "data.readers", "data.tub"}
     assert loops({"train": {"evaluate"}, "evaluate": {"train", "data"}, "data": set()}) == [["evaluate", "train"]]
 
 

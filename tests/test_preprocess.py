@@ -7,7 +7,7 @@ from steerlab.data.preprocess import PreprocessConfig, crop_resize, preprocess
 from steerlab.data.readers import open_recording
 from steerlab.data.recording import SteeringConvention
 from steerlab.errors import SteerlabError
-from steerlab.data.inputs import channel_stats, flip_horizontal, no_motion, stack_modalities
+from steerlab.data.inputs import channel_stats, stack_modalities
 
 
 def test_ch2_crop_and_area_resize_hand_computed():
@@ -60,28 +60,6 @@ def test_optical_flow_first_frame_and_shift():
         inner = flow[15:-15, 20:-20]
         assert np.median(inner[..., 0]) == pytest.approx(2.0, abs=0.3)
         assert np.median(inner[..., 1]) == pytest.approx(0.0, abs=0.3)
-
-
-def test_flip_negates_flow_dx():
-    cfg = PreprocessConfig(modalities=("image", "flow"))
-    x = np.zeros((1, 2, 3, 3), np.float32)
-    x[0, 0, :, 0] = [1, 2, 3]   # image
-    x[0, 0, :, 1] = [5, 5, 5]   # dx
-    x[0, 0, :, 2] = [7, 7, 7]   # dy
-    f = flip_horizontal(x, cfg)
-    assert f[0, 0, :, 0].tolist() == [3, 2, 1]
-    assert f[0, 0, :, 1].tolist() == [-5, -5, -5] and f[0, 0, :, 2].tolist() == [7, 7, 7]
-
-
-def test_no_motion_is_what_a_segment_start_shows():
-    x = np.arange(2 * 1 * 1 * 5, dtype=np.float32).reshape(2, 1, 1, 5)  # gray image, diff, flow dx, flow dy, +1
-    cfg = PreprocessConfig(modalities=("image", "diff", "flow"))
-    out = no_motion(x[..., :4], cfg)
-    assert out[..., 0].tolist() == x[..., 0].tolist()  # the image is kept
-    assert out[..., 1].tolist() == [[[128.0]], [[128.0]]] and not out[..., 2:4].any()
-    stacked = PreprocessConfig(stack=3)  # three gray frames, oldest first: the newest one three times
-    assert no_motion(x[..., :3], stacked)[0, 0, 0].tolist() == [2.0, 2.0, 2.0]
-    assert x[0, 0, 0, 0] == 0.0  # the input is not modified
 
 
 def test_compile_segments_modalities_and_reuse(ch2_folder, tmp_path):

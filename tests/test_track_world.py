@@ -9,7 +9,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from conftest import assert_video, drawn_pixels, image_of, legend_of, made
+from conftest import assert_video, drawn_along, drawn_pixels, image_of, legend_of, made
 from steerlab.cli import main
 from steerlab.data.car import CARS
 from steerlab.data.readers import open_recording
@@ -266,7 +266,7 @@ def test_sim_drive_world_track_with_a_tub_checkpoint(tmp_path, capsys, saved_fig
     np.testing.assert_allclose(path.get_xydata()[~drive.intervention.astype(bool)],
                                np.c_[drive.x, drive.y][~drive.intervention.astype(bool)], atol=1e-4)
     np.testing.assert_allclose(line.get_ydata(), drive.speed, atol=1e-4)
-    assert drawn_pixels(img, the_track, path.get_color()) > 10 and drawn_pixels(img, speed, line.get_color()) > 200
+    assert drawn_along(img, the_track, path) > 0.9 and drawn_pixels(img, speed, line.get_color()) > 200
     strip = image_of(out / "frames.png")
     assert strip.shape[:2] == (120, 160) and strip.std() > 5
     # drive.mp4: a frame every tick, the 160x120 camera scaled to 640 wide over the panel of 150 rows

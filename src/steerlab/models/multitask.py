@@ -24,6 +24,7 @@ import torch
 import torch.nn as nn
 import torch.nn.functional as F
 
+from steerlab.models.dropout import Dropout
 from steerlab.models.registry import SteeringModel, register
 
 SQUARE = {"width": 96, "height": 96}  # paper 002: the input squeezed to an aspect ratio of 1:1
@@ -52,7 +53,7 @@ def dense(sizes: list[int | None], dropout: float) -> nn.Sequential:
     features come in (sized by the first input)."""
     layers = []
     for a, b in zip(sizes[:-1], sizes[1:]):
-        layers += [nn.Linear(a, b) if a else nn.LazyLinear(b), nn.ReLU(inplace=True), nn.Dropout(dropout)]
+        layers += [nn.Linear(a, b) if a else nn.LazyLinear(b), nn.ReLU(inplace=True), Dropout(dropout)]
     return nn.Sequential(*layers)
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 import torch
 import torch.nn as nn
 
+from steerlab.models.dropout import Dropout
 from steerlab.models.registry import SteeringModel, register
 
 
@@ -26,7 +27,7 @@ def pilotnet_head(dropout: float, outputs: int = 1) -> nn.Sequential:
     layer takes however many features the convolutions give (sized by the first input, `registry.create_model`)."""
     layers = []
     for b in (1164, 100, 50, 10):
-        layers += [nn.LazyLinear(b), nn.ReLU(inplace=True), nn.Dropout(dropout)]
+        layers += [nn.LazyLinear(b), nn.ReLU(inplace=True), Dropout(dropout)]
     return nn.Sequential(*layers, nn.Linear(10, outputs))
 
 
@@ -59,11 +60,11 @@ class DonkeyLinear(SteeringModel):
         self.learns_throttle = throttle
         layers, c = [], in_channels
         for out, k, s in [(24, 5, 2), (32, 5, 2), (64, 5, 2), (64, 3, 1), (64, 3, 1)]:
-            layers += [nn.Conv2d(c, out, k, s), nn.ReLU(inplace=True), nn.Dropout(dropout)]
+            layers += [nn.Conv2d(c, out, k, s), nn.ReLU(inplace=True), Dropout(dropout)]
             c = out
         self.features = nn.Sequential(*layers)
-        self.head = nn.Sequential(nn.LazyLinear(100), nn.ReLU(inplace=True), nn.Dropout(dropout),
-                                  nn.Linear(100, 50), nn.ReLU(inplace=True), nn.Dropout(dropout),
+        self.head = nn.Sequential(nn.LazyLinear(100), nn.ReLU(inplace=True), Dropout(dropout),
+                                  nn.Linear(100, 50), nn.ReLU(inplace=True), Dropout(dropout),
                                   nn.Linear(50, 1 + throttle))
 
     def forward(self, x: torch.Tensor) -> dict[str, torch.Tensor]:

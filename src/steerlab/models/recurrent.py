@@ -19,6 +19,7 @@ from __future__ import annotations
 import torch
 import torch.nn as nn
 
+from steerlab.models.dropout import Dropout
 from steerlab.models.pilotnet import pilotnet_convs
 from steerlab.models.registry import SteeringModel, register
 
@@ -33,7 +34,7 @@ class ConvLSTM(SteeringModel):
         super().__init__()
         self.seq_len, self.learns_throttle = seq_len, throttle
         self.features = pilotnet_convs(in_channels)
-        self.fc = nn.Sequential(nn.LazyLinear(512), nn.ReLU(inplace=True), nn.Dropout(dropout))
+        self.fc = nn.Sequential(nn.LazyLinear(512), nn.ReLU(inplace=True), Dropout(dropout))
         self.lstm = nn.LSTM(512, hidden, batch_first=True)
         self.out = nn.Linear(hidden, 1 + throttle)
 

@@ -1,6 +1,6 @@
 """torch's data path for training: a `Dataset` over the memory-mapped cache that gathers whole batches, an
-`EpochSampler` that draws each epoch's batches, and a `DataLoader` with worker processes and prefetch (pinned
-memory on CUDA) that fills them while the model trains.
+`EpochSampler` that draws each epoch's batches, and a `DataLoader` with worker processes (`processes.worker_context`)
+and prefetch (pinned memory on CUDA) that fills them while the model trains.
 
 Everything random is drawn where the batches are drawn, in the main process, from the seed and the epoch:
 the order (a `RandomSampler` over the samples, thinned by balanced sampling and repeated by recovery weighting), flips, motion dropout, and one augmentation seed per batch. A worker only computes, so the
@@ -18,10 +18,11 @@ import torch
 from torch.utils.data import DataLoader, Dataset, RandomSampler, Sampler
 
 from steerlab.data.dataset import CompiledDataset
-from steerlab.data.inputs import (Standardizer, augment, flip_horizontal, gather, history, no_motion, segment_starts,
-                                  stack_modalities)
+from steerlab.data.inputs import Standardizer, gather, history, segment_starts, stack_modalities
 from steerlab.data.labels import speed_targets
 from steerlab.errors import SteerlabError
+from steerlab.processes import worker_context
+from steerlab.train.augment import augment, mirror, no_motion
 
 PREFETCH = 4  # batches each worker prepares ahead
 
@@ -86,20 +87,20 @@ class FrameBatches(Dataset):
         codes = batch.codes.ravel()
         order = np.argsort(codes, kind="stable")
         source = np.searchsorted(self.offsets, codes, side="right") - 1
-        x = None
+        arrays = {}  # per modality, in the cache's own type (uint8 images): the batch is converted once
         for k, (ds, _) in enumerate(self.sources):
             pos = order[source[order] == k]
             if len(pos):
-                frames = codes[pos] - self.offsets[k]
-                part = stack_modalities(gather(ds.arrays, self.cfg, frames, self.local_starts[k]), self.cfg)
-                if x is None:
-                    x = np.empty((len(codes),) + part.shape[1:], np.float32)
-                x[pos] = part
+                for m, a in gather(ds.arrays, self.cfg, codes[pos] - self.offsets[k], self.local_starts[k]).items():
+                    arrays.setdefault(m, np.empty((len(codes),) + a.shape[1:], a.dtype))[pos] = a
+        x = torch.from_numpy(stack_modalities(arrays, self.cfg))  # the rest on the whole batch, in torch
         y = self.steering(codes).astype(np.float32)
         if batch.still is not None and batch.still.any():
-            x[batch.still] = no_motion(x[batch.still], self.cfg)
+            still = torch.from_numpy(batch.still)
+            x[still] = no_motion(x[still], self.cfg)
         if batch.flip is not None and batch.flip.any():
-            x[batch.flip] = flip_horizontal(x[batch.flip], self.cfg)
+            flip = torch.from_numpy(batch.flip)
+            x[flip] = mirror(x[flip], self.cfg)
             y[batch.flip] *= -1
         if batch.seed is not None and (self.rotation_deg or self.brightness or self.hue_deg):
             x = augment(x, self.cfg, np.random.default_rng(batch.seed), self.rotation_deg, self.brightness,
@@ -182,7 +183,7 @@ def loader(dataset: FrameBatches, sampler: EpochSampler, workers: int, device: t
     return DataLoader(dataset, sampler=sampler, batch_size=None, num_workers=workers,
                       prefetch_factor=PREFETCH if workers else None, persistent_workers=workers > 0,
                       pin_memory=device.type == "cuda", worker_init_fn=_init_worker if workers else None,
-                      multiprocessing_context="spawn" if workers else None)  # no fork of a process with torch threads
+                      multiprocessing_context=worker_context(__name__) if workers else None)
 
 
 def sequence_windows(codes: np.ndarray, starts: np.ndarray, length: int) -> np.ndarray:

@@ -39,6 +39,7 @@ from steerlab.train.batches import (Batch, EpochSampler, FrameBatches, balance_w
                                     sequence_windows)
 from steerlab.train.config import LOSSES, TrainConfig, parse_config
 from steerlab.train.distributed import Ranks, setup, wrap
+from steerlab.train.host import bf16_instructions, keep_freed_memory
 from steerlab.train.log import EpochLog
 from steerlab.train.sources import (check_camera, main_recording, prepare_dataset, steering_ahead, training_sources,
                                     usable_frames)
@@ -65,9 +66,10 @@ def objective(model, out: dict, targets: dict, loss: str = "mse", smoothness: fl
 
 
 def train_one_epoch(model, opt, batches, ranks: Ranks = Ranks(), loss_name: str = "mse", smoothness: float = 0.0,
-                    throttle_weight: float = 0.0, progress: bool = True, desc: str = "") -> float:
+                    throttle_weight: float = 0.0, progress: bool = True, desc: str = "",
+                    precision: str = "fp32") -> float:
     """One pass over `batches` (a DataLoader of this rank's share of each global batch), returning the mean
-    training loss over all ranks."""
+    training loss over all ranks; with `precision` bf16 the forward pass runs in bfloat16."""
     net = getattr(model, "module", model)  # the model itself, also inside DDP
     model.train()
     total, count = 0.0, 0
@@ -75,7 +77,8 @@ def train_one_epoch(model, opt, batches, ranks: Ranks = Ranks(), loss_name: str 
                                         disable=None if progress and ranks.main else True):
         inputs, targets = ({k: v.to(ranks.device, non_blocking=True) for k, v in d.items()} for d in (inputs, targets))
         n = len(targets["steering"])
-        out = model(**inputs)
+        with torch.autocast(ranks.device.type, torch.bfloat16, enabled=precision == "bf16"):
+            out = model(**inputs)
         loss = objective(net, out[0] if net.recurrent else out, targets, loss_name, smoothness,  # (out, state)
                          throttle_weight)
         opt.zero_grad(set_to_none=True)
@@ -149,6 +152,7 @@ def train(cfg: TrainConfig, progress: bool = True, on_epoch=None) -> dict:
     second run into the same folder is refused while the first one runs."""
     check_outputs({"output folder (out)": cfg.out}, inputs=cfg.inputs(), kind="run")
     check_outputs({"cache folder (cache)": cache_root(cfg.cache)}, inputs=cfg.inputs(), kind="cache")
+    keep_freed_memory()
     out = Path(cfg.out)
     ranks = setup(cfg.train.device)
     if cfg.train.batch_size % ranks.world:
@@ -336,15 +340,21 @@ def fit(run: Run, ranks: Ranks, progress: bool, on_epoch=None) -> dict:
         torch.set_rng_state(state["torch_rng"])
         if ranks.main:
             print(f"resuming {out} after epoch {state['epoch']}")
+    if t.precision == "bf16" and ranks.device.type == "cpu" and bf16_instructions() is False and progress:
+        print("train.precision bf16: this CPU has no bfloat16 instructions (avx512_bf16, amx_bf16), so bfloat16 is "
+              "emulated and slower than fp32 here (train.precision=fp32)")
     log = EpochLog(out, predicted(model), history, t.tensorboard) if ranks.main else None
     batches = loader(run.data, run.sampler, t.workers, ranks.device)
+    if progress and start <= t.epochs:
+        print(f"training on {len(run.train_codes):,} frames of {len(run.data.sources)} camera stream(s), "
+              f"{len(batches)} batches of {t.batch_size} an epoch; validating on {len(run.val_idx):,} frames")
     for epoch in range(start, t.epochs + 1):
         if since_best >= t.patience and t.keep == "best":
             break
         t0 = time.time()
         run.sampler.set_epoch(epoch)
         loss = train_one_epoch(step_model, opt, batches, ranks, t.loss, t.smoothness, t.throttle_weight, progress,
-                               f"epoch {epoch}")
+                               f"epoch {epoch}", t.precision)
         pred = predict(model, run.data, run.val_idx)
         m = all_metrics(pred, run.truth, deg)
         for what, value in (("training loss", loss), (f"validation {score}", m[score])):

@@ -1,18 +1,15 @@
 """The one parallel runner of closed-loop work: drives of the suite, replays of checkpoints, rollouts. Jobs run in
-worker processes with one torch thread each, with one progress bar over the ticks of all of them.
-
-Workers are forked from a server process (multiprocessing's "forkserver") that imported torch and the job's module
-once, when this process first needed workers: a pool starts in milliseconds instead of seconds of imports, and no
-process that already runs torch threads is ever forked. Each worker takes the caller's current environment. Where
-there is no forkserver, workers are spawned afresh."""
+worker processes with one torch thread each (started as `processes.worker_context` says), with one progress bar
+over the ticks of all of them. Each worker takes the caller's current environment."""
 
 from __future__ import annotations
 
-import multiprocessing as mp
 import os
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
 from tqdm import tqdm
+
+from steerlab.processes import worker_context
 
 _ticks = None  # in a worker: the queue through which it reports progress
 
@@ -25,14 +22,6 @@ def _init_worker(queue, environ: dict) -> None:
     os.environ.update(environ)
     torch.set_num_threads(1)
     _ticks = queue
-
-
-def _context(fn):
-    if "forkserver" not in mp.get_all_start_methods():
-        return mp.get_context("spawn")
-    ctx = mp.get_context("forkserver")
-    ctx.set_forkserver_preload(["torch", fn.__module__])  # used when this process's server starts
-    return ctx
 
 
 def tick_reporter():
@@ -51,7 +40,7 @@ def run_parallel(fn, jobs: list[tuple], workers: int, ticks_per_job: int, progre
                 results[i] = fn(*job)
                 bar.update(ticks_per_job)
             return results
-        ctx = _context(fn)
+        ctx = worker_context(fn.__module__)
         queue = ctx.Queue()
         with ProcessPoolExecutor(min(workers, len(jobs)), ctx, _init_worker, (queue, dict(os.environ))) as pool:
             futures = {pool.submit(fn, *job): i for i, job in enumerate(jobs)}
