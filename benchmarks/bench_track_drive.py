@@ -28,6 +28,7 @@ from pathlib import Path  # noqa: E402
 import cv2  # noqa: E402
 from common import ROOT, Report, arguments, machine, record_race_tubs  # noqa: E402
 
+from steerlab.errors import SteerlabError  # noqa: E402
 from steerlab.options import frames_in  # noqa: E402
 from steerlab.sim.core.driving import drive_loop  # noqa: E402
 from steerlab.sim.core.part import donkey_pilot  # noqa: E402
@@ -103,10 +104,17 @@ def main() -> None:
                    help="minutes of the drive, and of each suite track (default 1)")
     p.add_argument("--checkpoint", help="the checkpoint to drive (default: one trained here, see above)")
     args = p.parse_args()
+    if not 0.05 <= args.minutes <= 60:
+        p.error(f"--minutes must be a number from 0.05 to 60, got {args.minutes:g}")
+    if args.checkpoint and not Path(args.checkpoint).is_file():
+        p.error(f"--checkpoint {args.checkpoint}: no such file (a .pt checkpoint or an exported .onnx)")
     ckpt = model(args.checkpoint)
     report = Report(__file__, {"minutes": args.minutes, "checkpoint": str(ckpt)}, args.json)
     print(f"machine: {machine()}; {ckpt}")
-    one_drive(ckpt, 0.1)  # warm-up: oneDNN's kernels, the page cache
+    try:
+        one_drive(ckpt, 0.1)  # warm-up: oneDNN's kernels, the page cache
+    except SteerlabError as e:  # a checkpoint that is not one, of another camera...
+        sys.exit(f"--checkpoint: {e}")
     fps, spent, ticks = one_drive(ckpt, args.minutes)
     total = sum(spent.values())
     print(f"one drive, one core: {ticks} ticks at {fps:.0f} frames/s; render alone {ticks / spent['render']:.0f} "

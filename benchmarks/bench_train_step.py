@@ -136,8 +136,10 @@ def main() -> None:
     results = {"shipped": base}
     if args.before:
         with tempfile.TemporaryDirectory() as tmp:
-            subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", tmp, args.before], check=True,
-                           capture_output=True)
+            added = subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", tmp, args.before],
+                                   capture_output=True, text=True)
+            if added.returncode:
+                sys.exit(f"--before {args.before}: not a commit of {ROOT} ({added.stderr.strip().splitlines()[-1]})")
             try:
                 results[f"before ({args.before})"] = measure("before", Path(tmp) / "src")
             finally:

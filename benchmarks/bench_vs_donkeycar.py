@@ -30,14 +30,13 @@ from common import CH2, ROOT, Report, arguments, donkey_car, donkey_python, mach
 STEERLAB = [sys.executable, "-m", "steerlab", "train"]
 
 
-def run(cmd: list[str], log: Path, cwd: Path | None = None,
-        env: dict | None = None) -> tuple[list[tuple[float, str]], float]:
+def run(cmd: list[str], log: Path, cwd: Path | None = None) -> tuple[list[tuple[float, str]], float]:
     """Run `cmd` alone, its output into `log`; returns its lines with the seconds at which each arrived, and its
     peak resident set size in MB."""
     lines, start = [], time.perf_counter()
     with open(log, "w") as f:
         p = subprocess.Popen(cmd, cwd=cwd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                             env={**os.environ, "PYTHONUNBUFFERED": "1", **(env or {})})
+                             env={**os.environ, "PYTHONUNBUFFERED": "1"})
         for line in p.stdout:
             lines.append((time.perf_counter() - start, line))
             f.write(line)
@@ -83,9 +82,11 @@ def donkeycar_side(tubs: list[Path], epochs: int, out: Path) -> dict:
 
 def main() -> None:
     p = arguments(__doc__)
-    p.add_argument("--epochs", type=int, default=4, choices=range(2, 101), metavar="N",
+    p.add_argument("--epochs", type=int, default=4, metavar="N",
                    help="epochs each trainer trains (2-100; the first is not counted; default 4)")
     args = p.parse_args()
+    if not 2 <= args.epochs <= 100:
+        p.error(f"--epochs must be an integer from 2 to 100 (the first epoch is not counted), got {args.epochs}")
     config = ROOT / "configs" / "track_best.yaml"
     tubs = record_race_tubs(config)
     report = Report(__file__, {"epochs": args.epochs, "tubs": len(tubs), "config": "configs/track_best.yaml"},

@@ -1,6 +1,6 @@
 """How a training process uses the machine.
 
-Measured on two cores (docs/RESULTS.md, "Training speed"): a training step allocates and frees tensors of tens of
+Measured on two cores (docs/RESULTS.md, "The levers of a training step"): a training step allocates and frees tensors of tens of
 megabytes (donkeycar's linear model: 55 MB for the first layer's activations of a batch of 128). glibc's malloc
 hands blocks that large out with mmap and returns them with munmap, so every step touches fresh pages and the
 kernel zeroes them again: a quarter of a step. `keep_freed_memory` tells malloc to serve them from its heap and keep
