@@ -10,7 +10,7 @@ BIN := $(VENV)/bin
 export PYTHONDONTWRITEBYTECODE =
 INSTALL := $(BIN)/python -m pip install --quiet --no-compile --constraint constraints.txt
 
-.PHONY: install demo test check-deps lock bench clean rebuild
+.PHONY: install demo test docs check-deps lock bench clean rebuild
 
 # A Python's version ("3.12"), or nothing when it does not run or is older than MIN_PYTHON.
 comma := ,
@@ -79,6 +79,14 @@ demo: $(VENV)/.runtime
 test: $(VENV)/.test
 	$(BIN)/python -m pytest -q -n 2 --dist worksteal
 
+$(VENV)/.docs: pyproject.toml constraints.txt $(REBUILD) | $(VENV)/.runtime
+	$(INSTALL) -e '.[docs]'
+	touch $@
+
+# The documentation site in site/ (mkdocs.yml): the README as its front page, then docs/; a broken link fails it.
+docs: $(VENV)/.docs
+	NO_MKDOCS_2_WARNING=1 $(BIN)/python -m mkdocs build --strict
+
 # That the runtime, each extra and the test set resolve on every supported Python (and the runtime on aarch64),
 # by pip's own rules, with pyproject.toml's ranges and with constraints.txt: dry runs, no install.
 check-deps: $(VENV)/.runtime
@@ -94,4 +102,4 @@ bench: $(VENV)/.test  # the timings of benchmarks/ (the experiments of studies/ 
 	for b in benchmarks/bench_*.py; do $(BIN)/python $$b || exit 1; done
 
 clean:
-	rm -rf runs .steerlab-cache
+	rm -rf runs .steerlab-cache site

@@ -4,7 +4,11 @@ python docs/figures.py                     # docs/ARCHITECTURE.md: a preprocesse
                                            # preprocessed real frame per camera geometry, the donkeycar crop
                                            # (needs ../shared/data)
 python docs/figures.py open-vs-closed runs/experiment-synthetic runs/experiment-recipe
-                                           # docs/RESULTS.md: validation RMSE vs autonomy, before and after
+                                           # docs/results/closing-the-gap.md: validation RMSE vs autonomy, before and after
+python docs/figures.py track-race runs/readme/drive
+                                           # README: a track drive's plot beside what its camera saw, from
+                                           # steerlab sim drive CKPT --world track --seed 9503 --minutes 1
+                                           #   --max-throttle 1 --throttle-scale 1.2 --out runs/readme/drive
 """
 
 import csv
@@ -77,8 +81,20 @@ def open_vs_closed(before: str, after: str) -> None:
     plot_open_vs_closed(HERE / "img" / "open_vs_closed.png", tables)
 
 
+def track_race(drive: str) -> None:
+    """A track drive's plot (track.png) and its camera's frames (frames.png) side by side, at the plot's height."""
+    plot, frames = (cv2.imread(str(Path(drive) / name)) for name in ("track.png", "frames.png"))
+    h = round(plot.shape[0] * 0.75)
+    plot = cv2.resize(plot, (round(plot.shape[1] * 0.75), h), interpolation=cv2.INTER_AREA)
+    frames = cv2.resize(frames, (round(frames.shape[1] * h / frames.shape[0]), h), interpolation=cv2.INTER_AREA)
+    cv2.imwrite(str(HERE / "img" / "track_race.jpg"), np.hstack([plot, np.full((h, 8, 3), 255, np.uint8), frames]),
+                [cv2.IMWRITE_JPEG_QUALITY, 88])
+
+
 if __name__ == "__main__":
     if sys.argv[1:2] == ["open-vs-closed"]:
         open_vs_closed(*sys.argv[2:4])
+    elif sys.argv[1:2] == ["track-race"]:
+        track_race(sys.argv[2])
     else:
         main()

@@ -26,7 +26,7 @@ TUBS = ["../shared/data/donkeycar/hall", "../shared/data/donkeycar/taped-track",
         *(f"runs/track/tub-{k}" for k in range(1, 5)), *(f"runs/race/tubs/taped-{k}-1min" for k in range(5, 17)),
         *(f"runs/race/tubs/centre-{k}-1min" for k in range(17, 21))]
 
-# What each config builds, by hand from its comments and docs/RESULTS.md (whose tables print the input as
+# What each config builds, by hand from its comments and docs/results/ (whose tables print the input as
 # channels@width x height): the run (an experiment: every entry's run, in order, with its label), then its sections.
 EXPECTED = {
     "ch2_best.yaml": [
@@ -536,7 +536,7 @@ def track_recipes(monkeypatch):
 def test_track_best_is_the_recipe_the_closed_loop_chose(stand_in_tubs, monkeypatch):
     """configs/track_best.yaml trains what `studies/track_recipes.py` raced as its chosen recipe: the same tubs, input,
     network and training options, and each race of its header drives as the recipe raced at that cap (its throttle
-    scale; docs/RESULTS.md, "Racing the track world")."""
+    scale; docs/results/racing.md, "Racing the track world")."""
     recipes = track_recipes(monkeypatch)
     best = load_config(ROOT / "configs" / "track_best.yaml")
     chosen = {"1": recipes.RECIPES["mae-throttle-1.2"], "0.5": recipes.RECIPES["mae-throttle-2"]}  # by the cap

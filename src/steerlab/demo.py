@@ -16,7 +16,7 @@ from steerlab.options import AT_LEAST_1, FPS, MINUTES, Options, WORKERS, frames_
 TRAIN_SEED = 1
 ROADS = "country,twisty,highway,twisty"  # the recipe of configs/experiment_recipe.yaml: half the time on tight curves
 # one DAgger round: the model drives a fresh twisty road (`dagger_minutes`; the expert steers a tick with
-# probability 0.5), the expert labels every frame, 1 more epoch from the trained weights (docs/RESULTS.md, the demo)
+# probability 0.5), the expert labels every frame, 1 more epoch from the trained weights (docs/results/road-world.md)
 DAGGER = {"iterations": 1, "roads": "twisty", "beta": 0.5, "epochs": 1, "suite": None}
 
 
@@ -24,7 +24,7 @@ DAGGER = {"iterations": 1, "roads": "twisty", "beta": 0.5, "epochs": 1, "suite":
 class DemoOptions(Options):
     """`steerlab demo`'s options; configs/recipe_pilotnet.yaml is the same recipe on the recording of road seed
     3, with batches of 64 where the demo takes 16 (four times the updates: the single-frame models drive twisty
-    roads better with them, docs/RESULTS.md "Batches of 16")."""
+    roads better with them, docs/results/closing-the-gap.md, "Batches of 16")."""
 
     out: str = option("runs/demo", help="output folder", path="folder", makes="demo")
     minutes: float = option(8.0, MINUTES, help="minutes of expert driving on mixed roads to train on")

@@ -177,7 +177,8 @@ class TrainConfig(Options):
 
 
 # What a config that leaves them out gets on a donkeycar tub, under the user's own settings: the model and loss
-# chosen on the selection blocks of both shared tubs (docs/RESULTS.md, "steerlab side by side with donkeycar").
+# chosen on the selection blocks of both shared tubs (docs/results/donkeycar.md, "steerlab side by side with
+# donkeycar").
 # multimodal-lstm had the lowest mean selection MAE of the two tubs; the MAE loss suits the nearly binary
 # steering of an RC car. The general defaults (PilotNet, MSE) lose to donkeycar's linear model there. The
 # throttle is learned beside the steering, as donkeycar's linear model does (weight: "Learned throttle" there).
@@ -219,7 +220,7 @@ def read_yaml(path: str | Path, what: str = "sections (data, split, model, train
 
 def layered(*layers: dict | None, overrides=()) -> dict:
     """Raw config layers merged in order (the train section key by key, every other section whole), then the
-    overrides."""
+    overrides, each key once (of two, which one counts would be a guess)."""
     cfg: dict = {}
     for layer in layers:
         for k, v in (layer or {}).items():
@@ -227,7 +228,12 @@ def layered(*layers: dict | None, overrides=()) -> dict:
                 cfg[k] = {**cfg[k], **copy.deepcopy(v)}
             else:
                 cfg[k] = copy.deepcopy(v)
+    given: dict[str, str] = {}
     for o in overrides:
+        key = o.split("=", 1)[0].strip()
+        if key in given and "=" in o:
+            raise SteerlabError(f"override {key}= is given twice ({given[key]!r} and {o!r}); give each key once")
+        given[key] = o
         apply_override(cfg, o)
     return cfg
 

@@ -1,12 +1,12 @@
 """How a training process uses the machine.
 
-Measured on two cores (docs/RESULTS.md, "The levers of a training step"): a training step allocates and frees tensors of tens of
-megabytes (donkeycar's linear model: 55 MB for the first layer's activations of a batch of 128). glibc's malloc
-hands blocks that large out with mmap and returns them with munmap, so every step touches fresh pages and the
-kernel zeroes them again: a quarter of a step. `keep_freed_memory` tells malloc to serve them from its heap and keep
-what is freed there for the next step (the process's peak memory stays what it was; it is not given back until
-the process ends). `bf16_instructions` says whether the CPU computes in bfloat16 itself (`train.precision: bf16`
-is faster there, emulated and slower elsewhere)."""
+Measured on two cores (docs/results/speed.md, "The levers of a training step"): a training step allocates and
+frees tensors of tens of megabytes (donkeycar's linear model: 55 MB for the first layer's activations of a batch of
+128). glibc's malloc hands blocks that large out with mmap and returns them with munmap, so every step touches fresh
+pages and the kernel zeroes them again: a quarter of a step. `keep_freed_memory` tells malloc to serve them from its
+heap and keep what is freed there for the next step (the process's peak memory stays what it was; it is not given
+back until the process ends). `bf16_instructions` says whether the CPU computes in bfloat16 itself
+(`train.precision: bf16` is faster there, emulated and slower elsewhere)."""
 
 from __future__ import annotations
 
