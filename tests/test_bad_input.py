@@ -7,6 +7,7 @@ import contextlib
 import functools
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -962,8 +963,8 @@ def test_checkpoints_load_without_pickled_code_and_are_sealed(tmp_path):
 # ---------------------------------------------------------------- generated sweeps: every option, every path
 
 def _numeric_options():
-    """(where, key, kind, check, expected) of every numeric option with a range: the training config's (train.*,
-    preprocess.*, every model's options) and the other config sections' (dagger, closed_loop)."""
+    """(key, kind, check, expected) of every option whose type is a number, whatever it checks: the training config's
+    (train.*, preprocess.*, every model's options) and the other config sections' (dagger, closed_loop)."""
     from steerlab.dagger import DaggerOptions
     from steerlab.models import list_models
     from steerlab.models.registry import OPTION_CHECKS, model_option_types
@@ -975,13 +976,22 @@ def _numeric_options():
     for cls, section in ((TrainConfig, ""), (DaggerOptions, "dagger"), (SuiteOptions, "closed_loop")):
         for o in options_of(cls, section):
             kind = optional(o.kind)[0]
-            if kind in (int, float) and o.check is not None:
+            if kind in (int, float):
                 out.append((o.key, kind, o.check, o.expected))
     for name in list_models():
         for option, kind in model_option_types(name).items():
-            if option in OPTION_CHECKS:
-                out.append((f"model.{option}@{name}", kind, OPTION_CHECKS[option], None))
+            if kind in (int, float):
+                out.append((f"model.{option}@{name}", kind, OPTION_CHECKS.get(option), None))
     return out
+
+
+def _a_range(key: str, check):
+    """A number's option declares its range (`options.Range`): the sweeps take their cases from it, so an option
+    without one, or whose range is deleted, fails here rather than going untested."""
+    from steerlab.options import Range
+
+    assert isinstance(check, Range), f"{key} is a number and declares no range (options.Range) to be checked against"
+    return check
 
 
 def _edges(check, kind):
@@ -1009,6 +1019,7 @@ def test_every_numeric_config_option_is_range_checked(key, kind, check, expected
     from steerlab.sim.road.suite import suite_options
     from steerlab.train.config import load_config
 
+    check = _a_range(key, check)
     key, _, model = key.partition("@")
     base = {"data": str(tmp_path), **({"model": {"name": model}} if model else {})}
     if key == "train.smoothness":
@@ -1043,7 +1054,7 @@ def _cli_numeric_options():
 
     build_parser()  # fills OPTIONS
     return [(command, o.key, optional(o.kind)[0], o.check) for command, classes in OPTIONS.items()
-            for cls in classes for o in options_of(cls) if optional(o.kind)[0] in (int, float) and o.check]
+            for cls in classes for o in options_of(cls) if optional(o.kind)[0] in (int, float)]
 
 
 def _command_args(command, tmp_path):
@@ -1063,6 +1074,7 @@ def test_every_numeric_command_line_option_is_refused_out_of_range(command, name
     wrong type and at an open boundary are refused in one line naming the flag, before anything runs."""
     from steerlab.cli import flag
 
+    check = _a_range(f"{command} {flag(name)}", check)
     argv = [*command.split(), *_command_args(command, tmp_path)]
     bad = [v for v, taken in _edges(check, kind) if not taken and not isinstance(v, (bool, list))]
     before = _files(tmp_path)
@@ -1073,18 +1085,18 @@ def test_every_numeric_command_line_option_is_refused_out_of_range(command, name
     assert _files(tmp_path) == before  # nothing written
 
 
-def _path_arguments():
+def _command_parsers():
+    """(command, its parser) of every command, `sim`'s subcommands each on its own."""
     from steerlab.cli import build_parser
 
-    out = []
-    for action in build_parser()._subparsers._group_actions[0].choices.items():
-        name, parser = action
-        subs = [(f"{name} {n}", p) for n, p in parser._subparsers._group_actions[0].choices.items()] \
-            if parser._subparsers else [(name, parser)]
-        for command, p in subs:
-            for dest, kind in (p.get_default("paths") or {}).items():
-                out.append((command, dest, kind))
-    return out
+    for name, parser in build_parser()._subparsers._group_actions[0].choices.items():
+        yield from ([(f"{name} {n}", p) for n, p in parser._subparsers._group_actions[0].choices.items()]
+                    if parser._subparsers else [(name, parser)])
+
+
+def _path_arguments():
+    return [(command, dest, kind) for command, p in _command_parsers()
+            for dest, kind in (p.get_default("paths") or {}).items()]
 
 
 @pytest.mark.parametrize("command, dest, kind", _path_arguments(), ids=lambda v: v if isinstance(v, str) else None)
@@ -1113,6 +1125,47 @@ def test_every_path_argument_is_checked(command, dest, kind, tmp_path, capsys):
         assert main(args) == 2, args
         err = capsys.readouterr().err
         assert err.startswith(f"error: {path}: ") and err.count("\n") == 1, err
+
+
+def _single_value_flags():
+    """(command, flag, an abbreviation of it, takes a value) of every option of every command that holds one value
+    (not a list)."""
+    out = []
+    for command, p in _command_parsers():
+        for a in p._actions:
+            if a.option_strings and not isinstance(a, (argparse._AppendAction, argparse._HelpAction)):
+                name = a.option_strings[-1]
+                short = name[:-1] if [s for s in p._option_string_actions if s.startswith(name[:-1])] == [name] \
+                    else name  # an abbreviation that names this option alone
+                out.append((command, name, short, a.nargs != 0))
+    return out
+
+
+@pytest.mark.parametrize("command, name, short, valued", _single_value_flags(),
+                         ids=lambda v: v if isinstance(v, str) else None)
+def test_every_option_given_twice_is_refused(command, name, short, valued, capsys):
+    """Rule 1 (each option once): an option of one value given twice is refused in one line naming it, before
+    anything runs, however the second is written (`--flag=value`, an abbreviation argparse takes)."""
+    first = [name, "1"] if valued else [name]
+    for second in (first, [f"{name}=2"] if valued else [name], [short, "2"] if valued else [short]):
+        assert main([*command.split(), *first, *second]) == 2, second
+        err = capsys.readouterr().err
+        assert err.startswith(f"error: {name} is given twice") and err.count("\n") == 1, err
+
+
+def test_overrides_and_reader_options_given_twice_are_refused(tmp_path, capsys):
+    """The same key twice among `section.key=value` overrides or `--reader key=value` options is refused."""
+    from steerlab.train.config import load_config
+
+    cfg = config(tmp_path, sim_log(tmp_path / "sim"))
+    assert main(["train", str(cfg), f"out={tmp_path / 'a'}", "train.epochs=1", f"out={tmp_path / 'b'}"]) == 2
+    assert capsys.readouterr().err.startswith("error: override out= is given twice")
+    with pytest.raises(SteerlabError, match=r"override train.epochs= is given twice \('train.epochs=1' and "):
+        load_config(cfg, ["train.epochs=1", " train.epochs =2"])
+    assert main(["compile", "--data", str(tmp_path / "sim"), "--reader", "camera=center", "--reader",
+                 "camera=left"]) == 2
+    assert capsys.readouterr().err == "error: --reader camera= is given twice; give each reader option once\n"
+    assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
 
 
 # ---------------------------------------------------------------- damaged files: every stored byte covered
@@ -1228,9 +1281,49 @@ def test_the_donkeycar_part_refuses_options_it_cannot_use(tmp_path):
                                               r"got 0"),
                              ({"threads": 1.5}, r"threads must be an integer in \[1, \d+\] \(this machine's cores\), "
                                                 r"got 1.5"),
-                             ({"throttle_scale": 0}, r"throttle_scale must be a number in \(0, 10\], got 0")]:
+                             ({"throttle_scale": 0}, r"throttle_scale must be a number in \(0, 10\], got 0"),
+                             ({"max_throttle": 0}, r"max_throttle must be a number in \(0, 1\], got 0"),
+                             ({"clock": 5}, r"clock must be a function that returns seconds \(time.monotonic\), "
+                                            r"got 5")]:
         with pytest.raises(SteerlabError, match=message):
             SteerlabPilot(learned, **options)
+
+
+def test_the_pilot_refuses_what_is_not_a_checkpoint_and_speeds_that_do_not_pair_with_its_frames(tmp_path):
+    from steerlab.pilot import Pilot
+
+    for bad in (42, None, "", [1]):
+        with pytest.raises(SteerlabError, match=r"checkpoint must be the path of a .pt checkpoint or an .onnx file "
+                                                rf"\(or a loaded checkpoint\), got {re.escape(repr(bad))}"):
+            Pilot(bad)
+    with pytest.raises(SteerlabError, match="the checkpoint given as a dict is not a steerlab checkpoint"):
+        Pilot({"a": 1})
+    pilot = Pilot(made(tmp_path, "normalized", "right", "donkey", full_lock_deg=25))
+    frames = [np.zeros((120, 160, 3), np.uint8)] * 3
+    with pytest.raises(SteerlabError, match="Pilot.stream: 3 or more frames and 2 speeds: give one speed a frame"):
+        list(pilot.stream(frames, speeds=[1.0, 1.0]))
+    with pytest.raises(SteerlabError, match="Pilot.stream: 3 frames and more speeds: give one speed a frame"):
+        list(pilot.stream(frames, speeds=[1.0] * 4))
+    assert len(list(pilot.stream(frames, speeds=[1.0] * 3))) == 3
+
+
+def test_a_full_lock_angle_in_radians_is_said(tmp_path, capsys):
+    """Rule 4: a full-lock angle below 5 degrees (0.44: radians typed for degrees) is said, by the donkeycar part
+    and by the readers that take one; a plausible one is not."""
+    from steerlab.data.readers import open_recording
+    from steerlab.donkey import SteerlabPilot
+
+    ckpt = made(tmp_path, "road_wheel", "left", "donkey")
+    SteerlabPilot(ckpt, full_lock_deg=0.44)
+    assert capsys.readouterr().err == ("warning: SteerlabPilot: full_lock_deg=0.44: a car's wheels turn 5 degrees or "
+                                       "more at full lock; radians where degrees are expected? (math.degrees "
+                                       "converts)\n")
+    tub(tmp_path / "tub")
+    open_recording(tmp_path / "tub", options={"full_lock_deg": 0.44})
+    assert "reader option: full_lock_deg=0.44: a car's wheels turn 5 degrees" in capsys.readouterr().err
+    SteerlabPilot(ckpt, full_lock_deg=25)
+    open_recording(tmp_path / "tub", options={"full_lock_deg": 25})
+    assert capsys.readouterr().err == ""
 
 
 # ---------------------------------------------------------------- the rules, each a sweep generated from the code
@@ -1238,7 +1331,7 @@ def test_the_donkeycar_part_refuses_options_it_cannot_use(tmp_path):
 # over an input or into a folder of another kind, and one line when it cannot be written; rule 3: files as people
 # save them; rule 4: implausible values said; rule 5: only earlier versions' checkpoints taken as earlier versions.
 # Each generator lists its inputs and whether each is refused or said, so that `python tests/test_bad_input.py`
-# counts them (docs/RESULTS.md, "Bad input").
+# counts them (docs/results/bad-input.md, "Bad input").
 
 def _option_classes():
     """Every options dataclass a user's values enter through: the commands' (cli.OPTIONS), the config's sections,
@@ -1716,7 +1809,7 @@ def test_an_experiment_writes_its_table_where_its_runs_train(tmp_path):
         load_experiment(cfg)
 
 
-if __name__ == "__main__":  # the table of docs/RESULTS.md, "Bad input"
+if __name__ == "__main__":  # the table of docs/results/bad-input.md, "Bad input"
     print("| rule | inputs generated | refused | said |\n|---|---|---|---|")
     for rule, n, refused, said in rule_counts():
         print(f"| {rule} | {n} | {refused} | {said} |")

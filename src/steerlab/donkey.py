@@ -49,7 +49,7 @@ import numpy as np
 from steerlab.control import SpeedControl
 from steerlab.data.car import car_of
 from steerlab.data.geometry import CAMERAS
-from steerlab.data.recording import SteeringConvention
+from steerlab.data.recording import SteeringConvention, said_full_lock
 from steerlab.errors import SteerlabError, warn
 from steerlab.pilot import Pilot
 
@@ -108,6 +108,7 @@ class SteerlabPilot:
         self.throttle_scale = _check("throttle_scale", throttle_scale, 0.0, 10.0, low_open=True)
         self.full_lock = None if full_lock_deg is None else math.radians(
             _check("full_lock_deg", full_lock_deg, 0.0, 89.0, low_open=True))
+        said_full_lock(full_lock_deg, "SteerlabPilot")
         if smoothing is not None:
             _check("smoothing", smoothing, 0.0, 1.0, low_open=True)
         if not isinstance(learned_throttle, bool):
@@ -126,7 +127,7 @@ class SteerlabPilot:
             raise SteerlabError(f"{self.source} predicts the {wheel} angle (positive {conv.positive}); donkeycar "
                                 "steers with a servo command in [-1, 1]: give the car's full-lock road-wheel angle, "
                                 f"SteerlabPilot({str(self.source)!r}, full_lock_deg=...)")
-        self.max_throttle = _check("max_throttle", max_throttle, 0.0, 1.0)
+        self.max_throttle = _check("max_throttle", max_throttle, 0.0, 1.0, low_open=True)  # 0: the car never moves
         if {"speed", "command"} & set(self.pilot.targets) and self.throttle > self.max_throttle:
             raise SteerlabError(f"SteerlabPilot: the cruising throttle {self.throttle:g} exceeds max_throttle "
                                 f"{self.max_throttle:g}")
@@ -135,6 +136,9 @@ class SteerlabPilot:
         self.command_step = _check("command_step", command_step, 0.0, 1.0)
         self.reset_after_s = None if reset_after_s is None else _check("reset_after_s", reset_after_s, 0.0, 1e9,
                                                                        low_open=True)
+        if not callable(clock):
+            raise SteerlabError(f"SteerlabPilot: clock must be a function that returns seconds (time.monotonic), "
+                                f"got {clock!r}")
         self.clock = clock
         self.steering_ratio = car_of(self.pilot.geometry).steering_ratio  # the car its angles were recorded on
         cam = CAMERAS.get(self.pilot.geometry)

@@ -88,7 +88,8 @@ class ExperimentConfig:
                 "train": {**self.shared.get("train", {}), **entry.train, "seed": seed}}
         if entry.dagger is not None or self.shared.get("dagger") is not None:
             base["dagger"] = {**(self.shared.get("dagger") or {}), **(entry.dagger or {})}
-        return parse_config(base, overrides=[*self.overrides, f"out={self.out / entry.name / f'seed{seed}'}"])
+        mine = [o for o in self.overrides if o.split("=", 1)[0].strip() != "out"]  # `out` names the experiment's
+        return parse_config(base, overrides=[*mine, f"out={self.out / entry.name / f'seed{seed}'}"])
 
 
 def load_experiment(path: str | Path, overrides=()) -> ExperimentConfig:

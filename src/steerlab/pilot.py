@@ -79,6 +79,20 @@ def _check_speed(speed):
     return speed
 
 
+def _paired(frames: Iterable, speeds: Iterable) -> Iterator[tuple]:
+    """(frame, speed) pairs; frames and speeds of different lengths are refused (a speed would go to the wrong
+    frame, or frames be left undriven)."""
+    frames, speeds, n = iter(frames), iter(speeds), 0
+    for frame in frames:
+        speed = next(speeds, _paired)
+        if speed is _paired:
+            raise SteerlabError(f"Pilot.stream: {n + 1} or more frames and {n} speeds: give one speed a frame")
+        yield frame, speed
+        n += 1
+    if next(speeds, _paired) is not _paired:
+        raise SteerlabError(f"Pilot.stream: {n} frames and more speeds: give one speed a frame")
+
+
 class Pilot:
     def __init__(self, checkpoint: str | Path | dict, smoothing: float | None = None, threads: int | None = None,
                  other_camera: bool = False, steering_step: float | None = None):
@@ -150,7 +164,7 @@ class Pilot:
         a file, say)."""
         prepare = self._prepare if load is None else lambda item: self._prepare(load(item))
         checked = None if speeds is None else map(self._plausible, map(_check_speed, speeds))
-        pairs = zip(frames, repeat(None)) if speeds is None else zip(frames, checked, strict=True)
+        pairs = zip(frames, repeat(None)) if speeds is None else _paired(frames, checked)
         before = self._prev  # the frame before the first one (None: the first starts a segment)
 
         def motion(prev: Future | None, cur: Future) -> tuple:

@@ -32,6 +32,16 @@ _METADATA_PROPS = 14  # ModelProto field number of metadata_props (entries: key 
 def load_model(checkpoint: str | Path | dict, threads: int | None = None):
     """The model of a .pt checkpoint (path or loaded dict) on PyTorch, or of an exported .onnx file on ONNX
     Runtime; `threads`: the runtime's intra-op threads (for PyTorch the process's, `torch.set_num_threads`)."""
+    if isinstance(checkpoint, dict):
+        from steerlab.checkpoint import FORMATS
+
+        if checkpoint.get("format") not in FORMATS or not isinstance(checkpoint.get("state_dict"), dict):
+            raise SteerlabError("the checkpoint given as a dict is not a steerlab checkpoint (no 'format' of "
+                                f"{' or '.join(FORMATS)} with a 'state_dict'): load it with "
+                                "steerlab.checkpoint.load_checkpoint(path), or give the path")
+    elif not isinstance(checkpoint, (str, Path)) or not str(checkpoint):
+        raise SteerlabError(f"checkpoint must be the path of a .pt checkpoint or an .onnx file (or a loaded "
+                            f"checkpoint), got {checkpoint!r}")
     if not isinstance(checkpoint, dict) and Path(checkpoint).suffix == ".onnx":
         return OnnxModel(checkpoint, threads)
     if not isinstance(checkpoint, dict):

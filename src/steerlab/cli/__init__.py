@@ -23,11 +23,36 @@ OPTIONS: dict[str, list[type]] = {}
 
 
 class Parser(argparse.ArgumentParser):
-    """argparse with one-line errors (exit code 2) that point to the command's --help."""
+    """argparse with one-line errors (exit code 2) that point to the command's --help, and every option of one
+    value given once: argparse would take the last of two silently."""
 
     def error(self, message: str):
         print(f"error: {message} (see: {self.prog} --help)", file=sys.stderr)
         sys.exit(2)
+
+    def parse_known_args(self, args=None, namespace=None):
+        args = sys.argv[1:] if args is None else list(args)
+        self._once(args)
+        return super().parse_known_args(args, namespace)
+
+    def _once(self, args: list[str]) -> None:
+        """Refuses an option of this parser given twice (`--epochs 3 --epochs 5`, also as `--epochs=5` or an
+        abbreviation argparse would take); options that collect a list (`--reader`) may repeat."""
+        seen: dict[str, str] = {}
+        for arg in args:
+            if arg == "--":
+                break
+            name = arg.split("=", 1)[0]
+            if not name.startswith("--"):
+                continue
+            found = [s for s in self._option_string_actions if s == name] or \
+                [s for s in self._option_string_actions if s.startswith(name)]
+            action = self._option_string_actions[found[0]] if len(found) == 1 else None
+            if action is None or isinstance(action, (argparse._AppendAction, argparse._HelpAction)):
+                continue
+            if action.dest in seen:
+                self.error(f"{found[0]} is given twice; give each option once")
+            seen[action.dest] = found[0]
 
 
 def flag(name: str) -> str:

@@ -34,6 +34,8 @@ def reader_options(items: list[str]) -> dict:
         if "=" not in item:
             raise SteerlabError(f"--reader {item!r} must look like key=value, e.g. full_lock_deg=25")
         key, value = item.split("=", 1)
+        if key.strip() in out:
+            raise SteerlabError(f"--reader {key.strip()}= is given twice; give each reader option once")
         out[key.strip()] = yaml.load(value, Loader=UniqueKeys)
     return out
 

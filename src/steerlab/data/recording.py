@@ -12,7 +12,7 @@ import cv2
 import numpy as np
 
 from steerlab.options import Range
-from steerlab.errors import DataError, SteerlabError
+from steerlab.errors import DataError, SteerlabError, warn
 
 if TYPE_CHECKING:
     from steerlab.data.fisheye import FisheyeCamera
@@ -23,6 +23,14 @@ SEGMENT_GAP_NS = 500_000_000  # a gap longer than 0.5 s between frames, or a new
 
 
 FULL_LOCK_DEG = Range(0, 90, lo_open=True, hi_open=True, unit="degrees")  # a car's largest road-wheel angle
+PLAUSIBLE_FULL_LOCK_DEG = 5.0  # cars and RC cars turn their wheels 15-35 degrees at full lock
+
+
+def said_full_lock(deg: float | None, where: str) -> None:
+    """A full-lock angle below PLAUSIBLE_FULL_LOCK_DEG is said: radians where degrees are expected, most likely."""
+    if deg is not None and float(deg) < PLAUSIBLE_FULL_LOCK_DEG:
+        warn(f"{where}: full_lock_deg={float(deg):g}: a car's wheels turn {PLAUSIBLE_FULL_LOCK_DEG:g} degrees or more "
+             f"at full lock; radians where degrees are expected? (math.degrees converts)")
 
 
 @dataclass(frozen=True)

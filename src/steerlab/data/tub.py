@@ -26,7 +26,7 @@ import numpy as np
 
 from steerlab.data.fisheye import fisheye_from
 from steerlab.data.rows import apply_range
-from steerlab.data.recording import FULL_LOCK_DEG, Recording, SteeringConvention
+from steerlab.data.recording import FULL_LOCK_DEG, Recording, SteeringConvention, said_full_lock
 from steerlab.options import Options, option
 from steerlab.paths import regular_file
 from steerlab.errors import DataError, SteerlabError, warn
@@ -202,6 +202,7 @@ def read_tub(folder: str | Path, frame_range=None, full_lock_deg: float | None =
              f"{', '.join(map(str, missing[:10]))}{' ...' if len(missing) > 10 else ''})")
     if not kept:
         raise DataError(folder, "no record has its image")
+    said_full_lock(full_lock_deg, f"{folder}: reader option")
     try:
         convention = SteeringConvention("normalized", "right",
                                         None if full_lock_deg is None else math.radians(float(full_lock_deg)))

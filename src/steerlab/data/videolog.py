@@ -21,7 +21,7 @@ import numpy as np
 
 from steerlab.data.preprocess import CROP_PRESETS
 from steerlab.data.rows import apply_range, check_increasing, check_unique, csv_header, number, read_rows
-from steerlab.data.recording import FULL_LOCK_DEG, KINDS, Recording, SteeringConvention, VideoFrames
+from steerlab.data.recording import FULL_LOCK_DEG, KINDS, Recording, SteeringConvention, VideoFrames, said_full_lock
 from steerlab.errors import DataError
 from steerlab.options import Options, option
 
@@ -57,6 +57,7 @@ def read_video(path: str | Path, frame_range=None, log: str | Path | None = None
         raise DataError(path, "cannot decode this video with OpenCV")
     if geometry not in CROP_PRESETS:
         raise DataError(path, f"unknown camera geometry {geometry!r}; choose one of {', '.join(CROP_PRESETS)}")
+    said_full_lock(full_lock_deg, f"{log}: reader option")
     try:
         convention = SteeringConvention(steering, positive,
                                         None if full_lock_deg is None else math.radians(float(full_lock_deg)))

@@ -97,8 +97,8 @@ class TrackRecordOptions(Options):
     lane_width: float = lane_width_option()
     style: Literal["taped", "centre"] = _style()
     calibration: str | None = calibration_option()
-    room: int | None = option(None, help="seed of the room the track lies in: its floor, light and clutter (default: "
-                              "the track's seed); the same track in other rooms is cheap augmentation")
+    room: int | None = option(None, SEED, help="seed of the room the track lies in: its floor, light and clutter "
+                              "(default: the track's seed); the same track in other rooms is cheap augmentation")
     mount_height: float | None = option(None, Range(0.05, 0.5, unit="m"), help="the camera's height above the floor, "
                                         "m (default: the fisheye's, 0.15)")
     pitch: float | None = option(None, Range(0, 45, unit="degrees"), help="the camera's pitch, degrees down "
