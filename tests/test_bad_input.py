@@ -1143,9 +1143,10 @@ def _single_value_flags():
 
 @pytest.mark.parametrize("command, name, short, valued", _single_value_flags(),
                          ids=lambda v: v if isinstance(v, str) else None)
-def test_every_option_given_twice_is_refused(command, name, short, valued, capsys):
+def test_every_option_given_twice_is_refused(command, name, short, valued, capsys, tmp_path, monkeypatch):
     """Rule 1 (each option once): an option of one value given twice is refused in one line naming it, before
     anything runs, however the second is written (`--flag=value`, an abbreviation argparse takes)."""
+    monkeypatch.chdir(tmp_path)  # were it not refused, what it wrote would land here
     first = [name, "1"] if valued else [name]
     for second in (first, [f"{name}=2"] if valued else [name], [short, "2"] if valued else [short]):
         assert main([*command.split(), *first, *second]) == 2, second
