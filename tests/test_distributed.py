@@ -1,6 +1,7 @@
 """Data-parallel training: two CPU ranks with a global batch B take the steps one process takes with batch B."""
 
 import functools
+import os
 import subprocess
 
 import pytest
@@ -24,6 +25,7 @@ def config(tmp_path, recording, out, model="pilotnet"):
     return path
 
 
+@pytest.mark.skipif((os.cpu_count() or 1) < 2, reason="--nproc 2 needs two cores")
 def test_two_ranks_match_one_process(tmp_path, tiny_recording, monkeypatch):
     model = "lstm"  # a recurrent model: windows of frames sharded over the ranks, flipped
     train(load_config(config(tmp_path, tiny_recording, "one", model)), progress=False)

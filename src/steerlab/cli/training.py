@@ -10,13 +10,13 @@ from dataclasses import dataclass
 from steerlab.cli import path_option, add_options, from_args, print_table
 from steerlab.cli.data import OUTPUT_METRICS
 from steerlab.errors import SteerlabError
-from steerlab.options import AT_LEAST_1, Options, option
+from steerlab.options import AT_LEAST_1, CORES, Options, Range, option
 
 
 @dataclass(frozen=True)
 class TrainCommand(Options):
-    nproc: int = option(1, AT_LEAST_1, help="data-parallel ranks on this machine (torchrun + DDP; train.batch_size "
-                        "stays the global batch)")
+    nproc: int = option(1, Range(1, CORES), help="data-parallel ranks on this machine, at most its cores (torchrun + "
+                        "DDP; train.batch_size stays the global batch)")
 
 
 @dataclass(frozen=True)
