@@ -1154,6 +1154,27 @@ def test_every_option_given_twice_is_refused(command, name, short, valued, capsy
         assert err.startswith(f"error: {name} is given twice") and err.count("\n") == 1, err
 
 
+def test_a_cache_named_by_the_environment_is_checked_as_an_output(tmp_path, monkeypatch, capsys):
+    """Rule 2 for the cache however it is named: STEERLAB_CACHE at a recording or a run folder is refused before
+    anything is written there, from the command line and from the Python API."""
+    from steerlab.data.dataset import compile_recording
+    from steerlab.data.preprocess import PreprocessConfig
+    from steerlab.data.readers import open_recording
+
+    tub(tmp_path / "tub")
+    run = tmp_path / "run"
+    run.mkdir()
+    made(run, name="last.pt")  # what marks a training run's folder
+    for folder, held in ((tmp_path / "tub", "a recording"), (run, "a training run")):
+        monkeypatch.setenv("STEERLAB_CACHE", str(folder))
+        before = _files(folder)
+        assert main(["compile", "--data", str(tmp_path / "tub")]) == 2
+        assert capsys.readouterr().err.startswith(f"error: {folder}: the cache folder (STEERLAB_CACHE) holds {held} (")
+        with pytest.raises(SteerlabError, match=f"the cache folder \\(STEERLAB_CACHE\\) holds {held}"):
+            compile_recording(open_recording(tmp_path / "tub"), PreprocessConfig(), progress=False)
+        assert _files(folder) == before
+
+
 def test_overrides_and_reader_options_given_twice_are_refused(tmp_path, capsys):
     """The same key twice among `section.key=value` overrides or `--reader key=value` options is refused."""
     from steerlab.train.config import load_config
