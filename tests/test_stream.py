@@ -40,5 +40,5 @@ def test_stream_errors(tmp_path):
         list(pilot.stream([b"abc"], [1.0]))
     with pytest.raises(SteerlabError, match="needs the measured speed"):
         list(pilot.stream(frames(2)))
-    with pytest.raises(SteerlabError, match=r"more frames than speeds \(1 speeds\)"):
+    with pytest.raises(SteerlabError, match=r"more frames than speeds \(1 speed\): give one speed a frame"):
         list(pilot.stream(frames(2), [1.0]))

@@ -86,11 +86,11 @@ def _paired(frames: Iterable, speeds: Iterable) -> Iterator[tuple]:
     for frame in frames:
         speed = next(speeds, _paired)
         if speed is _paired:
-            raise SteerlabError(f"Pilot.stream: more frames than speeds ({n} speeds): give one speed a frame")
+            raise SteerlabError(f"Pilot.stream: more frames than speeds ({n} speed{'s' * (n != 1)}): give one speed a frame")
         yield frame, speed
         n += 1
     if next(speeds, _paired) is not _paired:
-        raise SteerlabError(f"Pilot.stream: more speeds than frames ({n} frames): give one speed a frame")
+        raise SteerlabError(f"Pilot.stream: more speeds than frames ({n} frame{'s' * (n != 1)}): give one speed a frame")
 
 
 class Pilot:
