@@ -1175,6 +1175,23 @@ def test_a_cache_named_by_the_environment_is_checked_as_an_output(tmp_path, monk
         assert _files(folder) == before
 
 
+def test_a_suite_of_one_world_is_not_written_over_by_another_worlds(tmp_path, capsys):
+    """Rule 2: a road-world suite's folder refuses a track-world bench and the other way round (both are suites
+    to the outputs' check), before any drive; its tables stay as they were."""
+    road, track = made(tmp_path), made(tmp_path, "normalized", "right", "donkey", name="tub.pt", full_lock_deg=25)
+    for world, ckpt, other, column in (("track", track, "road_type", "style"), ("road", road, "style", "road_type")):
+        out = tmp_path / f"{world}-into-other"
+        out.mkdir()
+        (out / "suite.csv").write_text(f"label,checkpoint,{other},seed\n")
+        (out / "suite.md").write_text("a table\n")
+        before = _files(out)
+        assert main(["sim", "bench", str(ckpt), "--world", world, "--out", str(out), "--minutes", "0.01"]) == 2
+        assert capsys.readouterr().err == (f"error: {out}: the output folder holds another world's suite "
+                                           f"({out / 'suite.csv'} has no {column} column); a {world}-world suite "
+                                           "goes into a new folder or one of its own\n")
+        assert _files(out) == before
+
+
 def test_overrides_and_reader_options_given_twice_are_refused(tmp_path, capsys):
     """The same key twice among `section.key=value` overrides or `--reader key=value` options is refused."""
     from steerlab.train.config import load_config

@@ -17,7 +17,7 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 
 from steerlab import files
-from steerlab.errors import SteerlabError
+from steerlab.errors import DataError, SteerlabError
 from steerlab.sim.core.parallel import run_parallel
 
 
@@ -29,6 +29,16 @@ def check_seed(seed: int, world: str) -> None:
     if seed in RESERVED_SEEDS:
         raise SteerlabError(f"{world} seeds {RESERVED_SEEDS.start}-{RESERVED_SEEDS.stop - 1} are reserved for the "
                             f"{world} suites and never recorded; choose another seed")
+
+
+def check_world_of(out: str | Path, world: str, column: str) -> None:
+    """A suite's folder holds one world's suite: `suite.csv` with `column` (the road world's `road_type`, the track
+    world's `style`). Another world's tables in it are refused in one line, not written over (the outputs'
+    check takes a suite's folder as any suite's)."""
+    table = Path(out) / "suite.csv"
+    if table.is_file() and column not in table.read_text(errors="replace").split("\n", 1)[0].split(","):
+        raise DataError(out, f"the output folder holds another world's suite ({table} has no {column} column); "
+                             f"a {world}-world suite goes into a new folder or one of its own")
 
 
 def checkpoints_to_drive(checkpoints) -> tuple[list[Path], list[str]]:

@@ -20,8 +20,8 @@ from steerlab.paths import check_outputs
 from steerlab.pilot import DriveWith, smoothing_option, steering_step_option
 from steerlab.sim.core.driving import autonomy
 from steerlab.sim.core.parallel import tick_reporter
-from steerlab.sim.core.suite import (Planned, as_stored, checkpoints_to_drive, file_sha256, grouped, run_drives,
-                                     when_set, write_csv)
+from steerlab.sim.core.suite import (Planned, as_stored, check_world_of, checkpoints_to_drive, file_sha256, grouped,
+                                     run_drives, when_set, write_csv)
 from steerlab.sim.road.run import RoadDrive, drive_checkpoint
 from steerlab.sim.road.world import DriveOptions, RecordOptions
 
@@ -129,6 +129,7 @@ def run_suite(checkpoints, out: str | Path, o: SuiteOptions = SuiteOptions(), pr
     `plots`, one trajectory plot per road in `out/roads/`. Returns the summary rows."""
     checkpoints, labels = checkpoints_to_drive(checkpoints)
     check_outputs({"output folder": out}, inputs=checkpoints, kind="suite")
+    check_world_of(out, "road", "road_type")
     roads, minutes, out = o.drives(), o.road_minutes, Path(out)
     planned = []
     for label, ckpt in zip(labels, checkpoints):

@@ -33,8 +33,8 @@ from steerlab.paths import check_outputs
 from steerlab.pilot import DriveWith, smoothing_option, steering_step_option
 from steerlab.sim.core.driving import autonomy
 from steerlab.sim.core.parallel import tick_reporter
-from steerlab.sim.core.suite import (Planned, as_stored, checkpoints_to_drive, file_sha256, grouped, run_drives,
-                                     when_set, write_csv)
+from steerlab.sim.core.suite import (Planned, as_stored, check_world_of, checkpoints_to_drive, file_sha256, grouped,
+                                     run_drives, when_set, write_csv)
 from steerlab.sim.track.run import TrackDrive, drive_checkpoint, drive_expert
 from steerlab.sim.track.world import (TrackDriveOptions, TrackRecordOptions, calibration_option, camera_of,
                                       latency_option, max_throttle_option, throttle_option,
@@ -189,6 +189,7 @@ def race(checkpoints, out: str | Path, o: TrackSuiteOptions, progress: bool = Tr
     cap): drives kept in `out/<label>/<style>-<seed>/` and reused."""
     checkpoints, labels = checkpoints_to_drive(checkpoints)
     check_outputs({"output folder": out}, inputs=checkpoints, kind="suite")
+    check_world_of(out, "track", "style")
     tracks, out = o.drives(), Path(out)
     taken = [c for c, label in zip(checkpoints, labels) if label.startswith(EXPERT)]
     if taken:
