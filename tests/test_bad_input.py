@@ -1192,6 +1192,21 @@ def test_a_suite_of_one_world_is_not_written_over_by_another_worlds(tmp_path, ca
         assert _files(out) == before
 
 
+def test_extra_data_of_another_steering_convention_is_refused(tmp_path, capsys):
+    """Recordings that do not belong together are not mixed: extra_data whose steering means other angles than the
+    config's data (a donkeycar tub's servo command beside the simulator's road-wheel radians) is refused before
+    training, as init, teacher and ensemble refuse the same thing."""
+    cfg = config(tmp_path, sim_log(tmp_path / "sim"))
+    tub(tmp_path / "tub")
+    cfg.write_text(cfg.read_text() + f"extra_data: [{tmp_path / 'tub'}]\n")
+    assert main(["train", str(cfg)]) == 2
+    assert capsys.readouterr().err == (f"error: extra_data {tmp_path / 'tub'} records normalized/right steering and the "
+                                       "config's data road_wheel/right: the targets would mean "
+                                       "different angles; give recordings of one steering convention (the same car "
+                                       "and reader options)\n")
+    assert not list((tmp_path / "run").glob("*.pt"))
+
+
 def test_overrides_and_reader_options_given_twice_are_refused(tmp_path, capsys):
     """The same key twice among `section.key=value` overrides or `--reader key=value` options is refused."""
     from steerlab.train.config import load_config

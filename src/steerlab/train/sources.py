@@ -134,8 +134,18 @@ def training_sources(cfg: TrainConfig, ds: CompiledDataset, train_idx: np.ndarra
     t = cfg.train
     taught = None if teacher is None else teacher_steering(cfg, teacher, progress)
     recordings = [(None, ds, train_idx, True)]
+    conv = SteeringConvention(**ds.meta["convention"])
     for path in cfg.extra_data:
         extra = prepare_dataset(cfg, progress, data=path)
+        other = SteeringConvention(**extra.meta["convention"])
+        if not other.matches(conv):
+            raise SteerlabError(f"extra_data {path} records {other.describe()} steering and the config's data "
+                                f"{conv.describe()}: the targets would mean different angles; give recordings of "
+                                "one steering convention (the same car and reader options)")
+        if extra.meta["geometry"] != ds.meta["geometry"]:
+            raise SteerlabError(f"extra_data {path} holds frames of the {extra.meta['geometry']!r} camera and the "
+                                f"config's data of the {ds.meta['geometry']!r} camera: a model sees one camera; give "
+                                "recordings of one camera geometry")
         idx = usable_frames(extra, np.arange(len(extra)), f"extra recording {path}", t.min_speed,
                             t.exclude_episodes)
         recordings.append((path, extra, idx, {"left", "right"} <= set(open_recording(path).cameras)))
