@@ -1207,6 +1207,19 @@ def test_extra_data_of_another_steering_convention_is_refused(tmp_path, capsys):
     assert not list((tmp_path / "run").glob("*.pt"))
 
 
+def test_replay_refuses_a_recording_whose_steering_means_other_angles_than_the_models(tmp_path, capsys):
+    """As evaluate does: a tub read with another full-lock angle than the checkpoint was trained with."""
+    ckpt = made(tmp_path, "normalized", "right", "donkey", full_lock_deg=25)
+    tub(tmp_path / "tub")
+    assert main(["replay", str(ckpt), "--data", str(tmp_path / "tub"), "--reader", "full_lock_deg=30",
+                 "--out", str(tmp_path / "replay")]) == 2
+    assert capsys.readouterr().err == (f"error: {ckpt} predicts normalized/right (full lock 25 deg) steering and "
+                                       f"{tmp_path / 'tub'} records normalized/right (full lock 30 deg) steering: "
+                                       "the human's path and the model's steering would be two cars; replay it on "
+                                       "recordings of its own convention (the reader options it was trained with)\n")
+    assert not (tmp_path / "replay").exists()
+
+
 def test_overrides_and_reader_options_given_twice_are_refused(tmp_path, capsys):
     """The same key twice among `section.key=value` overrides or `--reader key=value` options is refused."""
     from steerlab.train.config import load_config

@@ -101,6 +101,11 @@ def run_replay(checkpoints, source: Source, out: str | Path, o=ReplayOptions(), 
         if pilot.geometry != rec.geometry:
             raise SteerlabError(f"{c} was trained on the {pilot.geometry!r} camera geometry and {rec.source} has the "
                                 f"{rec.geometry!r} geometry: replay it on recordings of its own camera")
+        if not pilot.convention.matches(rec.convention):
+            raise SteerlabError(f"{c} predicts {pilot.convention.describe()} steering and {rec.source} records "
+                                f"{rec.convention.describe()} steering: the human's path and the model's steering "
+                                "would be two cars; replay it on recordings of its own convention (the reader "
+                                "options it was trained with)")
         o.check_pilot(pilot, c, rec)
         try:
             pilot.convention.to_road_wheel_left(0.0, car.steering_ratio)
