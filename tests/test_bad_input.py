@@ -1746,7 +1746,8 @@ def test_rule3_what_steerlab_writes_is_valid_json(tmp_path):
 def rule4_cases():
     """(what, value, outcome): values implausible for their unit. The measured speed of every car: negative
     refused, beyond twice its top speed said; a calibration's focal length: too long to see anything refused;
-    predictions in degrees where radians are expected said."""
+    predictions in degrees where radians are expected said; answers (and predictions with them) beyond a steering
+    wheel's two turns each way said."""
     from steerlab.data.car import CARS
 
     out = []
@@ -1757,6 +1758,7 @@ def rule4_cases():
                 ("speed", (geometry, top), "taken")]
     out += [("focal length", fx, "refused" if fx > 1000 else "taken") for fx in (80, 200, 400, 8000, 80000)]
     out += [("spread", factor, "said" if factor > 10 else "taken") for factor in (1, 3, 57.3, 180 / 3.1416 * 10)]
+    out += [("answers", most, "said" if most > 4 * 3.1416 else "taken") for most in (0.5, 8.0, 12.5, 28.6, 458.0)]
     return out
 
 
@@ -1798,6 +1800,13 @@ def test_rule4_implausible_values_are_said(what, value, outcome, tmp_path, capsy
         pred = tmp_path / "pred.csv"
         pred.write_text("frame_id,steering_angle\n" + "".join(
             f"{r.split(',')[0]},{float(r.split(',')[1]) * value + 0.001 * (i % 2)}\n" for i, r in enumerate(rows)))
+        if what == "answers":  # answers and predictions alike up to `value`: the spread says nothing
+            lines = [line.split(",") for line in rows]
+            top = max(abs(float(r[1])) for r in lines)
+            (folder / "labels.csv").write_text("frame_id,steering_angle,public\n" + "".join(
+                f"{r[0]},{float(r[1]) * value / top},{r[2]}\n" for r in lines))
+            pred.write_text("frame_id,steering_angle\n" + "".join(
+                f"{r[0]},{float(r[1]) * value / top * 0.9}\n" for r in lines))
         act = lambda: score(folder / "labels.csv", pred)  # noqa: E731
     if outcome == "refused":
         with pytest.raises(SteerlabError):

@@ -52,6 +52,7 @@ def read_steering_csv(path: str | Path, need_public: bool = False) -> tuple[np.n
 
 
 SPREAD = 10.0  # predictions spread this many times as far as the truth are in another unit, not just poor
+MOST_RAD = 4 * math.pi  # a steering wheel turns at most two turns each way: larger angles are in another unit
 
 
 def spread_said(pred: np.ndarray, truth: np.ndarray) -> str | None:
@@ -81,6 +82,10 @@ def score(truth_path: str | Path, pred_path: str | Path) -> dict[str, float]:
         first = next(int(f) for f in p_ids if int(f) not in known)
         raise DataError(pred_path, f"{extra} frame ids are not in the answer file, first {first}")
     aligned = pred[[pos[int(f)] for f in t_ids]]
+    most = float(np.abs(truth).max())
+    if most > MOST_RAD:
+        warn(f"{truth_path}: steering angles up to {most:.4g} rad, beyond a steering wheel's two turns each way "
+             f"({MOST_RAD:.4g} rad): degrees where radians are expected?")
     said = spread_said(aligned, truth)
     if said:
         warn(f"{pred_path}: {said}")
