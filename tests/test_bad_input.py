@@ -1660,13 +1660,20 @@ def _config_of(command, tmp_path):
 
 def _resaved(path):
     """A copy of the file's bytes in another form: with a byte-order mark, CRLF, trailing blank lines; or in UTF-16,
-    with a Latin-1 byte, with its first column named twice."""
+    with a Latin-1 byte, with its first column named twice, with NUL bytes; or another file altogether (a
+    checkpoint, an image)."""
     data = path.read_bytes()
     return {"bom": b"\xef\xbb\xbf" + data, "crlf": data.replace(b"\n", b"\r\n"),
             "bom+crlf": b"\xef\xbb\xbf" + data.replace(b"\n", b"\r\n"), "blank lines": data + b"\n\n\n",
             "utf-16": data.decode().encode("utf-16"), "latin-1": data.replace(b"\n", b" \xe9\n", 2),
             "column twice": data.replace(b",", b"," + data.split(b",")[0] + b",", 1),
-            "NUL bytes": data.replace(b"\n", b"\0\n", 2)}
+            "NUL bytes": data.replace(b"\n", b"\0\n", 2), "a checkpoint": made(path.parent, name=".x.pt").read_bytes(),
+            "a JPEG image": _jpeg_bytes(path.parent / ".x.jpg")}
+
+
+def _jpeg_bytes(path: Path) -> bytes:
+    write_jpeg(path, 100, (32, 32))
+    return path.read_bytes()
 
 
 def rule3_cases():
@@ -1675,7 +1682,7 @@ def rule3_cases():
     taken = ("bom", "crlf", "bom+crlf", "blank lines")
     out = []
     for file in ("ch2 labels", "driving log", "native log", "answer file", "config", "calibration"):
-        for variant in (*taken, "utf-16", "latin-1", "column twice", "NUL bytes"):
+        for variant in (*taken, "utf-16", "latin-1", "column twice", "NUL bytes", "a checkpoint", "a JPEG image"):
             if variant == "column twice" and file in ("driving log", "config", "calibration"):
                 continue
             out.append((file, variant, variant in taken))
@@ -1732,6 +1739,9 @@ def test_rule3_files_as_people_save_them(file, variant, taken, tmp_path):
     with pytest.raises(SteerlabError) as e:
         read()
     assert str(path) in str(e.value) and "\n" not in str(e.value), str(e.value)
+    said = {"a checkpoint": "a zip archive (a steerlab checkpoint .pt is one), where the", "a JPEG image":
+            "a JPEG image, where the", "NUL bytes": "a binary file"}.get(variant, "")
+    assert said in str(e.value), str(e.value)
 
 
 def test_rule3_what_steerlab_writes_is_valid_json(tmp_path):
