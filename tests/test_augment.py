@@ -67,6 +67,19 @@ def test_augmentation_hand_computed():
     assert augment(x.clone(), cfg, np.random.default_rng(1), 0, 0.5)[..., 0].max() <= 255
 
 
+def test_each_sample_gets_the_draws_it_gets_augmented_alone():
+    """A batch's draws go to its samples one sample after the other (hue angle, then brightness factor), as when
+    each sample is augmented on its own: a seed gives the same training data batched or not."""
+    cfg = PreprocessConfig(color="rgb")
+    x = torch.from_numpy(np.random.default_rng(0).uniform(0, 255, (3, 4, 5, 3)).astype(np.float32))
+    out = augment(x.clone(), cfg, np.random.default_rng(7), rotation_deg=0, brightness=0.3, hue_deg=90)
+    r = np.random.default_rng(7)
+    for i in range(3):
+        hue, factor = r.uniform(-90, 90), r.uniform(0.7, 1.3)
+        want = np.clip(np.clip(x[i].numpy() @ hue_turns(np.array([hue]))[0].T, 0, 255) * factor, 0, 255)
+        np.testing.assert_allclose(out[i].numpy(), want, rtol=1e-5, atol=1e-3)
+
+
 def test_rotation_turns_the_image_as_opencv_does():
     cfg = PreprocessConfig(width=64, height=48, color="gray")
     yy, xx = np.mgrid[0:48, 0:64].astype(np.float32)

@@ -83,7 +83,8 @@ def _rotate(x: torch.Tensor, deg: np.ndarray, flow: int | None) -> torch.Tensor:
 def augment(x: torch.Tensor, cfg: PreprocessConfig, rng: np.random.Generator, rotation_deg: float,
             brightness: float, hue_deg: float = 0.0) -> torch.Tensor:
     """Training augmentation of paper 002 IV-B1 on a batch (B, H, W, C) of unstandardised inputs, every sample's
-    draws from `rng` (the hue angles of all samples, then their rotations, then their brightness factors):
+    draws from `rng` one sample after the other (its hue angle, rotation and brightness factor, those that are on),
+    so that a seed gives each sample the draws it gets when the samples are augmented one at a time:
 
     - hue (RGB inputs): the colours of every frame of the sample turned about the gray axis by an angle drawn
       from +-hue_deg (`hue_turns`), clipped to 0..255: tape, paint and floors of colours the recordings lack;
@@ -93,16 +94,22 @@ def augment(x: torch.Tensor, cfg: PreprocessConfig, rng: np.random.Generator, ro
       drawn from 1 +- brightness, clipped to 0..255.
     Returns the augmented batch (`x` itself, changed in place, unless it was rotated)."""
     b = len(x)
+    on = sum(1 for span in (hue_deg, rotation_deg, brightness) if span)
+    draws = iter(rng.random((b, on)).T)  # a row per sample, in turn; a column per augmentation that is on
+
+    def within(lo: float, hi: float) -> np.ndarray:  # as rng.uniform(lo, hi) scales its draw
+        return lo + (hi - lo) * next(draws)
+
     if hue_deg:
-        turns = torch.from_numpy(hue_turns(rng.uniform(-hue_deg, hue_deg, b))).transpose(1, 2).contiguous()
+        turns = torch.from_numpy(hue_turns(within(-hue_deg, hue_deg))).transpose(1, 2).contiguous()
         for f in range(cfg.stack):  # the image's channels come first
             rgb = x[..., 3 * f: 3 * f + 3]
             rgb.copy_(torch.bmm(rgb.reshape(b, -1, 3), turns).view(rgb.shape).clamp_(0, 255))
     if rotation_deg:
         flow = first_channel(cfg, "flow") if "flow" in cfg.modalities else None
-        x = _rotate(x, rng.uniform(-rotation_deg, rotation_deg, b), flow)
+        x = _rotate(x, within(-rotation_deg, rotation_deg), flow)
     if brightness:
-        factor = torch.from_numpy(rng.uniform(1 - brightness, 1 + brightness, b).astype(np.float32)).view(-1, 1, 1, 1)
+        factor = torch.from_numpy(within(1 - brightness, 1 + brightness).astype(np.float32)).view(-1, 1, 1, 1)
         lo, hi = LUMA[cfg.color]
         for f in range(cfg.stack):
             c = f * cfg.image_channels
