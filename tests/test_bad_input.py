@@ -466,7 +466,8 @@ BAD_INPUTS = {
         ("train.smoothness=-0.5", "a finite number of at least 0", "-0.5"),
     ]},
     "sim dagger into another config's folder": (_dagger_of_another_config,
-                                                "run holds a DAgger run with another config; choose a new out"),
+                                                "run holds a DAgger run of another config (its dagger.json holds no config this "
+                                                "steerlab reads: "),
     "sim dagger with a suite road type that does not exist": (
         lambda t, s: ["sim", "dagger", str(config(t, sim_log(t / "sim"))), "dagger.suite_roads=twisty,mountain"],
         "dagger.suite_roads must be a comma list of road types of country, highway, twisty, each once, got "

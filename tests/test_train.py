@@ -271,8 +271,18 @@ def test_resume_after_interruption(tiny_recording, tmp_path, monkeypatch):
     assert [e.step for e in rmse] == [1, 2, 3]
     np.testing.assert_allclose([e.value for e in rmse], [float(r["val_rmse"]) for r in rows], rtol=1e-6)
     other = _cfg(tiny_recording, tmp_path, epochs=3, lr=0.1, split={"train": "0:100", "val": "100:140"})
-    with pytest.raises(SteerlabError, match="another config"):
+    with pytest.raises(SteerlabError, match=r"holds a run of another config \(train.lr: 0.001 -> 0.1; "
+                                            r"train.tensorboard: True -> False\); choose a new out directory"):
         loop.train(other, progress=False)
+
+
+def test_a_run_continues_under_more_epochs(tiny_recording, tmp_path):
+    """More epochs (or patience) continue a run where it stopped; its epochs so far stay as they were."""
+    loop.train(_cfg(tiny_recording, tmp_path, epochs=1, batch_size=64), progress=False)
+    first = _log(tmp_path)
+    loop.train(_cfg(tiny_recording, tmp_path, epochs=2, patience=12, batch_size=64), progress=False)
+    rows = _log(tmp_path)
+    assert [r["epoch"] for r in rows] == ["1", "2"] and rows[0] == first[0]
 
 
 def test_baselines(tiny_recording, tmp_path):

@@ -33,8 +33,8 @@ from steerlab.options import Options, SPEED, as_dict, option, parse
 from steerlab.pilot import Pilot
 from steerlab.sim.road.suite import SuiteOptions, closed_loop_metrics
 from steerlab.split_replay import SplitReplay
-from steerlab.train.config import TrainConfig, layered, parse_config, read_yaml
-from steerlab.train.loop import holds_run_of, train
+from steerlab.train.config import TrainConfig, another_config, layered, parse_config, read_yaml
+from steerlab.train.loop import run_changes, train
 from steerlab.train.sources import main_recording, prepare_dataset
 
 LATENCY_FRAMES = 200
@@ -148,9 +148,8 @@ def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: boo
             cfg = exp.run_config(entry, seed)
             run_dir = Path(cfg.out)
             done = run_dir / "metrics.json"
-            if done.exists() and not holds_run_of(run_dir, cfg):
-                raise SteerlabError(f"{run_dir} holds a run with another config; choose a new out for the "
-                                    "experiment or delete it")
+            if done.exists() and (changes := run_changes(run_dir, cfg)):
+                raise another_config(run_dir, changes)
             if not done.exists():
                 if progress:
                     print(f"== {entry.name}, seed {seed}")

@@ -176,6 +176,24 @@ class TrainConfig(Options):
         return d
 
 
+def differences(earlier: dict, now: dict, prefix: str = "") -> list[str]:
+    """The dotted keys whose values differ between two nested mappings, as `key: earlier -> now` texts."""
+    out = []
+    for key in sorted(set(earlier) | set(now), key=str):
+        a, b = earlier.get(key, "(unset)"), now.get(key, "(unset)")
+        if isinstance(a, dict) and isinstance(b, dict):
+            out += differences(a, b, f"{prefix}{key}.")
+        elif a != b:
+            out.append(f"{prefix}{key}: {a!r} -> {b!r}")
+    return out
+
+
+def another_config(out: Path, changes: list[str], what: str = "a run") -> SteerlabError:
+    """The error for a folder that holds `what` of another config, naming what differs."""
+    shown = "; ".join(changes[:3]) + (f"; and {len(changes) - 3} more" if len(changes) > 3 else "")
+    return SteerlabError(f"{out} holds {what} of another config ({shown}); choose a new out directory or delete it")
+
+
 # What a config that leaves them out gets on a donkeycar tub, under the user's own settings: the model and loss
 # chosen on the selection blocks of both shared tubs (docs/results/donkeycar.md, "steerlab side by side with
 # donkeycar").

@@ -37,7 +37,7 @@ from steerlab.models.registry import predicted
 from steerlab.options import as_dict
 from steerlab.train.batches import (Batch, EpochSampler, FrameBatches, balance_weights, loader, recovery_repeats,
                                     sequence_windows)
-from steerlab.train.config import LOSSES, TrainConfig, parse_config
+from steerlab.train.config import LOSSES, TrainConfig, another_config, differences, parse_config
 from steerlab.train.distributed import Ranks, setup, wrap
 from steerlab.train.host import bf16_instructions, keep_freed_memory
 from steerlab.train.log import EpochLog
@@ -188,22 +188,27 @@ def _named_checkpoint(options, key: str) -> dict | None:
         raise SteerlabError(f"train.{key}: {e}") from None
 
 
-def holds_run_of(out: Path, cfg: TrainConfig, car=None) -> bool:
-    """Whether the run folder `out` holds a run of `cfg` (a run of an earlier version's config, with fewer
-    options, text for numbers or the car's values written out, is the same run when it parses to the same
-    settings). `car`: the recording's, found when not given."""
+STOPPING = ("train.epochs", "train.patience")  # when a run stops: a run continues under larger ones
+
+
+def run_changes(out: Path, cfg: TrainConfig, car=None, ignore=()) -> list[str]:
+    """What differs between the run in the folder `out` and `cfg`, as `key: earlier -> now` texts, but the keys
+    of `ignore` (a run of an earlier version's config, with fewer options, text for numbers or the car's values
+    written out, is the same run when it parses to the same settings); [] for a run of `cfg`. `car`: the
+    recording's, found when not given."""
     car = car or car_of(main_recording(cfg).geometry)
     try:
         earlier = parse_config(json.loads((out / "config.json").read_text())).for_car(car).identity()
-    except (OSError, ValueError, SteerlabError):
-        return False
-    return earlier == cfg.for_car(car).identity()
+    except (OSError, ValueError, SteerlabError) as e:
+        return [f"its config.json holds no config this steerlab reads: {e}"]
+    return [d for d in differences(earlier, cfg.for_car(car).identity()) if d.split(":")[0] not in ignore]
 
 
 def _claim(out: Path, cfg: TrainConfig, car) -> None:
-    """A folder that holds a run of another config is refused."""
-    if (out / "last.pt").exists() and not holds_run_of(out, cfg, car):
-        raise SteerlabError(f"{out} holds a run with another config; choose a new out directory or delete it")
+    """A folder that holds a run of another config is refused; one of the same config with other stopping rules
+    (more epochs, more patience) continues."""
+    if (out / "last.pt").exists() and (changes := run_changes(out, cfg, car, ignore=STOPPING)):
+        raise another_config(out, changes)
     write_json(out / "config.json", as_dict(cfg))
 
 
