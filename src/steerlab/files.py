@@ -23,7 +23,8 @@ from steerlab.paths import regular_file
 BOMS = {b"\xff\xfe\x00\x00": "UTF-32", b"\x00\x00\xfe\xff": "UTF-32", b"\xff\xfe": "UTF-16", b"\xfe\xff": "UTF-16"}
 # files that are not text, by their first bytes: given where a text file is expected, they are named as what they are
 BINARY = {b"PK\x03\x04": "a zip archive (a steerlab checkpoint .pt is one)", b"\x89PNG": "a PNG image",
-          b"\xff\xd8\xff": "a JPEG image", b"\x1a\x45\xdf\xa3": "a Matroska or WebM video"}
+          b"\xff\xd8\xff": "a JPEG image", b"\x1a\x45\xdf\xa3": "a Matroska or WebM video",
+          b"\x93NUMPY": "a NumPy array (.npy)"}
 
 
 def decode(data: bytes, path: str | Path) -> str:
@@ -53,8 +54,6 @@ def read_text(path: str | Path, what: str = "file") -> str:
     kind = next((name for magic, name in BINARY.items() if data.startswith(magic)), None)
     if kind is None and data[4:8] in (b"ftyp", b"moov"):
         kind = "an MP4 or MOV video"
-    if kind is None and b"\x00" in data[:4096] and not any(data.startswith(mark) for mark in BOMS):
-        kind = "a binary file (an .onnx model, an .npy array?)"
     if kind is not None:
         raise DataError(path, f"{kind}, where the {what} is expected (text)")
     return decode(data, path)
