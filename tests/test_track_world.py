@@ -273,17 +273,27 @@ def test_sim_drive_world_track_with_a_tub_checkpoint(tmp_path, capsys, saved_fig
     assert_video(out / "drive.mp4", 30, (640, 630))
 
 
-def test_a_model_that_learned_the_throttle_drives_the_track_with_its_own(tmp_path):
-    """--throttle is the constant of a model that predicts none: a throttle model's speeds do not depend on it."""
+def test_a_model_that_learned_the_throttle_drives_the_track_with_its_own(tmp_path, capsys):
+    """--throttle is the constant of a model that predicts none: refused for a throttle model (it would change
+    nothing), in a drive and in a bench whose every model learned its own (`learns_throttle` tells them apart); a
+    throttle model drives with its own."""
+    from steerlab.sim.core.part import learns_throttle
+
     ckpt = made(tmp_path, "normalized", "right", "donkey", full_lock_deg=25, throttle=True)
-    speeds = []
-    for constant in ("0.1", "0.6"):
-        out = tmp_path / constant
-        assert main(["sim", "drive", str(ckpt), "--world", "track", "--minutes", "0.02", "--throttle", constant,
-                     "--out", str(out)]) == 0
-        with open(out / "trajectory.csv") as f:
-            speeds.append([float(r["speed"]) for r in csv.DictReader(f)])
-    assert speeds[0] == speeds[1] and max(speeds[0]) > 0
+    steering = made(tmp_path, "normalized", "right", "donkey", name="steering.pt", full_lock_deg=25)
+    assert learns_throttle(ckpt) and not learns_throttle(steering)
+    for argv in (["drive", str(ckpt)], ["bench", str(ckpt)]):
+        assert main(["sim", *argv, "--world", "track", "--minutes", "0.02", "--throttle", "0.6", "--out",
+                     str(tmp_path / "refused")]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and "learned" in err and "--throttle 0.6 is the constant throttle of a model " \
+            "that predicts none" in err and "leave it out" in err, err
+    assert not (tmp_path / "refused").exists()
+    out = tmp_path / "own"
+    assert main(["sim", "drive", str(ckpt), "--world", "track", "--minutes", "0.02", "--out", str(out)]) == 0
+    with open(out / "trajectory.csv") as f:
+        speeds = [[float(r["speed"]) for r in csv.DictReader(f)]]
+    assert max(speeds[0]) > 0
     out = tmp_path / "capped"  # --max-throttle caps the learned throttle: no faster than that throttle holds
     assert main(["sim", "drive", str(ckpt), "--world", "track", "--minutes", "0.02", "--max-throttle", "0.05",
                  "--out", str(out)]) == 0

@@ -20,7 +20,7 @@ from steerlab.data.car import CARS, Car
 from steerlab.data.recording import SteeringConvention
 from steerlab.donkey import SteerlabPilot
 from steerlab.errors import SteerlabError
-from steerlab.pilot import Controls
+from steerlab.pilot import Controls, Pilot
 
 
 class PartPilot:
@@ -60,6 +60,11 @@ class PartPilot:
         reset = getattr(self.part, "reset", None)
         if callable(reset):
             reset()
+
+
+def learns_throttle(checkpoint: str | Path) -> bool:
+    """Whether the model of `checkpoint` learned the throttle (the donkeycar part drives with it)."""
+    return "throttle" in Pilot(checkpoint).targets
 
 
 def donkey_pilot(checkpoint: str | Path, throttle: float, smoothing: float | None = None, max_throttle: float = 0.5,

@@ -34,7 +34,7 @@ from steerlab.sim.core.parallel import tick_reporter
 from steerlab.sim.core.plots import write_strip
 from steerlab.sim.core.suite import check_seed, write_json
 from steerlab.sim.track.world import (DRIFT_EVERY_S, RacerPilot, TrackDriveOptions, TrackRecordOptions, TrackWorld,
-                                      camera_of)
+                                      camera_of, constant_throttle)
 from steerlab.video import DriveVideo
 
 
@@ -138,7 +138,7 @@ def drive(pilot, out: str | Path | None, o: TrackDriveOptions = TrackDriveOption
     With `out`: trajectory.csv, frames.png (a frame every 5 s), drive.json (the result and `meta`) and, with
     `plot`, track.png (the driven line on the track)."""
     check_camera(pilot)
-    world = TrackWorld(o.seed, o.lane_width, o.style, o.fps, camera_of(o.calibration), o.throttle)
+    world = TrackWorld(o.seed, o.lane_width, o.style, o.fps, camera_of(o.calibration), constant_throttle(o.throttle))
     check_steers(pilot, world.car)
     strip = []
     movie = DriveVideo(video, o.fps) if video else None
@@ -180,8 +180,12 @@ def drive_checkpoint(checkpoint: str | Path, out: str | Path | None, o: TrackDri
     `o.max_throttle`, its steering shaped as `w` says)."""
     from steerlab.sim.core.part import donkey_pilot
 
-    pilot = donkey_pilot(checkpoint, o.throttle, w.smoothing, o.max_throttle, steering_step=w.steering_step,
-                         throttle_scale=o.throttle_scale)
+    pilot = donkey_pilot(checkpoint, constant_throttle(o.throttle), w.smoothing, o.max_throttle,
+                         steering_step=w.steering_step, throttle_scale=o.throttle_scale)
+    if o.throttle is not None and pilot.part.learned:
+        raise SteerlabError(f"{checkpoint} learned the throttle; --throttle {o.throttle:g} is the constant throttle of "
+                            "a model that predicts none: leave it out (--throttle-scale and --max-throttle shape a "
+                            "learned throttle)")
     return drive(pilot, out, o, video, progress, on_tick, plot, meta)
 
 
@@ -237,7 +241,7 @@ def rollout_job(checkpoint: str, out: str, seed: int, minutes: float, style: str
     smoothing, steering step and latency), seen through the recording's fisheye."""
     from steerlab.sim.core.part import donkey_pilot
 
-    pilot = donkey_pilot(checkpoint, suite.throttle, suite.smoothing, suite.max_throttle,
+    pilot = donkey_pilot(checkpoint, constant_throttle(suite.throttle), suite.smoothing, suite.max_throttle,
                          steering_step=suite.steering_step, throttle_scale=suite.throttle_scale)
     return rollout(pilot, out, seed, minutes, style, beta, camera, on_tick=tick_reporter(),
                    max_throttle=suite.max_throttle, latency=suite.latency)

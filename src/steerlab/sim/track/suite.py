@@ -33,11 +33,12 @@ from steerlab.paths import check_outputs
 from steerlab.pilot import DriveWith, smoothing_option, steering_step_option
 from steerlab.sim.core.driving import autonomy
 from steerlab.sim.core.parallel import tick_reporter
+from steerlab.sim.core.part import learns_throttle
 from steerlab.sim.core.suite import (Planned, as_stored, check_world_of, checkpoints_to_drive, file_sha256, grouped,
                                      run_drives, when_set, write_csv)
 from steerlab.sim.track.run import TrackDrive, drive_checkpoint, drive_expert
 from steerlab.sim.track.world import (TrackDriveOptions, TrackRecordOptions, calibration_option, camera_of,
-                                      latency_option, max_throttle_option, throttle_option,
+                                      constant_throttle, latency_option, max_throttle_option, throttle_option,
                                       throttle_scale_option)
 
 TRACK_SUITES = {
@@ -63,7 +64,7 @@ class TrackSuiteOptions(Options):
     smoothing: float | None = smoothing_option()
     steering_step: float | None = steering_step_option()
     styles: str | None = option(None, help="comma list of the suite's track styles to drive (default: all)")
-    throttle: float = throttle_option()
+    throttle: float | None = throttle_option()
     max_throttle: float = max_throttle_option()
     throttle_scale: float = throttle_scale_option()
     latency: int = latency_option()
@@ -109,7 +110,8 @@ class TrackSuiteOptions(Options):
         they existed stay reusable)."""
         camera = None if self.calibration is None else list(astuple(camera_of(self.calibration)))
         return as_stored({"checkpoint_sha256": file_sha256(checkpoint), "suite": self.suite,
-                          "minutes": self.track_minutes, "smoothing": self.smoothing, "throttle": self.throttle,
+                          "minutes": self.track_minutes, "smoothing": self.smoothing,
+                          "throttle": constant_throttle(self.throttle),
                           "max_throttle": self.max_throttle, "camera": camera,
                           **when_set(self, "steering_step", "latency", "throttle_scale")})
 
@@ -195,6 +197,10 @@ def race(checkpoints, out: str | Path, o: TrackSuiteOptions, progress: bool = Tr
     if taken:
         raise SteerlabError(f"{taken[0]}: its label begins with {EXPERT!r}, as the folders of the expert's drives do; "
                             "name it otherwise (its run folder)")
+    if o.throttle is not None and all(learns_throttle(c) for c in checkpoints):
+        raise SteerlabError(f"--throttle {o.throttle:g} is the constant throttle of a model that predicts none; every "
+                            "checkpoint here learned its own: leave it out (--throttle-scale and --max-throttle "
+                            "shape a learned throttle)")
     expert_key = as_stored({"suite": o.suite, "minutes": o.track_minutes, "max_throttle": o.max_throttle})
     runs = [(o.expert_folder(), None, expert_key),
             *((label, str(c), o.key(c)) for label, c in zip(labels, checkpoints))]
@@ -273,8 +279,8 @@ def markdown(summary: list[SuiteSummary], drives: list[SuiteDrive], o: TrackSuit
     scaled = "" if o.throttle_scale == 1 else f" (the learned one times {o.throttle_scale:g} first)"
     lines = [f"Track suite {o.suite}: {o.track_minutes:g} min per track, {TRACK_SUITES[o.suite]['lane_width']:g} m "
              f"lanes, the learned throttle and the expert's capped at {o.max_throttle:g}{scaled}, constant throttle "
-             f"{o.throttle:g} for models that predict none. A lap is clean without an off-track event (the first "
-             "starts standing); a track is finished with a clean lap; pace: mean clean lap over the expert's on the "
+             f"{constant_throttle(o.throttle):g} for models that predict none. A lap is clean without an off-track "
+             "event (the first starts standing); a track is finished with a clean lap; pace: mean clean lap over the expert's on the "
              "same track, the summary's over the tracks every checkpoint finished (their number beside it); "
              "autonomy = (1 - off-track events x 6 s / elapsed s) x 100.", "",
              "| checkpoint | style | finished | laps | clean laps | clean [%] | off track | off track / lap | "

@@ -61,8 +61,15 @@ def calibration_option():
 
 
 def throttle_option():
-    """The option of every track command that drives a model: the throttle of one that predicts none."""
-    return option(THROTTLE, UNIT, help="the constant throttle of a model that predicts none")
+    """The option of every track command that drives a model: the throttle of one that predicts none (None:
+    THROTTLE). Given for models that all learned the throttle, it would change nothing, and is refused."""
+    return option(None, UNIT, help=f"the constant throttle of a model that predicts none (default {THROTTLE}); "
+                  "refused where every model driven learned its own")
+
+
+def constant_throttle(given: float | None) -> float:
+    """The constant throttle of a model that predicts none: the one given, else THROTTLE."""
+    return THROTTLE if given is None else given
 
 
 def max_throttle_option():
@@ -124,7 +131,7 @@ class TrackDriveOptions(Options):
     lane_width: float = lane_width_option()
     style: Literal["taped", "centre"] = _style()
     calibration: str | None = calibration_option()
-    throttle: float = throttle_option()
+    throttle: float | None = throttle_option()
     max_throttle: float = max_throttle_option()
     latency: int = latency_option()
     throttle_scale: float = throttle_scale_option()
