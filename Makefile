@@ -102,4 +102,4 @@ bench: $(VENV)/.test  # the timings of benchmarks/ (the experiments of studies/ 
 	for b in benchmarks/bench_*.py; do $(BIN)/python $$b || exit 1; done
 
 clean:
-	rm -rf runs .steerlab-cache site
+	rm -rf runs .steerlab-cache site .hypothesis

@@ -1049,6 +1049,46 @@ def test_every_numeric_config_option_is_range_checked(key, kind, check, expected
             assert f"{key} must be" in str(e.value) and "\n" not in str(e.value), (value, str(e.value))
 
 
+def test_a_numeric_option_takes_exactly_the_values_its_range_declares():
+    """Property-based (Hypothesis): for any option whose type is a number, in the config or on the command line, and
+    any value a user may type (integers and floats of any size, NaN, infinities, booleans, number-like text), the
+    parse takes the value exactly when it is of the option's type and inside its declared range, anywhere in it,
+    not only at the ends the sweeps try."""
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+
+    from steerlab.options import value_of
+
+    options = [(key, kind, check) for key, kind, check, _ in _numeric_options()] + \
+        [(f"{command} {name}", kind, check) for command, name, kind, check in _cli_numeric_options()]
+    values = st.one_of(st.integers(-2**40, 2**40), st.floats(allow_nan=True, allow_infinity=True), st.booleans(),
+                       st.text("0123456789.-+einfa", max_size=6))
+
+    def takes(kind, r, value) -> bool:  # the range's own words, computed here: lo <= v <= hi, open ends excluded
+        if isinstance(value, bool) or (kind is int and not isinstance(value, int)):
+            return False
+        try:
+            v = float(value)
+        except ValueError:  # text that is no number
+            return False
+        above = r.lo is None or (v > r.lo if r.lo_open else v >= r.lo)
+        below = r.hi is None or (v < r.hi if r.hi_open else v <= r.hi)
+        return v == v and abs(v) != float("inf") and above and below
+
+    @settings(max_examples=400, deadline=None, derandomize=True, database=None)
+    @given(st.sampled_from(options), values)
+    def check(option, value):
+        key, kind, declared = option
+        try:
+            value_of(kind, value, key, declared)
+            taken = True
+        except SteerlabError:
+            taken = False
+        assert taken == takes(kind, _a_range(key, declared), value), (key, value)
+
+    check()
+
+
 def _cli_numeric_options():
     from steerlab.cli import OPTIONS, build_parser
     from steerlab.options import optional, options_of
