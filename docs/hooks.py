@@ -1,5 +1,5 @@
 """The documentation site's front page is the repository's README (mkdocs.yml names this file as a hook): its links
-into docs/ are made relative to the site, its links to other files of the repository point at them there."""
+into docs/ are made relative to the site (the README links to no other file of the repository)."""
 
 from pathlib import Path
 

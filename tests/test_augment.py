@@ -78,6 +78,15 @@ def test_each_sample_gets_the_draws_it_gets_augmented_alone():
         hue, factor = r.uniform(-90, 90), r.uniform(0.7, 1.3)
         want = np.clip(np.clip(x[i].numpy() @ hue_turns(np.array([hue]))[0].T, 0, 255) * factor, 0, 255)
         np.testing.assert_allclose(out[i].numpy(), want, rtol=1e-5, atol=1e-3)
+    # rotation and brightness: a uniform image and flow (1, 0), whose vectors turn by each sample's own angle
+    cfg = PreprocessConfig(modalities=("image", "flow"))
+    x = torch.zeros((3, 10, 20, 3))
+    x[..., 0], x[..., 1] = 100.0, 1.0
+    out = augment(x.clone(), cfg, np.random.default_rng(8), rotation_deg=20, brightness=0.3)
+    r = np.random.default_rng(8)
+    for i in range(3):
+        a, factor = np.radians(r.uniform(-20, 20)), r.uniform(0.7, 1.3)
+        np.testing.assert_allclose(out[i, 5, 10], [100 * factor, np.cos(a), -np.sin(a)], rtol=1e-5)
 
 
 def test_rotation_turns_the_image_as_opencv_does():

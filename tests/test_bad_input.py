@@ -466,8 +466,8 @@ BAD_INPUTS = {
         ("train.smoothness=-0.5", "a finite number of at least 0", "-0.5"),
     ]},
     "sim dagger into another config's folder": (_dagger_of_another_config,
-                                                "run holds a DAgger run of another config (its dagger.json holds no config this "
-                                                "steerlab reads: "),
+                                                "run holds a DAgger run whose dagger.json this steerlab cannot read "
+                                                "(SteerlabError); choose a new out"),
     "sim dagger with a suite road type that does not exist": (
         lambda t, s: ["sim", "dagger", str(config(t, sim_log(t / "sim"))), "dagger.suite_roads=twisty,mountain"],
         "dagger.suite_roads must be a comma list of road types of country, highway, twisty, each once, got "
@@ -1220,15 +1220,15 @@ def test_a_suite_of_one_world_is_not_written_over_by_another_worlds(tmp_path, ca
     """Rule 2: a road-world suite's folder refuses a track-world bench and the other way round (both are suites
     to the outputs' check), before any drive; its tables stay as they were."""
     road, track = made(tmp_path), made(tmp_path, "normalized", "right", "donkey", name="tub.pt", full_lock_deg=25)
-    for world, ckpt, other, column in (("track", track, "road_type", "style"), ("road", road, "style", "road_type")):
+    for world, ckpt, other, column in (("track", track, "road", "road_type"), ("road", road, "track", "style")):
         out = tmp_path / f"{world}-into-other"
         out.mkdir()
-        (out / "suite.csv").write_text(f"label,checkpoint,{other},seed\n")
+        (out / "suite.csv").write_text(f"label,checkpoint,{column},seed\r\n")  # as csv.DictWriter ends its lines
         (out / "suite.md").write_text("a table\n")
         before = _files(out)
         assert main(["sim", "bench", str(ckpt), "--world", world, "--out", str(out), "--minutes", "0.01"]) == 2
-        assert capsys.readouterr().err == (f"error: {out}: the output folder holds another world's suite "
-                                           f"({out / 'suite.csv'} has no {column} column); a {world}-world suite "
+        assert capsys.readouterr().err == (f"error: {out}: the output folder holds a {other}-world suite "
+                                           f"({out / 'suite.csv'} has its {column} column); a {world}-world suite "
                                            "goes into a new folder or one of its own\n")
         assert _files(out) == before
 
@@ -1241,11 +1241,11 @@ def test_extra_data_of_another_steering_convention_is_refused(tmp_path, capsys):
     tub(tmp_path / "tub")
     cfg.write_text(cfg.read_text() + f"extra_data: [{tmp_path / 'tub'}]\n")
     assert main(["train", str(cfg)]) == 2
-    assert capsys.readouterr().err == (f"error: extra_data {tmp_path / 'tub'} records normalized/right steering and the "
-                                       "config's data road_wheel/right: the targets would mean "
-                                       "different angles; give recordings of one steering convention (the same car "
-                                       "and reader options)\n")
-    assert not list((tmp_path / "run").glob("*.pt"))
+    assert capsys.readouterr().err == (f"error: extra_data {tmp_path / 'tub'} records normalized/right steering and "
+                                       "the config's data road_wheel/right: the targets would mean different angles; "
+                                       "give recordings of one car (extra_data is read with the readers' default "
+                                       "options)\n")
+    assert not (tmp_path / "run").exists() and not (tmp_path / "cache").exists()  # refused before any work
 
 
 def test_replay_refuses_a_recording_whose_steering_means_other_angles_than_the_models(tmp_path, capsys):
@@ -1259,6 +1259,29 @@ def test_replay_refuses_a_recording_whose_steering_means_other_angles_than_the_m
                                        "the human's path and the model's steering would be two cars; replay it on "
                                        "recordings of its own convention (the reader options it was trained with)\n")
     assert not (tmp_path / "replay").exists()
+
+
+def test_an_experiment_refuses_a_seed_override(tmp_path):
+    """`steerlab experiment CONFIG --seeds 3 train.seed=5` would train every 'seed' with seed 5."""
+    from steerlab.experiment import load_experiment
+
+    cfg = config(tmp_path, sim_log(tmp_path / "sim"))
+    cfg.write_text(cfg.read_text() + "models:\n  - {model: {name: zero}}\n")
+    with pytest.raises(SteerlabError, match=r"override train.seed: an experiment's runs take the seeds 0..N-1 of "
+                                            r"--seeds; leave it out"):
+        load_experiment(cfg, ["train.seed=5"])
+    assert load_experiment(cfg, ["train.epochs=2"]).overrides == ("train.epochs=2",)
+
+
+def test_options_that_may_repeat_are_not_refused():
+    """What the each-once rule leaves alone: two options one of whose names begins the other's, an option that
+    collects a list, a value after `--`; the same option twice is refused (SystemExit, after its one line)."""
+    parsers = dict(_command_parsers())
+    parsers["sim bench"]._once(["--throttle", "1", "--throttle-scale", "2"])
+    parsers["evaluate"]._once(["--reader", "a=1", "--reader", "b=2"])
+    parsers["sim bench"]._once(["--minutes", "1", "--", "--minutes"])
+    with pytest.raises(SystemExit):
+        parsers["sim bench"]._once(["--minutes", "1", "--minutes", "2"])
 
 
 def test_overrides_and_reader_options_given_twice_are_refused(tmp_path, capsys):
@@ -1408,9 +1431,11 @@ def test_the_pilot_refuses_what_is_not_a_checkpoint_and_speeds_that_do_not_pair_
         Pilot({"a": 1})
     pilot = Pilot(made(tmp_path, "normalized", "right", "donkey", full_lock_deg=25))
     frames = [np.zeros((120, 160, 3), np.uint8)] * 3
-    with pytest.raises(SteerlabError, match=r"Pilot.stream: more frames than speeds \(2 speeds\): give one speed a frame"):
+    with pytest.raises(SteerlabError, match=r"Pilot.stream: more frames than speeds \(2 speeds\): give one speed a "
+                                            "frame"):
         list(pilot.stream(frames, speeds=[1.0, 1.0]))
-    with pytest.raises(SteerlabError, match=r"Pilot.stream: more speeds than frames \(3 frames\): give one speed a frame"):
+    with pytest.raises(SteerlabError, match=r"Pilot.stream: more speeds than frames \(3 frames\): give one speed a "
+                                            "frame"):
         list(pilot.stream(frames, speeds=[1.0] * 4))
     assert len(list(pilot.stream(frames, speeds=[1.0] * 3))) == 3
 
@@ -1428,7 +1453,8 @@ def test_a_full_lock_angle_in_radians_is_said(tmp_path, capsys):
                                        "converts)\n")
     tub(tmp_path / "tub")
     open_recording(tmp_path / "tub", options={"full_lock_deg": 0.44})
-    assert "reader option: full_lock_deg=0.44: a car's wheels turn 5 degrees" in capsys.readouterr().err
+    open_recording(tmp_path / "tub", options={"full_lock_deg": 0.44})  # opened again in the same command: said once
+    assert capsys.readouterr().err.count("reader option: full_lock_deg=0.44: a car's wheels turn 5 degrees") == 1
     SteerlabPilot(ckpt, full_lock_deg=25)
     open_recording(tmp_path / "tub", options={"full_lock_deg": 25})
     assert capsys.readouterr().err == ""

@@ -54,7 +54,7 @@ def test_a_section_named_beside_a_page_is_a_heading_of_that_page():
         for page, title in section_references(path.read_text(errors="replace")):
             found += 1
             assert (ROOT / page).is_file(), f"{path.relative_to(ROOT)} names {page}, which does not exist"
-            assert any(h.startswith(title) for h in headings(ROOT / page)), (
+            assert any(re.match(re.escape(title) + r"(\W|$)", h) for h in headings(ROOT / page)), (
                 f"{path.relative_to(ROOT)} names the section \"{title}\" of {page}, which has no such heading")
     assert found > 10
 

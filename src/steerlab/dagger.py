@@ -38,7 +38,7 @@ from steerlab.sim.core.parallel import run_parallel
 from steerlab.sim.road.world import ROADS, road_types
 from steerlab.sim.worlds import WORLDS, suite_world, track_styles
 from steerlab.split_replay import SplitReplay
-from steerlab.train.config import TrainConfig, another_config, differences, parse_config
+from steerlab.train.config import TrainConfig, another_config, differences, parse_config, unreadable
 from steerlab.train.sources import main_recording
 
 ALL_SUITES = [v for w in WORLDS.values() for v in w.suites]
@@ -244,7 +244,7 @@ def _claim(out: Path, cfg: TrainConfig, o: DaggerOptions, car) -> None:
             earlier = _settings(parse_config({**stored, "dagger": None}).for_car(car),
                                 parse(DaggerOptions, _renamed(stored["dagger"]), "dagger"))
         except (OSError, ValueError, KeyError, TypeError, SteerlabError) as e:
-            raise another_config(out, [f"its dagger.json holds no config this steerlab reads: {e}"], "a DAgger run")
+            raise unreadable(out, "dagger.json", e, "a DAgger run") from None
         if changes := differences(earlier, _settings(cfg, o)):
             raise another_config(out, changes, "a DAgger run")
     out.mkdir(parents=True, exist_ok=True)

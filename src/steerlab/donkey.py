@@ -108,7 +108,7 @@ class SteerlabPilot:
         self.throttle_scale = _check("throttle_scale", throttle_scale, 0.0, 10.0, low_open=True)
         self.full_lock = None if full_lock_deg is None else math.radians(
             _check("full_lock_deg", full_lock_deg, 0.0, 89.0, low_open=True))
-        said_full_lock(full_lock_deg, "SteerlabPilot")
+        said_full_lock(full_lock_deg, "SteerlabPilot", once=False)  # each part is made once
         if smoothing is not None:
             _check("smoothing", smoothing, 0.0, 1.0, low_open=True)
         if not isinstance(learned_throttle, bool):

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -39,7 +40,7 @@ def load_model(checkpoint: str | Path | dict, threads: int | None = None):
             raise SteerlabError("the checkpoint given as a dict is not a steerlab checkpoint (no 'format' of "
                                 f"{' or '.join(FORMATS)} with a 'state_dict'): load it with "
                                 "steerlab.checkpoint.load_checkpoint(path), or give the path")
-    elif not isinstance(checkpoint, (str, Path)) or not str(checkpoint):
+    elif not isinstance(checkpoint, (str, os.PathLike)) or not str(checkpoint):
         raise SteerlabError(f"checkpoint must be the path of a .pt checkpoint or an .onnx file (or a loaded "
                             f"checkpoint), got {checkpoint!r}")
     if not isinstance(checkpoint, dict) and Path(checkpoint).suffix == ".onnx":

@@ -2,7 +2,7 @@
 under it. A config's `cache:`, or `--cache` on the command line, names it; otherwise the environment variable
 STEERLAB_CACHE, otherwise `.steerlab-cache` in the working directory. However it is named, it goes through the
 outputs' one check (`paths.check_outputs`): a cache is never written into a recording, a run or another kind of
-folder."""
+folder (the default, steerlab's own folder, is taken wherever the command runs)."""
 
 from __future__ import annotations
 
@@ -16,6 +16,7 @@ DEFAULT = ".steerlab-cache"
 
 def cache_root(configured: str | Path | None = None) -> Path:
     env = os.environ.get("STEERLAB_CACHE")
-    root = Path(configured or env or DEFAULT)
-    check_outputs({"cache folder" if configured or not env else "cache folder (STEERLAB_CACHE)": root}, kind="cache")
-    return root
+    if configured or env:  # a named one; the default is steerlab's own folder in the working directory
+        check_outputs({"cache folder" if configured else "cache folder (STEERLAB_CACHE)": configured or env},
+                      kind="cache")
+    return Path(configured or env or DEFAULT)

@@ -26,11 +26,19 @@ FULL_LOCK_DEG = Range(0, 90, lo_open=True, hi_open=True, unit="degrees")  # a ca
 PLAUSIBLE_FULL_LOCK_DEG = 5.0  # cars and RC cars turn their wheels 15-35 degrees at full lock
 
 
-def said_full_lock(deg: float | None, where: str) -> None:
-    """A full-lock angle below PLAUSIBLE_FULL_LOCK_DEG is said: radians where degrees are expected, most likely."""
-    if deg is not None and float(deg) < PLAUSIBLE_FULL_LOCK_DEG:
-        warn(f"{where}: full_lock_deg={float(deg):g}: a car's wheels turn {PLAUSIBLE_FULL_LOCK_DEG:g} degrees or more "
-             f"at full lock; radians where degrees are expected? (math.degrees converts)")
+_SAID: set[str] = set()  # what said_full_lock said once in this process: a recording is opened several times a command
+
+
+def said_full_lock(deg: float | None, where: str, once: bool = True) -> None:
+    """A full-lock angle below PLAUSIBLE_FULL_LOCK_DEG is said (`once`: the first time in the process only, as a
+    reader's option is read again with every opening): radians where degrees are expected, most likely. Call it
+    with a valid angle (after the convention that holds it is made)."""
+    message = (f"{where}: full_lock_deg={float(deg):g}: a car's wheels turn {PLAUSIBLE_FULL_LOCK_DEG:g} degrees or "
+               "more at full lock; radians where degrees are expected? (math.degrees converts)") if deg is not None \
+        and float(deg) < PLAUSIBLE_FULL_LOCK_DEG else None
+    if message and not (once and message in _SAID):
+        _SAID.add(message)
+        warn(message)
 
 
 @dataclass(frozen=True)

@@ -202,12 +202,12 @@ def read_tub(folder: str | Path, frame_range=None, full_lock_deg: float | None =
              f"{', '.join(map(str, missing[:10]))}{' ...' if len(missing) > 10 else ''})")
     if not kept:
         raise DataError(folder, "no record has its image")
-    said_full_lock(full_lock_deg, f"{folder}: reader option")
     try:
         convention = SteeringConvention("normalized", "right",
                                         None if full_lock_deg is None else math.radians(float(full_lock_deg)))
     except ValueError as e:
         raise SteerlabError(f"{folder}: reader option full_lock_deg: {e}") from None
+    said_full_lock(full_lock_deg, f"{folder}: reader option")
     recs = [r for _, r in kept]
     throttle = np.array([math.nan if r.get("user/throttle") is None else float(r["user/throttle"]) for r in recs])
     return Recording(

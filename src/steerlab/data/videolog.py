@@ -57,12 +57,12 @@ def read_video(path: str | Path, frame_range=None, log: str | Path | None = None
         raise DataError(path, "cannot decode this video with OpenCV")
     if geometry not in CROP_PRESETS:
         raise DataError(path, f"unknown camera geometry {geometry!r}; choose one of {', '.join(CROP_PRESETS)}")
-    said_full_lock(full_lock_deg, f"{log}: reader option")
     try:
         convention = SteeringConvention(steering, positive,
                                         None if full_lock_deg is None else math.radians(float(full_lock_deg)))
     except ValueError as e:
         raise DataError(log, f"reader options steering/positive/full_lock_deg: {e}") from None
+    said_full_lock(full_lock_deg, f"{log}: reader option")
 
     rows = read_rows(log)
     if len(rows) < 2:

@@ -176,22 +176,38 @@ class TrainConfig(Options):
         return d
 
 
-def differences(earlier: dict, now: dict, prefix: str = "") -> list[str]:
-    """The dotted keys whose values differ between two nested mappings, as `key: earlier -> now` texts."""
+class _Unset:
+    def __repr__(self) -> str:
+        return "(unset)"
+
+
+UNSET = _Unset()  # a key one of two configs lacks
+
+
+def differences(earlier: dict, now: dict, prefix: str = "") -> list[tuple[str, object, object]]:
+    """(dotted key, earlier value, value now) of every key whose value differs between two nested mappings."""
     out = []
     for key in sorted(set(earlier) | set(now), key=str):
-        a, b = earlier.get(key, "(unset)"), now.get(key, "(unset)")
+        a, b = earlier.get(key, UNSET), now.get(key, UNSET)
         if isinstance(a, dict) and isinstance(b, dict):
             out += differences(a, b, f"{prefix}{key}.")
         elif a != b:
-            out.append(f"{prefix}{key}: {a!r} -> {b!r}")
+            out.append((f"{prefix}{key}", a, b))
     return out
 
 
-def another_config(out: Path, changes: list[str], what: str = "a run") -> SteerlabError:
-    """The error for a folder that holds `what` of another config, naming what differs."""
-    shown = "; ".join(changes[:3]) + (f"; and {len(changes) - 3} more" if len(changes) > 3 else "")
-    return SteerlabError(f"{out} holds {what} of another config ({shown}); choose a new out directory or delete it")
+def another_config(out: Path, changes: list[tuple[str, object, object]], what: str = "a run") -> SteerlabError:
+    """The error for a folder that holds `what` of another config, naming what differs (`differences`)."""
+    shown = "; ".join(f"{key}: {a!r} -> {b!r}" for key, a, b in changes[:3])
+    more = f"; and {len(changes) - 3} more" if len(changes) > 3 else ""
+    return SteerlabError(f"{out} holds {what} of another config ({shown}{more}); choose a new out directory or "
+                         "delete it")
+
+
+def unreadable(out: Path, name: str, e: Exception, what: str = "a run") -> SteerlabError:
+    """The error for a folder whose stored config (`name`) this version cannot read."""
+    return SteerlabError(f"{out} holds {what} whose {name} this steerlab cannot read ({e.__class__.__name__}); "
+                         "choose a new out directory or delete it")
 
 
 # What a config that leaves them out gets on a donkeycar tub, under the user's own settings: the model and loss

@@ -37,12 +37,12 @@ from steerlab.models.registry import predicted
 from steerlab.options import as_dict
 from steerlab.train.batches import (Batch, EpochSampler, FrameBatches, balance_weights, loader, recovery_repeats,
                                     sequence_windows)
-from steerlab.train.config import LOSSES, TrainConfig, another_config, differences, parse_config
+from steerlab.train.config import LOSSES, TrainConfig, another_config, differences, parse_config, unreadable
 from steerlab.train.distributed import Ranks, setup, wrap
 from steerlab.train.host import bf16_instructions, keep_freed_memory
 from steerlab.train.log import EpochLog
-from steerlab.train.sources import (check_camera, main_recording, prepare_dataset, steering_ahead, training_sources,
-                                    usable_frames)
+from steerlab.train.sources import (check_camera, check_extra_data, main_recording, prepare_dataset, steering_ahead,
+                                    training_sources, usable_frames)
 
 
 def _mean_error(error: torch.Tensor, loss: str) -> torch.Tensor:
@@ -167,6 +167,7 @@ def train(cfg: TrainConfig, progress: bool = True, on_epoch=None) -> dict:
     init, teacher = (_named_checkpoint(cfg.train, key) for key in ("init", "teacher"))
     rec = main_recording(cfg)
     check_camera(cfg, rec)  # before the run folder is made
+    check_extra_data(cfg, rec)
     car = car_of(rec.geometry)
     cfg = cfg.for_car(car)
     if not ranks.main:  # rank 0 holds the lock for all ranks
@@ -191,23 +192,24 @@ def _named_checkpoint(options, key: str) -> dict | None:
 STOPPING = ("train.epochs", "train.patience")  # when a run stops: a run continues under larger ones
 
 
-def run_changes(out: Path, cfg: TrainConfig, car=None, ignore=()) -> list[str]:
-    """What differs between the run in the folder `out` and `cfg`, as `key: earlier -> now` texts, but the keys
-    of `ignore` (a run of an earlier version's config, with fewer options, text for numbers or the car's values
-    written out, is the same run when it parses to the same settings); [] for a run of `cfg`. `car`: the
-    recording's, found when not given."""
+def run_changes(out: Path, cfg: TrainConfig, car=None, grows=()) -> list[tuple[str, object, object]]:
+    """What differs between the run in the folder `out` and `cfg` (`config.differences`), but the keys of `grows`
+    where the value only grew (a run of an earlier version's config, with fewer options, text for numbers or the
+    car's values written out, is the same run when it parses to the same settings); [] for a run of `cfg`. `car`:
+    the recording's, found when not given."""
     car = car or car_of(main_recording(cfg).geometry)
     try:
         earlier = parse_config(json.loads((out / "config.json").read_text())).for_car(car).identity()
     except (OSError, ValueError, SteerlabError) as e:
-        return [f"its config.json holds no config this steerlab reads: {e}"]
-    return [d for d in differences(earlier, cfg.for_car(car).identity()) if d.split(":")[0] not in ignore]
+        raise unreadable(out, "config.json", e) from None
+    return [(key, a, b) for key, a, b in differences(earlier, cfg.for_car(car).identity())
+            if not (key in grows and b > a)]
 
 
 def _claim(out: Path, cfg: TrainConfig, car) -> None:
-    """A folder that holds a run of another config is refused; one of the same config with other stopping rules
-    (more epochs, more patience) continues."""
-    if (out / "last.pt").exists() and (changes := run_changes(out, cfg, car, ignore=STOPPING)):
+    """A folder that holds a run of another config is refused; one of the same config under more epochs or more
+    patience continues (fewer is another config: what was trained already went further)."""
+    if (out / "last.pt").exists() and (changes := run_changes(out, cfg, car, grows=STOPPING)):
         raise another_config(out, changes)
     write_json(out / "config.json", as_dict(cfg))
 

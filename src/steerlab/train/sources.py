@@ -31,6 +31,22 @@ def check_camera(cfg: TrainConfig, rec: Recording) -> None:
                             f"{preset} is for the {preset!r} camera: train it on recordings of that camera")
 
 
+def check_extra_data(cfg: TrainConfig, main: Recording) -> None:
+    """Recordings that do not belong together are not mixed: `extra_data` whose steering means other angles than
+    the config's data, or whose frames come from another camera, is refused before any work (each is opened, not
+    compiled)."""
+    for path in cfg.extra_data:
+        rec = open_recording(path, cache=cfg.cache)
+        if not rec.convention.matches(main.convention):
+            raise SteerlabError(f"extra_data {path} records {rec.convention.describe()} steering and the config's "
+                                f"data {main.convention.describe()}: the targets would mean different angles; give "
+                                "recordings of one car (extra_data is read with the readers' default options)")
+        if rec.geometry != main.geometry:
+            raise SteerlabError(f"extra_data {path} holds frames of the {rec.geometry!r} camera and the config's "
+                                f"data of the {main.geometry!r} camera: a model sees one camera; give recordings of "
+                                "one camera geometry")
+
+
 def prepare_dataset(cfg: TrainConfig, progress: bool = True, camera: str | None = None, view: tuple | None = None,
                     data: str | None = None) -> CompiledDataset:
     """The compiled main recording of a config (or the whole recording `data`), one camera stream of it, or a
@@ -134,18 +150,8 @@ def training_sources(cfg: TrainConfig, ds: CompiledDataset, train_idx: np.ndarra
     t = cfg.train
     taught = None if teacher is None else teacher_steering(cfg, teacher, progress)
     recordings = [(None, ds, train_idx, True)]
-    conv = SteeringConvention(**ds.meta["convention"])
     for path in cfg.extra_data:
         extra = prepare_dataset(cfg, progress, data=path)
-        other = SteeringConvention(**extra.meta["convention"])
-        if not other.matches(conv):
-            raise SteerlabError(f"extra_data {path} records {other.describe()} steering and the config's data "
-                                f"{conv.describe()}: the targets would mean different angles; give recordings of "
-                                "one steering convention (the same car and reader options)")
-        if extra.meta["geometry"] != ds.meta["geometry"]:
-            raise SteerlabError(f"extra_data {path} holds frames of the {extra.meta['geometry']!r} camera and the "
-                                f"config's data of the {ds.meta['geometry']!r} camera: a model sees one camera; give "
-                                "recordings of one camera geometry")
         idx = usable_frames(extra, np.arange(len(extra)), f"extra recording {path}", t.min_speed,
                             t.exclude_episodes)
         recordings.append((path, extra, idx, {"left", "right"} <= set(open_recording(path).cameras)))

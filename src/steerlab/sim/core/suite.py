@@ -31,13 +31,14 @@ def check_seed(seed: int, world: str) -> None:
                             f"{world} suites and never recorded; choose another seed")
 
 
-def check_world_of(out: str | Path, world: str, column: str) -> None:
-    """A suite's folder holds one world's suite: `suite.csv` with `column` (the road world's `road_type`, the track
-    world's `style`). Another world's tables in it are refused in one line, not written over (the outputs'
-    check takes a suite's folder as any suite's)."""
+def check_world_of(out: str | Path, world: str, other: str, column: str) -> None:
+    """A suite's folder holds one world's suite: a `suite.csv` with the `column` of the `other` world's (the road
+    world's `road_type`, the track world's `style`) is refused in one line, not written over (the outputs' check
+    takes a suite's folder as any suite's); one torn by a killed run is this world's to write again."""
     table = Path(out) / "suite.csv"
-    if table.is_file() and column not in table.read_text(errors="replace").split("\n", 1)[0].split(","):
-        raise DataError(out, f"the output folder holds another world's suite ({table} has no {column} column); "
+    lines = table.read_text(errors="replace").splitlines() if table.is_file() else []
+    if lines and column in lines[0].split(","):
+        raise DataError(out, f"the output folder holds a {other}-world suite ({table} has its {column} column); "
                              f"a {world}-world suite goes into a new folder or one of its own")
 
 

@@ -129,7 +129,7 @@ def run_suite(checkpoints, out: str | Path, o: SuiteOptions = SuiteOptions(), pr
     `plots`, one trajectory plot per road in `out/roads/`. Returns the summary rows."""
     checkpoints, labels = checkpoints_to_drive(checkpoints)
     check_outputs({"output folder": out}, inputs=checkpoints, kind="suite")
-    check_world_of(out, "road", "road_type")
+    check_world_of(out, "road", "track", "style")
     roads, minutes, out = o.drives(), o.road_minutes, Path(out)
     planned = []
     for label, ckpt in zip(labels, checkpoints):

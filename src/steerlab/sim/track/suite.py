@@ -191,7 +191,7 @@ def race(checkpoints, out: str | Path, o: TrackSuiteOptions, progress: bool = Tr
     cap): drives kept in `out/<label>/<style>-<seed>/` and reused."""
     checkpoints, labels = checkpoints_to_drive(checkpoints)
     check_outputs({"output folder": out}, inputs=checkpoints, kind="suite")
-    check_world_of(out, "track", "style")
+    check_world_of(out, "track", "road", "road_type")
     tracks, out = o.drives(), Path(out)
     taken = [c for c, label in zip(checkpoints, labels) if label.startswith(EXPERT)]
     if taken:
