@@ -97,7 +97,8 @@ def main() -> None:
         theirs = donkeycar_side(tubs, args.epochs, Path(tmp))
     for name, r in (("steerlab", ours), ("donkeycar", theirs)):
         print(f"  {name:9s}: {r['records']:6d} records an epoch in {r['epoch_s']:6.1f} s (first "
-              f"{r['first_epoch_s']:.1f} s): {r['records_per_s']:5.0f} records/s; peak memory {r['peak_rss_mb']:5.0f} MB")
+              f"{r['first_epoch_s']:.1f} s): {r['records_per_s']:5.0f} records/s; "
+              f"peak memory {r['peak_rss_mb']:5.0f} MB")
         report.add(name, **r)
     time_ratio = theirs["records_per_s"] / ours["records_per_s"]
     memory_ratio = ours["peak_rss_mb"] / theirs["peak_rss_mb"]

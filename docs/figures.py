@@ -4,7 +4,8 @@ python docs/figures.py                     # docs/ARCHITECTURE.md: a preprocesse
                                            # preprocessed real frame per camera geometry, the donkeycar crop
                                            # (needs ../shared/data)
 python docs/figures.py open-vs-closed runs/experiment-synthetic runs/experiment-recipe
-                                           # docs/results/closing-the-gap.md: validation RMSE vs autonomy, before and after
+                                           # docs/results/closing-the-gap.md: validation RMSE vs autonomy,
+                                           # before and after
 python docs/figures.py track-race runs/readme/drive
                                            # README: a track drive's plot beside what its camera saw, from
                                            # steerlab sim drive CKPT --world track --seed 9503 --minutes 1
@@ -83,7 +84,12 @@ def open_vs_closed(before: str, after: str) -> None:
 
 def track_race(drive: str) -> None:
     """A track drive's plot (track.png) and its camera's frames (frames.png) side by side, at the plot's height."""
-    plot, frames = (cv2.imread(str(Path(drive) / name)) for name in ("track.png", "frames.png"))
+    paths = [Path(drive) / name for name in ("track.png", "frames.png")]
+    missing = [str(p) for p in paths if not p.is_file()]
+    if missing:
+        sys.exit(f"error: {', '.join(missing)} not found: give the folder of a track drive "
+                 "(steerlab sim drive CKPT --world track --out DIR)")
+    plot, frames = (cv2.imread(str(p)) for p in paths)
     h = round(plot.shape[0] * 0.75)
     plot = cv2.resize(plot, (round(plot.shape[1] * 0.75), h), interpolation=cv2.INTER_AREA)
     frames = cv2.resize(frames, (round(frames.shape[1] * h / frames.shape[0]), h), interpolation=cv2.INTER_AREA)

@@ -199,7 +199,8 @@ def test_dagger_aggregates_rollouts(tiny_recording, tmp_path, saved_figures):
 
     for more in ({"workers": 2}, {"iterations": 2}):
         claim(tmp_path / "dagger", **more)
-    with pytest.raises(SteerlabError, match=r"holds a DAgger run of another config \(dagger.minutes: 0.02 -> 0.2\); choose a new out"):
+    with pytest.raises(SteerlabError, match=r"holds a DAgger run of another config \(dagger.minutes: 0.02 -> 0.2\); "
+                                            r"choose a new out"):
         claim(tmp_path / "dagger", minutes=0.2)
     claim(tmp_path / "fresh")  # a start that failed before its first round does not hold the folder
     claim(tmp_path / "fresh", minutes=0.2)

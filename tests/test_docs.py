@@ -90,8 +90,8 @@ def quantities(text: str) -> set[str]:
 
 
 def test_quantities_are_read_as_written():
-    assert quantities("1,051 frames/s and x1.39, 0.1500 rad; `3.5 s` in code; donkeycar 5.2 on Python 3.11;\n16 tubs, 4.6.1") \
-        == {"1051frames/s", "x1.39", "0.1500rad"}
+    text = "1,051 frames/s and x1.39, 0.1500 rad; `3.5 s` in code; donkeycar 5.2 on Python 3.11;\n16 tubs, 4.6.1"
+    assert quantities(text) == {"1051frames/s", "x1.39", "0.1500rad"}
 
 
 def test_every_number_of_the_readme_is_one_of_the_results():

@@ -33,7 +33,7 @@ from steerlab.options import Options, SPEED, as_dict, option, parse
 from steerlab.pilot import Pilot
 from steerlab.sim.road.suite import SuiteOptions, closed_loop_metrics
 from steerlab.split_replay import SplitReplay
-from steerlab.train.config import TrainConfig, another_config, layered, parse_config, read_yaml
+from steerlab.train.config import TrainConfig, another_config, layered, override_key, parse_config, read_yaml
 from steerlab.train.loop import run_changes, train
 from steerlab.train.sources import main_recording, prepare_dataset
 
@@ -77,7 +77,7 @@ class ExperimentConfig:
     @property
     def out(self) -> Path:
         """The experiment's folder: the config's `out`, or an `out=...` override of it."""
-        out = layered(self.shared, overrides=[o for o in self.overrides if o.split("=", 1)[0].strip() == "out"])
+        out = layered(self.shared, overrides=[o for o in self.overrides if override_key(o) == "out"])
         return Path(out.get("out", "runs/experiment"))
 
     def run_config(self, entry: Entry, seed: int) -> TrainConfig:
@@ -88,7 +88,7 @@ class ExperimentConfig:
                 "train": {**self.shared.get("train", {}), **entry.train, "seed": seed}}
         if entry.dagger is not None or self.shared.get("dagger") is not None:
             base["dagger"] = {**(self.shared.get("dagger") or {}), **(entry.dagger or {})}
-        mine = [o for o in self.overrides if o.split("=", 1)[0].strip() != "out"]  # `out` names the experiment's
+        mine = [o for o in self.overrides if override_key(o) != "out"]  # `out` names the experiment's
         return parse_config(base, overrides=[*mine, f"out={self.out / entry.name / f'seed{seed}'}"])
 
 
@@ -112,7 +112,7 @@ def load_experiment(path: str | Path, overrides=()) -> ExperimentConfig:
             entries.append(parse(Entry, item, "models entry"))
         except SteerlabError as e:
             raise SteerlabError(f"{path}: models entry {i + 1}: {e}") from None
-    if any(o.split("=", 1)[0].strip() == "train.seed" for o in overrides):  # it would give every run one seed
+    if any(override_key(o) == "train.seed" for o in overrides):  # it would give every run one seed
         raise SteerlabError("override train.seed: an experiment's runs take the seeds 0..N-1 of --seeds; leave it out")
     exp = ExperimentConfig(shared, tuple(entries), closed, replay, tuple(overrides))
     names = [e.name for e in exp.entries]

@@ -17,7 +17,7 @@ from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
-from itertools import repeat
+from itertools import repeat, zip_longest
 from pathlib import Path
 
 import cv2
@@ -82,15 +82,12 @@ def _check_speed(speed):
 def _paired(frames: Iterable, speeds: Iterable) -> Iterator[tuple]:
     """(frame, speed) pairs; frames and speeds of different lengths are refused (a speed would go to the wrong
     frame, or frames be left undriven)."""
-    frames, speeds, n = iter(frames), iter(speeds), 0
-    for frame in frames:
-        speed = next(speeds, _paired)
-        if speed is _paired:
-            raise SteerlabError(f"Pilot.stream: more frames than speeds ({n} speed{'s' * (n != 1)}): give one speed a frame")
+    for n, (frame, speed) in enumerate(zip_longest(frames, speeds, fillvalue=_paired)):
+        if frame is _paired or speed is _paired:
+            longer, shorter = ("frames", "speed") if speed is _paired else ("speeds", "frame")
+            raise SteerlabError(f"Pilot.stream: more {longer} than {shorter}s ({n} {shorter}{'s' * (n != 1)}): give "
+                                "one speed a frame")
         yield frame, speed
-        n += 1
-    if next(speeds, _paired) is not _paired:
-        raise SteerlabError(f"Pilot.stream: more speeds than frames ({n} frame{'s' * (n != 1)}): give one speed a frame")
 
 
 class Pilot:

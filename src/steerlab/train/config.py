@@ -221,6 +221,11 @@ TUB_DEFAULTS = {"model": {"name": "multimodal-lstm"},
 SECTIONS = [f.name for f in fields(TrainConfig)]
 
 
+def override_key(text: str) -> str:
+    """The dotted key a `section.key=value` override sets."""
+    return text.split("=", 1)[0].strip()
+
+
 def apply_override(cfg: dict, text: str) -> None:
     """`section.key=value` into a raw config; the value is read as YAML."""
     if "=" not in text:
@@ -264,7 +269,7 @@ def layered(*layers: dict | None, overrides=()) -> dict:
                 cfg[k] = copy.deepcopy(v)
     given: dict[str, str] = {}
     for o in overrides:
-        key = o.split("=", 1)[0].strip()
+        key = override_key(o)
         if key in given and "=" in o:
             raise SteerlabError(f"override {key}= is given twice ({given[key]!r} and {o!r}); give each key once")
         given[key] = o

@@ -280,9 +280,9 @@ def markdown(summary: list[SuiteSummary], drives: list[SuiteDrive], o: TrackSuit
     lines = [f"Track suite {o.suite}: {o.track_minutes:g} min per track, {TRACK_SUITES[o.suite]['lane_width']:g} m "
              f"lanes, the learned throttle and the expert's capped at {o.max_throttle:g}{scaled}, constant throttle "
              f"{constant_throttle(o.throttle):g} for models that predict none. A lap is clean without an off-track "
-             "event (the first starts standing); a track is finished with a clean lap; pace: mean clean lap over the expert's on the "
-             "same track, the summary's over the tracks every checkpoint finished (their number beside it); "
-             "autonomy = (1 - off-track events x 6 s / elapsed s) x 100.", "",
+             "event (the first starts standing); a track is finished with a clean lap; pace: mean clean lap over the "
+             "expert's on the same track, the summary's over the tracks every checkpoint finished (their number "
+             "beside it); autonomy = (1 - off-track events x 6 s / elapsed s) x 100.", "",
              "| checkpoint | style | finished | laps | clean laps | clean [%] | off track | off track / lap | "
              "off track / km | autonomy [%] | pace (tracks) | km | command gamma [deg] |", "|---" * 13 + "|"]
     for r in summary:
