@@ -1159,13 +1159,17 @@ def test_every_path_argument_is_checked(command, dest, kind, tmp_path, capsys):
                                               else file)]
         elif not a.option_strings and a.dest not in (dest, "help") and a.nargs != "*":
             argv.append(str(file))
-    cases = {"file": [tmp_path / "missing.pt", folder], "folder": [file], "new-file": [folder]}[kind]
+    dangling = tmp_path / "a-link-to-nothing"
+    dangling.symlink_to(tmp_path / "nowhere")
+    cases = {"file": [tmp_path / "missing.pt", folder, dangling], "folder": [file, Path("/dev/null"), dangling],
+             "new-file": [folder, Path("/dev/full"), dangling]}[kind]
     positional = next(a for a in parser._actions if a.dest == dest).option_strings == []
     for path in cases:
         args = [*argv, str(path)] if positional else [*argv, flag(dest), str(path)]
         assert main(args) == 2, args
         err = capsys.readouterr().err
         assert err.startswith(f"error: {path}: ") and err.count("\n") == 1, err
+        assert _says_what_it_is(path, err), err
 
 
 def _single_value_flags():
@@ -1651,14 +1655,18 @@ def rule2_cases():
         for dest, kind in paths.items():
             if kind == "folder":
                 out += [(command, dest, c) for c in ("a recording", "a CH2 folder", "a training run", "unwritable",
-                                                     "long name", "inside a recording")]
+                                                     "long name", "inside a recording", *NOT_WRITABLE)]
             elif kind == "new-file":
                 out += [(command, dest, c) for c in ("an input", "an input through a symlink",
-                                                     "an input, relative", "a run's checkpoint", "long name")]
+                                                     "an input, relative", "a run's checkpoint", "long name",
+                                                     *NOT_WRITABLE)]
         if paths.get("config") == "file":
             out += [(command, "out=", c) for c in ("a recording", "the recording it reads", "a training run",
-                                                   "long name", "unwritable")]
+                                                   "long name", "unwritable", *NOT_WRITABLE)]
     return [c for c in out if not (c[0] == "train" and c[2] == "a training run")]  # a run continues its own
+
+
+NOT_WRITABLE = ("/dev/null", "/dev/full", "a symbolic link to nothing")  # neither a file nor a folder
 
 
 def _collision(tmp_path, what, file_input):
@@ -1676,6 +1684,11 @@ def _collision(tmp_path, what, file_input):
         return ro / "out"
     if (tmp_path / "a-link").exists() is False:
         os.symlink(file_input, tmp_path / "a-link")
+    if what == "a symbolic link to nothing":
+        os.symlink(tmp_path / "nowhere", tmp_path / "a-dangling-link")
+        return tmp_path / "a-dangling-link"
+    if what.startswith("/dev/"):
+        return Path(what)
     return {"a recording": rec, "a CH2 folder": ch2(tmp_path / "ch2-other"), "the recording it reads": rec,
             "a training run": run,
             "inside a recording": rec / "IMG", "long name": tmp_path / ("x" * 300), "an input": file_input,
@@ -1713,6 +1726,18 @@ def test_rule2_no_output_over_an_input_or_into_another_kind_of_folder(command, d
     shown = str(target if what != "long name" else tmp_path)
     assert shown in err or str(target.resolve()) in err or str(file) in err, err
     assert {p: t for p, t in _files(tmp_path).items() if p in before} == before  # nothing lost
+    assert not (tmp_path / "nowhere").exists()  # nothing made through a link to nothing
+    assert what not in NOT_WRITABLE or _says_what_it_is(target, err), err
+
+
+def _says_what_it_is(path: Path, err: str) -> bool:
+    """Whether a refusal of a device or a link to nothing says what the path is (not "file exists", "is a file"),
+    or the name a file of the output's kind must have."""
+    if "must end in" in err:
+        return True
+    if path.is_symlink() and not path.exists():
+        return "a symbolic link to " in err
+    return "a device" in err if str(path).startswith("/dev/") else True
 
 
 def _config_of(command, tmp_path):

@@ -31,10 +31,32 @@ def name_fits(path: str | Path) -> Path:
     return path
 
 
+def _a(what: str) -> str:
+    return f"an {what}" if what[0] in "aeiou" else f"a {what}"
+
+
+def _dangling(path: Path, what: str) -> None:
+    """A one-line error when `path` is a symbolic link to nothing (writing through it would make a file elsewhere,
+    and making a folder there fails with "file exists")."""
+    if path.is_symlink() and not path.exists():
+        raise DataError(path, f"a symbolic link to {os.readlink(path)}, which does not exist, where {_a(what)} is "
+                              "expected; remove the link or name another path")
+
+
+def _special(path: Path, what: str) -> None:
+    """A one-line error when `path` is neither a regular file nor a folder (a device such as /dev/null or
+    /dev/full, a pipe, a socket) or a symbolic link to nothing: what a command writes is a file or a folder."""
+    _dangling(path, what)
+    if path.exists() and not path.is_dir() and not path.is_file():
+        raise DataError(path, f"a device, a pipe or a socket, where {_a(what)} to write is expected; name a file "
+                              "or a folder")
+
+
 def regular_file(path: Path, what: str = "file") -> Path:
     """`path`, which must be a regular file: a one-line error for a missing path, a folder, or anything else that
     is not a regular file (a pipe or a device, which reading would wait on forever)."""
     path = name_fits(path)
+    _dangling(path, what)
     if not path.exists():
         raise DataError(path, f"{what} not found")
     if path.is_dir():
@@ -44,13 +66,11 @@ def regular_file(path: Path, what: str = "file") -> Path:
     return path
 
 
-def _a(what: str) -> str:
-    return f"an {what}" if what[0] in "aeiou" else f"a {what}"
-
-
 def folder_to_write(path: str | Path, what: str = "output folder") -> Path:
-    """`path`, a folder to write into (it may not exist yet): a one-line error when it names a file."""
+    """`path`, a folder to write into (it may not exist yet): a one-line error when it names a file, a device or a
+    symbolic link to nothing."""
     path = name_fits(path)
+    _special(path, what)
     if path.exists() and not path.is_dir():
         raise DataError(path, f"a file, where {_a(what)} is expected")
     return path
@@ -216,6 +236,7 @@ def check_outputs(folders: dict[str, str | Path | None] | None = None,
         if file is None:
             continue
         file = name_fits(file)
+        _special(file, what)
         if file.is_dir():
             raise DataError(file, f"a folder, where {_a(what)} to write is expected")
         for p in inputs:
