@@ -1533,6 +1533,58 @@ def test_rule1_every_option_refuses_a_value_it_cannot_mean(cls, key, value):
     assert f"x.{key}" in str(e.value) and "\n" not in str(e.value), str(e.value)
 
 
+def _of_its_type(kind, value) -> bool:
+    """Whether `value` is of the option type `kind` (None aside), in the test's own words: what a YAML config or a
+    Python caller could mean by it."""
+    from typing import Literal, get_origin
+
+    if get_origin(kind) is Literal:
+        return value in kind.__args__ and not isinstance(value, bool)
+    if kind is float:  # a number, or text that is one (the command line gives text)
+        try:
+            number = float(value) if isinstance(value, (int, float, str)) and not isinstance(value, bool) else None
+        except ValueError:
+            number = None
+        return number is not None and abs(number) != float("inf") and number == number
+    return {bool: bool, str: str, dict: dict}.get(kind) is not None and isinstance(value, kind) or (
+        kind is int and isinstance(value, int) and not isinstance(value, bool))
+
+
+def test_rule1_any_value_not_of_an_options_type_is_refused_naming_it():
+    """Rule 1 as a property: for every option of every options class whose type is a plain one (bool, int, float,
+    text, a choice, a mapping), any value not of that type (drawn from numbers, text, lists, mappings, None) is
+    refused naming the option, so an option is covered because of its type, whatever checks it has."""
+    from typing import Literal, get_origin
+
+    from hypothesis import given, settings
+    from hypothesis import strategies as st
+
+    from steerlab.options import optional, options_of, parse
+
+    options = [(cls, o.key, *optional(o.kind)) for cls in _option_classes() for o in options_of(cls)
+               if not o.path and "." not in o.key and (optional(o.kind)[0] in (bool, int, float, str, dict)
+                                                       or get_origin(optional(o.kind)[0]) is Literal)]
+    scalars = st.one_of(st.none(), st.booleans(), st.integers(-10**6, 10**6), st.floats(), st.text(max_size=8),
+                        st.text("0123456789.-+einfa", max_size=5))
+    values = st.one_of(scalars, st.lists(scalars, max_size=3), st.dictionaries(st.text(max_size=3), scalars,
+                                                                                max_size=2))
+
+    @settings(max_examples=600, deadline=None, derandomize=True, database=None)
+    @given(st.sampled_from(options), values)
+    def check(option, value):
+        cls, key, kind, nullable = option
+        if (value is None and nullable) or _of_its_type(kind, value):
+            return
+        try:
+            parse(cls, {key: value}, "x")
+        except SteerlabError as e:
+            assert f"x.{key}" in str(e) and "\n" not in str(e), str(e)
+        else:
+            raise AssertionError(f"{cls.__name__}.{key} took {value!r}")
+
+    check()
+
+
 def _valid_value(o):
     """A value the option `o` takes (its default, or a number in its range), as the command line writes it."""
     from dataclasses import MISSING
