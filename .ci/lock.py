@@ -18,9 +18,9 @@ from pathlib import Path
 HEADER = """\
 # The exact versions the test suite last passed with, per Python version: what `make demo` and `make test` install
 # (pip install --constraint constraints.txt). pyproject.toml keeps the ranges a user's `pip install steerlab` takes.
-# Refresh one Python's versions with `make lock PYTHON=python3.12` (see README, "Installing"). Written by .ci/lock.py.
+# Refresh one Python's versions with `make lock PYTHON=python3.12` (see docs/guide/install.md, "Installing"). Written by .ci/lock.py.
 # torch is pinned without its local label (2.13.0, not 2.13.0+cpu): the CPU and the CUDA build of a release satisfy
-# the same pin, and which one pip takes depends on the index it reads (README, "Installing").
+# the same pin, and which one pip takes depends on the index it reads (docs/guide/install.md, "Installing").
 """
 HOLD = ("torch",)  # a refresh keeps these at their versions here: the newest torch on PyPI is a CUDA build
 SKIP = {"setuptools", "wheel", "distribute"}  # in some venvs by default, not installed by steerlab

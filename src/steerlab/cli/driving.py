@@ -176,7 +176,7 @@ def register(sub) -> None:
 
     q = sub.add_parser("serve", help="drive the Udacity simulator (socket.io server on port 4567)",
                        epilog="example: steerlab serve runs/sim/best.pt --record runs/sim-drive; then start the "
-                              "simulator in autonomous mode (README: connecting the simulator)")
+                              "simulator in autonomous mode (docs/guide/simulator.md)")
     path_option(q, "checkpoint", kind="file", help="checkpoint (.pt) or exported model (.onnx)")
     add_options(q, "serve", ServeOptions)
     q.set_defaults(func=cmd_serve)
