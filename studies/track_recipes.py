@@ -234,13 +234,14 @@ def donkey_models(out: Path, tubs: Path, runs: int, names: tuple[str, ...] = tup
     car = donkey_car(python, work / "car")
     models = []
     for k in range(runs):
-        model = work / f"linear-{k}.h5"
-        if not model.exists():
+        model, done = work / f"linear-{k}.h5", work / f"linear-{k}.done"  # donkey train saves every better epoch
+        if not done.exists():
             print(f"== training donkeycar's linear model, run {k} (donkey train)", flush=True)
             with open(work / f"train-{k}.log", "w") as log:
                 subprocess.run([str(python.parent / "donkey"), "train", "--tub", ",".join(str(tubs / t) for t in names),
                                 "--model", str(model), "--type", "linear", "--framework", "tensorflow"], cwd=car,
                                check=True, stdout=log, stderr=subprocess.STDOUT)
+            done.write_text("trained\n")
         models.append(model)
     return car, models
 
