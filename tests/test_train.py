@@ -271,9 +271,22 @@ def test_resume_after_interruption(tiny_recording, tmp_path, monkeypatch):
     assert [e.step for e in rmse] == [1, 2, 3]
     np.testing.assert_allclose([e.value for e in rmse], [float(r["val_rmse"]) for r in rows], rtol=1e-6)
     other = _cfg(tiny_recording, tmp_path, epochs=3, lr=0.1, split={"train": "0:100", "val": "100:140"})
-    with pytest.raises(SteerlabError, match=r"holds a run of another config \(train.lr: 0.001 -> 0.1; "
-                                            r"train.tensorboard: True -> False\); choose a new out directory"):
+    with pytest.raises(SteerlabError, match=r"holds a run of another config \(train.lr: 0.001 -> 0.1\); choose a new "
+                                            r"out directory"):
         loop.train(other, progress=False)
+
+
+def test_a_moved_run_continues_with_another_cache_and_without_tensorboard(tiny_recording, tmp_path):
+    """Where a run is written, where its cache is kept and TensorBoard's logging are not what its results depend on:
+    a run folder moved elsewhere continues there with another cache root and TensorBoard off."""
+    loop.train(_cfg(tiny_recording, tmp_path, epochs=1, batch_size=64, tensorboard=True), progress=False)
+    first = _log(tmp_path)
+    shutil.move(tmp_path / "run", tmp_path / "moved")
+    cfg = _cfg(tiny_recording, tmp_path, epochs=2, patience=12, batch_size=64)
+    cfg = replace(cfg, out=str(tmp_path / "moved"), cache=str(tmp_path / "another-cache"))
+    loop.train(cfg, progress=False)
+    rows = list(csv.DictReader(open(tmp_path / "moved" / "log.csv")))
+    assert [r["epoch"] for r in rows] == ["1", "2"] and rows[0] == first[0]
 
 
 def test_a_run_continues_under_more_epochs(tiny_recording, tmp_path):

@@ -162,11 +162,14 @@ class TrainConfig(Options):
                                            steering_ratio=t.steering_ratio or car.steering_ratio))
 
     def identity(self) -> dict:
-        """What a run's results depend on, as plain values: not the data-loading workers, and the side cameras'
-        offset and the steering ratio only where recovery labels use them."""
+        """What a run's results depend on, as plain values: not where it is written or its cache is kept, not
+        TensorBoard's logging or the data-loading workers, not a search space, and the side cameras' offset and the
+        steering ratio only where recovery labels use them."""
         d = as_dict(self)
+        for key in ("out", "cache", "tune"):
+            del d[key]
         t = d["train"]
-        del t["workers"]
+        del t["workers"], t["tensorboard"]
         if not t["side_cameras"]:
             del t["side_offset_m"]
         if not (t["side_cameras"] or t["views"]):
