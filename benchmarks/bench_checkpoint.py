@@ -2,14 +2,14 @@
 Adam state) against torch.save and torch.load of the same contents alone (the baseline, measured in the same run),
 median of 15 each.
 
-python benchmarks/bench_checkpoint.py [--json PATH]
+python -m benchmarks.bench_checkpoint [--json PATH]
 """
 
 import tempfile
 from pathlib import Path
 
 import torch
-from common import Report, arguments, machine, median_seconds
+from benchmarks.common import Report, arguments, machine, median_seconds
 
 from steerlab.checkpoint import load_checkpoint, save_checkpoint
 from steerlab.data.preprocess import PreprocessConfig

@@ -2,12 +2,12 @@
 Baselines measured in the same run: Farneback with 1 worker (for the second worker) and Farneback with 2 workers
 (for DIS).
 
-python benchmarks/bench_compile.py [--json PATH]
+python -m benchmarks.bench_compile [--json PATH]
 """
 
 import tempfile
 
-from common import CH2, Report, arguments, machine, need_ch2, timed
+from benchmarks.common import CH2, Report, arguments, machine, need_ch2, timed
 
 from steerlab.data.dataset import compile_recording
 from steerlab.data.preprocess import PreprocessConfig

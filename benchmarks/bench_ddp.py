@@ -2,7 +2,7 @@
 (2 torch threads; the baseline, measured in the same run) on this machine, same model, same global batch, same
 data.
 
-python benchmarks/bench_ddp.py [--model pilotnet] [--epochs 3] [--json PATH]
+python -m benchmarks.bench_ddp [--model pilotnet] [--epochs 3] [--json PATH]
 Data: a 2-minute synthetic-world recording (made once under runs/bench-ddp). Reported: training samples per
 second of the epochs after the first (the epoch time of the log minus nothing: validation runs on every rank,
 on 100 frames only).
@@ -14,7 +14,7 @@ import subprocess
 import sys
 
 import yaml
-from common import ROOT, Report, arguments, machine
+from benchmarks.common import ROOT, Report, arguments, machine
 
 from steerlab.data.readers import open_recording
 

@@ -2,7 +2,7 @@
 run: decoding the same frames from JPEG (as `steerlab sim record` writes them, quality 92) on one core, which is
 what reading them back from a recording costs. Above x1, rendering a frame is cheaper than reading one.
 
-python benchmarks/bench_render.py [--json PATH]     (target: >= 300 frames/s)
+python -m benchmarks.bench_render [--json PATH]     (target: >= 300 frames/s)
 """
 
 import os
@@ -10,7 +10,7 @@ import os
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import cv2  # noqa: E402
-from common import Report, arguments, machine, per_second  # noqa: E402
+from benchmarks.common import Report, arguments, machine, per_second  # noqa: E402
 
 from steerlab.data.writer import JPEG  # noqa: E402
 from steerlab.sim.road.render import Renderer  # noqa: E402

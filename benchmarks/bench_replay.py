@@ -3,7 +3,7 @@ measured in the same run): CH2 frames 1800-2399 (30 s), one process, one torch t
 does not depend on them), for a single-frame model and a recurrent flow model. Both write their whole report
 (CSV, plot).
 
-python benchmarks/bench_replay.py [--json PATH]
+python -m benchmarks.bench_replay [--json PATH]
 Target: replay <= 1.5 x evaluate.
 """
 
@@ -11,8 +11,8 @@ import tempfile
 from pathlib import Path
 
 import torch
-from bench_pilot import checkpoint
-from common import CH2, Report, arguments, machine, need_ch2, timed
+from benchmarks.bench_pilot import checkpoint
+from benchmarks.common import CH2, Report, arguments, machine, need_ch2, timed
 
 from steerlab.data.readers import Source
 from steerlab.evaluate.offline import evaluate

@@ -4,7 +4,7 @@ waits for each steer command. The baseline, measured in the same run: the same m
 by the server's own session (`serve.DriveSession.command`: base64 and JPEG decode, the pilot, the speed
 controller), so that round trip / in process is what the server's process, socket.io and the websocket add.
 
-python benchmarks/bench_serve.py [CHECKPOINT_OR_ONNX ...] [--json PATH]
+python -m benchmarks.bench_serve [CHECKPOINT_OR_ONNX ...] [--json PATH]
 Without checkpoints: untrained pilotnet on the simulator preset (the cost does not depend on the weights), as a
 .pt checkpoint and exported to ONNX. Target: p99 <= 20 ms for pilotnet.
 """
@@ -25,7 +25,7 @@ with warnings.catch_warnings():  # eventlet, imported by python-socketio 4, anno
     warnings.simplefilter("ignore")
     import socketio
 
-from common import SHARED, Report, arguments, each_ms, machine  # noqa: E402
+from benchmarks.common import SHARED, Report, arguments, each_ms, machine  # noqa: E402
 
 from steerlab.checkpoint import save_checkpoint  # noqa: E402
 from steerlab.data.preprocess import PreprocessConfig  # noqa: E402

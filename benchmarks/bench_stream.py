@@ -7,7 +7,7 @@ Every pass decodes, crops, resizes, computes the flow when the model takes it, r
 and ONNX Runtime to that many threads (stream() adds its worker threads); stream() must give exactly the
 controls of step().
 
-python benchmarks/bench_stream.py [--json PATH]
+python -m benchmarks.bench_stream [--json PATH]
 Targets on 2 cores: stream() end to end >= 650 frames/s for pilotnet and >= 350 for multimodal-lstm.
 """
 
@@ -18,8 +18,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 import torch
-from bench_pilot import checkpoint
-from common import CH2, Report, arguments, machine, need_ch2, per_second
+from benchmarks.bench_pilot import checkpoint
+from benchmarks.common import CH2, Report, arguments, machine, need_ch2, per_second
 
 from steerlab.data.readers import open_recording
 from steerlab.export import export_onnx

@@ -10,7 +10,7 @@ Measured in the same run:
   throughput, so that a faster device (a GPU) is fed;
 - `train.workers` 0 and 1 (data loading in this process, or one worker process preparing the next batches).
 
-python benchmarks/bench_throughput.py [--models pilotnet,lstm] [--no-baseline] [--json PATH]
+python -m benchmarks.bench_throughput [--models pilotnet,lstm] [--no-baseline] [--json PATH]
 """
 
 import os
@@ -21,7 +21,7 @@ import tempfile
 
 import numpy as np
 import torch
-from common import ROOT, SHARED, Report, arguments, machine, timed
+from benchmarks.common import ROOT, SHARED, Report, arguments, machine, timed
 
 from steerlab.data.dataset import compile_recording
 from steerlab.data.inputs import channel_stats, segment_starts

@@ -8,7 +8,7 @@ network call is timed apart from the rest of the pilot. The checkpoint is donkey
 one epoch on the first tub of configs/track_best.yaml (what it drives like does not change what a tick costs);
 `--checkpoint` times another.
 
-python benchmarks/bench_track_drive.py [--minutes 1] [--checkpoint PATH] [--json PATH]
+python -m benchmarks.bench_track_drive [--minutes 1] [--checkpoint PATH] [--json PATH]
 Baseline: the render alone (`world.render` in the same drive); the suite against one drive's rate times two.
 """
 
@@ -26,7 +26,7 @@ from collections import defaultdict  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import cv2  # noqa: E402
-from common import ROOT, Report, arguments, machine, record_race_tubs  # noqa: E402
+from benchmarks.common import ROOT, Report, arguments, machine, record_race_tubs  # noqa: E402
 
 from steerlab.errors import SteerlabError  # noqa: E402
 from steerlab.options import frames_in  # noqa: E402

@@ -1,7 +1,7 @@
 """Rendered frames per second of the track world through the donkeycar fisheye camera at 160x120 on one core,
 against the road world's pinhole renderer with the `donkey` camera at the same size, measured in the same run.
 
-python benchmarks/bench_track_render.py [--json PATH]     (target: >= 300 frames/s)
+python -m benchmarks.bench_track_render [--json PATH]     (target: >= 300 frames/s)
 """
 
 import os
@@ -10,7 +10,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import cv2  # noqa: E402
 import numpy as np  # noqa: E402
-from common import Report, arguments, machine, per_second  # noqa: E402
+from benchmarks.common import Report, arguments, machine, per_second  # noqa: E402
 
 from steerlab.sim.road.render import Renderer  # noqa: E402
 from steerlab.sim.road.road import Road  # noqa: E402

@@ -18,7 +18,7 @@ allocator's setting and the thread count hold for a whole process): the median o
 - before: the same step with the source of an earlier commit (`--before`, by default 808d063, before these
   levers: torch's dropout and malloc's default, the batch changed sample by sample in NumPy).
 
-python benchmarks/bench_train_step.py [--before COMMIT] [--json PATH]
+python -m benchmarks.bench_train_step [--before COMMIT] [--json PATH]
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from common import ROOT, Report, arguments, machine
+from benchmarks.common import ROOT, Report, arguments, machine
 
 B, H, W, FRAMES, STEPS, WARMUP = 128, 120, 160, 2048, 20, 5
 VARIANTS = ["shipped", "torch-dropout", "default-malloc", "nchw", "1-thread", "pinned-threads", "1-worker", "compile",
@@ -114,7 +114,8 @@ def measure(variant: str, source: Path | None = None) -> dict:
     env = {**os.environ, **(PINNED if variant == "pinned-threads" else {})}
     if source is not None:
         env["PYTHONPATH"] = str(source)
-    done = subprocess.run([sys.executable, __file__, "--one", variant], capture_output=True, text=True, env=env)
+    done = subprocess.run([sys.executable, "-m", "benchmarks.bench_train_step", "--one", variant], capture_output=True,
+                          text=True, env=env, cwd=ROOT)
     if done.returncode:
         sys.exit(f"{variant}: {done.stderr.strip().splitlines()[-1]}")
     return json.loads(done.stdout.strip().splitlines()[-1])

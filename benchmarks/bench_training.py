@@ -3,7 +3,7 @@ loader that decodes and preprocesses the JPEGs (and computes the optical flow, w
 step, and (b) tensors already in memory (the floor for data loading). Two inputs: gray (paper 000 "spatial") and
 gray + Farneback flow (paper 000 "spatial + optical flow").
 
-python benchmarks/bench_training.py [--json PATH]
+python -m benchmarks.bench_training [--json PATH]
 Targets: cache >= 5x faster than naive; cache within 15% of in-memory.
 """
 
@@ -11,7 +11,7 @@ import tempfile
 
 import numpy as np
 import torch
-from common import CH2, Report, arguments, machine, need_ch2, timed
+from benchmarks.common import CH2, Report, arguments, machine, need_ch2, timed
 
 from steerlab.data.dataset import compile_recording
 from steerlab.data.modalities import optical_flow

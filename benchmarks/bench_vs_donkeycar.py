@@ -8,7 +8,7 @@ log.csv; the time between the lines Keras prints at the end of each epoch); the 
 training records a second. Peak memory is each trainer's peak resident set size (the kernel's count for its
 process). With ../shared, PilotNet on the real CH2 frames (configs/ch2_pilotnet.yaml) is timed the same way.
 
-python benchmarks/bench_vs_donkeycar.py [--epochs 4] [--json PATH]
+python -m benchmarks.bench_vs_donkeycar [--epochs 4] [--json PATH]
 Targets: steerlab's epoch <= 1.0x donkeycar's a record (goal 0.6x); its peak memory <= donkeycar's (goal).
 """
 
@@ -24,7 +24,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from common import CH2, ROOT, Report, arguments, donkey_car, donkey_python, machine, record_race_tubs
+from benchmarks.common import CH2, ROOT, Report, arguments, machine, record_race_tubs
+from studies.common import donkey_car, donkey_python
 
 
 STEERLAB = [sys.executable, "-m", "steerlab", "train"]

@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 
 if len(sys.argv) != 2:
-    print("usage: PYTHONPATH=src python studies/bad_input_round.py OUT_DIR", file=sys.stderr)
+    print("usage: PYTHONPATH=src python -m studies.bad_input_round OUT_DIR", file=sys.stderr)
     sys.exit(2)
 ROOT = Path(sys.argv[1]).resolve()  # the cases run in WORK
 FIX = ROOT / "fx"

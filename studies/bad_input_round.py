@@ -3,10 +3,11 @@ of the build on PYTHONPATH; each classified as handled (refused in one line, tak
 failures: lost (an input changed or gone), traceback, silent (taken without a word where it should be refused or
 said), unclear (refused, but not in one line naming what is wrong), hang.
 
-The fixtures are those of tests/test_bad_input.py (made in OUT_DIR/fx); every case runs in a forked process of its
-own with a 45 s limit; the counts are printed, and every input not handled is written to OUT_DIR/failures.txt.
+The fixtures are those of tests/test_bad_input.py (the tiny inputs of `studies.common`, made in OUT_DIR/fx); every
+case runs in a forked process of its own with a 45 s limit; the counts are printed, and every input not handled is
+written to OUT_DIR/failures.txt.
 
-usage: PYTHONPATH=src python studies/bad_input_round.py OUT_DIR    (from the repository root; PYTHONPATH picks
+usage: PYTHONPATH=src python -m studies.bad_input_round OUT_DIR    (from the repository root; PYTHONPATH picks
 the build that is tried)"""
 
 import contextlib
@@ -19,19 +20,14 @@ import subprocess
 import sys
 import traceback
 from collections import Counter
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-
-from _round_cases import FIX, ROOT, WORK, main_cases  # noqa: E402
-from test_bad_input import ch2, sim_log, tub  # noqa: E402  (the bad-input tests' fixtures)
+from studies._round_cases import FIX, ROOT, WORK, main_cases
+from studies.common import ch2, made, sim_log, tub  # the tiny inputs of the bad-input tests
 
 TIMEOUT = 45
 
 
 def setup():
-    from conftest import made
-
     subprocess.run(["chattr", "-i", str(ROOT / "ro")], capture_output=True)
     shutil.rmtree(FIX, ignore_errors=True)
     FIX.mkdir(parents=True)

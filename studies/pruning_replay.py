@@ -1,6 +1,6 @@
 """What would Hyperband have saved on a study that ran every trial to completion?
 
-python studies/pruning_replay.py runs/tune-pruning-sim-full [--as tune-pruning-sim] [--factors 3 4 5]
+python -m studies.pruning_replay runs/tune-pruning-sim-full [--as tune-pruning-sim] [--factors 3 4 5]
 
 Replays the learning curves of a `steerlab tune ... --no-pruning` study, in trial order, through Optuna's
 Hyperband pruner with each reduction factor (same budgets and last-epoch rule as `steerlab tune`), and prints

@@ -4,9 +4,9 @@ a few ticks late, and of steering straight, on the same frames and at the same s
 The human's own steering rebuilds the path exactly (0 interventions: the replay is consistent); a human who
 reacts 0.1 or 0.2 s late and a driver who never steers bracket what a model's count means there.
 
-python studies/replay_references.py --data ../shared/data/donkeycar/hall --range 4012:5015 \
+python -m studies.replay_references --data ../shared/data/donkeycar/hall --range 4012:5015 \
     --reader skip_missing=true --reader full_lock_deg=25 --speed 2
-python studies/replay_references.py --data ../shared/data/donkeycar/hall --range 4012:5015 \
+python -m studies.replay_references --data ../shared/data/donkeycar/hall --range 4012:5015 \
     --reader skip_missing=true --reader full_lock_deg=25 --world track    # a small car's replay (replay/track.py)
 
 With `--checkpoint` (repeatable) trained models drive beside the references. With `--world track --camera-variants`
@@ -17,25 +17,21 @@ that a real tub does not describe.
 """
 
 import argparse
-import sys
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 from scipy.stats import spearmanr
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from common import machine  # noqa: E402
-
-from steerlab.data.car import CARS  # noqa: E402
-from steerlab.data.fisheye import DONKEY_FISHEYE  # noqa: E402
-from steerlab.data.geometry import CAMERAS  # noqa: E402
-from steerlab.data.readers import Source, reader_options  # noqa: E402
-from steerlab.pilot import Controls, Pilot  # noqa: E402
-from steerlab.sim.replay.run import replay_recording  # noqa: E402
-from steerlab.sim.replay.track import TrackReplay  # noqa: E402
-from steerlab.sim.replay.world import Replay  # noqa: E402
-from steerlab.sim.track.track import LANE_WIDTH  # noqa: E402
+from steerlab.data.car import CARS
+from steerlab.data.fisheye import DONKEY_FISHEYE
+from steerlab.data.geometry import CAMERAS
+from steerlab.data.readers import Source, reader_options
+from steerlab.pilot import Controls, Pilot
+from steerlab.sim.replay.run import replay_recording
+from steerlab.sim.replay.track import TrackReplay
+from steerlab.sim.replay.world import Replay
+from steerlab.sim.track.track import LANE_WIDTH
+from studies.common import machine
 
 
 class Scripted:

@@ -1,6 +1,6 @@
 """Does closed-loop replay on recordings predict true closed-loop driving?
 
-python studies/replay_vs_road_suite.py --out runs/replay-truth [--minutes 1.0] [--workers 2]
+python -m studies.replay_vs_road_suite --out runs/replay-truth [--minutes 1.0] [--workers 2]
 
 In the road world both exist. The script
 1. records the expert (no drift episodes, centre camera) on every road of the closed-loop suite v1 for
@@ -26,18 +26,15 @@ import argparse
 import csv
 import math
 import shutil
-import sys
 import time
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from common import (correlation_table, begin_study, correlations, record_expert, replay_missing,  # noqa: E402
-                    scatter_axes, train_baseline, train_snapshots, write_table)
-
-from steerlab.sim.core.suite import labels_for  # noqa: E402
-from steerlab.sim.road.suite import SUITES  # noqa: E402
+from steerlab.sim.core.suite import labels_for
+from steerlab.sim.road.suite import SUITES
+from studies.common import (begin_study, correlation_table, correlations, record_expert, replay_missing, scatter_axes,
+                            train_baseline, train_snapshots, write_table)
 
 TRAIN_DATA = {"seed": 3, "minutes": 4.0, "road": "country,twisty,highway,twisty"}
 BASE_TRAIN = {"epochs": 1, "batch_size": 32, "lr": 3e-4, "patience": 99, "min_speed": 4.0}

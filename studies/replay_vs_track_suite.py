@@ -1,6 +1,6 @@
 """Does replay of small-car recordings predict true closed-loop racing in the track world?
 
-python studies/replay_vs_track_suite.py --out runs/replay-track-truth [--minutes 0.5] [--workers 1]
+python -m studies.replay_vs_track_suite --out runs/replay-track-truth [--minutes 0.5] [--workers 1]
 
 The track world's counterpart of `replay_vs_road_suite.py`. The script
 1. records the racing expert (no drift episodes) as a donkeycar tub on every track of the track suite t1 for
@@ -29,18 +29,15 @@ import argparse
 import csv
 import json
 import shutil
-import sys
 import time
 from pathlib import Path
 
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from common import (ROOT, correlation_table, begin_study, correlations, record_expert, replay_missing,  # noqa: E402
-                    replayed, scatter_axes, train_baseline, train_snapshots, write_table)
-
-from steerlab.data.car import CARS  # noqa: E402
-from steerlab.sim.core.suite import labels_for  # noqa: E402
-from steerlab.sim.track.suite import TRACK_SUITES  # noqa: E402
+from steerlab.data.car import CARS
+from steerlab.sim.core.suite import labels_for
+from steerlab.sim.track.suite import TRACK_SUITES
+from studies.common import (ROOT, begin_study, correlation_table, correlations, record_expert, replay_missing, replayed,
+                            scatter_axes, train_baseline, train_snapshots, write_table)
 
 SUITE = "t1"
 BASE_TRAIN = {"batch_size": 32, "lr": 3e-4, "patience": 99, "loss": "mae"}

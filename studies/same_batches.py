@@ -1,12 +1,11 @@
 """Does another build train on the same data? The initial weights, the random state when the first epoch starts and
 the first batches of a training config, from this build and from another one (a git worktree), compared.
 
-python studies/same_batches.py --before /tmp/base [--config configs/track_best.yaml] [--batches 3] [--seed 0]
+python -m studies.same_batches --before /tmp/base [--config configs/track_best.yaml] [--batches 3] [--seed 0]
     # git worktree add /tmp/base 808d063 first; run from the repository root, the config's data in place
 """
 
 import argparse
-import hashlib
 import os
 import subprocess
 import sys
@@ -16,28 +15,6 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-
-
-def dump(out: str, config: str, seed: int, batches: int) -> None:
-    """In a process of one build: train until the first epoch begins, then write what it starts from to `out`."""
-    import torch
-
-    import steerlab.train.loop as loop
-    from steerlab.train.config import load_config
-
-    def first(model, opt, loader, *args, **kwargs):
-        state = getattr(model, "module", model).state_dict()
-        weights = hashlib.sha1(b"".join(k.encode() + v.detach().float().numpy().tobytes() for k, v in state.items()))
-        found = {"weights": np.array(weights.hexdigest()),
-                 "random_state": np.array(hashlib.sha1(torch.get_rng_state().numpy().tobytes()).hexdigest())}
-        for i, (inputs, targets, _) in zip(range(batches), loader):
-            found.update({f"{i}.{k}": v.numpy() for k, v in {**inputs, **targets}.items()})
-        np.savez(out, **found)
-        raise SystemExit(0)
-
-    loop.train_one_epoch = first
-    with tempfile.TemporaryDirectory() as run:
-        loop.train(load_config(config, [f"train.seed={seed}", f"out={run}/run"]), progress=False)
 
 
 def main() -> int:
@@ -55,10 +32,8 @@ def main() -> int:
         found = {}
         for name, src in (("this build", ROOT / "src"), ("before", Path(a.before).resolve() / "src")):
             out = f"{tmp}/{len(found)}.npz"
-            code = f"import sys; sys.path.insert(0, {str(src)!r}); from same_batches import dump; " \
-                   f"dump({out!r}, {a.config!r}, {a.seed}, {a.batches})"
-            env = {**os.environ, "PYTHONPATH": f"{src}{os.pathsep}{Path(__file__).parent}"}
-            subprocess.run([sys.executable, "-c", code], check=True, env=env, cwd=ROOT)
+            subprocess.run([sys.executable, "-m", "studies._first_batches", out, a.config, str(a.seed), str(a.batches)],
+                           check=True, env={**os.environ, "PYTHONPATH": str(src)}, cwd=ROOT)
             found[name] = dict(np.load(out))
         now, before = found["this build"], found["before"]
         for key in ("weights", "random_state"):

@@ -18,7 +18,7 @@ finished. `OUT/<--table>.md`, `.csv`, `.json` (default `table`): per recipe, the
 seed's values; `OUT/<suite>-max<cap>/`: the suite's own tables and every drive. Everything is kept and reused: a
 rerun trains and drives only what is missing.
 
-python studies/track_recipes.py [--recipes donkey,gray,...] [--seeds 0,1] [--suite s1] [--caps 1,0.5]
+python -m studies.track_recipes [--recipes donkey,gray,...] [--seeds 0,1] [--suite s1] [--caps 1,0.5]
     [--donkeycar [--donkeycar-runs 3] [--donkeycar-tubs donkey]] [--workers 2] [--out runs/race] [--table table]
 """
 
@@ -34,15 +34,13 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from common import ROOT, DonkeycarPart, donkey_car, donkey_python, machine  # noqa: E402
-
-from steerlab.data.car import CARS  # noqa: E402
-from steerlab.data.readers import open_recording  # noqa: E402
-from steerlab.sim.core.part import PartPilot  # noqa: E402
-from steerlab.sim.core.suite import from_json  # noqa: E402
-from steerlab.sim.track.run import TrackDrive, drive, drive_expert  # noqa: E402
-from steerlab.sim.track.suite import TrackSuiteOptions, drive_row, race, report, summarize  # noqa: E402
+from steerlab.data.car import CARS
+from steerlab.data.readers import open_recording
+from steerlab.sim.core.part import PartPilot
+from steerlab.sim.core.suite import from_json
+from steerlab.sim.track.run import TrackDrive, drive, drive_expert
+from steerlab.sim.track.suite import TrackSuiteOptions, drive_row, race, report, summarize
+from studies.common import ROOT, DonkeycarPart, donkey_car, donkey_python, machine
 
 TUBS = [f"{style}-{seed}" for style in ("taped", "centre") for seed in (1, 2, 3, 4)]
 TUB_MINUTES = 2.0

@@ -11,27 +11,23 @@ environment). Everyone is scored on the held-out last 20 %: the steering MAE in 
 and the throttle MAE (open loop), and the interventions of the small cars' replay (`steerlab replay --world
 track`: the body leaving a 0.9 m lane around the human's path, the speed from the recorded throttle).
 
-python studies/tub_pretraining.py [--seeds 3] [--skip-donkey] [--tubs hall,taped-track]
+python -m studies.tub_pretraining [--seeds 3] [--skip-donkey] [--tubs hall,taped-track]
 Every finished run is kept in runs/tub-pretraining/<tub>/results.json and reused by a later run.
 """
 
 import argparse
 import json
-import sys
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from common import ROOT, machine, track_tubs  # noqa: E402
-from donkeycar_tubs import FULL_LOCK_DEG, READER, TUBS, blocks, donkey_or_skip, run_donkey, spread  # noqa: E402
-
-from steerlab.data.readers import Source  # noqa: E402
-from steerlab.evaluate.offline import evaluate  # noqa: E402
-from steerlab.sim.replay.run import run_replay  # noqa: E402
-from steerlab.sim.replay.track import TrackReplayOptions  # noqa: E402
-from steerlab.train.config import load_config  # noqa: E402
-from steerlab.train.loop import train  # noqa: E402
+from steerlab.data.readers import Source
+from steerlab.evaluate.offline import evaluate
+from steerlab.sim.replay.run import run_replay
+from steerlab.sim.replay.track import TrackReplayOptions
+from steerlab.train.config import load_config
+from steerlab.train.loop import train
+from studies.common import (FULL_LOCK_DEG, READER, ROOT, TUBS, blocks, donkey_or_skip, machine, run_donkey, spread,
+                            track_tubs)
 
 OUT = ROOT / "runs" / "tub-pretraining"
 EPOCHS = {"hall": 25, "taped-track": 12}  # configs/donkey_best.yaml, and its note for taped-track
