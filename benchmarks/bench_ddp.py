@@ -12,13 +12,25 @@ import csv
 import os
 import subprocess
 import sys
+from dataclasses import dataclass
 
 import yaml
 from benchmarks.common import ROOT, Report, arguments, machine
 
+from steerlab.cli import run_script
 from steerlab.data.readers import open_recording
+from steerlab.models import list_models, model_class
+from steerlab.options import COUNT_MAX, Options, Range, option
 
 OUT = ROOT / "runs" / "bench-ddp"
+TRAINABLE = [name for name in list_models() if model_class(name).trainable]
+
+
+@dataclass(frozen=True)
+class DdpOptions(Options):
+    model: str = option("pilotnet", lambda v: v in TRAINABLE, f"a trainable model: {', '.join(TRAINABLE)}",
+                        help="the model trained")
+    epochs: int = option(3, Range(2, COUNT_MAX), help="epochs of each run (the first is not counted)")
 
 
 def run(cfg: dict, name: str, nproc: int) -> float:
@@ -34,12 +46,12 @@ def run(cfg: dict, name: str, nproc: int) -> float:
     return sum(float(r["seconds"]) for r in rows) / len(rows)
 
 
-def main() -> None:
-    ap = arguments(__doc__)
-    ap.add_argument("--model", default="pilotnet")
-    ap.add_argument("--epochs", type=int, default=3)
-    args = ap.parse_args()
-    report = Report(__file__, {"model": args.model, "epochs": args.epochs, "global_batch": 64}, args.json)
+def parser():
+    return arguments(__spec__.name, __doc__, DdpOptions)
+
+
+def main(a, args: DdpOptions) -> None:
+    report = Report(__file__, {"model": args.model, "epochs": args.epochs, "global_batch": 64}, a.json)
     rec = OUT / "recording"
     if not (rec / "recording.json").exists():
         subprocess.run([sys.executable, "-m", "steerlab", "sim", "record", "--seed", "5", "--minutes", "2",
@@ -60,4 +72,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(parser(), main)

@@ -14,6 +14,7 @@ import torch
 from benchmarks.bench_pilot import checkpoint
 from benchmarks.common import CH2, Report, arguments, machine, need_ch2, timed
 
+from steerlab.cli import run_script
 from steerlab.data.readers import Source
 from steerlab.evaluate.offline import evaluate
 from steerlab.sim.replay.run import ReplayOptions, run_replay
@@ -22,8 +23,11 @@ LABELS, RANGE = CH2 / "CH2_final_evaluation.csv", "1800:2400"
 SOURCE, WARM = Source(str(CH2), RANGE, str(LABELS)), Source(str(CH2), "1800:1820", str(LABELS))
 
 
-def main() -> None:
-    args = arguments(__doc__).parse_args()
+def parser():
+    return arguments(__spec__.name, __doc__)
+
+
+def main(args) -> None:
     need_ch2()
     report = Report(__file__, {"frames": RANGE, "torch_threads": 1, "replay_speed_mps": 15.0, "target": 1.5},
                     args.json)
@@ -44,4 +48,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(parser(), main)

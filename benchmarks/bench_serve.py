@@ -28,6 +28,7 @@ with warnings.catch_warnings():  # eventlet, imported by python-socketio 4, anno
 from benchmarks.common import SHARED, Report, arguments, each_ms, machine  # noqa: E402
 
 from steerlab.checkpoint import save_checkpoint  # noqa: E402
+from steerlab.cli import path_option, run_script  # noqa: E402
 from steerlab.data.preprocess import PreprocessConfig  # noqa: E402
 from steerlab.data.readers import open_recording  # noqa: E402
 from steerlab.data.simlog import SIM_CONVENTION  # noqa: E402
@@ -90,11 +91,14 @@ def round_trips(model: Path, images: list[str]) -> np.ndarray:
         server.wait()
 
 
-def main() -> None:
-    ap = arguments(__doc__)
-    ap.add_argument("models", nargs="*", metavar="CHECKPOINT_OR_ONNX", help="models to serve (default: an untrained "
-                    "pilotnet, .pt and .onnx)")
-    args = ap.parse_args()
+def parser():
+    p = arguments(__spec__.name, __doc__)
+    path_option(p, "models", kind="file", nargs="*", metavar="CHECKPOINT_OR_ONNX", help="models to serve (default: an "
+                "untrained pilotnet, .pt and .onnx)")
+    return p
+
+
+def main(args) -> None:
     if not (SIM / "driving_log.csv").exists():
         print(f"skipped: {SIM} not found (the benchmark replays its frames)")
         return
@@ -121,4 +125,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(parser(), main)

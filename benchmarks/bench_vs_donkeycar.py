@@ -22,9 +22,12 @@ import subprocess
 import sys
 import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 from benchmarks.common import CH2, ROOT, Report, arguments, machine, record_race_tubs
+from steerlab.cli import run_script
+from steerlab.options import Options, Range, option
 from studies.common import donkey_car, donkey_python
 
 
@@ -81,17 +84,20 @@ def donkeycar_side(tubs: list[Path], epochs: int, out: Path) -> dict:
             "command_s": lines[-1][0]}
 
 
-def main() -> None:
-    p = arguments(__doc__)
-    p.add_argument("--epochs", type=int, default=4, metavar="N",
-                   help="epochs each trainer trains (2-100; the first is not counted; default 4)")
-    args = p.parse_args()
-    if not 2 <= args.epochs <= 100:
-        p.error(f"--epochs must be an integer from 2 to 100 (the first epoch is not counted), got {args.epochs}")
+@dataclass(frozen=True)
+class TrainerTiming(Options):
+    epochs: int = option(4, Range(2, 100), help="epochs each trainer trains (the first is not counted)")
+
+
+def parser():
+    return arguments(__spec__.name, __doc__, TrainerTiming)
+
+
+def main(a, args: TrainerTiming) -> None:
     config = ROOT / "configs" / "track_best.yaml"
     tubs = record_race_tubs(config)
     report = Report(__file__, {"epochs": args.epochs, "tubs": len(tubs), "config": "configs/track_best.yaml"},
-                    args.json)
+                    a.json)
     print(f"machine: {machine()}; donkey-linear on {len(tubs)} track tubs, {args.epochs} epochs each")
     with tempfile.TemporaryDirectory() as tmp:
         ours = steerlab_side(str(config), args.epochs, Path(tmp))
@@ -116,4 +122,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(parser(), main)

@@ -5,7 +5,8 @@
   `record_race_tubs`.
 - Timing: `machine` (what every result is measured on; the studies print the same line), `timed`,
   `median_seconds`, `per_second`, `each_ms`.
-- A timing's report: `arguments` (its command line, with `--json`) and `Report`, the numbers it prints as JSON.
+- A timing's command line, `arguments` (typed as the steerlab command's, with `--json`), and its report, `Report`,
+  the numbers it prints as JSON.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from steerlab.cli import path_option, script_parser
 from steerlab.files import json_text, plain
 from studies.common import ROOT, SHARED, machine
 
@@ -85,11 +87,12 @@ def each_ms(fn, items) -> tuple[np.ndarray, list]:
 
 # a timing's report
 
-def arguments(doc: str) -> argparse.ArgumentParser:
-    """A timing's command line: its docstring as the help, and `--json PATH` (where `Report` writes)."""
-    p = argparse.ArgumentParser(description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--json", metavar="PATH", help="where to write the results as JSON (default: "
-                   "runs/benchmarks/<script>.json)")
+def arguments(module: str, doc: str, *classes: type) -> argparse.ArgumentParser:
+    """The command line of the timing `module` (`steerlab.cli.script_parser`: its docstring as the help, the typed
+    options of `classes`) with `--json PATH`, where `Report` writes."""
+    p = script_parser(module, doc, *classes)
+    path_option(p, "--json", kind="new-file", metavar="PATH", help="where to write the results as JSON (default: "
+                "runs/benchmarks/<script>.json)")
     return p
 
 

@@ -2,12 +2,14 @@
 `python -m studies.NAME`; a study imports steerlab and this module, never another study nor the tests).
 
 - Where things are: `ROOT`, `SHARED` (the real recordings of ../shared/data), `track_tubs`.
+- A study's command line is typed as the steerlab command's (`steerlab.cli.script_parser`); `NumberList` is the
+  check of an option that takes a comma list of numbers (`--seeds 0,1`).
 - The machine a result is measured on, `machine`, and a study's start, `begin_study` (the timings of benchmarks/
   print the same machine line).
 - donkeycar's own environment, in which the studies run donkeycar's trainer and parts (steerlab never imports
   donkeycar): `donkey_python`, `donkey_car`, and `DonkeycarPart`, donkeycar's pilot part behind a pipe.
-- donkeycar's trainer on the shared tubs (`studies/donkeycar_tubs.py`, `studies/tub_pretraining.py`): `TUBS`,
-  `READER`, `blocks`, `donkey_or_skip`, `run_donkey`, `spread`.
+- donkeycar's trainer on the shared tubs (`studies/donkeycar_tubs.py`, `studies/tub_pretraining.py`): `TubStudy`,
+  their options, `TUBS`, `READER`, `blocks`, `donkey_or_skip`, `run_donkey`, `spread`.
 - Replay against the truth of a world's suite (`studies/replay_vs_road_suite.py`, `studies/replay_vs_track_suite.py`):
   `record_expert`, `train_baseline`, `train_snapshots`, `replayed`, `replay_missing`, `r2`, `correlations`,
   `correlation_table`, `scatter_axes`, `write_table`.
@@ -27,10 +29,13 @@ import shutil
 import subprocess
 import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
 import numpy as np
+
+from steerlab.options import AT_LEAST_1, Options, Range, names_held, option
 
 ROOT = Path(__file__).resolve().parents[1]
 SHARED = ROOT.parent / "shared" / "data"
@@ -45,6 +50,32 @@ def track_tubs() -> list[Path]:
             subprocess.run([sys.executable, "-m", "steerlab", "sim", "record", "--world", "track", "--seed", str(seed),
                             "--minutes", "3", "--out", str(tub)], check=True)
     return tubs
+
+
+@dataclass(frozen=True)
+class NumberList:
+    """The check of an option that takes a comma list of numbers (`--seeds 0,1`, `--caps 1,0.5`): each of `kind`
+    inside `range`, none twice; `of(text)` gives them."""
+
+    kind: type
+    range: Range
+
+    def of(self, text: str) -> list:
+        values = [self.kind(v) for v in text.split(",")]
+        if not values or len(set(values)) < len(values) or not all(map(self.range, values)):
+            raise ValueError(text)
+        return values
+
+    def __call__(self, text: str) -> bool:
+        try:
+            return bool(self.of(text))
+        except (ValueError, TypeError):
+            return False
+
+    @property
+    def words(self) -> str:
+        each = self.range.words(self.kind).replace("a number", "numbers").replace("an integer", "integers")
+        return f"a comma list of {each}, each once"
 
 
 def machine() -> str:
@@ -131,6 +162,20 @@ class DonkeycarPart:
 TUBS = SHARED / "donkeycar"
 FULL_LOCK_DEG = 25.0  # assumed: the tubs do not record it
 READER = {"skip_missing": True, "full_lock_deg": FULL_LOCK_DEG}
+TUB_NAMES = ("hall", "taped-track")  # the tubs of ../shared/data/donkeycar
+
+
+@dataclass(frozen=True)
+class TubStudy(Options):
+    """The options of a study on the shared tubs."""
+
+    seeds: int = option(3, AT_LEAST_1, help="runs of every trainer and model")
+    skip_donkey: bool = option(False, help="steerlab's models only, without donkeycar's")
+    tubs: str = option(",".join(TUB_NAMES), help=f"comma list of the shared tubs to run on, of {', '.join(TUB_NAMES)}")
+
+    @classmethod
+    def related(cls, v):
+        return names_held(v, "tubs", TUB_NAMES, "shared tubs")
 
 
 def blocks(n: int) -> tuple[int, int]:

@@ -30,23 +30,27 @@ Every finished run (trainer, model, seed) is kept in runs/donkeycar-tubs/<tub>/r
 later run (delete the file to train them again); the table shows every run kept there.
 """
 
-import argparse
 import json
 import os
 import shutil
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import yaml
 
+from steerlab.cli import run_script, script_parser
 from steerlab.data.readers import Source
 from steerlab.evaluate.offline import evaluate
 from steerlab.sim.replay.run import run_replay
 from steerlab.sim.replay.track import TrackReplayOptions
 from steerlab.train.config import load_config
+from steerlab.models import list_models
+from steerlab.options import AT_LEAST_1, names_from, names_held, option
 from steerlab.train.loop import train
-from studies.common import READER, ROOT, TUBS, blocks, donkey_or_skip, machine, run_donkey, spread
+from studies.common import (FULL_LOCK_DEG, READER, ROOT, TUB_NAMES, TUBS, TubStudy, blocks, donkey_or_skip, machine,
+                            run_donkey, spread)
 
 OUT = ROOT / "runs" / "donkeycar-tubs"
 STEERLAB_MODELS = ["pilotnet", "cg23", "multimodal-lstm", "train-mean"]
@@ -119,24 +123,33 @@ def table_rows(name: str, results: dict) -> list[str]:
     return rows
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--epochs", type=int, default=30, help="steerlab's epochs (early stopping after 5)")
-    ap.add_argument("--seeds", type=int, default=3, help="runs of every trainer and model")
-    ap.add_argument("--skip-donkey", action="store_true", help="steerlab models only")
-    ap.add_argument("--models", default=",".join(STEERLAB_MODELS), help="steerlab models (comma list; default "
-                    f"{','.join(STEERLAB_MODELS)}; {TRACK_BEST}: configs/track_best.yaml's recipe)")
-    ap.add_argument("--donkey-models", default=",".join(DONKEY_MODELS), help="donkeycar models (comma list; "
-                    f"default {','.join(DONKEY_MODELS)})")
-    ap.add_argument("--tubs", default="hall,taped-track", help="the shared tubs to run on")
-    args = ap.parse_args()
+@dataclass(frozen=True)
+class TubsSideBySide(TubStudy):
+    epochs: int = option(30, AT_LEAST_1, help="steerlab's epochs (early stopping after 5)")
+    models: str = option(",".join(STEERLAB_MODELS), help="steerlab models (comma list of registered models; "
+                         f"{TRACK_BEST}: configs/track_best.yaml's recipe)")
+    donkey_models: str = option(",".join(DONKEY_MODELS), help="donkeycar's models (comma list of its model types)")
+
+    @classmethod
+    def related(cls, v):
+        yield from super().related(v)
+        yield from names_held(v, "models", [*list_models(), TRACK_BEST], "models")
+
+
+def parser():
+    return script_parser(__spec__.name, __doc__, TubsSideBySide)
+
+
+def main(_, args: TubsSideBySide) -> None:
+    models = names_from(args.models, [*list_models(), TRACK_BEST], "models")
+    donkey_models = [m for m in args.donkey_models.split(",") if m]
     python = donkey_or_skip(args.skip_donkey)
     os.environ.setdefault("STEERLAB_CACHE", str(OUT / "cache"))
     lines = [f"machine: {machine()}", "", f"replay: held-out block as a small car (--world track), full lock "
              f"{FULL_LOCK_DEG} deg", "", "| tub | model | trainer | runs | held-out steering MAE [-1, 1] | vs "
              "donkeycar linear | held-out throttle MAE | train time [s] | replay: interventions |",
              "|---|---|---|---|---|---|---|---|---|"]
-    for name in args.tubs.split(","):
+    for name in names_from(args.tubs, TUB_NAMES, "shared tubs"):
         tub = TUBS / name
         rec = Source(str(tub), reader=READER).open()
         n = len(rec)
@@ -146,9 +159,9 @@ def main() -> None:
         work = OUT / name
         work.mkdir(parents=True, exist_ok=True)
         results = json.loads((work / "results.json").read_text()) if (work / "results.json").exists() else {}
-        run_steerlab(tub, n, args.epochs, work, args.models.split(","), args.seeds, results)
+        run_steerlab(tub, n, args.epochs, work, models, args.seeds, results)
         if python:
-            run_donkey(python, tub, rec, b, n, work, args.donkey_models.split(","), args.seeds, results)
+            run_donkey(python, tub, rec, b, n, work, donkey_models, args.seeds, results)
         lines += table_rows(name, results)
     table = "\n".join(lines) + "\n"
     (OUT / "table.md").write_text(table)
@@ -157,4 +170,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(parser(), main)

@@ -22,15 +22,17 @@ an interrupted run continues where it stopped.
 
 from __future__ import annotations
 
-import argparse
 import csv
 import math
 import shutil
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from steerlab.cli import run_script, script_parser
+from steerlab.options import MINUTES, WORKERS, Options, option
 from steerlab.sim.core.suite import labels_for
 from steerlab.sim.road.suite import SUITES
 from studies.common import (begin_study, correlation_table, correlations, record_expert, replay_missing, scatter_axes,
@@ -205,13 +207,19 @@ def warp_error(out: Path) -> list[str]:
     return lines
 
 
-def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--out", default="runs/replay-truth")
-    p.add_argument("--minutes", type=float, default=1.0, help="minutes per suite road, for the truth and the recordings")
-    p.add_argument("--workers", type=int, default=2)
-    p.add_argument("--skip-warp", action="store_true", help="leave out the warp-error table")
-    a = p.parse_args()
+@dataclass(frozen=True)
+class RoadReplayStudy(Options):
+    out: str = option("runs/replay-truth", path="folder", help="the study's folder (what is done there is reused)")
+    minutes: float = option(1.0, MINUTES, help="minutes per suite road, for the truth and the recordings")
+    workers: int = option(2, WORKERS, help="drives and replays at a time")
+    skip_warp: bool = option(False, help="leave out the warp-error table")
+
+
+def parser():
+    return script_parser(__spec__.name, __doc__, RoadReplayStudy)
+
+
+def main(_, a: RoadReplayStudy) -> None:
     out = Path(a.out)
     t_start, cpu_start = begin_study(out, a.workers)
 
@@ -272,4 +280,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(parser(), main)

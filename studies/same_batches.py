@@ -5,29 +5,38 @@ python -m studies.same_batches --before /tmp/base [--config configs/track_best.y
     # git worktree add /tmp/base 808d063 first; run from the repository root, the config's data in place
 """
 
-import argparse
 import os
 import subprocess
 import sys
 import tempfile
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from steerlab.cli import run_script, script_parser
+from steerlab.errors import SteerlabError
+from steerlab.options import AT_LEAST_1, SEED, Options, option
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def main() -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--before", required=True, help="the other build's source tree (a git worktree)")
-    p.add_argument("--config", default="configs/track_best.yaml", help="the training config (default %(default)s)")
-    p.add_argument("--batches", type=int, default=3, help="batches compared (default %(default)s)")
-    p.add_argument("--seed", type=int, default=0, help="train.seed (default %(default)s)")
-    a = p.parse_args()
+@dataclass(frozen=True)
+class SameBatches(Options):
+    before: str = option(help="the other build's source tree (a git worktree)")
+    config: str = option("configs/track_best.yaml", path="file", help="the training config")
+    batches: int = option(3, AT_LEAST_1, help="batches compared")
+    seed: int = option(0, SEED, help="train.seed")
+
+
+def parser():
+    return script_parser(__spec__.name, __doc__, SameBatches)
+
+
+def main(_, a: SameBatches) -> None:
     if not (Path(a.before) / "src" / "steerlab").is_dir():
-        p.error(f"--before {a.before}: no src/steerlab there; give a source tree of steerlab (git worktree add)")
-    if a.batches < 1:
-        p.error(f"--batches must be at least 1, got {a.batches}")
+        raise SteerlabError(f"--before {a.before}: no src/steerlab there; give a source tree of steerlab (git "
+                            "worktree add)")
     with tempfile.TemporaryDirectory() as tmp:
         found = {}
         for name, src in (("this build", ROOT / "src"), ("before", Path(a.before).resolve() / "src")):
@@ -41,8 +50,7 @@ def main() -> int:
         for key in sorted(k for k in now if k[0].isdigit()):
             gap = float(np.abs(now[key].astype(np.float64) - before[key]).max())
             print(f"batch {key}: largest difference {gap:.3g}")
-    return 0
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_script(parser(), main)

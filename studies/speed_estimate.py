@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from steerlab.cli import run_script, script_parser
 from steerlab.data.geometry import CAMERAS
 from steerlab.data.readers import open_recording
 from steerlab.data.speed import estimate_speed
@@ -20,7 +21,11 @@ from steerlab.sim.road.world import RecordOptions
 from studies.common import SHARED
 
 
-def main() -> None:
+def parser():
+    return script_parser(__spec__.name, __doc__)
+
+
+def main(_) -> None:
     print("| recording | estimated [m/s] | recorded, median [m/s] | seconds |\n|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
         recordings = [
@@ -49,4 +54,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(parser(), main)

@@ -15,19 +15,20 @@ python -m studies.tub_pretraining [--seeds 3] [--skip-donkey] [--tubs hall,taped
 Every finished run is kept in runs/tub-pretraining/<tub>/results.json and reused by a later run.
 """
 
-import argparse
 import json
 
 import numpy as np
 
+from steerlab.cli import run_script, script_parser
 from steerlab.data.readers import Source
 from steerlab.evaluate.offline import evaluate
+from steerlab.options import names_from
 from steerlab.sim.replay.run import run_replay
 from steerlab.sim.replay.track import TrackReplayOptions
 from steerlab.train.config import load_config
 from steerlab.train.loop import train
-from studies.common import (FULL_LOCK_DEG, READER, ROOT, TUBS, blocks, donkey_or_skip, machine, run_donkey, spread,
-                            track_tubs)
+from studies.common import (FULL_LOCK_DEG, READER, ROOT, TUB_NAMES, TUBS, TubStudy, blocks, donkey_or_skip, machine,
+                            run_donkey, spread, track_tubs)
 
 OUT = ROOT / "runs" / "tub-pretraining"
 EPOCHS = {"hall": 25, "taped-track": 12}  # configs/donkey_best.yaml, and its note for taped-track
@@ -82,16 +83,15 @@ def rows(name: str, results: dict) -> list[str]:
     return out
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--seeds", type=int, default=3, help="runs of every arm")
-    ap.add_argument("--skip-donkey", action="store_true", help="steerlab's arms only")
-    ap.add_argument("--tubs", default="hall,taped-track", help="the shared tubs to run on")
-    args = ap.parse_args()
+def parser():
+    return script_parser(__spec__.name, __doc__, TubStudy)
+
+
+def main(_, args: TubStudy) -> None:
     python = donkey_or_skip(args.skip_donkey)
     lines = [f"machine: {machine()}", "", "| tub | model | runs | held-out steering MAE [deg] | vs donkeycar linear | "
              "held-out throttle MAE | replay: interventions |", "|---|---|---|---|---|---|---|"]
-    for name in args.tubs.split(","):
+    for name in names_from(args.tubs, TUB_NAMES, "shared tubs"):
         rec = Source(str(TUBS / name), reader=READER).open()
         n, work = len(rec), OUT / name
         work.mkdir(parents=True, exist_ok=True)
@@ -110,4 +110,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(parser(), main)
