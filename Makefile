@@ -99,7 +99,7 @@ lock:
 	sh .ci/lock.sh $(PYTHON)
 
 bench: $(VENV)/.test  # the timings of benchmarks/ (the experiments of studies/ run one by one, some for hours)
-	for b in benchmarks/bench_*.py; do $(BIN)/python $$b || exit 1; done
+	for b in benchmarks/bench_*.py; do $(BIN)/python -m benchmarks.$$(basename $$b .py) || exit 1; done
 
 clean:
 	rm -rf runs .steerlab-cache site .hypothesis

@@ -2,16 +2,17 @@
 Adam state) against torch.save and torch.load of the same contents alone (the baseline, measured in the same run),
 median of 15 each.
 
-python benchmarks/bench_checkpoint.py [--json PATH]
+python -m benchmarks.bench_checkpoint [--json PATH]
 """
 
 import tempfile
 from pathlib import Path
 
 import torch
-from common import Report, arguments, machine, median_seconds
+from benchmarks.common import Report, arguments, machine, median_seconds
 
 from steerlab.checkpoint import load_checkpoint, save_checkpoint
+from steerlab.cli import run_script
 from steerlab.data.preprocess import PreprocessConfig
 from steerlab.data.recording import SteeringConvention
 from steerlab.models.registry import create_model
@@ -19,8 +20,11 @@ from steerlab.models.registry import create_model
 RUNS = 15
 
 
-def main() -> None:
-    args = arguments(__doc__).parse_args()
+def parser():
+    return arguments(__spec__.name, __doc__)
+
+
+def main(args) -> None:
     report = Report(__file__, {"model": "pilotnet 200x66 with its Adam state", "runs": RUNS}, args.json)
     torch.manual_seed(0)
     model = create_model("pilotnet")
@@ -53,4 +57,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(parser(), main)

@@ -2,13 +2,14 @@
 Baselines measured in the same run: Farneback with 1 worker (for the second worker) and Farneback with 2 workers
 (for DIS).
 
-python benchmarks/bench_compile.py [--json PATH]
+python -m benchmarks.bench_compile [--json PATH]
 """
 
 import tempfile
 
-from common import CH2, Report, arguments, machine, need_ch2, timed
+from benchmarks.common import CH2, Report, arguments, machine, need_ch2, timed
 
+from steerlab.cli import run_script
 from steerlab.data.dataset import compile_recording
 from steerlab.data.preprocess import PreprocessConfig
 from steerlab.data.readers import open_recording
@@ -23,8 +24,11 @@ def run(rec, flow: str, workers: int) -> float:
         return len(rec) / timed(lambda: compile_recording(rec, cfg, cache, workers=workers, progress=False))
 
 
-def main() -> None:
-    args = arguments(__doc__).parse_args()
+def parser():
+    return arguments(__spec__.name, __doc__)
+
+
+def main(args) -> None:
     need_ch2()
     report = Report(__file__, {"frames": FRAMES, "preset": "ch2", "modalities": ["image", "flow"]}, args.json)
     rec = open_recording(CH2, FRAMES, CH2 / "CH2_final_evaluation.csv")
@@ -42,4 +46,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(parser(), main)

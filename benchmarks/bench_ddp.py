@@ -2,7 +2,7 @@
 (2 torch threads; the baseline, measured in the same run) on this machine, same model, same global batch, same
 data.
 
-python benchmarks/bench_ddp.py [--model pilotnet] [--epochs 3] [--json PATH]
+python -m benchmarks.bench_ddp [--model pilotnet] [--epochs 3] [--json PATH]
 Data: a 2-minute synthetic-world recording (made once under runs/bench-ddp). Reported: training samples per
 second of the epochs after the first (the epoch time of the log minus nothing: validation runs on every rank,
 on 100 frames only).
@@ -12,13 +12,25 @@ import csv
 import os
 import subprocess
 import sys
+from dataclasses import dataclass
 
 import yaml
-from common import ROOT, Report, arguments, machine
+from benchmarks.common import ROOT, Report, arguments, machine
 
+from steerlab.cli import run_script
 from steerlab.data.readers import open_recording
+from steerlab.models import list_models, model_class
+from steerlab.options import COUNT_MAX, Options, Range, option
 
 OUT = ROOT / "runs" / "bench-ddp"
+TRAINABLE = [name for name in list_models() if model_class(name).trainable]
+
+
+@dataclass(frozen=True)
+class DdpOptions(Options):
+    model: str = option("pilotnet", lambda v: v in TRAINABLE, f"a trainable model: {', '.join(TRAINABLE)}",
+                        help="the model trained")
+    epochs: int = option(3, Range(2, COUNT_MAX), help="epochs of each run (the first is not counted)")
 
 
 def run(cfg: dict, name: str, nproc: int) -> float:
@@ -34,12 +46,12 @@ def run(cfg: dict, name: str, nproc: int) -> float:
     return sum(float(r["seconds"]) for r in rows) / len(rows)
 
 
-def main() -> None:
-    ap = arguments(__doc__)
-    ap.add_argument("--model", default="pilotnet")
-    ap.add_argument("--epochs", type=int, default=3)
-    args = ap.parse_args()
-    report = Report(__file__, {"model": args.model, "epochs": args.epochs, "global_batch": 64}, args.json)
+def parser():
+    return arguments(__spec__.name, __doc__, DdpOptions)
+
+
+def main(a, args: DdpOptions) -> None:
+    report = Report(__file__, {"model": args.model, "epochs": args.epochs, "global_batch": 64}, a.json)
     rec = OUT / "recording"
     if not (rec / "recording.json").exists():
         subprocess.run([sys.executable, "-m", "steerlab", "sim", "record", "--seed", "5", "--minutes", "2",
@@ -60,4 +72,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(parser(), main)

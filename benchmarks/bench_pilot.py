@@ -6,7 +6,7 @@ model takes it, model, smoothing) and the model's own time (JPEG decode and prep
 largest steering difference between the two runtimes on the same frames. The baseline of each ONNX Runtime
 number is PyTorch's on the same model and frames, measured in the same run.
 
-python benchmarks/bench_pilot.py [--json PATH]
+python -m benchmarks.bench_pilot [--json PATH]
 Targets: the multimodal-lstm pilot at >= 5 x 23 = 115 frames/s (paper 000 reports 23 frames/s for its
 Farneback flow alone); ONNX Runtime's model time >= 1.5x faster than torch's for pilotnet, the whole pilot
 faster for every model, steering equal to 1e-4 rad.
@@ -19,8 +19,9 @@ import cv2
 import numpy as np
 import torch
 
-from common import CH2, Report, arguments, each_ms, machine, need_ch2
+from benchmarks.common import CH2, Report, arguments, each_ms, machine, need_ch2
 
+from steerlab.cli import run_script
 from steerlab.data.readers import open_recording
 from steerlab.evaluate.latency import TimedModel, untrained_checkpoint
 from steerlab.export import export_onnx
@@ -44,8 +45,11 @@ def run(model_file: Path, jpegs: list[np.ndarray]) -> tuple[np.ndarray, np.ndarr
     return ms[WARMUP:], np.array(timed.ms[WARMUP:]), np.array([c.steering for c in controls])
 
 
-def main() -> None:
-    args = arguments(__doc__).parse_args()
+def parser():
+    return arguments(__spec__.name, __doc__)
+
+
+def main(args) -> None:
     need_ch2()
     report = Report(__file__, {"frames": FRAMES, "warmup": WARMUP, "smoothing": 0.2, "torch_threads": 2}, args.json)
     torch.set_num_threads(2)
@@ -86,4 +90,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(parser(), main)

@@ -2,7 +2,7 @@
 run: decoding the same frames from JPEG (as `steerlab sim record` writes them, quality 92) on one core, which is
 what reading them back from a recording costs. Above x1, rendering a frame is cheaper than reading one.
 
-python benchmarks/bench_render.py [--json PATH]     (target: >= 300 frames/s)
+python -m benchmarks.bench_render [--json PATH]     (target: >= 300 frames/s)
 """
 
 import os
@@ -10,8 +10,9 @@ import os
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import cv2  # noqa: E402
-from common import Report, arguments, machine, per_second  # noqa: E402
+from benchmarks.common import Report, arguments, machine, per_second  # noqa: E402
 
+from steerlab.cli import run_script  # noqa: E402
 from steerlab.data.writer import JPEG  # noqa: E402
 from steerlab.sim.road.render import Renderer  # noqa: E402
 from steerlab.sim.road.road import Road  # noqa: E402
@@ -20,8 +21,11 @@ cv2.setNumThreads(1)
 FRAMES, RUNS, TARGET = 1000, 3, 300
 
 
-def main() -> None:
-    args = arguments(__doc__).parse_args()
+def parser():
+    return arguments(__spec__.name, __doc__)
+
+
+def main(args) -> None:
     report = Report(__file__, {"frames": FRAMES, "runs": RUNS, "size": "320x160", "cores": 1, "target_fps": TARGET},
                     args.json)
     print(f"machine: {machine()}; {FRAMES} frames, median of {RUNS} passes")
@@ -40,4 +44,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(parser(), main)

@@ -3,7 +3,7 @@ measured in the same run): CH2 frames 1800-2399 (30 s), one process, one torch t
 does not depend on them), for a single-frame model and a recurrent flow model. Both write their whole report
 (CSV, plot).
 
-python benchmarks/bench_replay.py [--json PATH]
+python -m benchmarks.bench_replay [--json PATH]
 Target: replay <= 1.5 x evaluate.
 """
 
@@ -11,9 +11,10 @@ import tempfile
 from pathlib import Path
 
 import torch
-from bench_pilot import checkpoint
-from common import CH2, Report, arguments, machine, need_ch2, timed
+from benchmarks.bench_pilot import checkpoint
+from benchmarks.common import CH2, Report, arguments, machine, need_ch2, timed
 
+from steerlab.cli import run_script
 from steerlab.data.readers import Source
 from steerlab.evaluate.offline import evaluate
 from steerlab.sim.replay.run import ReplayOptions, run_replay
@@ -22,8 +23,11 @@ LABELS, RANGE = CH2 / "CH2_final_evaluation.csv", "1800:2400"
 SOURCE, WARM = Source(str(CH2), RANGE, str(LABELS)), Source(str(CH2), "1800:1820", str(LABELS))
 
 
-def main() -> None:
-    args = arguments(__doc__).parse_args()
+def parser():
+    return arguments(__spec__.name, __doc__)
+
+
+def main(args) -> None:
     need_ch2()
     report = Report(__file__, {"frames": RANGE, "torch_threads": 1, "replay_speed_mps": 15.0, "target": 1.5},
                     args.json)
@@ -44,4 +48,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(parser(), main)

@@ -4,7 +4,7 @@ waits for each steer command. The baseline, measured in the same run: the same m
 by the server's own session (`serve.DriveSession.command`: base64 and JPEG decode, the pilot, the speed
 controller), so that round trip / in process is what the server's process, socket.io and the websocket add.
 
-python benchmarks/bench_serve.py [CHECKPOINT_OR_ONNX ...] [--json PATH]
+python -m benchmarks.bench_serve [CHECKPOINT_OR_ONNX ...] [--json PATH]
 Without checkpoints: untrained pilotnet on the simulator preset (the cost does not depend on the weights), as a
 .pt checkpoint and exported to ONNX. Target: p99 <= 20 ms for pilotnet.
 """
@@ -25,9 +25,10 @@ with warnings.catch_warnings():  # eventlet, imported by python-socketio 4, anno
     warnings.simplefilter("ignore")
     import socketio
 
-from common import SHARED, Report, arguments, each_ms, machine  # noqa: E402
+from benchmarks.common import SHARED, Report, arguments, each_ms, machine  # noqa: E402
 
 from steerlab.checkpoint import save_checkpoint  # noqa: E402
+from steerlab.cli import path_option, run_script  # noqa: E402
 from steerlab.data.preprocess import PreprocessConfig  # noqa: E402
 from steerlab.data.readers import open_recording  # noqa: E402
 from steerlab.data.simlog import SIM_CONVENTION  # noqa: E402
@@ -90,11 +91,14 @@ def round_trips(model: Path, images: list[str]) -> np.ndarray:
         server.wait()
 
 
-def main() -> None:
-    ap = arguments(__doc__)
-    ap.add_argument("models", nargs="*", metavar="CHECKPOINT_OR_ONNX", help="models to serve (default: an untrained "
-                    "pilotnet, .pt and .onnx)")
-    args = ap.parse_args()
+def parser():
+    p = arguments(__spec__.name, __doc__)
+    path_option(p, "models", kind="file", nargs="*", metavar="CHECKPOINT_OR_ONNX", help="models to serve (default: an "
+                "untrained pilotnet, .pt and .onnx)")
+    return p
+
+
+def main(args) -> None:
     if not (SIM / "driving_log.csv").exists():
         print(f"skipped: {SIM} not found (the benchmark replays its frames)")
         return
@@ -121,4 +125,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(parser(), main)

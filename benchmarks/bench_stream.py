@@ -7,7 +7,7 @@ Every pass decodes, crops, resizes, computes the flow when the model takes it, r
 and ONNX Runtime to that many threads (stream() adds its worker threads); stream() must give exactly the
 controls of step().
 
-python benchmarks/bench_stream.py [--json PATH]
+python -m benchmarks.bench_stream [--json PATH]
 Targets on 2 cores: stream() end to end >= 650 frames/s for pilotnet and >= 350 for multimodal-lstm.
 """
 
@@ -18,9 +18,10 @@ from pathlib import Path
 import cv2
 import numpy as np
 import torch
-from bench_pilot import checkpoint
-from common import CH2, Report, arguments, machine, need_ch2, per_second
+from benchmarks.bench_pilot import checkpoint
+from benchmarks.common import CH2, Report, arguments, machine, need_ch2, per_second
 
+from steerlab.cli import run_script
 from steerlab.data.readers import open_recording
 from steerlab.export import export_onnx
 from steerlab.pilot import Pilot
@@ -39,8 +40,11 @@ def set_threads(n: int) -> None:
     cv2.setNumThreads(n)
 
 
-def main() -> None:
-    args = arguments(__doc__).parse_args()
+def parser():
+    return arguments(__spec__.name, __doc__)
+
+
+def main(args) -> None:
     need_ch2()
     report = Report(__file__, {"frames": FRAMES, "repeats": REPEATS, "smoothing": 0.2, "targets_fps": TARGETS},
                     args.json)
@@ -88,4 +92,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(parser(), main)

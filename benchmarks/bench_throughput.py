@@ -10,7 +10,7 @@ Measured in the same run:
   throughput, so that a faster device (a GPU) is fed;
 - `train.workers` 0 and 1 (data loading in this process, or one worker process preparing the next batches).
 
-python benchmarks/bench_throughput.py [--models pilotnet,lstm] [--no-baseline] [--json PATH]
+python -m benchmarks.bench_throughput [--models pilotnet,lstm] [--no-baseline] [--json PATH]
 """
 
 import os
@@ -18,23 +18,37 @@ import shutil
 import subprocess
 import sys
 import tempfile
+from dataclasses import dataclass
 
 import numpy as np
 import torch
-from common import ROOT, SHARED, Report, arguments, machine, timed
+from benchmarks.common import ROOT, SHARED, Report, arguments, machine, timed
 
+from steerlab.cli import run_script
 from steerlab.data.dataset import compile_recording
 from steerlab.data.inputs import channel_stats, segment_starts
 from steerlab.data.preprocess import PreprocessOptions
 from steerlab.data.readers import open_recording
 from steerlab.models import list_models, model_class
 from steerlab.models.registry import ModelSpec
+from steerlab.options import Options, names_from, names_held, option
 from steerlab.train.batches import EpochSampler, FrameBatches, loader, sequence_windows
 from steerlab.train.loop import train_one_epoch
 
 SIM = SHARED / "udacity-sim-track1"
 N = 640
 BASELINE = "4e71608"  # the last commit whose training gathered its batches by hand
+TRAINABLE = [name for name in list_models() if model_class(name).trainable]
+
+
+@dataclass(frozen=True)
+class ThroughputTiming(Options):
+    models: str | None = option(None, help="comma list of trainable models (default: all of them)")
+    no_baseline: bool = option(False, help=f"skip the measurement of commit {BASELINE}")
+
+    @classmethod
+    def related(cls, v):
+        return names_held(v, "models", TRAINABLE, "trainable models")
 
 
 def setup(name: str, rec, cache: str, workers: int):
@@ -91,17 +105,17 @@ def baseline(models: list[str]) -> dict[str, float]:
     return {r[0]: float(r[2]) for r in rows}
 
 
-def main() -> None:
-    p = arguments(__doc__)
-    p.add_argument("--models", help="comma list (default: every trainable model)")
-    p.add_argument("--no-baseline", action="store_true", help=f"skip the measurement of commit {BASELINE}")
-    a = p.parse_args()
+def parser():
+    return arguments(__spec__.name, __doc__, ThroughputTiming)
+
+
+def main(args, a: ThroughputTiming) -> None:
     if not (SIM / "driving_log.csv").exists():
         print(f"skipped: {SIM} not found (the benchmark uses the real simulator recording)")
         return
-    models = a.models.split(",") if a.models else [n for n in list_models() if model_class(n).trainable]
+    models = names_from(a.models, TRAINABLE, "trainable models") or TRAINABLE
     report = Report(__file__, {"frames": N, "models": models, "baseline_commit": None if a.no_baseline else BASELINE},
-                    a.json)
+                    args.json)
     rec = open_recording(SIM, f"0:{N}")
     print(f"machine: {machine()}; {N} simulator frames, one training epoch per model, frames/s")
     before = {} if a.no_baseline else baseline(models)
@@ -121,4 +135,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(parser(), main)

@@ -8,7 +8,7 @@ network call is timed apart from the rest of the pilot. The checkpoint is donkey
 one epoch on the first tub of configs/track_best.yaml (what it drives like does not change what a tick costs);
 `--checkpoint` times another.
 
-python benchmarks/bench_track_drive.py [--minutes 1] [--checkpoint PATH] [--json PATH]
+python -m benchmarks.bench_track_drive [--minutes 1] [--checkpoint PATH] [--json PATH]
 Baseline: the render alone (`world.render` in the same drive); the suite against one drive's rate times two.
 """
 
@@ -23,13 +23,15 @@ import sys  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
 from collections import defaultdict  # noqa: E402
+from dataclasses import dataclass  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import cv2  # noqa: E402
-from common import ROOT, Report, arguments, machine, record_race_tubs  # noqa: E402
+from benchmarks.common import ROOT, Report, arguments, machine, record_race_tubs  # noqa: E402
 
+from steerlab.cli import run_script  # noqa: E402
 from steerlab.errors import SteerlabError  # noqa: E402
-from steerlab.options import frames_in  # noqa: E402
+from steerlab.options import Options, Range, frames_in, option  # noqa: E402
 from steerlab.sim.core.driving import drive_loop  # noqa: E402
 from steerlab.sim.core.part import donkey_pilot  # noqa: E402
 from steerlab.sim.track.suite import TrackSuiteOptions, run_suite  # noqa: E402
@@ -37,6 +39,13 @@ from steerlab.sim.track.world import TrackWorld, camera_of  # noqa: E402
 
 cv2.setNumThreads(1)
 MODEL = ROOT / "runs" / "benchmarks" / "track-drive-model"
+
+
+@dataclass(frozen=True)
+class DriveTiming(Options):
+    minutes: float = option(1.0, Range(0.05, 60, unit="min"), help="minutes of the drive, and of each suite track")
+    checkpoint: str | None = option(None, path="file", help="the checkpoint to drive (.pt or .onnx; default: one "
+                                    "trained here, see above)")
 
 
 class Timed:
@@ -98,23 +107,18 @@ def one_drive(checkpoint: Path, minutes: float) -> tuple[float, dict, int]:
     return len(t) / wall, dict(spent), len(t)
 
 
-def main() -> None:
-    p = arguments(__doc__)
-    p.add_argument("--minutes", type=float, default=1.0,
-                   help="minutes of the drive, and of each suite track (default 1)")
-    p.add_argument("--checkpoint", help="the checkpoint to drive (default: one trained here, see above)")
-    args = p.parse_args()
-    if not 0.05 <= args.minutes <= 60:
-        p.error(f"--minutes must be a number from 0.05 to 60, got {args.minutes:g}")
-    if args.checkpoint and not Path(args.checkpoint).is_file():
-        p.error(f"--checkpoint {args.checkpoint}: no such file (a .pt checkpoint or an exported .onnx)")
+def parser():
+    return arguments(__spec__.name, __doc__, DriveTiming)
+
+
+def main(a, args: DriveTiming) -> None:
     ckpt = model(args.checkpoint)
-    report = Report(__file__, {"minutes": args.minutes, "checkpoint": str(ckpt)}, args.json)
+    report = Report(__file__, {"minutes": args.minutes, "checkpoint": str(ckpt)}, a.json)
     print(f"machine: {machine()}; {ckpt}")
     try:
         one_drive(ckpt, 0.1)  # warm-up: oneDNN's kernels, the page cache
     except SteerlabError as e:  # a checkpoint that is not one, of another camera...
-        sys.exit(f"--checkpoint: {e}")
+        raise SteerlabError(f"--checkpoint {ckpt}: {e}") from None
     fps, spent, ticks = one_drive(ckpt, args.minutes)
     total = sum(spent.values())
     print(f"one drive, one core: {ticks} ticks at {fps:.0f} frames/s; render alone {ticks / spent['render']:.0f} "
@@ -137,4 +141,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(parser(), main)

@@ -1,7 +1,7 @@
 """Rendered frames per second of the track world through the donkeycar fisheye camera at 160x120 on one core,
 against the road world's pinhole renderer with the `donkey` camera at the same size, measured in the same run.
 
-python benchmarks/bench_track_render.py [--json PATH]     (target: >= 300 frames/s)
+python -m benchmarks.bench_track_render [--json PATH]     (target: >= 300 frames/s)
 """
 
 import os
@@ -10,8 +10,9 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import cv2  # noqa: E402
 import numpy as np  # noqa: E402
-from common import Report, arguments, machine, per_second  # noqa: E402
+from benchmarks.common import Report, arguments, machine, per_second  # noqa: E402
 
+from steerlab.cli import run_script  # noqa: E402
 from steerlab.sim.road.render import Renderer  # noqa: E402
 from steerlab.sim.road.road import Road  # noqa: E402
 from steerlab.sim.track.render import TrackRenderer  # noqa: E402
@@ -26,8 +27,11 @@ def rate(render, poses) -> float:
     return per_second(lambda: [render(*p) for p in poses], len(poses), RUNS)
 
 
-def main() -> None:
-    args = arguments(__doc__).parse_args()
+def parser():
+    return arguments(__spec__.name, __doc__)
+
+
+def main(args) -> None:
     report = Report(__file__, {"frames": FRAMES, "runs": RUNS, "size": "160x120", "cores": 1, "target_fps": TARGET},
                     args.json)
     print(f"machine: {machine()}; {FRAMES} frames, median of {RUNS} passes")
@@ -52,4 +56,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(parser(), main)

@@ -18,7 +18,7 @@ allocator's setting and the thread count hold for a whole process): the median o
 - before: the same step with the source of an earlier commit (`--before`, by default 808d063, before these
   levers: torch's dropout and malloc's default, the batch changed sample by sample in NumPy).
 
-python benchmarks/bench_train_step.py [--before COMMIT] [--json PATH]
+python -m benchmarks.bench_train_step [--before COMMIT] [--json PATH]
 """
 
 from __future__ import annotations
@@ -30,11 +30,16 @@ import subprocess
 import sys
 import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import torch
-from common import ROOT, Report, arguments, machine
+from benchmarks.common import ROOT, Report, arguments, machine
+
+from steerlab.cli import run_script
+from steerlab.errors import SteerlabError
+from steerlab.options import Options, option
 
 B, H, W, FRAMES, STEPS, WARMUP = 128, 120, 160, 2048, 20, 5
 VARIANTS = ["shipped", "torch-dropout", "default-malloc", "nchw", "1-thread", "pinned-threads", "1-worker", "compile",
@@ -114,23 +119,26 @@ def measure(variant: str, source: Path | None = None) -> dict:
     env = {**os.environ, **(PINNED if variant == "pinned-threads" else {})}
     if source is not None:
         env["PYTHONPATH"] = str(source)
-    done = subprocess.run([sys.executable, __file__, "--one", variant], capture_output=True, text=True, env=env)
+    done = subprocess.run([sys.executable, "-m", "benchmarks.bench_train_step", "--one", variant], capture_output=True,
+                          text=True, env=env, cwd=ROOT)
     if done.returncode:
         sys.exit(f"{variant}: {done.stderr.strip().splitlines()[-1]}")
     return json.loads(done.stdout.strip().splitlines()[-1])
 
 
-def main() -> None:
-    if len(sys.argv) == 3 and sys.argv[1] == "--one":
-        print(json.dumps(one(sys.argv[2])))
-        return
-    p = arguments(__doc__)
-    p.add_argument("--before", default="808d063", metavar="COMMIT",
-                   help="the earlier source to time as 'before' (a git worktree of it; default 808d063, the source "
-                        "before these levers; '' to skip)")
-    args = p.parse_args()
+@dataclass(frozen=True)
+class StepTiming(Options):
+    before: str = option("808d063", help="the earlier source to time as 'before' (a commit, checked out in a git "
+                         "worktree; 808d063: the source before these levers; '' to skip)")
+
+
+def parser():
+    return arguments(__spec__.name, __doc__, StepTiming)
+
+
+def main(a, args: StepTiming) -> None:
     report = Report(__file__, {"model": "donkey-linear", "batch": B, "input": f"{W}x{H} rgb", "steps": STEPS,
-                               "before": args.before}, args.json)
+                               "before": args.before}, a.json)
     print(f"machine: {machine()}; donkey-linear, batches of {B} RGB {W}x{H}, median of {STEPS} steps after {WARMUP}")
     base = measure("shipped")
     results = {"shipped": base}
@@ -139,7 +147,8 @@ def main() -> None:
             added = subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", tmp, args.before],
                                    capture_output=True, text=True)
             if added.returncode:
-                sys.exit(f"--before {args.before}: not a commit of {ROOT} ({added.stderr.strip().splitlines()[-1]})")
+                raise SteerlabError(f"--before {args.before}: not a commit of {ROOT} "
+                                    f"({added.stderr.strip().splitlines()[-1]})")
             try:
                 results[f"before ({args.before})"] = measure("before", Path(tmp) / "src")
             finally:
@@ -155,4 +164,7 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    if len(sys.argv) == 3 and sys.argv[1] == "--one":  # one variant, in the process that `measure` starts
+        print(json.dumps(one(sys.argv[2])))
+    else:
+        run_script(parser(), main)

@@ -3,7 +3,7 @@ loader that decodes and preprocesses the JPEGs (and computes the optical flow, w
 step, and (b) tensors already in memory (the floor for data loading). Two inputs: gray (paper 000 "spatial") and
 gray + Farneback flow (paper 000 "spatial + optical flow").
 
-python benchmarks/bench_training.py [--json PATH]
+python -m benchmarks.bench_training [--json PATH]
 Targets: cache >= 5x faster than naive; cache within 15% of in-memory.
 """
 
@@ -11,8 +11,9 @@ import tempfile
 
 import numpy as np
 import torch
-from common import CH2, Report, arguments, machine, need_ch2, timed
+from benchmarks.common import CH2, Report, arguments, machine, need_ch2, timed
 
+from steerlab.cli import run_script
 from steerlab.data.dataset import compile_recording
 from steerlab.data.modalities import optical_flow
 from steerlab.data.preprocess import PreprocessConfig, preprocess
@@ -80,8 +81,11 @@ def bench(rec, modalities: list[str], cache: str, report: Report) -> None:
                cache_vs_in_memory=t_cache / t_mem, naive_vs_cache=t_naive / t_cache)
 
 
-def main() -> None:
-    args = arguments(__doc__).parse_args()
+def parser():
+    return arguments(__spec__.name, __doc__)
+
+
+def main(args) -> None:
     need_ch2()
     report = Report(__file__, {"model": "pilotnet", "frames": N, "batch": BATCH}, args.json)
     rec = open_recording(CH2, f"0:{N}", CH2 / "CH2_final_evaluation.csv")
@@ -93,4 +97,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(parser(), main)

@@ -8,7 +8,7 @@ log.csv; the time between the lines Keras prints at the end of each epoch); the 
 training records a second. Peak memory is each trainer's peak resident set size (the kernel's count for its
 process). With ../shared, PilotNet on the real CH2 frames (configs/ch2_pilotnet.yaml) is timed the same way.
 
-python benchmarks/bench_vs_donkeycar.py [--epochs 4] [--json PATH]
+python -m benchmarks.bench_vs_donkeycar [--epochs 4] [--json PATH]
 Targets: steerlab's epoch <= 1.0x donkeycar's a record (goal 0.6x); its peak memory <= donkeycar's (goal).
 """
 
@@ -22,9 +22,13 @@ import subprocess
 import sys
 import tempfile
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
-from common import CH2, ROOT, Report, arguments, donkey_car, donkey_python, machine, record_race_tubs
+from benchmarks.common import CH2, ROOT, Report, arguments, machine, record_race_tubs
+from steerlab.cli import run_script
+from steerlab.options import Options, Range, option
+from studies.common import donkey_car, donkey_python
 
 
 STEERLAB = [sys.executable, "-m", "steerlab", "train"]
@@ -80,17 +84,20 @@ def donkeycar_side(tubs: list[Path], epochs: int, out: Path) -> dict:
             "command_s": lines[-1][0]}
 
 
-def main() -> None:
-    p = arguments(__doc__)
-    p.add_argument("--epochs", type=int, default=4, metavar="N",
-                   help="epochs each trainer trains (2-100; the first is not counted; default 4)")
-    args = p.parse_args()
-    if not 2 <= args.epochs <= 100:
-        p.error(f"--epochs must be an integer from 2 to 100 (the first epoch is not counted), got {args.epochs}")
+@dataclass(frozen=True)
+class TrainerTiming(Options):
+    epochs: int = option(4, Range(2, 100), help="epochs each trainer trains (the first is not counted)")
+
+
+def parser():
+    return arguments(__spec__.name, __doc__, TrainerTiming)
+
+
+def main(a, args: TrainerTiming) -> None:
     config = ROOT / "configs" / "track_best.yaml"
     tubs = record_race_tubs(config)
     report = Report(__file__, {"epochs": args.epochs, "tubs": len(tubs), "config": "configs/track_best.yaml"},
-                    args.json)
+                    a.json)
     print(f"machine: {machine()}; donkey-linear on {len(tubs)} track tubs, {args.epochs} epochs each")
     with tempfile.TemporaryDirectory() as tmp:
         ours = steerlab_side(str(config), args.epochs, Path(tmp))
@@ -115,4 +122,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(parser(), main)

@@ -1,27 +1,18 @@
-"""What the timings of benchmarks/ and the experiments of studies/ share. Every script runs from the repository root
-(`python benchmarks/bench_render.py`, `python studies/speed_estimate.py`); a study finds this module by putting
-benchmarks/ on sys.path in its first lines.
+"""What the timings of benchmarks/ share. Every timing is a module of this package, run from the repository root
+(`python -m benchmarks.bench_render`; `make bench` runs them all).
 
-- Where things are: `ROOT`, `SHARED` (the real recordings of ../shared/data), `CH2`, `need_ch2`, `track_tubs`,
+- Where things are: `ROOT`, `SHARED` (the real recordings of ../shared/data), `CH2`, `need_ch2`,
   `record_race_tubs`.
-- Timing: `machine` (what every result is measured on), `timed`, `median_seconds`, `per_second`, `each_ms`; a
-  study's start, `begin_study`.
-- A timing's report: `arguments` (its command line, with `--json`) and `Report`, the numbers it prints as JSON.
-- donkeycar's own environment, in which the studies run donkeycar's trainer and parts (steerlab never imports
-  donkeycar): `donkey_python`, `donkey_car`, and `DonkeycarPart`, donkeycar's pilot part behind a pipe.
-- Replay against the truth of a world's suite (`studies/replay_vs_road_suite.py`, `studies/replay_vs_track_suite.py`):
-  `record_expert`, `train_baseline`, `train_snapshots`, `replayed`, `replay_missing`, `r2`, `correlations`,
-  `correlation_table`, `scatter_axes`, `write_table`.
+- Timing: `machine` (what every result is measured on; the studies print the same line), `timed`,
+  `median_seconds`, `per_second`, `each_ms`.
+- A timing's command line, `arguments` (typed as the steerlab command's, with `--json`), and its report, `Report`,
+  the numbers it prints as JSON.
 """
 
 from __future__ import annotations
 
 import argparse
-import csv
-import json
 import os
-import platform
-import shutil
 import statistics
 import subprocess
 import sys
@@ -29,12 +20,11 @@ import time
 from pathlib import Path
 
 import numpy as np
-import torch
 
+from steerlab.cli import path_option, script_parser
 from steerlab.files import json_text, plain
+from studies.common import ROOT, SHARED, machine
 
-ROOT = Path(__file__).resolve().parents[1]
-SHARED = ROOT.parent / "shared" / "data"
 CH2 = SHARED / "udacity-ch2"
 
 
@@ -42,17 +32,6 @@ def need_ch2() -> None:
     if not (CH2 / "CH2_final_evaluation.csv").exists():
         print(f"skipped: {CH2} not found (the benchmark uses the real CH2 frames)")
         sys.exit(0)
-
-
-def track_tubs() -> list[Path]:
-    """The racing expert's tubs of the track world that configs/track_*.yaml train on (tracks 1-4, 3 minutes
-    each, in runs/track), recorded first where they are missing."""
-    tubs = [ROOT / "runs" / "track" / f"tub-{seed}" for seed in (1, 2, 3, 4)]
-    for seed, tub in enumerate(tubs, 1):
-        if not (tub / "manifest.json").exists():
-            subprocess.run([sys.executable, "-m", "steerlab", "sim", "record", "--world", "track", "--seed", str(seed),
-                            "--minutes", "3", "--out", str(tub)], check=True)
-    return tubs
 
 
 def record_race_tubs(config: Path) -> list[Path]:
@@ -71,21 +50,7 @@ def record_race_tubs(config: Path) -> list[Path]:
     return tubs
 
 
-def machine() -> str:
-    return (f"{platform.processor() or platform.machine()}, {torch.get_num_threads()} torch threads, "
-            f"torch {torch.__version__}")
-
-
 # timing
-
-def begin_study(out: Path, workers: int) -> tuple[float, float]:
-    """A study's start: one torch thread a process (its drives run `workers` at a time), `out` made, the machine
-    said; returns the wall and CPU clocks to say its cost at the end."""
-    torch.set_num_threads(1)
-    out.mkdir(parents=True, exist_ok=True)
-    print(f"machine: {machine()}; workers {workers}", flush=True)
-    return time.time(), time.process_time()
-
 
 def timed(fn) -> float:
     """Seconds that one call of `fn` takes."""
@@ -122,11 +87,12 @@ def each_ms(fn, items) -> tuple[np.ndarray, list]:
 
 # a timing's report
 
-def arguments(doc: str) -> argparse.ArgumentParser:
-    """A timing's command line: its docstring as the help, and `--json PATH` (where `Report` writes)."""
-    p = argparse.ArgumentParser(description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--json", metavar="PATH", help="where to write the results as JSON (default: "
-                   "runs/benchmarks/<script>.json)")
+def arguments(module: str, doc: str, *classes: type) -> argparse.ArgumentParser:
+    """The command line of the timing `module` (`steerlab.cli.script_parser`: its docstring as the help, the typed
+    options of `classes`) with `--json PATH`, where `Report` writes."""
+    p = script_parser(module, doc, *classes)
+    path_option(p, "--json", kind="new-file", metavar="PATH", help="where to write the results as JSON (default: "
+                "runs/benchmarks/<script>.json)")
     return p
 
 
@@ -163,216 +129,3 @@ def _commit() -> str | None:
     except OSError:
         return None
     return done.stdout.strip() or None
-
-
-# donkeycar's own environment
-
-DONKEY_VENV = Path(os.environ.get("DONKEY_VENV", ROOT / "runs" / "donkeycar-venv"))
-DONKEY = "donkeycar[pc]==5.3.0"  # 5.4 needs Python >= 3.12
-
-
-def donkey_python() -> Path:
-    """The python of donkeycar's virtual environment ($DONKEY_VENV, default runs/donkeycar-venv), made with
-    `pip install donkeycar[pc]` on first use."""
-    python = DONKEY_VENV / "bin" / "python"
-    if not python.exists():
-        print(f"creating {DONKEY_VENV} with {DONKEY} (once)", flush=True)
-        subprocess.run([sys.executable, "-m", "venv", str(DONKEY_VENV)], check=True)
-        subprocess.run([str(python), "-m", "pip", "install", "--quiet", DONKEY], check=True)
-    return python
-
-
-def donkey_car(python: Path, car: Path) -> Path:
-    """A donkeycar car folder (`donkey createcar`, made once) whose config trains without plots and saves .h5
-    models, as `donkey train` and donkeycar's parts read them."""
-    if not car.exists():
-        subprocess.run([str(python.parent / "donkey"), "createcar", "--path", str(car)], check=True,
-                       stdout=subprocess.DEVNULL)
-        with open(car / "myconfig.py", "a") as f:
-            f.write("\nSHOW_PLOT = False\nCREATE_TF_LITE = False\nSAVE_MODEL_AS_H5 = True\n")
-    return car
-
-
-class DonkeycarPart:
-    """donkeycar's own pilot part for a model of `kind` trained by `donkey train`, run in donkeycar's environment:
-    `run(img_arr)` sends the frame down a pipe and returns the part's (angle, throttle), the throttle times
-    `throttle_scale` (as donkeycar's AI_THROTTLE_MULT, but before the cap) and capped."""
-
-    def __init__(self, python: Path, car: Path, model: Path, log: Path, max_throttle: float,
-                 throttle_scale: float = 1.0, kind: str = "linear"):
-        self.log, self.max_throttle, self.throttle_scale = log, max_throttle, throttle_scale
-        self.stderr = open(log, "wb")
-        self.process = subprocess.Popen([str(python), str(ROOT / "studies" / "_donkey_part.py"),
-                                         str(car / "config.py"), str(model), kind], cwd=car,
-                                        stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self.stderr)
-        if self.process.stdout.readline() != b"ready\n":
-            raise RuntimeError(f"donkeycar's part did not start; see {log}")
-
-    def run(self, img_arr: np.ndarray):
-        self.process.stdin.write(np.ascontiguousarray(img_arr, np.uint8).tobytes())
-        self.process.stdin.flush()
-        answer = self.process.stdout.read(16)
-        if len(answer) != 16:
-            raise RuntimeError(f"donkeycar's part stopped; see {self.log}")
-        angle, throttle = (float(v) for v in np.frombuffer(answer, np.float64))
-        return angle, float(np.clip(self.throttle_scale * throttle, -self.max_throttle, self.max_throttle))
-
-    def close(self) -> None:
-        self.process.stdin.close()
-        self.process.wait()
-        self.stderr.close()
-
-
-# replay against the truth of a world's suite
-
-def record_expert(world: str, out: Path, minutes: float) -> dict[tuple[str, int], Path]:
-    """The expert on every place of the default suite of `world` ("road": its roads, "track": its tracks), for
-    `minutes` each, recorded for evaluation: the suite's own road or track, as the suite's drives for those
-    minutes see it (`record_options` of the world's suite options, `record(..., suite_ok=True)`), into
-    out/expert/<kind>-<seed>. A recording of the same minutes is reused; one of other minutes is recorded anew, and
-    its replays (out/replay/<kind>-<seed>) are deleted."""
-    from steerlab.sim.worlds import WORLDS
-
-    w = WORLDS[world]
-    suite = w.suite_options(minutes=minutes)
-    recs = {}
-    for kind, seed in suite.drives():
-        folder = out / "expert" / f"{kind}-{seed}"
-        stamp = folder / "minutes.json"
-        if not (stamp.exists() and json.loads(stamp.read_text())["minutes"] == minutes):
-            shutil.rmtree(folder, ignore_errors=True)
-            shutil.rmtree(out / "replay" / folder.name, ignore_errors=True)
-            t0 = time.time()
-            w.record(folder, suite.record_options(kind, seed), progress=False, suite_ok=True)
-            stamp.write_text(json.dumps({"minutes": minutes}))
-            print(f"recorded the expert on {kind}-{seed} ({minutes:g} min) in {time.time() - t0:.0f} s", flush=True)
-        recs[(kind, seed)] = folder
-    return recs
-
-
-def train_baseline(name: str, config, folder: Path) -> Path:
-    """A baseline model (zero, train-mean) trained by `config` (a `TrainConfig`) and its best.pt copied to
-    folder/<name>.pt; reused when there."""
-    from steerlab.train.loop import train
-
-    target = folder / f"{name}.pt"
-    if not target.exists():
-        folder.mkdir(parents=True, exist_ok=True)
-        train(config, progress=False)
-        shutil.copy(Path(config.out) / "best.pt", target)
-    return target
-
-
-def train_snapshots(name: str, config, keep: list[int], folder: Path) -> list[Path]:
-    """Checkpoints of one training run at several stages: `config` (a `TrainConfig` of max(keep) epochs) trained
-    once, the weights after each epoch of `keep` copied to folder/<name>-e<epoch>.pt; reused when all are there.
-    A run interrupted between two snapshots resumes; one that cannot give a missing snapshot any more ends the
-    study with the folder to delete."""
-    from steerlab.train.loop import train
-
-    targets = {e: folder / f"{name}-e{e}.pt" for e in keep}
-    if all(t.exists() for t in targets.values()):
-        return list(targets.values())
-    folder.mkdir(parents=True, exist_ok=True)
-    run, t0 = Path(config.out), time.time()
-
-    def on_epoch(epoch, metrics):
-        print(f"  {name} epoch {epoch}: val rmse {metrics['rmse']:.4f} ({time.time() - t0:.0f} s)", flush=True)
-        if epoch in targets:
-            shutil.copy(run / "last.pt", targets[epoch])
-
-    train(config, progress=False, on_epoch=on_epoch)
-    if not targets[max(keep)].exists():  # the run had already finished its epochs before it was stopped
-        shutil.copy(run / "last.pt", targets[max(keep)])
-    missing = [str(t) for t in targets.values() if not t.exists()]
-    if missing:
-        sys.exit(f"{name}: the snapshots {', '.join(missing)} are missing; delete {run} to train it again")
-    print(f"trained {name} ({max(keep)} epochs) in {time.time() - t0:.0f} s", flush=True)
-    return list(targets.values())
-
-
-def replayed(where: Path) -> dict[str, dict]:
-    """The rows of every replay.csv in the sub-folders of `where`, by checkpoint label."""
-    rows = {}
-    for f in sorted(where.glob("*/replay.csv")):
-        with open(f, newline="") as table:
-            rows.update({r["checkpoint"]: r for r in csv.DictReader(table)})
-    return rows
-
-
-def replay_missing(ckpts: list[Path], labels: list[str], source, where: Path, options, what: str) -> dict[str, dict]:
-    """Replay on the recording of `source` (a `Source`) with `options` (a world's replay options) the checkpoints
-    whose label is not replayed in `where` yet, together, into a new numbered sub-folder of `where` (so that a
-    later run with more checkpoints adds a batch); `what` names the recording in the line printed. Returns
-    `replayed(where)`."""
-    from steerlab.sim.replay.run import run_replay
-
-    done = replayed(where)
-    missing = [c for c, label in zip(ckpts, labels) if label not in done]
-    if missing:
-        t0 = time.time()
-        run_replay(missing, source, where / str(len(list(where.glob("*/replay.csv")))), options, progress=False)
-        print(f"replayed {len(missing)} checkpoints on {what} in {time.time() - t0:.0f} s", flush=True)
-    return replayed(where)
-
-
-def r2(x, y) -> float:
-    """The squared Pearson correlation (a straight line's fit); NaN for fewer than three points or a constant."""
-    x, y = np.asarray(x, float), np.asarray(y, float)
-    if len(x) < 3 or np.ptp(x) == 0 or np.ptp(y) == 0:
-        return float("nan")
-    return float(np.corrcoef(x, y)[0, 1] ** 2)
-
-
-def correlations(truth, replay) -> dict:
-    """Spearman's rank correlation (tied values share their mean rank), R^2 and the number of points."""
-    from steerlab.evaluate.plots import rank_correlation
-
-    return {"spearman": rank_correlation(replay, truth), "r2": r2(replay, truth), "n": len(truth)}
-
-
-def correlation_table(groups: dict[str, list[tuple[float, float]]], place: str, truth: str,
-                      replay: str) -> list[str]:
-    """A Markdown table of replay against truth in groups of places (a road type, a track style, "all"), one
-    (truth, replay) pair per checkpoint and place: the pairs, Spearman, R^2 and the means. `place` names a place
-    ("road"), `truth` and `replay` the two measures ("int/km")."""
-    lines = [f"| {place}s | pairs (checkpoint x {place}) | Spearman | R^2 | true {truth} (mean) | "
-             f"replay {replay} (mean) |", "|---|---|---|---|---|---|"]
-    for group, pairs in groups.items():
-        t, p = np.array(pairs, float).T
-        c = correlations(t, p)
-        lines.append(f"| {group} | {len(pairs)} | {c['spearman']:.3f} | {c['r2']:.3f} | {t.mean():.2f} | "
-                     f"{p.mean():.2f} |")
-    return lines
-
-
-def scatter_axes(ax, labels: list[str], truth, replay, corr: dict, xlabel: str, ylabel: str, title: str = "",
-                 fit: bool = False) -> None:
-    """One panel of replay against truth: a point per checkpoint with its label, the correlations (`corr`) in the
-    title after `title`, and the line y = x or, with `fit` (two measures of different scales), the least-squares
-    line."""
-    t, p = np.asarray(truth, float), np.asarray(replay, float)
-    ax.scatter(t, p, s=25)
-    for label, x, y in zip(labels, t, p):
-        ax.annotate(label, (x, y), fontsize=6, alpha=0.8, xytext=(2, 2), textcoords="offset points")
-    if fit:
-        slope, icept = np.polyfit(t, p, 1) if np.ptp(t) > 0 else (0.0, float(p.mean()))
-        xs = np.array([t.min(), t.max()])
-        ax.plot(xs, slope * xs + icept, "k:", lw=0.8, label=f"fit: replay = {slope:.2f} x truth + {icept:.2f}")
-        ax.legend(loc="upper left", fontsize=8)
-    else:
-        lo, hi = min(t.min(), p.min()), max(t.max(), p.max())
-        pad = 0.05 * (hi - lo + 1e-9)
-        ax.plot([lo - pad, hi + pad], [lo - pad, hi + pad], "k:", lw=0.8)
-    ax.set_title(f"{title}Spearman {corr['spearman']:.2f}, R$^2$ {corr['r2']:.2f} ({corr['n']} checkpoints)")
-    ax.set_xlabel(xlabel)
-    ax.set_ylabel(ylabel)
-    ax.grid(alpha=0.3)
-
-
-def write_table(path: Path, rows: list[dict]) -> None:
-    """Rows of a study's results as CSV, floats to 6 significant digits."""
-    with open(path, "w", newline="") as f:
-        w = csv.DictWriter(f, list(rows[0]))
-        w.writeheader()
-        w.writerows([{k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in r.items()} for r in rows])

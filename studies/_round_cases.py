@@ -1,21 +1,24 @@
 """The inputs of studies/bad_input_round.py: every numeric flag of every command with values the bad-input tests
 do not use, reader options of the wrong type, config keys given what they cannot mean, outputs over inputs under
 four spellings, files saved in the ways people save them, and the Python API; each a case {name, fn, expect}.
-OUT_DIR is the round's first argument."""
+OUT_DIR is the round's argument (`place`)."""
 
 import json
 import os
 import shutil
 import subprocess
-import sys
 from pathlib import Path
 
-if len(sys.argv) != 2:
-    print("usage: PYTHONPATH=src python studies/bad_input_round.py OUT_DIR", file=sys.stderr)
-    sys.exit(2)
-ROOT = Path(sys.argv[1]).resolve()  # the cases run in WORK
-FIX = ROOT / "fx"
-WORK = ROOT / "work"
+ROOT = FIX = WORK = None  # the round's folder (OUT_DIR), its fixtures and where the cases run in: set by `place`
+
+
+def place(out_dir) -> None:
+    """The round's folders under OUT_DIR, the round's argument."""
+    global ROOT, FIX, WORK
+    ROOT = Path(out_dir).resolve()
+    FIX, WORK = ROOT / "fx", ROOT / "work"
+
+
 # values an option's type takes that mean nothing for it (a new user would call them mistakes)
 MEANINGLESS = {(c, k, v) for c in ("sim record", "sim drive", "sim bench", "demo") for k in ("minutes", "fps",
                "chunk_minutes", "suite_minutes", "dagger_minutes") for v in ("1e-300", "1e12")} | {

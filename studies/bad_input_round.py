@@ -3,10 +3,11 @@ of the build on PYTHONPATH; each classified as handled (refused in one line, tak
 failures: lost (an input changed or gone), traceback, silent (taken without a word where it should be refused or
 said), unclear (refused, but not in one line naming what is wrong), hang.
 
-The fixtures are those of tests/test_bad_input.py (made in OUT_DIR/fx); every case runs in a forked process of its
-own with a 45 s limit; the counts are printed, and every input not handled is written to OUT_DIR/failures.txt.
+The fixtures are those of tests/test_bad_input.py (the tiny inputs of `studies.common`, made in OUT_DIR/fx); every
+case runs in a forked process of its own with a 45 s limit; the counts are printed, and every input not handled is
+written to OUT_DIR/failures.txt.
 
-usage: PYTHONPATH=src python studies/bad_input_round.py OUT_DIR    (from the repository root; PYTHONPATH picks
+usage: PYTHONPATH=src python -m studies.bad_input_round OUT_DIR    (from the repository root; PYTHONPATH picks
 the build that is tried)"""
 
 import contextlib
@@ -19,43 +20,41 @@ import subprocess
 import sys
 import traceback
 from collections import Counter
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-
-from _round_cases import FIX, ROOT, WORK, main_cases  # noqa: E402
-from test_bad_input import ch2, sim_log, tub  # noqa: E402  (the bad-input tests' fixtures)
+from steerlab.cli import path_option, run_script, script_parser
+from steerlab.errors import SteerlabError
+from studies import _round_cases as inputs
+from studies.common import ch2, made, sim_log, tub  # the tiny inputs of the bad-input tests
 
 TIMEOUT = 45
 
 
 def setup():
-    from conftest import made
-
-    subprocess.run(["chattr", "-i", str(ROOT / "ro")], capture_output=True)
-    shutil.rmtree(FIX, ignore_errors=True)
-    FIX.mkdir(parents=True)
-    sim_log(FIX / "sim")
-    tub(FIX / "tub")
-    ch2(FIX / "ch2")
-    made(FIX, name="a.pt")
-    made(FIX, name="b.pt")
-    made(FIX, "normalized", "right", "donkey", name="donkey.pt", full_lock_deg=25)
-    (FIX / "run").mkdir()
-    shutil.copy(FIX / "a.pt", FIX / "run" / "best.pt")
-    shutil.copy(FIX / "a.pt", FIX / "run" / "last.pt")
-    (FIX / "run" / "config.json").write_text("{}")
+    subprocess.run(["chattr", "-i", str(inputs.ROOT / "ro")], capture_output=True)
+    shutil.rmtree(inputs.FIX, ignore_errors=True)
+    inputs.FIX.mkdir(parents=True)
+    sim_log(inputs.FIX / "sim")
+    tub(inputs.FIX / "tub")
+    ch2(inputs.FIX / "ch2")
+    made(inputs.FIX, name="a.pt")
+    made(inputs.FIX, name="b.pt")
+    made(inputs.FIX, "normalized", "right", "donkey", name="donkey.pt", full_lock_deg=25)
+    (inputs.FIX / "run").mkdir()
+    shutil.copy(inputs.FIX / "a.pt", inputs.FIX / "run" / "best.pt")
+    shutil.copy(inputs.FIX / "a.pt", inputs.FIX / "run" / "last.pt")
+    (inputs.FIX / "run" / "config.json").write_text("{}")
     from steerlab.sim.road.run import RecordOptions, record
 
-    record(FIX / "rec", RecordOptions(seed=0, minutes=0.05, side_cameras=False), progress=False)
-    (FIX / "c.yaml").write_text(f"data: {FIX / 'sim'}\ncache: {ROOT / 'cache'}\nout: {WORK / 'run'}\n"
-                                "split: {train: '0:6', val: '6:8'}\ntrain: {epochs: 1, batch_size: 2}\n")
-    os.symlink(FIX / "a.pt", FIX / "a-link.pt")
-    os.symlink(FIX / "sim", FIX / "sim-link")
+    record(inputs.FIX / "rec", RecordOptions(seed=0, minutes=0.05, side_cameras=False), progress=False)
+    (inputs.FIX / "c.yaml").write_text(f"data: {inputs.FIX / 'sim'}\ncache: {inputs.ROOT / 'cache'}\n"
+                                       f"out: {inputs.WORK / 'run'}\n"
+                                       "split: {train: '0:6', val: '6:8'}\ntrain: {epochs: 1, batch_size: 2}\n")
+    os.symlink(inputs.FIX / "a.pt", inputs.FIX / "a-link.pt")
+    os.symlink(inputs.FIX / "sim", inputs.FIX / "sim-link")
 
 
 def snapshot():
-    return {p: (p.stat().st_size, p.stat().st_mtime_ns) for p in FIX.rglob("*") if p.is_file()}
+    return {p: (p.stat().st_size, p.stat().st_mtime_ns) for p in inputs.FIX.rglob("*") if p.is_file()}
 
 
 def run_case(fn):
@@ -68,8 +67,8 @@ def run_case(fn):
         err = io.StringIO()
         out = {"code": None, "err": "", "exc": ""}
         try:
-            WORK.mkdir(parents=True, exist_ok=True)
-            os.chdir(WORK)
+            inputs.WORK.mkdir(parents=True, exist_ok=True)
+            os.chdir(inputs.WORK)
             with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
                 try:
                     if getattr(fn, "stage", False):
@@ -206,17 +205,26 @@ def preload():
             pass
 
 
-def main():
+def parser():
+    p = script_parser(__spec__.name, __doc__)
+    path_option(p, "out_dir", kind="folder", metavar="OUT_DIR", help="the round's folder (a new one, or an earlier "
+                "round's)")
+    return p
+
+
+def main(a):
     import torch
 
+    inputs.place(a.out_dir)
     torch.set_num_threads(1)  # no OpenMP thread team in this process: a forked child using one would hang
-    if ROOT.exists() and not (ROOT / "fx").is_dir():
-        sys.exit(f"error: {ROOT} exists and is not an earlier round's folder (it has no fx/): name a new one")
+    if inputs.ROOT.exists() and not (inputs.ROOT / "fx").is_dir():
+        raise SteerlabError(f"{inputs.ROOT} exists and is not an earlier round's folder (it has no fx/): name a new "
+                            "one")
     preload()
-    subprocess.run(["chattr", "-i", str(ROOT / "ro")], capture_output=True)
-    shutil.rmtree(ROOT, ignore_errors=True)
+    subprocess.run(["chattr", "-i", str(inputs.ROOT / "ro")], capture_output=True)
+    shutil.rmtree(inputs.ROOT, ignore_errors=True)
     setup()
-    cases = main_cases()
+    cases = inputs.main_cases()
     counts, bad = Counter(), []
     for n, case in enumerate(cases):
         if n % 50 == 0:
@@ -232,12 +240,12 @@ def main():
             code, err, exc, *_ = result
             bad.append(f"{cls:<10} {case['name'][:150]}\n           {(exc.strip().splitlines() or [''])[-1][:200] if exc else err.strip()[-200:]}")
         if cls == "lost":  # put the fixtures back for the next case
-            shutil.rmtree(FIX)
+            shutil.rmtree(inputs.FIX)
             setup()
     print(f"{len(cases)} inputs: " + ", ".join(f"{k} {v}" for k, v in counts.most_common()))
-    (ROOT / "failures.txt").write_text("\n".join(bad) + "\n")
+    (inputs.ROOT / "failures.txt").write_text("\n".join(bad) + "\n")
     print("\n".join(bad))
 
 
 if __name__ == "__main__":
-    main()
+    run_script(parser(), main)

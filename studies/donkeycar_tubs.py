@@ -24,137 +24,40 @@ becomes a wheel angle; an intervention where the car's body leaves a 0.9 m lane 
 donkeycar is never a dependency of steerlab: it lives in its own virtual environment ($DONKEY_VENV, default
 runs/donkeycar-venv, made on first use with `pip install donkeycar[pc]`) and `_donkey_eval.py` runs there.
 
-python studies/donkeycar_tubs.py [--epochs 30] [--seeds 3] [--skip-donkey] [--models pilotnet,cg23,...]
+python -m studies.donkeycar_tubs [--epochs 30] [--seeds 3] [--skip-donkey] [--models pilotnet,cg23,...]
     [--donkey-models linear,rnn]
 Every finished run (trainer, model, seed) is kept in runs/donkeycar-tubs/<tub>/results.json and reused by a
 later run (delete the file to train them again); the table shows every run kept there.
 """
 
-import argparse
 import json
 import os
 import shutil
-import subprocess
-import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import yaml
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from common import ROOT, SHARED, DonkeycarPart, donkey_car, donkey_python, machine  # noqa: E402
+from steerlab.cli import run_script, script_parser
+from steerlab.data.readers import Source
+from steerlab.evaluate.offline import evaluate
+from steerlab.sim.replay.run import run_replay
+from steerlab.sim.replay.track import TrackReplayOptions
+from steerlab.train.config import load_config
+from steerlab.models import list_models
+from steerlab.options import AT_LEAST_1, names_from, names_held, option
+from steerlab.train.loop import train
+from studies.common import (FULL_LOCK_DEG, READER, ROOT, TUB_NAMES, TUBS, TubStudy, blocks, donkey_or_skip, machine,
+                            run_donkey, spread)
 
-from steerlab.data.readers import Source  # noqa: E402
-from steerlab.evaluate.offline import evaluate  # noqa: E402
-from steerlab.sim.replay.run import run_replay  # noqa: E402
-from steerlab.sim.replay.track import TrackReplayOptions  # noqa: E402
-from steerlab.train.config import load_config  # noqa: E402
-from steerlab.train.loop import train  # noqa: E402
-
-TUBS = SHARED / "donkeycar"
 OUT = ROOT / "runs" / "donkeycar-tubs"
 STEERLAB_MODELS = ["pilotnet", "cg23", "multimodal-lstm", "train-mean"]
 # a steerlab "model" of this name is a recipe: the input, network and training of configs/track_best.yaml (the
 # track world's closed loop chose it), on the tub's own blocks
 TRACK_BEST = "track-best"
 DONKEY_MODELS = ["linear"]
-FULL_LOCK_DEG = 25.0  # assumed: the tubs do not record it
-READER = {"skip_missing": True, "full_lock_deg": FULL_LOCK_DEG}
-
-
-def blocks(n: int) -> tuple[int, int]:
-    return int(0.7 * n), int(0.8 * n)
-
-
-def donkey_or_skip(skip_donkey: bool) -> Path | None:
-    """donkeycar's python (None with --skip-donkey); ends the study when the shared tubs are absent."""
-    if not (TUBS / "hall" / "manifest.json").exists():
-        print(f"skipped: {TUBS} not found")
-        sys.exit(0)
-    return None if skip_donkey else donkey_python()
-
-
-def training_tub(tub: Path, keep: set[int], out: Path) -> Path:
-    """The tub as donkeycar reads it, with every record outside `keep` (record `_index` values) marked deleted.
-    donkeycar's reader counts deleted indexes by record position in the catalogs, which is the `_index` only in a
-    tub whose indexes start at 0 (taped-track's start at 10000), so positions are written."""
-    shutil.rmtree(out, ignore_errors=True)
-    out.mkdir(parents=True)
-    lines = (tub / "manifest.json").read_text().splitlines()
-    catalogs = json.loads(lines[4])
-    indexes = [json.loads(line)["_index"] for name in catalogs["paths"]
-               for line in (tub / name).read_text().splitlines() if line.strip()]
-    catalogs["deleted_indexes"] = [pos for pos, index in enumerate(indexes) if index not in keep]
-    (out / "manifest.json").write_text("\n".join(lines[:4] + [json.dumps(catalogs)]) + "\n")
-    for item in tub.iterdir():
-        if item.name != "manifest.json":
-            (out / item.name).symlink_to(item.resolve())
-    return out
-
-
-def run_donkey(python: Path, tub: Path, rec, a: int, n: int, work: Path, kinds: list[str], seeds: int,
-               results: dict) -> None:
-    """Train each donkeycar model `seeds` times on the first `a` records with `donkey train` and score it on the
-    held-out block; runs already in `results` are kept."""
-    car = donkey_car(python, work / "car")
-    train_tub = training_tub(tub, set(int(i) for i in rec.frame_ids[:a]), work / "train-tub")
-    test = {"images": [str(p) for p in rec.frames["center"][a:n]], "angles": rec.steering[a:n].tolist(),
-            "throttles": rec.throttle[a:n].tolist()}
-    (work / "test.json").write_text(json.dumps(test))
-    for kind in kinds:
-        for seed in range(seeds):
-            key = f"donkeycar {kind} {seed}"
-            if "mae" in results.get(key, {}):
-                continue
-            model, log = work / f"{kind}-{seed}.h5", work / f"{kind}-{seed}.log"
-            t = time.time()
-            with open(log, "w") as f:
-                done = subprocess.run([str(python.parent / "donkey"), "train", "--tub", str(train_tub), "--model",
-                                       str(model), "--type", kind, "--framework", "tensorflow"], cwd=car, stdout=f,
-                                      stderr=subprocess.STDOUT)
-            seconds = time.time() - t
-            if done.returncode != 0 or not model.exists():
-                print(f"  donkeycar {kind} run {seed}: donkey train failed, see {log}", flush=True)
-                continue
-            scores = work / f"{kind}-{seed}.json"
-            subprocess.run([str(python), str(Path(__file__).with_name("_donkey_eval.py")), str(car / "config.py"),
-                            str(model), kind, str(work / "test.json"), str(scores)], check=True, cwd=car,
-                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-            r = json.loads(scores.read_text())
-            results[key] = {"mae": r["mae"], "throttle_mae": r["throttle_mae"], "train_s": seconds}
-            print(f"  donkeycar {kind} run {seed}: held-out MAE {r['mae']:.4f}, throttle MAE "
-                  f"{r['throttle_mae']:.4f}, {seconds:.0f} s", flush=True)
-            (work / "results.json").write_text(json.dumps(results, indent=1))
-    for kind in kinds:  # then each run in replay, as steerlab's models are
-        for seed in range(seeds):
-            key, model = f"donkeycar {kind} {seed}", work / f"{kind}-{seed}.h5"
-            if "mae" in results.get(key, {}) and "interventions" not in results[key]:
-                results[key].update(replay_donkey(python, car, model, kind, tub, a, n, work / f"{kind}-{seed}.log"))
-                print(f"  donkeycar {kind} run {seed}: replay {results[key]['interventions']} interventions in "
-                      f"{results[key]['km']:.2f} km", flush=True)
-                (work / "results.json").write_text(json.dumps(results, indent=1))
-
-
-def replay_donkey(python: Path, car: Path, model: Path, kind: str, tub: Path, b: int, n: int, log: Path) -> dict:
-    """donkeycar's model, its own part behind a pipe, in the small cars' replay of the held-out block, as
-    `steerlab replay --world track` replays steerlab's models (the throttle from the recording)."""
-    from steerlab.sim.core.part import PartPilot
-    from steerlab.sim.replay.run import replay_recording
-
-    rec = Source(str(tub), reader=READER).open()
-    replay = TrackReplayOptions(workers=1).setup(rec).replay
-    part = DonkeycarPart(python, car, model, log.with_suffix(".part.log"), 1.0, kind=kind)
-    try:
-        rows, _ = replay_recording(PartPilot(part, FULL_LOCK_DEG, name=f"donkeycar {kind}", source=str(model)),
-                                   replay, rec, np.arange(b, n))
-    finally:
-        part.close()
-    r = rows[-1]
-    return {"interventions": r["interventions"], "interventions_per_km": r["interventions_per_km"],
-            "autonomy": r["autonomy"], "km": r["km"]}
-
-
 def run_steerlab(tub: Path, n: int, epochs: int, work: Path, models: list[str], seeds: int, results: dict) -> None:
     """Each model and seed: pick the number of epochs on the selection block (train 0:a, validate a:b), then
     train again on all of 0:b for exactly that many epochs, score that last model on the held-out block and
@@ -199,14 +102,6 @@ def run_steerlab(tub: Path, n: int, epochs: int, work: Path, models: list[str], 
             (work / "results.json").write_text(json.dumps(results, indent=1))
 
 
-def spread(values: list[float], digits: int = 4) -> str:
-    """Mean and, over more than one run, the spread (the sample standard deviation)."""
-    if not values:
-        return "-"
-    mean = f"{np.mean(values):.{digits}f}"
-    return mean if len(values) == 1 else f"{mean} +- {np.std(values, ddof=1):.{digits}f}"
-
-
 def table_rows(name: str, results: dict) -> list[str]:
     """One row per trainer and model: the mean (+- spread) over its runs, and the ratio of mean steering MAEs
     against donkeycar's linear model."""
@@ -228,24 +123,33 @@ def table_rows(name: str, results: dict) -> list[str]:
     return rows
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--epochs", type=int, default=30, help="steerlab's epochs (early stopping after 5)")
-    ap.add_argument("--seeds", type=int, default=3, help="runs of every trainer and model")
-    ap.add_argument("--skip-donkey", action="store_true", help="steerlab models only")
-    ap.add_argument("--models", default=",".join(STEERLAB_MODELS), help="steerlab models (comma list; default "
-                    f"{','.join(STEERLAB_MODELS)}; {TRACK_BEST}: configs/track_best.yaml's recipe)")
-    ap.add_argument("--donkey-models", default=",".join(DONKEY_MODELS), help="donkeycar models (comma list; "
-                    f"default {','.join(DONKEY_MODELS)})")
-    ap.add_argument("--tubs", default="hall,taped-track", help="the shared tubs to run on")
-    args = ap.parse_args()
+@dataclass(frozen=True)
+class TubsSideBySide(TubStudy):
+    epochs: int = option(30, AT_LEAST_1, help="steerlab's epochs (early stopping after 5)")
+    models: str = option(",".join(STEERLAB_MODELS), help="steerlab models (comma list of registered models; "
+                         f"{TRACK_BEST}: configs/track_best.yaml's recipe)")
+    donkey_models: str = option(",".join(DONKEY_MODELS), help="donkeycar's models (comma list of its model types)")
+
+    @classmethod
+    def related(cls, v):
+        yield from super().related(v)
+        yield from names_held(v, "models", [*list_models(), TRACK_BEST], "models")
+
+
+def parser():
+    return script_parser(__spec__.name, __doc__, TubsSideBySide)
+
+
+def main(_, args: TubsSideBySide) -> None:
+    models = names_from(args.models, [*list_models(), TRACK_BEST], "models")
+    donkey_models = [m for m in args.donkey_models.split(",") if m]
     python = donkey_or_skip(args.skip_donkey)
     os.environ.setdefault("STEERLAB_CACHE", str(OUT / "cache"))
     lines = [f"machine: {machine()}", "", f"replay: held-out block as a small car (--world track), full lock "
              f"{FULL_LOCK_DEG} deg", "", "| tub | model | trainer | runs | held-out steering MAE [-1, 1] | vs "
              "donkeycar linear | held-out throttle MAE | train time [s] | replay: interventions |",
              "|---|---|---|---|---|---|---|---|---|"]
-    for name in args.tubs.split(","):
+    for name in names_from(args.tubs, TUB_NAMES, "shared tubs"):
         tub = TUBS / name
         rec = Source(str(tub), reader=READER).open()
         n = len(rec)
@@ -255,9 +159,9 @@ def main() -> None:
         work = OUT / name
         work.mkdir(parents=True, exist_ok=True)
         results = json.loads((work / "results.json").read_text()) if (work / "results.json").exists() else {}
-        run_steerlab(tub, n, args.epochs, work, args.models.split(","), args.seeds, results)
+        run_steerlab(tub, n, args.epochs, work, models, args.seeds, results)
         if python:
-            run_donkey(python, tub, rec, b, n, work, args.donkey_models.split(","), args.seeds, results)
+            run_donkey(python, tub, rec, b, n, work, donkey_models, args.seeds, results)
         lines += table_rows(name, results)
     table = "\n".join(lines) + "\n"
     (OUT / "table.md").write_text(table)
@@ -266,4 +170,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(parser(), main)

@@ -4,9 +4,9 @@ a few ticks late, and of steering straight, on the same frames and at the same s
 The human's own steering rebuilds the path exactly (0 interventions: the replay is consistent); a human who
 reacts 0.1 or 0.2 s late and a driver who never steers bracket what a model's count means there.
 
-python studies/replay_references.py --data ../shared/data/donkeycar/hall --range 4012:5015 \
+python -m studies.replay_references --data ../shared/data/donkeycar/hall --range 4012:5015 \
     --reader skip_missing=true --reader full_lock_deg=25 --speed 2
-python studies/replay_references.py --data ../shared/data/donkeycar/hall --range 4012:5015 \
+python -m studies.replay_references --data ../shared/data/donkeycar/hall --range 4012:5015 \
     --reader skip_missing=true --reader full_lock_deg=25 --world track    # a small car's replay (replay/track.py)
 
 With `--checkpoint` (repeatable) trained models drive beside the references. With `--world track --camera-variants`
@@ -16,26 +16,23 @@ each is compared with the nominal camera's (Spearman's rank correlation): how mu
 that a real tub does not describe.
 """
 
-import argparse
-import sys
-from dataclasses import replace
-from pathlib import Path
+from dataclasses import dataclass, replace
+from typing import Literal
 
 import numpy as np
 from scipy.stats import spearmanr
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from common import machine  # noqa: E402
-
-from steerlab.data.car import CARS  # noqa: E402
-from steerlab.data.fisheye import DONKEY_FISHEYE  # noqa: E402
-from steerlab.data.geometry import CAMERAS  # noqa: E402
-from steerlab.data.readers import Source, reader_options  # noqa: E402
-from steerlab.pilot import Controls, Pilot  # noqa: E402
-from steerlab.sim.replay.run import replay_recording  # noqa: E402
-from steerlab.sim.replay.track import TrackReplay  # noqa: E402
-from steerlab.sim.replay.world import Replay  # noqa: E402
-from steerlab.sim.track.track import LANE_WIDTH  # noqa: E402
+from steerlab.cli import data_args, path_option, run_script, script_parser, source
+from steerlab.data.car import CARS
+from steerlab.data.fisheye import DONKEY_FISHEYE
+from steerlab.data.geometry import CAMERAS
+from steerlab.options import SPEED, Options, option
+from steerlab.pilot import Controls, Pilot
+from steerlab.sim.replay.run import replay_recording
+from steerlab.sim.replay.track import TrackReplay
+from steerlab.sim.replay.world import Replay
+from steerlab.sim.track.world import lane_width_option
+from studies.common import machine
 
 
 class Scripted:
@@ -55,28 +52,34 @@ class Scripted:
         return Controls(float(self.rec.steering[min(max(self.k - 1 - self.delay, 0), len(self.rec) - 1)]))
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--data", required=True)
-    ap.add_argument("--range")
-    ap.add_argument("--labels")
-    ap.add_argument("--reader", action="append", default=[], help="reader option KEY=VALUE (repeatable)")
-    ap.add_argument("--speed", type=float, help="m/s (default: the recorded speed; --world track: from the throttle)")
-    ap.add_argument("--world", choices=("road", "track"), default="road", help="the road replay (default) or the "
-                    "small cars' (fisheye, speed from the throttle, the body leaving the lane)")
-    ap.add_argument("--lane-width", type=float, default=LANE_WIDTH, help=f"m, --world track (default {LANE_WIDTH})")
-    ap.add_argument("--checkpoint", action="append", default=[], help="a trained model to drive as well (repeatable)")
-    ap.add_argument("--camera-variants", action="store_true", help="--world track: also through cameras +-20 %% "
-                    "in focal length, distortion, height and pitch, and how the drivers' ranking changes")
-    args = ap.parse_args()
-    rec = Source(args.data, args.range, args.labels, reader_options(args.reader)).open()
+@dataclass(frozen=True)
+class References(Options):
+    speed: float | None = option(None, SPEED, help="a constant speed in m/s (default: the recorded speed; --world "
+                                 "track: from the recorded throttle)")
+    world: Literal["road", "track"] = option("road", help="the road replay or the small cars' (fisheye, speed from "
+                                             "the throttle, the body leaving the lane)")
+    lane_width: float = lane_width_option("--world track: the lane's width in metres around the human's path")
+    camera_variants: bool = option(False, help="--world track: also through cameras +-20 %% in focal length, "
+                                   "distortion, height and pitch, and how the drivers' ranking changes")
+
+
+def parser():
+    p = script_parser(__spec__.name, __doc__, References)
+    data_args(p, camera=False)
+    path_option(p, "--checkpoint", kind="file", action="append", default=[],
+                help="a trained model to drive as well (repeatable)")
+    return p
+
+
+def main(a, args: References) -> None:
+    rec = source(a).open()
     fps = rec.frame_rate()
     speed = args.speed or ("the recorded throttle's" if args.world == "track" else "the recorded")
     drivers = [("the human's steering", lambda: Scripted(rec, 0)),
                *[(f"the human's steering {k} ticks ({k / fps:.2f} s) late", lambda k=k: Scripted(rec, k))
                  for k in (2, 4)],
                ("straight ahead (zero)", lambda: Scripted(rec, None)),
-               *[(path, lambda path=path: Pilot(path)) for path in args.checkpoint]]
+               *[(path, lambda path=path: Pilot(path)) for path in a.checkpoint]]
     nominal = rec.fisheye or DONKEY_FISHEYE
     cameras = [("nominal", nominal)]
     if args.camera_variants and args.world == "track":
@@ -85,7 +88,7 @@ def main() -> None:
                              ("height", lambda c, f: {"mount_height": c.mount_height * f}),
                              ("pitch", lambda c, f: {"pitch_deg": c.pitch_deg * f})):
             cameras += [(f"{name} {f - 1:+.0%}", replace(nominal, **change(nominal, f))) for f in (0.8, 1.2)]
-    print(f"machine: {machine()}\n\n{rec.name} {args.range or ''}, {args.world} replay, at {speed} m/s:\n")
+    print(f"machine: {machine()}\n\n{rec.name} {a.range or ''}, {args.world} replay, at {speed} m/s:\n")
     counts = {}
     for camera, fisheye in cameras:
         print(f"{camera} camera:\n\n| driver | km | interventions | interventions/km | mean abs offset [m] |"
@@ -109,4 +112,4 @@ def main() -> None:
             print(f"| {camera} | {' / '.join(map(str, values))} | {rho:.3f} |")
 
 if __name__ == "__main__":
-    main()
+    run_script(parser(), main)

@@ -1,6 +1,6 @@
 """Does closed-loop replay on recordings predict true closed-loop driving?
 
-python studies/replay_vs_road_suite.py --out runs/replay-truth [--minutes 1.0] [--workers 2]
+python -m studies.replay_vs_road_suite --out runs/replay-truth [--minutes 1.0] [--workers 2]
 
 In the road world both exist. The script
 1. records the expert (no drift episodes, centre camera) on every road of the closed-loop suite v1 for
@@ -22,22 +22,21 @@ an interrupted run continues where it stopped.
 
 from __future__ import annotations
 
-import argparse
 import csv
 import math
 import shutil
-import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from common import (correlation_table, begin_study, correlations, record_expert, replay_missing,  # noqa: E402
-                    scatter_axes, train_baseline, train_snapshots, write_table)
-
-from steerlab.sim.core.suite import labels_for  # noqa: E402
-from steerlab.sim.road.suite import SUITES  # noqa: E402
+from steerlab.cli import run_script, script_parser
+from steerlab.options import MINUTES, WORKERS, Options, option
+from steerlab.sim.core.suite import labels_for
+from steerlab.sim.road.suite import SUITES
+from studies.common import (begin_study, correlation_table, correlations, record_expert, replay_missing, scatter_axes,
+                            train_baseline, train_snapshots, write_table)
 
 TRAIN_DATA = {"seed": 3, "minutes": 4.0, "road": "country,twisty,highway,twisty"}
 BASE_TRAIN = {"epochs": 1, "batch_size": 32, "lr": 3e-4, "patience": 99, "min_speed": 4.0}
@@ -208,13 +207,19 @@ def warp_error(out: Path) -> list[str]:
     return lines
 
 
-def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--out", default="runs/replay-truth")
-    p.add_argument("--minutes", type=float, default=1.0, help="minutes per suite road, for the truth and the recordings")
-    p.add_argument("--workers", type=int, default=2)
-    p.add_argument("--skip-warp", action="store_true", help="leave out the warp-error table")
-    a = p.parse_args()
+@dataclass(frozen=True)
+class RoadReplayStudy(Options):
+    out: str = option("runs/replay-truth", path="folder", help="the study's folder (what is done there is reused)")
+    minutes: float = option(1.0, MINUTES, help="minutes per suite road, for the truth and the recordings")
+    workers: int = option(2, WORKERS, help="drives and replays at a time")
+    skip_warp: bool = option(False, help="leave out the warp-error table")
+
+
+def parser():
+    return script_parser(__spec__.name, __doc__, RoadReplayStudy)
+
+
+def main(_, a: RoadReplayStudy) -> None:
     out = Path(a.out)
     t_start, cpu_start = begin_study(out, a.workers)
 
@@ -275,4 +280,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(parser(), main)

@@ -1,6 +1,6 @@
 """Does replay of small-car recordings predict true closed-loop racing in the track world?
 
-python studies/replay_vs_track_suite.py --out runs/replay-track-truth [--minutes 0.5] [--workers 1]
+python -m studies.replay_vs_track_suite --out runs/replay-track-truth [--minutes 0.5] [--workers 1]
 
 The track world's counterpart of `replay_vs_road_suite.py`. The script
 1. records the racing expert (no drift episodes) as a donkeycar tub on every track of the track suite t1 for
@@ -25,22 +25,23 @@ an interrupted run continues where it stopped.
 
 from __future__ import annotations
 
-import argparse
 import csv
 import json
 import shutil
-import sys
 import time
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from common import (ROOT, correlation_table, begin_study, correlations, record_expert, replay_missing,  # noqa: E402
-                    replayed, scatter_axes, train_baseline, train_snapshots, write_table)
-
-from steerlab.data.car import CARS  # noqa: E402
-from steerlab.sim.core.suite import labels_for  # noqa: E402
-from steerlab.sim.track.suite import TRACK_SUITES  # noqa: E402
+from steerlab.cli import path_option, run_script, script_parser
+from steerlab.data.car import CARS
+from steerlab.data.readers import open_recording
+from steerlab.options import MINUTES, WORKERS, Options, option
+from steerlab.sim.core.suite import labels_for
+from steerlab.sim.track.suite import TRACK_SUITES
+from studies.common import (ROOT, begin_study, correlation_table, correlations, record_expert, replay_missing, replayed,
+                            scatter_axes, train_baseline, train_snapshots, write_table)
 
 SUITE = "t1"
 BASE_TRAIN = {"batch_size": 32, "lr": 3e-4, "patience": 99, "loss": "mae"}
@@ -174,24 +175,34 @@ def scatter(path: Path, table: list[dict], corr: dict, minutes: float) -> None:
                      "replay of the expert's recordings: interventions / lap", fit=True)
 
 
-def main() -> None:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--out", default="runs/replay-track-truth")
-    p.add_argument("--minutes", type=float, default=0.5, help="minutes per suite track, for the truth and the "
-                   "recordings")
-    p.add_argument("--workers", type=int, default=1)
+@dataclass(frozen=True)
+class TrackReplayStudy(Options):
+    out: str = option("runs/replay-track-truth", path="folder", help="the study's folder (what is done there is "
+                      "reused)")
+    minutes: float = option(0.5, MINUTES, help="minutes per suite track, for the truth and the recordings")
+    workers: int = option(1, WORKERS, help="drives and replays at a time")
+    speed: Literal["model", "recorded"] = option("model", help="replay speed: model = as the suite drives (the "
+                                                 "learned throttle, else the suite's constant throttle's speed); "
+                                                 "recorded = the recorded throttle's")
+
+
+def parser():
+    p = script_parser(__spec__.name, __doc__, TrackReplayStudy)
     p.add_argument("--tubs", nargs="+", default=[str(ROOT / "runs" / "track" / f"tub-{k}") for k in range(1, 5)],
                    help="the track-world tubs of configs/track_pilotnet.yaml (tub 1 first)")
-    p.add_argument("--speed", choices=["model", "recorded"], default="model",
-                   help="replay speed: model = as the suite drives (the learned throttle, else the suite's constant "
-                   "throttle's speed); recorded = the recorded throttle's")
-    p.add_argument("--extra", nargs="*", default=[], help="more checkpoints of the donkey camera to include")
-    a = p.parse_args()
+    path_option(p, "--extra", kind="file", nargs="*", default=[], help="more checkpoints of the donkey camera to "
+                "include")
+    return p
+
+
+def main(args, a: TrackReplayStudy) -> None:
+    for tub in args.tubs:  # before anything is recorded or trained
+        open_recording(tub)
     out = Path(a.out)
     t_start, cpu_start = begin_study(out, a.workers)
 
     recs = record_expert("track", out, a.minutes)
-    ckpts = checkpoints(out, [Path(t) for t in a.tubs], [Path(c) for c in a.extra])
+    ckpts = checkpoints(out, [Path(t) for t in args.tubs], [Path(c) for c in args.extra])
     print(f"{len(ckpts)} checkpoints", flush=True)
     truth, drives = true_suite(ckpts, out, a.minutes, a.workers)
     rep, rows = replay(ckpts, recs, out, a.workers, a.speed)
@@ -232,4 +243,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(parser(), main)

@@ -1,29 +1,31 @@
 """The speed that replay estimates from a recording's frames (`data.speed.estimate_speed`: optical flow of the
 road plane through the camera's height and pitch), against the recorded speed where there is one.
 
-python studies/speed_estimate.py
+python -m studies.speed_estimate
 Recordings: two synthetic drives made here (the camera geometry is exactly known), the Udacity simulator lap,
 CH2 (no speed signal) and the donkeycar hall tub (no speed signal) from ../shared/data.
 """
 
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from common import SHARED  # noqa: E402
+from steerlab.cli import run_script, script_parser
+from steerlab.data.geometry import CAMERAS
+from steerlab.data.readers import open_recording
+from steerlab.data.speed import estimate_speed
+from steerlab.sim.road.run import record
+from steerlab.sim.road.world import RecordOptions
+from studies.common import SHARED
 
-from steerlab.data.geometry import CAMERAS  # noqa: E402
-from steerlab.data.readers import open_recording  # noqa: E402
-from steerlab.data.speed import estimate_speed  # noqa: E402
-from steerlab.sim.road.run import record  # noqa: E402
-from steerlab.sim.road.world import RecordOptions  # noqa: E402
+
+def parser():
+    return script_parser(__spec__.name, __doc__)
 
 
-def main() -> None:
+def main(_) -> None:
     print("| recording | estimated [m/s] | recorded, median [m/s] | seconds |\n|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
         recordings = [
@@ -52,4 +54,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(parser(), main)

@@ -18,13 +18,12 @@ finished. `OUT/<--table>.md`, `.csv`, `.json` (default `table`): per recipe, the
 seed's values; `OUT/<suite>-max<cap>/`: the suite's own tables and every drive. Everything is kept and reused: a
 rerun trains and drives only what is missing.
 
-python studies/track_recipes.py [--recipes donkey,gray,...] [--seeds 0,1] [--suite s1] [--caps 1,0.5]
+python -m studies.track_recipes [--recipes donkey,gray,...] [--seeds 0,1] [--suite s1] [--caps 1,0.5]
     [--donkeycar [--donkeycar-runs 3] [--donkeycar-tubs donkey]] [--workers 2] [--out runs/race] [--table table]
 """
 
 from __future__ import annotations
 
-import argparse
 import csv
 import json
 import subprocess
@@ -34,15 +33,16 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from common import ROOT, DonkeycarPart, donkey_car, donkey_python, machine  # noqa: E402
-
-from steerlab.data.car import CARS  # noqa: E402
-from steerlab.data.readers import open_recording  # noqa: E402
-from steerlab.sim.core.part import PartPilot  # noqa: E402
-from steerlab.sim.core.suite import from_json  # noqa: E402
-from steerlab.sim.track.run import TrackDrive, drive, drive_expert  # noqa: E402
-from steerlab.sim.track.suite import TrackSuiteOptions, drive_row, race, report, summarize  # noqa: E402
+from steerlab.cli import run_script, script_parser
+from steerlab.data.car import CARS
+from steerlab.data.readers import open_recording
+from steerlab.options import AT_LEAST_1, SEED, WORKERS, Options, Range, names_from, names_held, option
+from steerlab.sim.core.part import PartPilot
+from steerlab.sim.core.suite import from_json
+from steerlab.sim.track.run import TrackDrive, drive, drive_expert
+from steerlab.sim.track.suite import TRACK_SUITES, TrackSuiteOptions, drive_row, race, report, summarize
+from steerlab.sim.track.world import throttle_scale_option
+from studies.common import ROOT, DonkeycarPart, NumberList, donkey_car, donkey_python, machine
 
 TUBS = [f"{style}-{seed}" for style in ("taped", "centre") for seed in (1, 2, 3, 4)]
 TUB_MINUTES = 2.0
@@ -319,34 +319,44 @@ def markdown(rows: list[dict], suite: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--recipes", default=",".join(RECIPES), help=f"comma list of {', '.join(RECIPES)}")
-    ap.add_argument("--seeds", default="0,1", help="training seeds (train.seed) of every recipe")
-    ap.add_argument("--suite", default="s1", help="the track suite raced (s1: selection tracks; t1 scores)")
-    ap.add_argument("--caps", default="1,0.5", help="throttle caps (the learned throttle's and the expert's)")
-    ap.add_argument("--donkeycar", action="store_true", help="also donkeycar's linear model (its own trainer)")
-    ap.add_argument("--donkeycar-runs", type=int, default=3, help="how many runs of donkeycar's trainer race")
-    ap.add_argument("--donkeycar-tubs", default="donkey", help="the recipe whose tubs donkeycar's trainer trains on "
-                    "(default: the 8 tubs of donkeycar's recipe)")
-    ap.add_argument("--donkeycar-throttle-scale", type=float, default=1.0, help="donkeycar's throttle times this "
-                    "before the cap (as its AI_THROTTLE_MULT, which is 1 in its default config)")
-    ap.add_argument("--workers", type=int, default=2, help="tracks driven in parallel")
-    ap.add_argument("--out", default=str(ROOT / "runs" / "race"))
-    ap.add_argument("--table", default="table", help="the name of the table files in OUT (.md, .csv, .json)")
-    a = ap.parse_args()
-    recipes = [r for r in a.recipes.split(",") if r]
-    unknown = [r for r in [*recipes, a.donkeycar_tubs] if r not in RECIPES]
-    if unknown:
-        sys.exit(f"error: unknown recipes {unknown}; known: {', '.join(RECIPES)}")
-    if not 0 < a.donkeycar_throttle_scale <= 10:  # as --throttle-scale of the track commands
-        sys.exit(f"error: --donkeycar-throttle-scale must be a number in (0, 10], got {a.donkeycar_throttle_scale:g}")
+SEEDS = NumberList(int, SEED)
+CAPS = NumberList(float, Range(0, 1, lo_open=True))  # as --max-throttle of the track commands
+
+
+@dataclass(frozen=True)
+class Races(Options):
+    recipes: str = option(",".join(RECIPES), help="comma list of the recipes raced")
+    seeds: str = option("0,1", SEEDS, SEEDS.words, help="training seeds (train.seed) of every recipe")
+    suite: str = option("s1", lambda v: v in TRACK_SUITES, " or ".join(TRACK_SUITES),
+                        help="the track suite raced (s1: selection tracks; t1 scores)")
+    caps: str = option("1,0.5", CAPS, CAPS.words, help="throttle caps (the learned throttle's and the expert's)")
+    donkeycar: bool = option(False, help="also donkeycar's linear model (its own trainer)")
+    donkeycar_runs: int = option(3, AT_LEAST_1, help="how many runs of donkeycar's trainer race")
+    donkeycar_tubs: str = option("donkey", lambda v: v in RECIPES, "a recipe", help="the recipe whose tubs donkeycar's "
+                                 "trainer trains on (default: the 8 tubs of donkeycar's recipe)")
+    donkeycar_throttle_scale: float = throttle_scale_option()
+    workers: int = option(2, WORKERS, help="tracks driven in parallel")
+    out: str = option(str(ROOT / "runs" / "race"), path="folder", help="the study's folder")
+    table: str = option("table", lambda v: v and "/" not in v, "a file name without a folder",
+                        help="the name of the table files in OUT (.md, .csv, .json)")
+
+    @classmethod
+    def related(cls, v):
+        return names_held(v, "recipes", RECIPES, "recipes")
+
+
+def parser():
+    return script_parser(__spec__.name, __doc__, Races)
+
+
+def main(_, a: Races) -> None:
+    recipes = names_from(a.recipes, RECIPES, "recipes")
     out = Path(a.out)
     tubs = out / "tubs"
     record_tubs(tubs, TUBS)
-    caps = [float(c) for c in a.caps.split(",")]
+    caps, seeds = CAPS.of(a.caps), SEEDS.of(a.seeds)
     for name in recipes:  # each recipe races as soon as it is trained
-        ckpts = [train_recipe(name, int(seed), out, tubs) for seed in a.seeds.split(",")]
+        ckpts = [train_recipe(name, seed, out, tubs) for seed in seeds]
         for cap in caps:
             race(ckpts, out / f"{a.suite}-max{cap:g}" / name, suite_options(name, a.suite, cap, a.workers))
     suffix = "" if a.donkeycar_tubs == "donkey" else f"-{a.donkeycar_tubs}"  # donkeycar on another recipe's tubs
@@ -360,7 +370,7 @@ def main() -> None:
         o = TrackSuiteOptions(suite=a.suite, max_throttle=cap, workers=a.workers)
         suite = out / f"{a.suite}-max{cap:g}"
         rows = [replace(r, label=f"{name}/{r.label}") for name in recipes
-                for r in race([train_recipe(name, int(seed), out, tubs) for seed in a.seeds.split(",")],
+                for r in race([train_recipe(name, seed, out, tubs) for seed in seeds],
                               suite / name, suite_options(name, a.suite, cap, a.workers))]
         if donkey:
             rows += race_donkeycar(*donkey, suite / folder, replace(o, throttle_scale=a.donkeycar_throttle_scale),
@@ -377,4 +387,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(parser(), main)

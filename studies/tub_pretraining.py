@@ -11,27 +11,24 @@ environment). Everyone is scored on the held-out last 20 %: the steering MAE in 
 and the throttle MAE (open loop), and the interventions of the small cars' replay (`steerlab replay --world
 track`: the body leaving a 0.9 m lane around the human's path, the speed from the recorded throttle).
 
-python studies/tub_pretraining.py [--seeds 3] [--skip-donkey] [--tubs hall,taped-track]
+python -m studies.tub_pretraining [--seeds 3] [--skip-donkey] [--tubs hall,taped-track]
 Every finished run is kept in runs/tub-pretraining/<tub>/results.json and reused by a later run.
 """
 
-import argparse
 import json
-import sys
-from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from common import ROOT, machine, track_tubs  # noqa: E402
-from donkeycar_tubs import FULL_LOCK_DEG, READER, TUBS, blocks, donkey_or_skip, run_donkey, spread  # noqa: E402
-
-from steerlab.data.readers import Source  # noqa: E402
-from steerlab.evaluate.offline import evaluate  # noqa: E402
-from steerlab.sim.replay.run import run_replay  # noqa: E402
-from steerlab.sim.replay.track import TrackReplayOptions  # noqa: E402
-from steerlab.train.config import load_config  # noqa: E402
-from steerlab.train.loop import train  # noqa: E402
+from steerlab.cli import run_script, script_parser
+from steerlab.data.readers import Source
+from steerlab.evaluate.offline import evaluate
+from steerlab.options import names_from
+from steerlab.sim.replay.run import run_replay
+from steerlab.sim.replay.track import TrackReplayOptions
+from steerlab.train.config import load_config
+from steerlab.train.loop import train
+from studies.common import (FULL_LOCK_DEG, READER, ROOT, TUB_NAMES, TUBS, TubStudy, blocks, donkey_or_skip, machine,
+                            run_donkey, spread, track_tubs)
 
 OUT = ROOT / "runs" / "tub-pretraining"
 EPOCHS = {"hall": 25, "taped-track": 12}  # configs/donkey_best.yaml, and its note for taped-track
@@ -86,16 +83,15 @@ def rows(name: str, results: dict) -> list[str]:
     return out
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--seeds", type=int, default=3, help="runs of every arm")
-    ap.add_argument("--skip-donkey", action="store_true", help="steerlab's arms only")
-    ap.add_argument("--tubs", default="hall,taped-track", help="the shared tubs to run on")
-    args = ap.parse_args()
+def parser():
+    return script_parser(__spec__.name, __doc__, TubStudy)
+
+
+def main(_, args: TubStudy) -> None:
     python = donkey_or_skip(args.skip_donkey)
     lines = [f"machine: {machine()}", "", "| tub | model | runs | held-out steering MAE [deg] | vs donkeycar linear | "
              "held-out throttle MAE | replay: interventions |", "|---|---|---|---|---|---|---|"]
-    for name in args.tubs.split(","):
+    for name in names_from(args.tubs, TUB_NAMES, "shared tubs"):
         rec = Source(str(TUBS / name), reader=READER).open()
         n, work = len(rec), OUT / name
         work.mkdir(parents=True, exist_ok=True)
@@ -114,4 +110,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_script(parser(), main)

@@ -1,5 +1,3 @@
-import functools
-import math
 import multiprocessing as mp
 import os
 import subprocess
@@ -9,6 +7,9 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+
+# the tiny inputs the tests share with the bad-input round of studies/; the tests import them from here
+from studies.common import made, write_jpeg  # noqa: F401
 
 if os.environ.get("PYTEST_XDIST_WORKER"):  # two test processes on two cores: one torch thread each
     import torch
@@ -21,18 +22,6 @@ SIM = SHARED / "udacity-sim-track1"
 
 needs_ch2 = pytest.mark.skipif(not (CH2 / "CH2_final_evaluation.csv").exists(), reason="../shared/data absent")
 needs_sim = pytest.mark.skipif(not (SIM / "driving_log.csv").exists(), reason="../shared/data absent")
-
-
-def write_jpeg(path: Path, value: int = 128, size=(160, 320)) -> None:
-    path.write_bytes(_jpeg(value, tuple(size)))
-
-
-@functools.lru_cache(maxsize=None)
-def _jpeg(value: int, size: tuple) -> bytes:
-    """A uniform frame of `value` with some texture, as JPEG bytes (made once per value and size)."""
-    img = np.full((*size, 3), value, np.uint8)
-    img[::7, ::5] = 255 - value
-    return cv2.imencode(".jpg", img)[1].tobytes()
 
 
 def flip_bytes(path: Path) -> Path:
@@ -187,45 +176,6 @@ def donkeycar_tub():
     root.handlers[:] = handlers
     root.setLevel(level)
     return tub_v2
-
-
-def made(tmp_path, kind="road_wheel", positive="right", geometry="sim", name="model.pt", full_lock_deg=None,
-         model="pilotnet", seed=0, **options):
-    """An untrained checkpoint of `model` (initialised with `seed`, built with `options`; per-modality statistics)
-    with the steering convention and camera geometry of a kind of recording: road_wheel/right + sim (the
-    simulator), normalized/right (donkeycar, with `full_lock_deg` if known), steering_wheel/left + ch2 (CH2)."""
-    path = tmp_path / name
-    path.write_bytes(_checkpoint(kind, positive, geometry, full_lock_deg, model, seed, tuple(sorted(options.items()))))
-    return path
-
-
-@functools.lru_cache(maxsize=None)
-def _checkpoint(kind, positive, geometry, full_lock_deg, model, seed, options) -> bytes:
-    """The bytes of `made`'s checkpoint (built once per set of arguments)."""
-    import tempfile
-
-    import torch
-
-    from steerlab.checkpoint import save_checkpoint
-    from steerlab.data.preprocess import PreprocessConfig
-    from steerlab.data.recording import SteeringConvention
-    from steerlab.models import create_model, model_class
-
-    options = dict(options)
-    pre = PreprocessConfig.from_dict({"preset": geometry, **model_class(model).inputs})
-    per = {"image": (100.0, 50.0), "diff": (128.0, 30.0), "flow": (0.0, 1.0)}
-    stats = {"mean": [], "std": []}
-    for modality, channels in pre.channels().items():
-        stats["mean"] += [per[modality][0]] * channels
-        stats["std"] += [per[modality][1]] * channels
-    model_cfg = {"in_channels": len(stats["mean"]), "height": pre.height, "width": pre.width, **options}
-    torch.manual_seed(seed)
-    with tempfile.TemporaryDirectory() as folder:
-        path = Path(folder) / "model.pt"
-        save_checkpoint(path, create_model(model, **model_cfg), model_cfg, pre, stats,
-                        SteeringConvention(kind, positive, full_lock_deg and math.radians(full_lock_deg)),
-                        {"rmse": 0.1}, geometry=geometry, frame_rate=20.0)
-        return path.read_bytes()
 
 
 def resaved(path, ckpt) -> None:

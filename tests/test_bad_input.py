@@ -20,47 +20,11 @@ import cv2
 import numpy as np
 import pytest
 
-from conftest import flip_bytes, made, write_jpeg
+from conftest import flip_bytes
 from steerlab.cli import main
 from steerlab.errors import SteerlabError
 from steerlab.options import WORKERS
-
-ROWS = 8  # frames of the tiny driving log and tub
-
-
-def sim_log(folder, rows=None, tail="\n"):
-    """A driving_log.csv (no header) with ROWS frames; `rows` replaces the values of some rows by index."""
-    (folder / "IMG").mkdir(parents=True, exist_ok=True)
-    lines = []
-    for i in range(ROWS):
-        name = f"center_2020_01_01_00_00_00_{100 * i:03d}.jpg"
-        write_jpeg(folder / "IMG" / name, 20 * i)
-        values = (rows or {}).get(i, f"{0.1 * (i % 3):.1f},0.5,0,10")
-        lines.append(f"/elsewhere/IMG/{name},,,{values}")
-    (folder / "driving_log.csv").write_text("\n".join(lines) + tail)
-    return folder / "driving_log.csv"
-
-
-def tub(folder, records=None):
-    """A donkeycar tub v2 with ROWS records; `records` changes fields of some records by index."""
-    (folder / "images").mkdir(parents=True)
-    lines = []
-    for i in range(ROWS):
-        name = f"{i}_cam_image_array_.jpg"
-        write_jpeg(folder / "images" / name, 20 * i, (120, 160))
-        rec = {"_index": i, "_session_id": "s", "_timestamp_ms": 1000 + 50 * i, "cam/image_array": name,
-               "user/angle": 0.1 * (i % 3), "user/throttle": 0.3, "user/mode": "user", **(records or {}).get(i, {})}
-        lines.append(json.dumps(rec))
-    (folder / "catalog_0.catalog").write_text("\n".join(lines) + "\n")
-    (folder / "catalog_0.catalog_manifest").write_text(json.dumps(  # as donkeycar writes it: each line's length
-        {"created_at": 0.0, "line_lengths": [len(line) + 1 for line in lines], "path": "catalog_0.catalog",
-         "start_index": 0}) + "\n")
-    manifest = [["cam/image_array", "user/angle", "user/throttle", "user/mode"], ["image_array", "float", "float",
-                "str"], {}, {"created_at": 0.0, "sessions": {"all_full_ids": ["s"]}},
-                {"paths": ["catalog_0.catalog"], "current_index": ROWS, "max_len": 1000, "deleted_indexes": []}]
-    (folder / "manifest.json").write_text("\n".join(json.dumps(m) for m in manifest) + "\n")
-    return folder
-
+from studies.common import ROWS, ch2, made, sim_log, tub, write_jpeg
 
 def _renamed(catalog, key, other):
     """The first record of a tub catalog with `key` named `other` (as long: the manifest's line lengths hold)."""
@@ -157,17 +121,6 @@ def _locked(tmp_path, stack):
     (tmp_path / "run").mkdir()
     stack.enter_context(folder_lock(tmp_path / "run", "steerlab train run"))
     return _train()(tmp_path, stack)
-
-
-def ch2(folder):
-    """A CH2-layout folder: 6 frames of 640x480 (steering-wheel angle, positive left) and its label CSV."""
-    (folder / "center").mkdir(parents=True)
-    ids = [1_000_000_000 + i * 50_000_000 for i in range(6)]
-    for i, fid in enumerate(ids):
-        write_jpeg(folder / "center" / f"{fid}.jpg", 40 * i, (480, 640))
-    (folder / "labels.csv").write_text("frame_id,steering_angle,public\n"
-                                       + "".join(f"{fid},{0.01 * i},{i % 2}\n" for i, fid in enumerate(ids)))
-    return folder
 
 
 def _evaluate_on_ch2(**convention):

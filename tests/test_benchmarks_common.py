@@ -1,17 +1,12 @@
-"""benchmarks/common.py, what the timings and the studies share: the median timer, the JSON report every timing
-writes, and the expert's recordings of a suite's places that replay is compared on."""
+"""benchmarks/common.py, what the timings share: the median timer and the JSON report every timing writes."""
 
-import importlib.util
 import json
 import time
-from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-spec = importlib.util.spec_from_file_location("benchmarks_common", ROOT / "benchmarks" / "common.py")
-common = importlib.util.module_from_spec(spec)
-spec.loader.exec_module(common)
+from benchmarks import common
+from studies.common import ROOT
 
 
 def test_median_seconds_times_the_runs_after_the_warmup(monkeypatch):
@@ -35,21 +30,3 @@ def test_a_report_writes_the_machine_the_settings_and_every_number_as_json(tmp_p
     assert data["settings"] == {"frames": 3, "runs": [1, 2]}
     assert data["results"] == {"country": {"fps": 10.0, "ratio": None, "decode_fps": 20}}  # NaN: not measured
     assert set(data["load_average"]) == {"start", "end"}
-
-
-def test_the_expert_is_recorded_on_every_place_of_a_suite_once(tmp_path):
-    """The road suite's roads (the track suite's tracks go the same way, through the registry of worlds)."""
-    from steerlab.data.readers import open_recording
-    from steerlab.sim.worlds import WORLDS
-
-    recs = common.record_expert("road", tmp_path, 0.01)
-    roads = WORLDS["road"].suite_options().drives()
-    first = tmp_path / "expert" / "country-9101"
-    assert list(recs) == roads and recs[roads[0]] == first
-    assert len(open_recording(first)) == 12  # 0.01 min at 20 frames/s
-    (tmp_path / "replay" / "country-9101").mkdir(parents=True)
-    stamp = (first / "minutes.json").stat().st_mtime_ns
-    common.record_expert("road", tmp_path, 0.01)  # reused, with its replays
-    assert (first / "minutes.json").stat().st_mtime_ns == stamp and (tmp_path / "replay" / "country-9101").exists()
-    common.record_expert("road", tmp_path, 0.02)  # other minutes: recorded anew, the old replays deleted
-    assert len(open_recording(first)) == 24 and not (tmp_path / "replay" / "country-9101").exists()

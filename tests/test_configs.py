@@ -3,7 +3,6 @@ input, the split and the train options, and its dagger:, closed_loop:, replay: a
 value a config writes reaches what is built. A typo in a config, or a default that changes what a config trains,
 is caught here rather than an hour into an experiment."""
 
-import sys
 from pathlib import Path
 
 import pytest
@@ -521,23 +520,12 @@ def test_a_donkeycar_tub_gets_the_tub_defaults_under_the_users_settings(tmp_path
     assert (cfg.model.name, cfg.train.loss, cfg.train.batch_size) == ("pilotnet", "mse", 100)
 
 
-def track_recipes(monkeypatch):
-    """studies/track_recipes.py as a module."""
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location("track_recipes", ROOT / "studies" / "track_recipes.py")
-    recipes = importlib.util.module_from_spec(spec)
-    monkeypatch.setitem(sys.modules, spec.name, recipes)  # its dataclasses look their module up there
-    monkeypatch.setattr(sys, "path", list(sys.path))  # it puts benchmarks/ on the path
-    spec.loader.exec_module(recipes)
-    return recipes
-
-
-def test_track_best_is_the_recipe_the_closed_loop_chose(stand_in_tubs, monkeypatch):
+def test_track_best_is_the_recipe_the_closed_loop_chose(stand_in_tubs):
     """configs/track_best.yaml trains what `studies/track_recipes.py` raced as its chosen recipe: the same tubs, input,
     network and training options, and each race of its header drives as the recipe raced at that cap (its throttle
     scale; docs/results/racing.md, "Racing the track world")."""
-    recipes = track_recipes(monkeypatch)
+    from studies import track_recipes as recipes
+
     best = load_config(ROOT / "configs" / "track_best.yaml")
     chosen = {"1": recipes.RECIPES["mae-throttle-1.2"], "0.5": recipes.RECIPES["mae-throttle-2"]}  # by the cap
     trained = chosen["1"].starts
@@ -557,10 +545,11 @@ def test_track_best_is_the_recipe_the_closed_loop_chose(stand_in_tubs, monkeypat
         assert as_dict(getattr(best, section)) == as_dict(getattr(raced, section)), section
 
 
-def test_the_recipe_table_says_what_each_row_raced(monkeypatch):
+def test_the_recipe_table_says_what_each_row_raced():
     """The study's table names each row's recipe; donkeycar's runs on another recipe's tubs, and with their throttle
     scaled (`--donkeycar-throttle-scale`), say so."""
-    recipes = track_recipes(monkeypatch)
+    from studies import track_recipes as recipes
+
     row = dict(cap=0.5, runs=3, laps=55.0, clean_pct=61.0, finished=4.7, tracks=8, off_track_per_lap=2.45,
                off_track=139.3, pace=0.997, pace_tracks=3)
     names = ("mae-throttle-2", "donkeycar-rooms", "donkeycar-rooms-throttle-2")

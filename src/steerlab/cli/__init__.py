@@ -4,7 +4,8 @@ registering its subcommands on the parser.
 A subcommand's numeric and choice options are the fields of the options dataclasses it passes on
 (`OPTIONS`): their flags, types, defaults, allowed values and help come from the fields (`add_options`), and
 `from_args` parses them into the dataclass, so every option is checked before the command does anything, with
-a one-line error (exit code 2) that names the flag; argparse's own errors are one line too."""
+a one-line error (exit code 2) that names the flag; argparse's own errors are one line too. The scripts of studies/
+and benchmarks/ take their options the same way (`script_parser`, `run_script`)."""
 
 from __future__ import annotations
 
@@ -106,14 +107,17 @@ def check_paths(args: argparse.Namespace) -> None:
     check_outputs(folders, files, inputs, getattr(args, "makes", None))
 
 
-def add_options(q: argparse.ArgumentParser, command: str, *classes: type, skip=(), label: str | None = None) -> None:
+def add_options(q: argparse.ArgumentParser, command: str | None, *classes: type, skip=(),
+                label: str | None = None) -> None:
     """Flags for the fields of `classes` (a field `max_heading` is `--max-heading`; a boolean that defaults to
-    true is `--no-NAME`); every flag defaults to None, so that a flag not given keeps the field's default. A flag
+    true is `--no-NAME`), registered in `OPTIONS` under `command` (a script's, None, are not); every flag defaults
+    to None, so that a flag not given keeps the field's default. A flag
     that a class of the command made already (the same option of another world; `label` names when these
     classes apply, e.g. "--world track") is made once: its choices grow by this field's, and its help adds this
     field's where it differs."""
-    known = OPTIONS.setdefault(command, [])
-    known.extend(c for c in classes if c not in known)  # a parser built again registers nothing twice
+    if command is not None:
+        known = OPTIONS.setdefault(command, [])
+        known.extend(c for c in classes if c not in known)  # a parser built again registers nothing twice
     for cls in classes:
         for o in options_of(cls):
             if o.key in skip:
@@ -150,6 +154,39 @@ def from_args(cls, args: argparse.Namespace):
     """The dataclass `cls` from the flags given on the command line, checked (errors name the flag)."""
     given = {o.key: getattr(args, o.key) for o in options_of(cls) if getattr(args, o.key, None) is not None}
     return parse(cls, given, name=flag)
+
+
+def script_parser(module: str, doc: str, *classes: type) -> Parser:
+    """The command line of a script run as `python -m MODULE` (the studies and timings of the repository) by the
+    rules of the steerlab command's: the script's docstring as its help, a flag for each field of the options
+    dataclasses `classes` (typed, checked against their ranges), more arguments added with `path_option` or
+    `data_args`, every option given once. `script_args` parses it, `run_script` runs the script."""
+    p = Parser(prog=f"python -m {module}", description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
+    add_options(p, None, *classes)
+    p.set_defaults(options=list(classes))
+    return p
+
+
+def script_args(parser: argparse.ArgumentParser, argv=None) -> tuple[argparse.Namespace, list]:
+    """A script's command line `argv` (default: the process's) by its `script_parser`: the arguments, and an
+    instance of each of its options classes; every path and option is checked before the script does anything,
+    and a bad one ends it with one line (exit code 2) that names the option and the script."""
+    args = parser.parse_args(argv)
+    try:
+        check_paths(args)
+        return args, [from_args(cls, args) for cls in parser.get_default("options")]
+    except SteerlabError as e:
+        parser.error(str(e))
+
+
+def run_script(parser: argparse.ArgumentParser, work, argv=None) -> None:
+    """A script: its command line (`script_args`), then `work(args, *options)`; what the work refuses on the way
+    (a recording that is not there, an empty journal) ends it in one line as well, never a traceback."""
+    args, options = script_args(parser, argv)
+    try:
+        work(args, *options)
+    except SteerlabError as e:
+        parser.error(str(e))
 
 
 def data_args(q: argparse.ArgumentParser, range_help: str = "frames to use, START:STOP (e.g. 0:2400)",
