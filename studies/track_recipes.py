@@ -27,9 +27,11 @@ from __future__ import annotations
 import argparse
 import csv
 import json
+import math
 import subprocess
 import sys
 from dataclasses import asdict, dataclass, field, replace
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -39,10 +41,7 @@ from common import ROOT, DonkeycarPart, donkey_car, donkey_python, machine  # no
 
 from steerlab.data.car import CARS  # noqa: E402
 from steerlab.data.readers import open_recording  # noqa: E402
-from steerlab.sim.core.part import PartPilot  # noqa: E402
-from steerlab.sim.core.suite import from_json  # noqa: E402
-from steerlab.sim.track.run import TrackDrive, drive, drive_expert  # noqa: E402
-from steerlab.sim.track.suite import TrackSuiteOptions, drive_row, race, report, summarize  # noqa: E402
+from steerlab.sim.track.suite import TrackSuiteOptions, part_entrant, race, report, summarize  # noqa: E402
 
 TUBS = [f"{style}-{seed}" for style in ("taped", "centre") for seed in (1, 2, 3, 4)]
 TUB_MINUTES = 2.0
@@ -247,27 +246,13 @@ def donkey_models(out: Path, tubs: Path, runs: int, names: tuple[str, ...] = tup
 
 def race_donkeycar(car: Path, models: list[Path], out: Path, o: TrackSuiteOptions, label: str = DONKEYCAR) -> list:
     """donkeycar's models on every track of the suite, as suite rows against the expert's drives under the same
-    cap (drives kept in `out` and reused), their throttle times `o.throttle_scale` before the cap."""
+    cap: the suite races each behind its part (`track.suite.part_entrant`; drives kept in `out/run<k>` and reused
+    while the model file and the options are the same), its throttle times `o.throttle_scale` before the cap. One
+    drive at a time: each part is a process of donkeycar's environment."""
     python = donkey_python()
-    rows = []
-    for style, seed in o.drives():
-        d = o.drive_options(style, seed)
-        folder = out / o.expert_folder() / f"{style}-{seed}"
-        if not (folder / "drive.json").exists():
-            drive_expert(folder, d)
-        expert = from_json(TrackDrive, json.loads((folder / "drive.json").read_text()))
-        for k, model in enumerate(models):
-            folder = out / f"run{k}" / f"{style}-{seed}"
-            if not (folder / "drive.json").exists():
-                part = DonkeycarPart(python, car, model, out / "part.log", o.max_throttle, o.throttle_scale)
-                try:
-                    drive(PartPilot(part, CARS["donkey"].full_lock_deg, name=DONKEYCAR, source=str(model)), folder, d,
-                          progress=False, plot=False)
-                finally:
-                    part.close()
-            r = from_json(TrackDrive, json.loads((folder / "drive.json").read_text()))
-            rows.append(drive_row(r, expert, f"{label}/run{k}", str(model), style, seed))
-    return rows
+    racing = [part_entrant(f"run{k}", model, partial(DonkeycarPart, python, car, model, out / "part.log", math.inf))
+              for k, model in enumerate(models)]
+    return [replace(r, label=f"{label}/{r.label}") for r in race(racing, out, replace(o, workers=1))]
 
 
 def suite_options(name: str, suite: str, cap: float, workers: int) -> TrackSuiteOptions:

@@ -172,12 +172,11 @@ def drive(pilot, out: str | Path | None, o: TrackDriveOptions = TrackDriveOption
     return result
 
 
-def drive_checkpoint(checkpoint: str | Path, out: str | Path | None, o: TrackDriveOptions, w: DriveWith = DriveWith(),
-                     video: str | Path | None = None, progress: bool = True, on_tick=None, plot: bool = True,
-                     meta: dict | None = None) -> TrackDrive:
-    """`drive` with steerlab's donkeycar part on `checkpoint` (`core.part.donkey_pilot`: the constant throttle
-    `o.throttle` for a model that predicts none, its learned throttle times `o.throttle_scale` capped at
-    `o.max_throttle`, its steering shaped as `w` says)."""
+def checkpoint_pilot(checkpoint: str | Path, o, w: DriveWith = DriveWith()):
+    """steerlab's donkeycar part on `checkpoint` (`core.part.donkey_pilot`) as the options `o` of a drive or a suite
+    race it: the constant throttle `o.throttle` for a model that predicts none (refused for one that learned the
+    throttle), its learned throttle times `o.throttle_scale` capped at `o.max_throttle`, its steering shaped as `w`
+    says."""
     from steerlab.sim.core.part import donkey_pilot
 
     pilot = donkey_pilot(checkpoint, constant_throttle(o.throttle), w.smoothing, o.max_throttle,
@@ -186,7 +185,14 @@ def drive_checkpoint(checkpoint: str | Path, out: str | Path | None, o: TrackDri
         raise SteerlabError(f"{checkpoint} learned the throttle; --throttle {o.throttle:g} is the constant throttle of "
                             "a model that predicts none: leave it out (--throttle-scale and --max-throttle shape a "
                             "learned throttle)")
-    return drive(pilot, out, o, video, progress, on_tick, plot, meta)
+    return pilot
+
+
+def drive_checkpoint(checkpoint: str | Path, out: str | Path | None, o: TrackDriveOptions, w: DriveWith = DriveWith(),
+                     video: str | Path | None = None, progress: bool = True, on_tick=None, plot: bool = True,
+                     meta: dict | None = None) -> TrackDrive:
+    """`drive` with steerlab's donkeycar part on `checkpoint` (`checkpoint_pilot`)."""
+    return drive(checkpoint_pilot(checkpoint, o, w), out, o, video, progress, on_tick, plot, meta)
 
 
 def drive_expert(out: str | Path, o: TrackDriveOptions, on_tick=None, meta: dict | None = None) -> TrackDrive:
