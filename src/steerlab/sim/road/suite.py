@@ -122,7 +122,7 @@ def _job(entrant: Entrant, o: SuiteOptions, road: str, seed: int, out: str, key:
     drive.json also holds the key, which later runs compare."""
     pilot = entrant.make(o)
     try:
-        return drive(pilot, out, DriveOptions(seed, o.place_minutes, road, fps=FPS), progress=False,
+        return drive(pilot, out, DriveOptions(seed=seed, minutes=o.place_minutes, road=road, fps=FPS), progress=False,
                      on_tick=tick_reporter(), plot=False, meta={"cache_key": key})
     finally:
         close(pilot)
@@ -146,9 +146,11 @@ def run_suite(pilots, out: str | Path, o: SuiteOptions = SuiteOptions(), progres
     for e in racing:
         for road, seed in roads:
             r = results[(e.label, road, seed)]
-            drives.append(SuiteDrive(e.label, e.source, road, seed, minutes, r.autonomy, r.interventions,
-                                     r.interventions_per_km, r.mean_abs_offset_m, r.max_abs_offset_m,
-                                     r.command_gamma_deg, r.distance_km))
+            drives.append(SuiteDrive(
+                label=e.label, checkpoint=e.source, road_type=road, seed=seed, minutes=minutes, autonomy=r.autonomy,
+                interventions=r.interventions, interventions_per_km=r.interventions_per_km,
+                mean_abs_offset_m=r.mean_abs_offset_m, max_abs_offset_m=r.max_abs_offset_m,
+                command_gamma_deg=r.command_gamma_deg, distance_km=r.distance_km))
     summary = summarize(drives)
     out.mkdir(parents=True, exist_ok=True)
     write_csv(out / "suite.csv", drives)
@@ -187,10 +189,12 @@ def summarize(drives: list[SuiteDrive]) -> list[SuiteSummary]:
         km = sum(d.distance_km for d in ds)
         n = sum(d.interventions for d in ds)
         seconds = sum(d.minutes * 60 for d in ds)
-        out.append(SuiteSummary(label, road, len(ds), seconds / 60, km, n, autonomy(n, seconds), n / max(km, 1e-9),
-                                float(np.mean([d.mean_abs_offset_m for d in ds])),
-                                float(max(d.max_abs_offset_m for d in ds)),
-                                float(np.mean([d.command_gamma_deg for d in ds]))))
+        out.append(SuiteSummary(
+            label=label, road_type=road, drives=len(ds), minutes=seconds / 60, distance_km=km, interventions=n,
+            autonomy=autonomy(n, seconds), interventions_per_km=n / max(km, 1e-9),
+            mean_abs_offset_m=float(np.mean([d.mean_abs_offset_m for d in ds])),
+            max_abs_offset_m=float(max(d.max_abs_offset_m for d in ds)),
+            command_gamma_deg=float(np.mean([d.command_gamma_deg for d in ds]))))
     return out
 
 

@@ -120,8 +120,8 @@ def result_of(label: str, o: TrackDriveOptions, t: Trajectory, world: TrackWorld
     """A drive's `TrackDrive` from its trajectory and the world's laps (laps driven: fractions of a lap count)."""
     m = t.metrics(1.0 / o.fps)
     laps_driven = world.laps.progress / world.track.length
-    return TrackDrive(label, o.seed, o.style, o.lane_width, world.track.length, o.minutes, laps_driven,
-                      **world.laps.result(), off_track=m.interventions,
+    return TrackDrive(label=label, seed=o.seed, style=o.style, lane_width=o.lane_width, lap_m=world.track.length,
+                      minutes=o.minutes, laps_driven=laps_driven, **world.laps.result(), off_track=m.interventions,
                       off_track_per_lap=m.interventions / max(laps_driven, 1e-9),
                       off_track_per_km=m.interventions_per_km, autonomy=m.autonomy, distance_km=m.distance_km,
                       mean_speed=float(np.mean(t.speed)), mean_abs_offset_m=m.mean_abs_offset_m,
@@ -237,7 +237,7 @@ def rollout(pilot, out: str | Path, seed: int, minutes: float, style: str = "tap
                    progress=False, on_tick=on_tick, latency=latency,
                    choose=lambda t: expert["controls"] if rng.random() < beta else (t.model, t.throttle))
     tub.close()
-    return result_of(pilot.name, TrackDriveOptions(seed, minutes, fps, style=style), t, world)
+    return result_of(pilot.name, TrackDriveOptions(seed=seed, minutes=minutes, fps=fps, style=style), t, world)
 
 
 def rollout_job(checkpoint: str, out: str, seed: int, minutes: float, style: str, beta: float, camera: FisheyeCamera,

@@ -92,9 +92,10 @@ class TrackSuiteOptions(Options):
         return [(style, seed) for style in styles for seed in tracks[style]]
 
     def drive_options(self, style: str, seed: int) -> TrackDriveOptions:
-        return TrackDriveOptions(seed, self.place_minutes, FPS, 0.0, TRACK_SUITES[self.suite]["lane_width"], style,
-                                 self.calibration, self.throttle, self.max_throttle, self.latency,
-                                 self.throttle_scale)
+        return TrackDriveOptions(seed=seed, minutes=self.place_minutes, fps=FPS, limit_m=0.0,
+                                 lane_width=TRACK_SUITES[self.suite]["lane_width"], style=style,
+                                 calibration=self.calibration, throttle=self.throttle, max_throttle=self.max_throttle,
+                                 latency=self.latency, throttle_scale=self.throttle_scale)
 
     def expert_folder(self) -> str:
         """The folder of the expert's drives under this cap."""
@@ -261,10 +262,13 @@ def drive_row(r: TrackDrive, expert: TrackDrive, label: str, checkpoint: str, st
     """A drive's row of suite.csv, with the expert's lap times on the same track and the pace, the ratio of the
     mean clean lap times (None without a clean lap)."""
     ratio = None if r.mean_lap_s is None or expert.mean_lap_s is None else r.mean_lap_s / expert.mean_lap_s
-    return SuiteDrive(label, checkpoint, style, seed, r.lap_m, r.minutes, r.laps_driven, r.laps, r.clean_laps,
-                      r.best_lap_s, r.mean_lap_s, expert.best_lap_s, expert.mean_lap_s, ratio, r.off_track,
-                      r.off_track_per_lap, r.off_track_per_km, r.autonomy, r.distance_km, r.mean_speed,
-                      r.mean_abs_offset_m, r.command_gamma_deg)
+    return SuiteDrive(label=label, checkpoint=checkpoint, style=style, seed=seed, lap_m=r.lap_m, minutes=r.minutes,
+                      laps_driven=r.laps_driven, laps=r.laps, clean_laps=r.clean_laps, best_lap_s=r.best_lap_s,
+                      mean_lap_s=r.mean_lap_s, expert_best_lap_s=expert.best_lap_s,
+                      expert_mean_lap_s=expert.mean_lap_s, pace=ratio, off_track=r.off_track,
+                      off_track_per_lap=r.off_track_per_lap, off_track_per_km=r.off_track_per_km, autonomy=r.autonomy,
+                      distance_km=r.distance_km, mean_speed=r.mean_speed, mean_abs_offset_m=r.mean_abs_offset_m,
+                      command_gamma_deg=r.command_gamma_deg)
 
 
 def summarize(drives: list[SuiteDrive]) -> list[SuiteSummary]:
@@ -283,10 +287,13 @@ def summarize(drives: list[SuiteDrive]) -> list[SuiteSummary]:
         laps_driven = sum(d.laps_driven for d in ds)
         seconds = sum(d.minutes * 60 for d in ds)
         paces = [d.pace for d in ds if (d.style, d.seed) in finished[style]]
-        out.append(SuiteSummary(label, style, len(ds), sum(d.pace is not None for d in ds), seconds / 60, km, laps,
-                                clean, 100 * clean / laps if laps else None, n, n / max(laps_driven, 1e-9),
-                                n / max(km, 1e-9), autonomy(n, seconds), float(np.mean(paces)) if paces else None,
-                                len(paces), float(np.mean([d.command_gamma_deg for d in ds]))))
+        out.append(SuiteSummary(
+            label=label, style=style, tracks=len(ds), finished=sum(d.pace is not None for d in ds),
+            minutes=seconds / 60, distance_km=km, laps=laps, clean_laps=clean,
+            clean_pct=100 * clean / laps if laps else None, off_track=n, off_track_per_lap=n / max(laps_driven, 1e-9),
+            off_track_per_km=n / max(km, 1e-9), autonomy=autonomy(n, seconds),
+            pace=float(np.mean(paces)) if paces else None, pace_tracks=len(paces),
+            command_gamma_deg=float(np.mean([d.command_gamma_deg for d in ds]))))
     return out
 
 
