@@ -26,9 +26,11 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 import subprocess
 import sys
 from dataclasses import asdict, dataclass, field, replace
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -37,10 +39,7 @@ from steerlab.cli import run_script, script_parser
 from steerlab.data.car import CARS
 from steerlab.data.readers import open_recording
 from steerlab.options import AT_LEAST_1, SEED, WORKERS, Options, Range, names_from, names_held, option
-from steerlab.sim.core.part import PartPilot
-from steerlab.sim.core.suite import from_json
-from steerlab.sim.track.run import TrackDrive, drive, drive_expert
-from steerlab.sim.track.suite import TRACK_SUITES, TrackSuiteOptions, drive_row, race, report, summarize
+from steerlab.sim.track.suite import TRACK_SUITES, TrackSuiteOptions, part_entrant, race, report, summarize
 from steerlab.sim.track.world import throttle_scale_option
 from studies.common import ROOT, DonkeycarPart, NumberList, donkey_car, donkey_python, machine
 
@@ -248,27 +247,13 @@ def donkey_models(out: Path, tubs: Path, runs: int, names: tuple[str, ...] = tup
 
 def race_donkeycar(car: Path, models: list[Path], out: Path, o: TrackSuiteOptions, label: str = DONKEYCAR) -> list:
     """donkeycar's models on every track of the suite, as suite rows against the expert's drives under the same
-    cap (drives kept in `out` and reused), their throttle times `o.throttle_scale` before the cap."""
+    cap: the suite races each behind its part (`track.suite.part_entrant`; drives kept in `out/run<k>` and reused
+    while the model file and the options are the same), its throttle times `o.throttle_scale` before the cap. One
+    drive at a time: each part is a process of donkeycar's environment."""
     python = donkey_python()
-    rows = []
-    for style, seed in o.drives():
-        d = o.drive_options(style, seed)
-        folder = out / o.expert_folder() / f"{style}-{seed}"
-        if not (folder / "drive.json").exists():
-            drive_expert(folder, d)
-        expert = from_json(TrackDrive, json.loads((folder / "drive.json").read_text()))
-        for k, model in enumerate(models):
-            folder = out / f"run{k}" / f"{style}-{seed}"
-            if not (folder / "drive.json").exists():
-                part = DonkeycarPart(python, car, model, out / "part.log", o.max_throttle, o.throttle_scale)
-                try:
-                    drive(PartPilot(part, CARS["donkey"].full_lock_deg, name=DONKEYCAR, source=str(model)), folder, d,
-                          progress=False, plot=False)
-                finally:
-                    part.close()
-            r = from_json(TrackDrive, json.loads((folder / "drive.json").read_text()))
-            rows.append(drive_row(r, expert, f"{label}/run{k}", str(model), style, seed))
-    return rows
+    racing = [part_entrant(f"run{k}", model, partial(DonkeycarPart, python, car, model, out / "part.log", math.inf))
+              for k, model in enumerate(models)]
+    return [replace(r, label=f"{label}/{r.label}") for r in race(racing, out, replace(o, workers=1))]
 
 
 def suite_options(name: str, suite: str, cap: float, workers: int) -> TrackSuiteOptions:

@@ -919,7 +919,7 @@ def test_checkpoints_load_without_pickled_code_and_are_sealed(tmp_path):
 def _numeric_options():
     """(key, kind, check, expected) of every option whose type is a number, whatever it checks: the training config's
     (train.*, preprocess.*, every model's options) and the other config sections' (dagger, closed_loop)."""
-    from steerlab.dagger import DaggerOptions
+    from steerlab.dagger import DaggerOptions, own_options, places
     from steerlab.models import list_models
     from steerlab.models.registry import OPTION_CHECKS, model_option_types
     from steerlab.options import optional, options_of
@@ -927,7 +927,8 @@ def _numeric_options():
     from steerlab.train.config import TrainConfig
 
     out = []
-    for cls, section in ((TrainConfig, ""), (DaggerOptions, "dagger"), (SuiteOptions, "closed_loop")):
+    owns = [(own_options(p), "dagger") for p in places()]  # the options of a dagger section that one place takes
+    for cls, section in ((TrainConfig, ""), (DaggerOptions, "dagger"), *owns, (SuiteOptions, "closed_loop")):
         for o in options_of(cls, section):
             kind = optional(o.kind)[0]
             if kind in (int, float):
@@ -968,9 +969,9 @@ def _edges(check, kind):
                          else None)
 def test_every_numeric_config_option_is_range_checked(key, kind, check, expected, tmp_path):
     """From the schema, no hand-picked list: out of range, of the wrong type, and at the boundary."""
-    from steerlab.dagger import OWN, dagger_options
+    from steerlab.dagger import dagger_options, taking
     from steerlab.errors import SteerlabError
-    from steerlab.sim.road.suite import suite_options
+    from steerlab.sim.worlds import closed_loop
     from steerlab.train.config import load_config
 
     check = _a_range(key, check)
@@ -982,7 +983,7 @@ def test_every_numeric_config_option_is_range_checked(key, kind, check, expected
         base["preprocess"] = {"color": "rgb"}
     if key.startswith("preprocess."):  # a model without layers: a 4096-pixel frame builds nothing large
         base["model"] = {"name": "zero"}
-    worlds = OWN.get(key.removeprefix("dagger."), ("road",)) if key.startswith("dagger.") else ("road",)
+    worlds = taking(key.removeprefix("dagger.")) if key.startswith("dagger.") else ("road",)
     if "road" not in worlds:  # an option of another world than the default
         base["dagger"] = {"world": worlds[0]}
 
@@ -991,7 +992,7 @@ def test_every_numeric_config_option_is_range_checked(key, kind, check, expected
         if key.startswith("dagger."):
             dagger_options(cfg)
         if key.startswith("closed_loop."):
-            suite_options(cfg.closed_loop, "closed_loop")
+            closed_loop(cfg.closed_loop)
 
     for value, taken in _edges(check, kind):
         if taken:
@@ -1428,14 +1429,16 @@ def _option_classes():
     """Every options dataclass a user's values enter through: the commands' (cli.OPTIONS), the config's sections,
     the readers' option tables."""
     from steerlab.cli import OPTIONS, build_parser
-    from steerlab.dagger import DaggerOptions
+    from steerlab.dagger import DaggerOptions, own_options, places
     from steerlab.data import bag, tub, videolog
     from steerlab.data.simlog import SIM_OPTIONS
     from steerlab.train.config import TrainOptions
 
     build_parser()
     classes = {cls for group in OPTIONS.values() for cls in group}
-    return sorted(classes | {DaggerOptions, TrainOptions, tub.OPTIONS, bag.OPTIONS, videolog.OPTIONS, SIM_OPTIONS},
+    owns = {own_options(p) for p in places()}  # the options of a dagger section that one place takes
+    return sorted(classes | owns | {DaggerOptions, TrainOptions, tub.OPTIONS, bag.OPTIONS, videolog.OPTIONS,
+                                    SIM_OPTIONS},
                   key=lambda c: c.__name__)
 
 

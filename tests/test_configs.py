@@ -11,7 +11,7 @@ import yaml
 from steerlab.dagger import dagger_options
 from steerlab.experiment import load_experiment
 from steerlab.options import as_dict
-from steerlab.sim.road.suite import suite_options
+from steerlab.sim.worlds import closed_loop
 from steerlab.train.config import load_config
 from steerlab.tune.space import search_space
 
@@ -367,11 +367,11 @@ def dagger_line(o) -> str:
     where = {"road": "the road world", "track": "the track world", "replay": "replay"}[o.world]
     line = f"dagger in {where}: {o.iterations} rounds of {o.epochs} epochs, beta {o.beta:g} x {o.beta_decay:g} a round"
     if o.world == "road":
-        line += f", {o.minutes:g} min of {o.roads} roads"
+        line += f", {o.minutes:g} min of {o.own.roads} roads"
     if o.world == "track":
         line += f", {o.minutes:g} min of tracks"
     if o.world == "replay":
-        line += f", at {o.speed:g} m/s" if o.speed else ", at the recorded speed"
+        line += f", at {o.own.speed:g} m/s" if o.own.speed else ", at the recorded speed"
     elif o.suite:
         line += f", suite {o.suite}" + (f" at {o.suite_minutes:g} min" if o.suite_minutes else "")
     return line + f", workers {o.workers}"
@@ -411,8 +411,8 @@ def assert_written_reaches(cfg, written: dict) -> None:
 
 
 def assert_section_reaches(options, written: dict) -> None:
-    for key, value in written.items():
-        assert getattr(options, key) == value, key
+    for key, value in written.items():  # a dagger section's keys of its world: its own options
+        assert getattr(options if hasattr(options, key) else options.own, key) == value, key
 
 
 @pytest.fixture
@@ -463,7 +463,7 @@ def what_it_builds(path: Path) -> list[str]:
         if exp.closed_loop is not None:
             assert_section_reaches(exp.closed_loop, raw["closed_loop"])
             o = exp.closed_loop
-            lines.append(f"closed loop: suite {o.suite}, {o.road_minutes:g} min per road, workers {o.workers}")
+            lines.append(f"closed loop: suite {o.suite}, {o.place_minutes:g} min per road, workers {o.workers}")
         if exp.replay is not None:
             assert_section_reaches(exp.replay, raw["replay"])
             lines.append("replay " + (f"at {exp.replay.speed:g} m/s" if exp.replay.speed else "at the recorded speed"))
@@ -476,7 +476,7 @@ def what_it_builds(path: Path) -> list[str]:
             assert_section_reaches(o, raw["dagger"])
             lines.append(dagger_line(o))
         if cfg.closed_loop is not None:
-            assert_section_reaches(suite_options(cfg.closed_loop, "closed_loop"), raw["closed_loop"])
+            assert_section_reaches(closed_loop(cfg.closed_loop)[1], raw["closed_loop"])
         if cfg.tune is not None:
             space = search_space(cfg.tune, cfg)
             for key, rng in raw["tune"].items():

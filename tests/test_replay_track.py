@@ -1,4 +1,4 @@
-"""Replay of small-car recordings (`sim/replay/track.py`): the fisheye warp, the speed from the throttle, the lane
+"""Replay of small-car recordings (`sim/track/replay.py`): the fisheye warp, the speed from the throttle, the lane
 criterion of the car's body, a round trip on a track-world tub and the shared real tubs."""
 
 import csv
@@ -17,7 +17,7 @@ from steerlab.data.readers import Source
 from steerlab.pilot import Controls
 from steerlab.sim.replay.path import human_path
 from steerlab.sim.replay.run import replay_recording
-from steerlab.sim.replay.track import TrackReplay
+from steerlab.sim.track.replay import TrackReplay
 from steerlab.sim.track.smallcar import speed_after, steady_speed, throttle_speeds
 from steerlab.sim.core.vehicle import VehicleState
 

@@ -421,8 +421,9 @@ def test_dagger_in_the_track_world(tmp_path):
     with open(out / "dagger.csv") as f:
         rows = list(csv.DictReader(f))
     assert [r["round"] for r in rows] == ["0", "1"] and rows[1]["recordings"] == "3" and float(rows[1]["beta"]) == 0.5
-    assert all(r["off_track_per_lap"] != "" and r["autonomy_all"] == "" for r in rows)
-    assert {"clean_laps_pct", "lap_ratio"} <= set(rows[0]) and rows[1]["rollout_autonomy"] != ""
+    assert all(r["off_track_per_lap"] != "" for r in rows)  # the track world's columns, none of another place's
+    assert list(rows[0])[5:] == ["clean_laps_pct", "lap_ratio", "off_track_per_lap"]
+    assert rows[1]["rollout_autonomy"] != ""
     for r in (0, 1):  # the suite of every round: the centre-line tracks
         with open(out / f"round{r}" / "suite" / "suite.csv") as f:
             assert [d["seed"] for d in csv.DictReader(f)] == ["9451", "9452"]

@@ -17,7 +17,7 @@ from steerlab.sim.core.contracts import Pilot as PilotContract, World as WorldCo
 from steerlab.sim.core.driving import drive_loop
 from steerlab.sim.core.part import PartPilot
 from steerlab.sim.replay.path import human_path
-from steerlab.sim.replay.track import TrackReplay
+from steerlab.sim.track.replay import TrackReplay
 from steerlab.sim.replay.world import Replay
 from steerlab.sim.road.world import World
 from steerlab.sim.track.world import RacerPilot, TrackWorld
@@ -65,7 +65,9 @@ def test_each_world_is_found_by_its_camera_and_its_suites():
         assert w.name == name and w.cameras and w.suites
         for cls in (w.record_options, w.drive_options, w.suite_options, w.replay_options):
             cls()  # every option of a world has a default
-        assert w.parse_kinds(None) == w.parse_kinds(",".join(w.parse_kinds(None)))
+        kinds = w.dagger_options().kinds()  # a world's own options of a dagger section name its rollouts' places
+        assert kinds and w.dagger_options(**{k: ",".join(kinds) for k in ("roads", "styles")
+                                             if k in w.dagger_options.__dataclass_fields__}).kinds() == kinds
         assert w.suite_options().drives()  # the default suite has places to drive
 
 
@@ -114,3 +116,52 @@ def test_dagger_and_experiments_replay_a_recording_in_the_world_of_its_camera(tm
                                       **({"reader": {"full_lock_deg": 25}} if data == tub else {})})
         replay = SplitReplay(cfg, speed=1.5).replay
         assert type(replay) is kind and replay.speed == 1.5
+
+
+def test_closed_loop_drives_the_suite_of_either_world(tmp_path, saved_figures):
+    """`closed_loop:` names a world's suite, by its version ({suite: t1}) or its world ({world: track}): an experiment
+    tabulates the track suite's columns and draws its tracks, and tune's autonomy objective is the track suite's
+    autonomy over all its tracks."""
+    import csv
+
+    import yaml
+
+    from steerlab.errors import SteerlabError
+    from steerlab.experiment import run_experiment
+    from steerlab.sim.road.suite import SuiteOptions
+    from steerlab.sim.track.run import record
+    from steerlab.sim.track.suite import TrackSuiteOptions
+    from steerlab.sim.track.world import TrackRecordOptions
+    from steerlab.sim.worlds import closed_loop
+    from test_tune import rows, run_tune
+
+    assert closed_loop(None) == (WORLDS["road"], SuiteOptions())
+    assert closed_loop({"suite": "t1", "minutes": 0.5}) == (WORLDS["track"], TrackSuiteOptions(minutes=0.5))
+    assert closed_loop({"world": "track", "suite": "s1"}) == (WORLDS["track"], TrackSuiteOptions(suite="s1"))
+    with pytest.raises(SteerlabError, match=r"^closed_loop.suite must be t1 or s1, got 'v1'$"):
+        closed_loop({"world": "track", "suite": "v1"})
+    with pytest.raises(SteerlabError, match=r"^closed_loop.world must be one of road, track, got 'boat'$"):
+        closed_loop({"world": "boat"})
+    tub = record(tmp_path / "tub", TrackRecordOptions(seed=3, minutes=0.05), progress=False)
+    base = {"data": str(tub), "reader": {"full_lock_deg": 25}, "cache": str(tmp_path / "cache"),
+            "split": {"train": "0:40", "val": "40:60"}, "preprocess": {"preset": "donkey", "color": "gray"},
+            "train": {"epochs": 1, "batch_size": 16},
+            "closed_loop": {"world": "track", "minutes": 0.01, "workers": 1, "styles": "centre"}}
+    (tmp_path / "exp.yaml").write_text(yaml.safe_dump({**base, "out": str(tmp_path / "exp"),
+                                                       "models": [{"model": {"name": "pilotnet"}}]}))
+    table = run_experiment(tmp_path / "exp.yaml", seeds=1, progress=False).read_text()
+    assert ("| autonomy [%] | taped / centre [%] | clean laps [%] | pace | off track / lap | command gamma [deg] |"
+            in table)
+    assert sorted(p.name for p in (tmp_path / "exp" / "tracks").iterdir()) == ["centre-9451.png", "centre-9452.png"]
+    with open(tmp_path / "exp" / "pilotnet" / "seed0" / "suite" / "summary.csv") as f:
+        overall = next(r for r in csv.DictReader(f) if r["style"] == "all")
+    with open(tmp_path / "exp" / "table.csv") as f:
+        assert float(next(csv.DictReader(f))["autonomy_mean"]) == pytest.approx(float(overall["autonomy"]))
+    by_suite = {"suite": "t1", "minutes": 0.01, "workers": 1, "styles": "centre"}  # the track world by its suite
+    (tmp_path / "tune.yaml").write_text(yaml.safe_dump({**base, "out": str(tmp_path / "tune"), "closed_loop": by_suite,
+                                                        "tune": {"train.lr": {"low": 1e-4, "high": 1e-2}}}))
+    run_tune(tmp_path / "tune.yaml", trials=1, objective="autonomy", seed=0, progress=False)
+    (trial,) = rows(tmp_path / "tune")
+    with open(tmp_path / "tune" / "trials" / "0000" / "suite" / "summary.csv") as f:
+        overall = next(r for r in csv.DictReader(f) if r["style"] == "all")
+    assert float(trial["value_0"]) == pytest.approx(float(overall["autonomy"]))

@@ -1,10 +1,12 @@
 """`steerlab experiment`: train several models, several seeds each, on identical splits, and tabulate them in
 the form of paper 000 Table I (model, input, input shape, MSE mean +- std, gamma, target gamma) and of paper
 002 Tables I-II (steering MAE, speed MAE, speed-command accuracy), optionally with closed-loop columns (every
-run drives the closed-loop suite: autonomy per road type, interventions per km, command gamma, and one figure
-per road with every model's seed-0 drive on it) and the streaming latency of every model. With closed-loop columns the experiment also plots open-loop error against
-autonomy and says how well each open-loop metric ranks the models' driving and which ranks it best; when the
-validation frames hold drift-and-recover episodes it plots them in the form of paper 000 Fig. 6."""
+run drives the suite of the `closed_loop:` section's world: its columns, `WorldEntry.closed_loop_table`, such as
+autonomy per road type, interventions per km and command gamma, and one figure per road or track with every
+model's seed-0 drive on it) and the streaming latency of every model. With closed-loop columns the experiment also
+plots open-loop error against autonomy and says how well each open-loop metric ranks the models' driving and which
+ranks it best; when the validation frames hold drift-and-recover episodes it plots them in the form of paper 000
+Fig. 6."""
 
 from __future__ import annotations
 
@@ -31,7 +33,8 @@ from steerlab.evaluate.scoring import read_steering_csv
 from steerlab.paths import check_outputs
 from steerlab.options import Options, SPEED, as_dict, option, parse
 from steerlab.pilot import Pilot
-from steerlab.sim.road.suite import SuiteOptions, closed_loop_metrics
+from steerlab.sim.core.entry import WorldEntry
+from steerlab.sim.worlds import closed_loop
 from steerlab.split_replay import SplitReplay
 from steerlab.train.config import TrainConfig, another_config, layered, override_key, parse_config, read_yaml
 from steerlab.train.loop import run_changes, train
@@ -66,13 +69,15 @@ class Entry:
 @dataclass(frozen=True)
 class ExperimentConfig:
     """An experiment: the shared training-config sections, the `models` entries, and optionally the
-    closed-loop suite (`closed_loop`) and replay (`replay`) every run is driven on."""
+    closed-loop suite (`closed_loop`: the suite options of the world `world`) and replay (`replay`) every run is
+    driven on."""
 
     shared: dict
     entries: tuple[Entry, ...]
-    closed_loop: SuiteOptions | None = None
+    closed_loop: Options | None = None
     replay: ReplayOn | None = None
     overrides: tuple[str, ...] = ()
+    world: WorldEntry | None = None
 
     @property
     def out(self) -> Path:
@@ -100,7 +105,7 @@ def load_experiment(path: str | Path, overrides=()) -> ExperimentConfig:
         raise SteerlabError(f"{path}: an experiment config needs a non-empty 'models' list")
     shared = {k: v for k, v in raw.items() if k not in ("models", "closed_loop", "replay")}
     try:
-        closed = None if raw.get("closed_loop") is None else parse(SuiteOptions, raw["closed_loop"], "closed_loop")
+        world, closed = (None, None) if raw.get("closed_loop") is None else closed_loop(raw["closed_loop"])
         replay = None if raw.get("replay") is None else parse(ReplayOn, raw["replay"], "replay")
     except SteerlabError as e:
         raise SteerlabError(f"{path}: {e}") from None
@@ -114,7 +119,7 @@ def load_experiment(path: str | Path, overrides=()) -> ExperimentConfig:
             raise SteerlabError(f"{path}: models entry {i + 1}: {e}") from None
     if any(override_key(o) == "train.seed" for o in overrides):  # it would give every run one seed
         raise SteerlabError("override train.seed: an experiment's runs take the seeds 0..N-1 of --seeds; leave it out")
-    exp = ExperimentConfig(shared, tuple(entries), closed, replay, tuple(overrides))
+    exp = ExperimentConfig(shared, tuple(entries), closed, replay, tuple(overrides), world)
     names = [e.name for e in exp.entries]
     for i, name in enumerate(names):  # two entries of one name would share their run folders and their row
         if name in names[:i]:
@@ -142,7 +147,7 @@ def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: boo
     out = exp.out
     check_outputs({"output folder (out)": out}, inputs=[path, *exp.run_config(exp.entries[0], 0).inputs()],
                   kind="experiment")
-    rows, preds, drives = [], {}, []
+    rows, preds, suites = [], {}, {}
     labels = frames = deg = split_replay = cfg = None
     for entry in exp.entries:
         runs = []
@@ -166,9 +171,9 @@ def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: boo
             run = {**_smoothed(run_dir, labels, deg), **json.loads(done.read_text()), "train_s": _train_seconds(run_dir)}
             if exp.closed_loop:
                 checkpoint = suite_checkpoint(run_dir, cfg, exp.closed_loop)
-                run.update(closed_loop_metrics(checkpoint, exp.closed_loop, progress, plots=False))
+                run.update(exp.world.closed_loop_metrics(checkpoint, exp.closed_loop, progress, plots=False))
                 if seed == 0:
-                    drives += _suite_drives(checkpoint.parent / "suite", entry.name)
+                    suites[entry.name] = checkpoint.parent / "suite"
             if exp.replay is not None:
                 split_replay = split_replay or SplitReplay(cfg, exp.replay.speed)
                 run.update(split_replay.evaluate(run_dir / "best.pt", run_dir / "replay", progress))
@@ -176,22 +181,12 @@ def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: boo
         if frames is None:
             frames = _latency_frames(cfg)
         rows.append(_row(entry.name, cfg.model.name, cfg.preprocessing(), runs,
-                         _latency(out / entry.name / "seed0", frames)))
+                         _latency(out / entry.name / "seed0", frames), exp.world))
         preds[entry.name] = read_steering_csv(out / entry.name / "seed0" / "val_predictions.csv")
-    _write(out, rows, preds, cfg, seeds, _speed_references(labels, next(iter(preds.values()))[0]))
-    if drives:
-        from steerlab.sim.road.plots import plot_roads  # matplotlib: imported where it draws
-
-        plot_roads(out / "roads", drives, exp.closed_loop.road_minutes)
+    _write(out, rows, preds, cfg, seeds, _speed_references(labels, next(iter(preds.values()))[0]), exp.world)
+    if suites:
+        exp.world.plot_drives(out, suites, exp.closed_loop)
     return out / "table.md"
-
-
-def _suite_drives(suite: Path, label: str) -> list[dict]:
-    """A run's drives on the suite (the rows of its suite.csv), labelled with the experiment's entry, each with
-    the folder of its trajectory."""
-    with open(suite / "suite.csv") as f:
-        return [{**d, "label": label, "folder": suite / d["label"] / f"{d['road_type']}-{d['seed']}"}
-                for d in csv.DictReader(f)]
 
 
 def _speed_references(labels: dict, val_ids: np.ndarray) -> str:
@@ -210,7 +205,13 @@ def _speed_references(labels: dict, val_ids: np.ndarray) -> str:
             f"{accuracy(np.full(len(idx), majority), commands):.3f}.\n")
 
 
-def _row(label: str, model: str, pre: PreprocessConfig, runs: list[dict], latency: dict) -> dict:
+def closed_loop_keys(world: WorldEntry | None) -> list[str]:
+    """The closed-loop metrics of an experiment's table in `world` (None: without a suite, none)."""
+    return [] if world is None else list(dict.fromkeys(k for c in world.closed_loop_table for k in c.keys))
+
+
+def _row(label: str, model: str, pre: PreprocessConfig, runs: list[dict], latency: dict,
+         world: WorldEntry | None) -> dict:
     def stat(key):
         v = np.array([r[key] for r in runs if key in r], float)
         return (v.mean(), v.std()) if len(v) else (np.nan, np.nan)
@@ -220,10 +221,11 @@ def _row(label: str, model: str, pre: PreprocessConfig, runs: list[dict], latenc
            "shape": f"{sum(pre.channels().values())}@{pre.width}x{pre.height}", "seeds": len(runs),
            "target_gamma_deg": runs[0]["target_gamma_deg"], **latency}
     for key in ("mse", "rmse", "mae", "mae_deg", "gamma_deg", "smoothed_rmse", "smoothed_gamma_deg", "tre", "qce",
-                "speed_weighted_mae", "speed_mae", "command_accuracy", "epoch", "train_s", *CLOSED_LOOP, *REPLAY):
+                "speed_weighted_mae", "speed_mae", "command_accuracy", "epoch", "train_s", *closed_loop_keys(world),
+                *REPLAY):
         row[f"{key}_mean"], row[f"{key}_std"] = stat(key)
     # the worst seed, for targets such as ">= 95 % on every road type with every seed"
-    for key in [k for k in CLOSED_LOOP if k.startswith("autonomy")]:
+    for key in [k for k in closed_loop_keys(world) if k.startswith("autonomy")]:
         row[f"{key}_min"] = min((r[key] for r in runs if key in r), default=np.nan)
     return row
 
@@ -255,18 +257,16 @@ def _smoothed(run: Path, labels: dict, deg_per_unit: float) -> dict:
 
 
 REPLAY = ("replay_autonomy", "replay_interventions_per_km", "replay_mean_offset_m")
-CLOSED_LOOP = ("autonomy", "autonomy_country", "autonomy_highway", "autonomy_twisty", "interventions_per_km",
-               "command_gamma_deg")
 
 
-def suite_checkpoint(run: Path, cfg: TrainConfig, closed: SuiteOptions) -> Path:
+def suite_checkpoint(run: Path, cfg: TrainConfig, closed) -> Path:
     """The checkpoint that drives the suite for a run: its best.pt, or for a DAgger run whose last round drove
     the same suite for as many minutes, that round's identical copy, so that the round's drives are reused."""
     best = run / "best.pt"
     if cfg.dagger is None:
         return best
     rounds = round_suite(dagger_options(cfg))
-    if rounds is None or rounds.suite != closed.suite or rounds.road_minutes != closed.road_minutes:
+    if rounds is None or rounds.suite != closed.suite or rounds.place_minutes != closed.place_minutes:
         return best
     last = max(run.glob("round*/best.pt"), key=lambda p: int(p.parent.name.removeprefix("round")))
     return last if filecmp.cmp(last, best, shallow=False) else best
@@ -291,22 +291,31 @@ def _fmt(value: float, digits: int, std: float | None = None) -> str:
     return f"{value:.{digits}f}" + (f" +- {std:.{digits}f}" if std is not None else "")
 
 
-def _write(out: Path, rows: list[dict], preds: dict, cfg: TrainConfig, seeds: int, references: str) -> None:
+def _closed_cells(r: dict, world: WorldEntry, worst: bool) -> str:
+    """A row's closed-loop cells of table.md: the world's columns (and the worst seed's autonomy per kind)."""
+    cells = [(_fmt(r[f"{c.keys[0]}_mean"], c.digits, r[f"{c.keys[0]}_std"]) if c.std
+              else " / ".join(_fmt(r[f"{k}_mean"], c.digits) for k in c.keys)) for c in world.closed_loop_table]
+    if worst:
+        cells.append(" / ".join(_fmt(r.get(f"{k}_min", np.nan), world.worst.digits) for k in world.worst.keys))
+    return "".join(f" {c} |" for c in cells)
+
+
+def _write(out: Path, rows: list[dict], preds: dict, cfg: TrainConfig, seeds: int, references: str,
+           world: WorldEntry | None) -> None:
     fields = list(rows[0])
     with open(out / "table.csv", "w", newline="") as f:
         w = csv.DictWriter(f, fields)
         w.writeheader()
         w.writerows(rows)
-    closed = not np.isnan(rows[0]["autonomy_mean"])
+    closed = world is not None
     worst = closed and seeds > 1
+    heads = ([c.header for c in world.closed_loop_table] + ([world.worst.header] if worst else [])) if closed else []
     lines = [f"{seeds} seed(s) per model (mean +- std over seeds); validation split {as_dict(cfg.split)}; plots: "
-             "predictions.png (seed 0)" + (", roads/*.png (every model's seed-0 drive on each road of the suite)"
-                                           if closed else "") + ".", "", "Paper 000 Table I form:", "",
+             "predictions.png (seed 0)" + (f", {world.suite_figures} (every model's seed-0 drive on each place of the "
+                                           "suite)" if closed else "") + ".", "", "Paper 000 Table I form:", "",
              "| model | input | input shape | MSE | gamma [deg] | target gamma [deg] | RMSE | RMSE smoothed "
              f"a={SMOOTHING_ALPHA} | gamma smoothed [deg] | best epoch | train time [s] | latency p50 / p99 [ms] |"
-             + (" autonomy [%] | country / highway / twisty [%] | interventions/km | command gamma [deg] |"
-                if closed else "") + (" worst seed: country / highway / twisty [%] |" if worst else ""),
-             "|---" * (12 + 4 * closed + worst) + "|"]
+             + "".join(f" {h} |" for h in heads), "|---" * (12 + len(heads)) + "|"]
     for r in rows:
         lines.append(
             f"| {r['label']} | {r['input']} | {r['shape']} | {_fmt(r['mse_mean'], 6, r['mse_std'])} | "
@@ -314,12 +323,7 @@ def _write(out: Path, rows: list[dict], preds: dict, cfg: TrainConfig, seeds: in
             f"{_fmt(r['smoothed_rmse_mean'], 4)} | {_fmt(r['smoothed_gamma_deg_mean'], 3)} | "
             f"{_fmt(r['epoch_mean'], 1)} | {_fmt(r['train_s_mean'], 0)} | "
             f"{r['latency_p50_ms']:.2f} / {r['latency_p99_ms']:.2f} |"
-            + (f" {_fmt(r['autonomy_mean'], 1, r['autonomy_std'])} | "
-               + " / ".join(_fmt(r[f'autonomy_{t}_mean'], 1) for t in ('country', 'highway', 'twisty'))
-               + f" | {_fmt(r['interventions_per_km_mean'], 2)} | {_fmt(r['command_gamma_deg_mean'], 3)} |"
-               if closed else "")
-            + (" " + " / ".join(_fmt(r[f'autonomy_{t}_min'], 1) for t in ('country', 'highway', 'twisty')) + " |"
-               if worst else ""))
+            + (_closed_cells(r, world, worst) if closed else ""))
     lines += ["", "Paper 002 Tables I-II form:", "",
               "| model | steering MAE [deg] | speed MAE [m/s] | speed-command accuracy |", "|---|---|---|---|"]
     for r in rows:
@@ -356,7 +360,7 @@ def _open_vs_closed(out: Path, rows: list[dict]) -> str:
     """How well each open-loop metric (and replay, next to the suite) ranks the trained models by autonomy on the
     closed-loop suite, or without a suite in replay, which ranks them best, and the scatter plot."""
     trained = [r for r in rows if r["epoch_mean"] > 0]
-    suite = not np.isnan(rows[0]["autonomy_mean"])
+    suite = not np.isnan(rows[0].get("autonomy_mean", np.nan))  # without a suite: no closed-loop columns
     target = "autonomy" if suite else "replay autonomy"
     plot_open_vs_closed(out / "open_vs_closed.png", {"models": trained},
                         autonomy="autonomy" if suite else "replay_autonomy")

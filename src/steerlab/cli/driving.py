@@ -105,15 +105,17 @@ def register(sub) -> None:
     from steerlab.demo import DemoOptions
     from steerlab.pilot import DriveWith
     from steerlab.serve import ServeOptions
-    from steerlab.sim.worlds import WORLDS
+    from steerlab.sim.worlds import WORLDS, default_world
+
+    first = default_world().name
 
     def world(q, command: str, name: str, *extra: type) -> None:
-        """--world and the options of `command` in every world (the road world's first: the default)."""
-        q.add_argument("--world", choices=list(WORLDS), default="road", help="; ".join(
-            f"{w.name}: {w.help}" + (" (default)" if w.name == "road" else "") for w in WORLDS.values()))
+        """--world and the options of `command` in every world (the default world's first, without a label)."""
+        q.add_argument("--world", choices=list(WORLDS), default=first, help="; ".join(
+            f"{w.name}: {w.help}" + (" (default)" if w.name == first else "") for w in WORLDS.values()))
         for w in WORLDS.values():
-            add_options(q, name, getattr(w, f"{command}_options"), *(extra if w.name == "road" else ()),
-                        label=None if w.name == "road" else f"--world {w.name}")
+            add_options(q, name, getattr(w, f"{command}_options"), *(extra if w.name == first else ()),
+                        label=None if w.name == first else f"--world {w.name}")
 
     sim = sub.add_parser("sim", help="the synthetic driving worlds").add_subparsers(dest="sim_command", required=True,
                                                                                      parser_class=Parser)
@@ -171,7 +173,7 @@ def register(sub) -> None:
                    "world of the recording's camera: track for donkeycar tubs and the track world's recordings, road "
                    "for the others)")
     for w in WORLDS.values():
-        add_options(q, "replay", w.replay_options, label=None if w.name == "road" else f"--world {w.name}")
+        add_options(q, "replay", w.replay_options, label=None if w.name == first else f"--world {w.name}")
     q.set_defaults(func=cmd_replay)
 
     q = sub.add_parser("serve", help="drive the Udacity simulator (socket.io server on port 4567)",

@@ -107,7 +107,7 @@ class TrainConfig(Options):
     out: str = "runs/train"
     dagger: dict | None = None       # steerlab sim dagger (dagger.DaggerOptions)
     tune: dict | None = None         # steerlab tune's search space (tune/space.py)
-    closed_loop: dict | None = None  # the closed-loop suite (sim/road/suite.SuiteOptions)
+    closed_loop: dict | None = None  # the closed-loop suite of a world (sim/worlds.closed_loop)
 
     def __post_init__(self):
         super().__post_init__()

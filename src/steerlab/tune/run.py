@@ -16,7 +16,7 @@ from steerlab.errors import DataError, SteerlabError, warn
 from steerlab.locks import pid_alive, waiting_lock
 from steerlab.paths import check_outputs
 from steerlab.options import as_dict
-from steerlab.sim.road.suite import closed_loop_metrics, suite_options
+from steerlab.sim.worlds import closed_loop
 from steerlab.train.config import TrainConfig
 from steerlab.tune.options import OBJECTIVES, TuneOptions
 from steerlab.tune.report import short, write_reports
@@ -83,7 +83,7 @@ def run_tune(cfg: TrainConfig, o: TuneOptions, progress: bool = True) -> Path:
 
     optuna = storage_optuna()
     space = search_space(cfg.tune, cfg)
-    closed = suite_options(cfg.closed_loop, "closed_loop") if o.objective == "autonomy" else None
+    world, closed = closed_loop(cfg.closed_loop) if o.objective == "autonomy" else (None, None)
     url = o.storage or ""
     local = (url[len("sqlite:///"):] if url.startswith("sqlite:///") else None if "://" in url
              else url.removeprefix("journal:") or None)  # a storage file of this machine: an output too
@@ -127,8 +127,8 @@ def run_tune(cfg: TrainConfig, o: TuneOptions, progress: bool = True) -> Path:
             return best["rmse"]
         if objective == "rmse+gamma":
             return best["rmse"], best["gamma_deg"]
-        # a trial's suite keeps its tables; road figures for every trial of a study would go unseen
-        return closed_loop_metrics(Path(run_cfg.out) / "best.pt", closed, False, plots=False)["autonomy"]
+        # a trial's suite keeps its tables; figures for every trial of a study would go unseen
+        return world.closed_loop_metrics(Path(run_cfg.out) / "best.pt", closed, False, plots=False)["autonomy"]
 
     done_states = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED)
     finished = len(study.get_trials(deepcopy=False, states=done_states))

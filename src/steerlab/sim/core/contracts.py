@@ -2,7 +2,7 @@
 
 A **world** is a car in a place it can be rendered, stepped and put back: the road world (`road.world.World`), the
 track world (`track.world.TrackWorld`) and a recording seen as a world (`replay.world.ReplayWorld` and the small
-cars' `replay.track.TrackReplayWorld`). A **pilot** turns a camera frame and the measured speed into controls:
+cars' `track.replay.TrackReplayWorld`). A **pilot** turns a camera frame and the measured speed into controls:
 steerlab's `Pilot` on a checkpoint, any donkeycar part (`part.PartPilot`) and the racing expert
 (`track.world.RacerPilot`). `drive_loop` checks both before the first tick (`check`): an object that lacks a
 member is refused with one line naming the members it lacks, not an AttributeError in the middle of a drive.

@@ -26,25 +26,34 @@ from steerlab.pilot import Controls, Pilot
 class PartPilot:
     """`part`: anything with `run(img_arr) -> (angle, throttle)`, or `run(img_arr, speed)` with `with_speed`
     (the measured speed in m/s as the part's second input, as donkeycar's `enc/speed`); `full_lock_deg`: the
-    road-wheel angle of the driven car at angle +-1. `reset()` calls the part's own `reset` if it has one (after
-    an off-track event the pilot forgets its past). `name`, `geometry` (the camera the part expects; "donkey"
-    for donkeycar's 160x120 camera) and `source` (what messages name) describe it to the loop."""
+    road-wheel angle of the driven car at angle +-1. The part's throttle reaches the car times `throttle_scale`,
+    then limited to +-`max_throttle` (at most 1, the ESC's range): min(max_throttle, throttle_scale x throttle)
+    going forward, as steerlab's own part shapes a learned throttle (donkeycar's AI_THROTTLE_MULT scales after its
+    cap instead). `reset()` calls the part's own `reset` if it has one (after an off-track event the pilot forgets
+    its past), `close()` its `close` (a part behind a pipe). `name`, `geometry` (the camera the part expects;
+    "donkey" for donkeycar's 160x120 camera) and `source` (what messages name) describe it to the loop."""
 
     def __init__(self, part, full_lock_deg: float, name: str | None = None, geometry: str | None = "donkey",
-                 source: str | None = None, with_speed: bool = False):
+                 source: str | None = None, with_speed: bool = False, throttle_scale: float = 1.0,
+                 max_throttle: float = 1.0):
         if not callable(getattr(part, "run", None)):
             raise SteerlabError(f"{type(part).__name__} is not a donkeycar part: it has no run(img_arr)")
         if not 0 < full_lock_deg < 90:
             raise SteerlabError(f"full_lock_deg must lie in (0, 90) degrees, got {full_lock_deg}")
+        if not 0 < throttle_scale <= 10:
+            raise SteerlabError(f"throttle_scale must lie in (0, 10], got {throttle_scale}")
+        if not 0 < max_throttle <= 1:
+            raise SteerlabError(f"max_throttle must lie in (0, 1], got {max_throttle}")
         self.part, self.with_speed = part, with_speed
+        self.throttle_scale, self.max_throttle = throttle_scale, max_throttle
         self.convention = SteeringConvention("normalized", "right", math.radians(full_lock_deg))
         self.name = name or type(part).__name__
         self.geometry = geometry
         self.source = source or self.name
 
     def step(self, frame: np.ndarray, speed: float | None = None) -> Controls:
-        """One BGR frame (and the car's speed) -> the part's angle as steering and its throttle, both limited
-        to [-1, 1] as the servo and the ESC limit them."""
+        """One BGR frame (and the car's speed) -> the part's angle as steering, limited to [-1, 1] as the servo
+        limits it, and its throttle times `throttle_scale`, limited to +-`max_throttle`."""
         rgb = np.ascontiguousarray(frame[..., ::-1])
         out = self.part.run(rgb, speed) if self.with_speed else self.part.run(rgb)
         try:
@@ -54,12 +63,18 @@ class PartPilot:
                 from None
         if not (math.isfinite(angle) and math.isfinite(throttle)):
             raise SteerlabError(f"{self.source}: run() returned ({angle}, {throttle}); finite numbers are expected")
-        return Controls(float(np.clip(angle, -1.0, 1.0)), throttle=float(np.clip(throttle, -1.0, 1.0)))
+        throttle = float(np.clip(self.throttle_scale * throttle, -self.max_throttle, self.max_throttle))
+        return Controls(float(np.clip(angle, -1.0, 1.0)), throttle=throttle)
 
     def reset(self) -> None:
         reset = getattr(self.part, "reset", None)
         if callable(reset):
             reset()
+
+    def close(self) -> None:
+        close = getattr(self.part, "close", None)
+        if callable(close):
+            close()
 
 
 def learns_throttle(checkpoint: str | Path) -> bool:

@@ -1,9 +1,12 @@
-"""What the suites of both worlds share (`road.suite`, `track.suite`): the checkpoints to drive and their labels,
-the drives planned and reused from their folders, the grouping of a summary and its CSV.
+"""What the suites of every world share (`road.suite`, `track.suite`): the pilots to race (`Entrant`: a checkpoint,
+a donkeycar part, any pilot) and their labels, the drives planned and reused from their folders, the grouping of a
+summary and its CSV.
 
-A suite drives every checkpoint on every road or track of a fixed, versioned set. Each drive is kept in its
-folder (`drive.json` and `trajectory.csv`) with a cache key (the checkpoint's sha256 and every option that changes
-the result), and a later run with the same key reuses it, so an interrupted suite continues where it stopped.
+A suite drives every entrant on every road or track of a fixed, versioned set. Each drive is kept in its folder
+(`drive.json` and `trajectory.csv`) with a cache key: the pilot's identity (the checkpoint's sha256; a part's, the
+sha256 of its model file) and every option that changes the result. A later run reuses a kept drive only when its
+key is exactly the planned one; a drive of another pilot or other options (or one kept without a key) is driven
+again, so an interrupted suite continues where it stopped and a changed pilot is never scored by its old drives.
 """
 
 from __future__ import annotations
@@ -14,6 +17,7 @@ import hashlib
 import json
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, fields
+from functools import partial
 from pathlib import Path
 
 from steerlab import files
@@ -40,6 +44,48 @@ def check_world_of(out: str | Path, world: str, other: str, column: str) -> None
     if lines and column in lines[0].split(","):
         raise DataError(out, f"the output folder holds a {other}-world suite ({table} has its {column} column); "
                              f"a {world}-world suite goes into a new folder or one of its own")
+
+
+@dataclass(frozen=True)
+class Entrant:
+    """A pilot a suite races: `label` (its folder below the suite's, its rows' label), `source` (the file it drives
+    with: suite.csv's checkpoint column, and an input the outputs are checked against), `identity` (what a kept
+    drive's cache key holds of it: `checkpoint_sha256`, or for a part `model_sha256`) and `make(options)`, which
+    makes the pilot (`contracts.Pilot`) from the suite's options in the worker process that drives it (a
+    module-level function or a partial of one: worker processes receive it pickled). A pilot with `close()` is
+    closed after each drive."""
+
+    label: str
+    source: str
+    identity: dict
+    make: Callable
+
+
+def entrants(pilots, pilot_of: Callable) -> list[Entrant]:
+    """A suite's entrants: each of `pilots` an `Entrant`, or a checkpoint (a path: a file, labelled by
+    `labels_for`, its identity its sha256), which `pilot_of(checkpoint, options)` makes the pilot of. At least one,
+    each label once."""
+    pilots = list(pilots)
+    paths = [p for p in pilots if not isinstance(p, Entrant)]
+    labels = iter(checkpoints_to_drive(paths)[1] if paths else [])
+    out = []
+    for p in pilots:
+        if not isinstance(p, Entrant):
+            p = Entrant(next(labels), str(Path(p)), {"checkpoint_sha256": file_sha256(Path(p))},
+                        partial(pilot_of, str(Path(p))))
+        out.append(p)
+    if not out:
+        raise SteerlabError("no checkpoint to drive: name at least one")
+    labels = [e.label for e in out]
+    if twice := sorted({n for n in labels if labels.count(n) > 1}):
+        raise SteerlabError(f"two pilots of the suite are labelled {twice[0]!r}: label each once")
+    return out
+
+
+def close(pilot) -> None:
+    """The end of a pilot's drive: a pilot that holds a process or a file (a part behind a pipe) lets it go."""
+    if callable(getattr(pilot, "close", None)):
+        pilot.close()
 
 
 def checkpoints_to_drive(checkpoints) -> tuple[list[Path], list[str]]:

@@ -1,7 +1,8 @@
 """`steerlab replay`: checkpoints replayed in closed loop on a recording (`world.py`, and `track.py` for small
 cars), in parallel worker processes, and the reports: `replay.csv` (one row per checkpoint), `segments.csv` (per
 segment), `replay.md`, `replay.json`, `replay.png` (the offset along the route, interventions marked) and
-`LABEL/trajectory.csv`. The options of each world's replay (`ReplayOptions` here, `track.TrackReplayOptions`) make
+`LABEL/trajectory.csv`. The options of each world's replay (`ReplayOptions` here, a world's flavour such as
+`track.replay`) make
 the replay of a recording (`setup`) and refuse what they cannot replay (`check_pilot`)."""
 
 from __future__ import annotations
@@ -84,8 +85,8 @@ def _job(checkpoint: str, label: str, source: Source, replay: Replay, video: str
 def run_replay(checkpoints, source: Source, out: str | Path, o=ReplayOptions(), video: str | Path | None = None,
                progress: bool = True) -> list[dict]:
     """Replay every checkpoint on the recording of `source` (only its frames, if given, e.g. a validation
-    split) as the options `o` of a world's replay make it (`ReplayOptions`, `track.TrackReplayOptions`); write
-    the reports. Returns the rows of replay.csv."""
+    split) as the options `o` of a world's replay make it (`ReplayOptions`, a world's flavour:
+    `track.replay.TrackReplayOptions`); write the reports. Returns the rows of replay.csv."""
     from steerlab.pilot import Pilot
 
     checkpoints, names = checkpoints_to_drive(checkpoints)

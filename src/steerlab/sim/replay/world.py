@@ -197,7 +197,8 @@ class Replay:
 
 @dataclass(frozen=True)
 class ReplaySetup:
-    """A recording's replay as its options make it (`ReplayOptions.setup`, `TrackReplayOptions.setup`): the
+    """A recording's replay as its options make it (`ReplayOptions.setup`, a world's flavour:
+    `track.replay.TrackReplayOptions.setup`): the
     `Replay`, where its speed comes from, and what the reports say: the sentence on when an intervention is
     counted (`criterion`), the offset limit the plot draws (+-`plot_limit` m, named `limit_label`) and the camera
     entry of replay.json."""

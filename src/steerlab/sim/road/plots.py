@@ -3,6 +3,7 @@ checkpoint's drive on each road of the suite (`sim bench`'s roads/*.png)."""
 
 from __future__ import annotations
 
+import csv
 from pathlib import Path
 
 import numpy as np
@@ -50,3 +51,14 @@ def plot_roads(out: Path, drives: list[dict], minutes: float) -> None:
         trajs = {f"{d['label']} ({float(d['autonomy']):.0f} %)": Trajectory.read(Path(d["folder"]) / "trajectory.csv")
                  for d in drives if (d["road_type"], int(d["seed"])) == (road, seed)}
         plot_trajectory(out / f"{road}-{seed}.png", make_road(seed, road, minutes * 60), trajs, f"{road} road {seed}")
+
+
+def plot_drives(out: Path, suites: dict[str, Path], o) -> None:
+    """An experiment's figure per road of the suite (`out/roads/<type>-<seed>.png`): the drive of every entry's
+    seed-0 run on it (`suites`: the entry's label -> its run's suite folder), labelled with the entry."""
+    drives = []
+    for label, suite in suites.items():
+        with open(suite / "suite.csv") as f:
+            drives += [{**d, "label": label, "folder": suite / d["label"] / f"{d['road_type']}-{d['seed']}"}
+                       for d in csv.DictReader(f)]
+    plot_roads(out / "roads", drives, o.place_minutes)

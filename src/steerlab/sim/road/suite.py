@@ -15,14 +15,14 @@ from pathlib import Path
 
 import numpy as np
 
-from steerlab.options import MINUTES, Options, WORKERS, frames_held, frames_in, names_from, names_held, option, parse
+from steerlab.options import MINUTES, Options, WORKERS, frames_held, frames_in, names_from, names_held, option
 from steerlab.paths import check_outputs
-from steerlab.pilot import DriveWith, smoothing_option, steering_step_option
+from steerlab.pilot import smoothing_option, steering_step_option
 from steerlab.sim.core.driving import autonomy
 from steerlab.sim.core.parallel import tick_reporter
-from steerlab.sim.core.suite import (Planned, as_stored, check_world_of, checkpoints_to_drive, file_sha256, grouped,
-                                     run_drives, when_set, write_csv)
-from steerlab.sim.road.run import RoadDrive, drive_checkpoint
+from steerlab.sim.core.suite import (Entrant, Planned, as_stored, check_world_of, close, entrants, grouped, run_drives,
+                                     when_set, write_csv)
+from steerlab.sim.road.run import RoadDrive, drive
 from steerlab.sim.road.world import DriveOptions, RecordOptions
 
 SUITES = {
@@ -51,7 +51,7 @@ class SuiteOptions(Options):
             yield from names_held(v, "roads", SUITES[v.suite]["roads"], "road types")
 
     @property
-    def road_minutes(self) -> float:
+    def place_minutes(self) -> float:
         return SUITES[self.suite]["minutes"] if self.minutes is None else self.minutes
 
     def drives(self) -> list[tuple[str, int]]:
@@ -64,15 +64,15 @@ class SuiteOptions(Options):
         """The expert's recording of one road of the suite, to replay models on against their drives there
         (`run.record(..., suite_ok=True)`): the suite's road for its minutes, without drift episodes or side
         cameras."""
-        return RecordOptions(seed=seed, minutes=self.road_minutes, road=road, drift=False, side_cameras=False)
+        return RecordOptions(seed=seed, minutes=self.place_minutes, road=road, drift=False, side_cameras=False)
 
-    def key(self, checkpoint: Path) -> dict:
-        """Everything that changes a drive's result besides its road: the checkpoint's content (the sha256 of
-        the file; an exported .onnx carries its metadata inside), the suite version, the minutes, the smoothing
-        and the steering step (only when set: drives made before it existed stay reusable). A finished drive is
-        reused only when its drive.json holds exactly this key."""
-        return as_stored({"checkpoint_sha256": file_sha256(checkpoint), "suite": self.suite,
-                          "minutes": self.road_minutes, "smoothing": self.smoothing, **when_set(self, "steering_step")})
+    def key(self, entrant: Entrant) -> dict:
+        """Everything that changes a drive's result besides its road: the pilot's identity (a checkpoint's content,
+        the sha256 of the file; an exported .onnx carries its metadata inside), the suite version, the minutes, the
+        smoothing and the steering step (only when set: drives made before it existed stay reusable). A finished
+        drive is reused only when its drive.json holds exactly this key."""
+        return as_stored({**entrant.identity, "suite": self.suite, "minutes": self.place_minutes,
+                          "smoothing": self.smoothing, **when_set(self, "steering_step")})
 
 
 @dataclass(frozen=True)
@@ -110,43 +110,47 @@ class SuiteSummary:
     command_gamma_deg: float
 
 
-def suite_options(section: dict | None, where: str) -> SuiteOptions:
-    """A config's `closed_loop:` section (None: the default suite)."""
-    return parse(SuiteOptions, section or {}, where)
+def checkpoint_pilot(checkpoint: str, o: SuiteOptions):
+    """steerlab's Pilot on `checkpoint`, as the suite drives it (its smoothing and steering step)."""
+    from steerlab.pilot import Pilot
+
+    return Pilot(checkpoint, smoothing=o.smoothing, steering_step=o.steering_step)
 
 
-def _job(checkpoint: str, road: str, seed: int, minutes: float, out: str, w: DriveWith, key: dict) -> RoadDrive:
-    """One drive of the suite (its path is drawn with the other checkpoints' in the suite's roads/ figure); its
+def _job(entrant: Entrant, o: SuiteOptions, road: str, seed: int, out: str, key: dict) -> RoadDrive:
+    """One drive of the suite (its path is drawn with the other pilots' in the suite's roads/ figure); its
     drive.json also holds the key, which later runs compare."""
-    return drive_checkpoint(checkpoint, out, DriveOptions(seed, minutes, road, fps=FPS), w, progress=False,
-                            on_tick=tick_reporter(), plot=False, meta={"cache_key": key})
+    pilot = entrant.make(o)
+    try:
+        return drive(pilot, out, DriveOptions(seed=seed, minutes=o.place_minutes, road=road, fps=FPS), progress=False,
+                     on_tick=tick_reporter(), plot=False, meta={"cache_key": key})
+    finally:
+        close(pilot)
 
 
-def run_suite(checkpoints, out: str | Path, o: SuiteOptions = SuiteOptions(), progress: bool = True,
+def run_suite(pilots, out: str | Path, o: SuiteOptions = SuiteOptions(), progress: bool = True,
               plots: bool = True) -> list[SuiteSummary]:
-    """Drive every checkpoint on every road of the suite (or of the road types in `o.roads`); write
-    `suite.csv` (one row per drive), `summary.csv` and `suite.md` (per checkpoint and road type) and, with
-    `plots`, one trajectory plot per road in `out/roads/`. Returns the summary rows."""
-    checkpoints, labels = checkpoints_to_drive(checkpoints)
-    check_outputs({"output folder": out}, inputs=checkpoints, kind="suite")
+    """Drive every pilot (checkpoints, or `core.suite.Entrant`s) on every road of the suite (or of the road types
+    in `o.roads`); write `suite.csv` (one row per drive), `summary.csv` and `suite.md` (per pilot and road type)
+    and, with `plots`, one trajectory plot per road in `out/roads/`. Returns the summary rows."""
+    racing = entrants(pilots, checkpoint_pilot)
+    check_outputs({"output folder": out}, inputs=[e.source for e in racing], kind="suite")
     check_world_of(out, "road", "track", "style")
-    roads, minutes, out = o.drives(), o.road_minutes, Path(out)
-    planned = []
-    for label, ckpt in zip(labels, checkpoints):
-        key = o.key(ckpt)
-        for road, seed in roads:
-            folder = out / label / f"{road}-{seed}"
-            planned.append(Planned((label, road, seed), folder, key,
-                                   (str(ckpt), road, seed, minutes, str(folder),
-                                    DriveWith(o.smoothing, o.steering_step), key)))
+    roads, minutes, out = o.drives(), o.place_minutes, Path(out)
+    keys = {e.label: o.key(e) for e in racing}
+    planned = [Planned((e.label, road, seed), out / e.label / f"{road}-{seed}", keys[e.label],
+                       (e, o, road, seed, str(out / e.label / f"{road}-{seed}"), keys[e.label]))
+               for e in racing for road, seed in roads]
     results = run_drives(_job, RoadDrive, planned, o.workers, frames_in(minutes, FPS), progress, f"suite {o.suite}")
     drives = []
-    for label, ckpt in zip(labels, checkpoints):
+    for e in racing:
         for road, seed in roads:
-            r = results[(label, road, seed)]
-            drives.append(SuiteDrive(label, str(ckpt), road, seed, minutes, r.autonomy, r.interventions,
-                                     r.interventions_per_km, r.mean_abs_offset_m, r.max_abs_offset_m,
-                                     r.command_gamma_deg, r.distance_km))
+            r = results[(e.label, road, seed)]
+            drives.append(SuiteDrive(
+                label=e.label, checkpoint=e.source, road_type=road, seed=seed, minutes=minutes, autonomy=r.autonomy,
+                interventions=r.interventions, interventions_per_km=r.interventions_per_km,
+                mean_abs_offset_m=r.mean_abs_offset_m, max_abs_offset_m=r.max_abs_offset_m,
+                command_gamma_deg=r.command_gamma_deg, distance_km=r.distance_km))
     summary = summarize(drives)
     out.mkdir(parents=True, exist_ok=True)
     write_csv(out / "suite.csv", drives)
@@ -185,10 +189,12 @@ def summarize(drives: list[SuiteDrive]) -> list[SuiteSummary]:
         km = sum(d.distance_km for d in ds)
         n = sum(d.interventions for d in ds)
         seconds = sum(d.minutes * 60 for d in ds)
-        out.append(SuiteSummary(label, road, len(ds), seconds / 60, km, n, autonomy(n, seconds), n / max(km, 1e-9),
-                                float(np.mean([d.mean_abs_offset_m for d in ds])),
-                                float(max(d.max_abs_offset_m for d in ds)),
-                                float(np.mean([d.command_gamma_deg for d in ds]))))
+        out.append(SuiteSummary(
+            label=label, road_type=road, drives=len(ds), minutes=seconds / 60, distance_km=km, interventions=n,
+            autonomy=autonomy(n, seconds), interventions_per_km=n / max(km, 1e-9),
+            mean_abs_offset_m=float(np.mean([d.mean_abs_offset_m for d in ds])),
+            max_abs_offset_m=float(max(d.max_abs_offset_m for d in ds)),
+            command_gamma_deg=float(np.mean([d.command_gamma_deg for d in ds]))))
     return out
 
 

@@ -3,6 +3,7 @@ drive --world track`, and every checkpoint's line on each track of the suite: `s
 
 from __future__ import annotations
 
+import csv
 from pathlib import Path
 
 import numpy as np
@@ -59,3 +60,25 @@ def plot_tracks(out: Path, drives: list, lane_width: float, expert: str) -> None
                 trajs[f"{d.label}: {d.clean_laps}/{d.laps} clean laps"] = Trajectory.read(
                     out / d.label / name / "trajectory.csv")
         plot_track(out / "tracks" / f"{name}.png", Track(seed, lane_width, style), trajs, f"{style} track {seed}")
+
+
+def plot_drives(out: Path, suites: dict[str, Path], o) -> None:
+    """An experiment's figure per track of the suite (`out/tracks/<style>-<seed>.png`): the expert's line and the
+    drive of every entry's seed-0 run (`suites`: the entry's label -> its run's suite folder), labelled with the
+    entry and its clean laps."""
+    (out / "tracks").mkdir(parents=True, exist_ok=True)
+    rows = {}
+    for label, suite in suites.items():
+        with open(suite / "suite.csv") as f:
+            rows[label] = list(csv.DictReader(f))
+    first = next(iter(suites.values()))
+    for style, seed in o.drives():
+        name = f"{style}-{seed}"
+        trajs = {"expert": Trajectory.read(first / o.expert_folder() / name / "trajectory.csv")}
+        for label, suite in suites.items():
+            for d in rows[label]:
+                if (d["style"], int(d["seed"])) == (style, seed):
+                    trajs[f"{label}: {d['clean_laps']}/{d['laps']} clean laps"] = Trajectory.read(
+                        suite / d["label"] / name / "trajectory.csv")
+        plot_track(out / "tracks" / f"{name}.png", Track(seed, o.drive_options(style, seed).lane_width, style), trajs,
+                   f"{style} track {seed}")

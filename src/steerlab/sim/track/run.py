@@ -120,8 +120,8 @@ def result_of(label: str, o: TrackDriveOptions, t: Trajectory, world: TrackWorld
     """A drive's `TrackDrive` from its trajectory and the world's laps (laps driven: fractions of a lap count)."""
     m = t.metrics(1.0 / o.fps)
     laps_driven = world.laps.progress / world.track.length
-    return TrackDrive(label, o.seed, o.style, o.lane_width, world.track.length, o.minutes, laps_driven,
-                      **world.laps.result(), off_track=m.interventions,
+    return TrackDrive(label=label, seed=o.seed, style=o.style, lane_width=o.lane_width, lap_m=world.track.length,
+                      minutes=o.minutes, laps_driven=laps_driven, **world.laps.result(), off_track=m.interventions,
                       off_track_per_lap=m.interventions / max(laps_driven, 1e-9),
                       off_track_per_km=m.interventions_per_km, autonomy=m.autonomy, distance_km=m.distance_km,
                       mean_speed=float(np.mean(t.speed)), mean_abs_offset_m=m.mean_abs_offset_m,
@@ -172,12 +172,11 @@ def drive(pilot, out: str | Path | None, o: TrackDriveOptions = TrackDriveOption
     return result
 
 
-def drive_checkpoint(checkpoint: str | Path, out: str | Path | None, o: TrackDriveOptions, w: DriveWith = DriveWith(),
-                     video: str | Path | None = None, progress: bool = True, on_tick=None, plot: bool = True,
-                     meta: dict | None = None) -> TrackDrive:
-    """`drive` with steerlab's donkeycar part on `checkpoint` (`core.part.donkey_pilot`: the constant throttle
-    `o.throttle` for a model that predicts none, its learned throttle times `o.throttle_scale` capped at
-    `o.max_throttle`, its steering shaped as `w` says)."""
+def checkpoint_pilot(checkpoint: str | Path, o, w: DriveWith = DriveWith()):
+    """steerlab's donkeycar part on `checkpoint` (`core.part.donkey_pilot`) as the options `o` of a drive or a suite
+    race it: the constant throttle `o.throttle` for a model that predicts none (refused for one that learned the
+    throttle), its learned throttle times `o.throttle_scale` capped at `o.max_throttle`, its steering shaped as `w`
+    says."""
     from steerlab.sim.core.part import donkey_pilot
 
     pilot = donkey_pilot(checkpoint, constant_throttle(o.throttle), w.smoothing, o.max_throttle,
@@ -186,7 +185,14 @@ def drive_checkpoint(checkpoint: str | Path, out: str | Path | None, o: TrackDri
         raise SteerlabError(f"{checkpoint} learned the throttle; --throttle {o.throttle:g} is the constant throttle of "
                             "a model that predicts none: leave it out (--throttle-scale and --max-throttle shape a "
                             "learned throttle)")
-    return drive(pilot, out, o, video, progress, on_tick, plot, meta)
+    return pilot
+
+
+def drive_checkpoint(checkpoint: str | Path, out: str | Path | None, o: TrackDriveOptions, w: DriveWith = DriveWith(),
+                     video: str | Path | None = None, progress: bool = True, on_tick=None, plot: bool = True,
+                     meta: dict | None = None) -> TrackDrive:
+    """`drive` with steerlab's donkeycar part on `checkpoint` (`checkpoint_pilot`)."""
+    return drive(checkpoint_pilot(checkpoint, o, w), out, o, video, progress, on_tick, plot, meta)
 
 
 def drive_expert(out: str | Path, o: TrackDriveOptions, on_tick=None, meta: dict | None = None) -> TrackDrive:
@@ -231,7 +237,7 @@ def rollout(pilot, out: str | Path, seed: int, minutes: float, style: str = "tap
                    progress=False, on_tick=on_tick, latency=latency,
                    choose=lambda t: expert["controls"] if rng.random() < beta else (t.model, t.throttle))
     tub.close()
-    return result_of(pilot.name, TrackDriveOptions(seed, minutes, fps, style=style), t, world)
+    return result_of(pilot.name, TrackDriveOptions(seed=seed, minutes=minutes, fps=fps, style=style), t, world)
 
 
 def rollout_job(checkpoint: str, out: str, seed: int, minutes: float, style: str, beta: float, camera: FisheyeCamera,

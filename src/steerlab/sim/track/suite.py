@@ -22,21 +22,26 @@ another's counts. `tracks/<style>-<seed>.png` draws every checkpoint's line on e
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable
 from dataclasses import astuple, dataclass
+from functools import partial
 from pathlib import Path
 
 import numpy as np
 
+from steerlab.data.car import CARS
 from steerlab.errors import SteerlabError
 from steerlab.options import MINUTES, Options, WORKERS, frames_held, frames_in, names_from, names_held, option
 from steerlab.paths import check_outputs
 from steerlab.pilot import DriveWith, smoothing_option, steering_step_option
 from steerlab.sim.core.driving import autonomy
 from steerlab.sim.core.parallel import tick_reporter
-from steerlab.sim.core.part import learns_throttle
-from steerlab.sim.core.suite import (Planned, as_stored, check_world_of, checkpoints_to_drive, file_sha256, grouped,
+from steerlab.sim.core.part import PartPilot, learns_throttle
+from steerlab.sim.core.suite import (Entrant, Planned, as_stored, check_world_of, close, entrants, file_sha256, grouped,
                                      run_drives, when_set, write_csv)
-from steerlab.sim.track.run import TrackDrive, drive_checkpoint, drive_expert
+from steerlab.sim.track import run
+from steerlab.sim.track.run import TrackDrive, drive_expert
 from steerlab.sim.track.world import (TrackDriveOptions, TrackRecordOptions, calibration_option, camera_of,
                                       constant_throttle, latency_option, max_throttle_option, throttle_option,
                                       throttle_scale_option)
@@ -77,7 +82,7 @@ class TrackSuiteOptions(Options):
             yield from names_held(v, "styles", TRACK_SUITES[v.suite]["tracks"], "track styles")
 
     @property
-    def track_minutes(self) -> float:
+    def place_minutes(self) -> float:
         return TRACK_SUITES[self.suite]["minutes"] if self.minutes is None else self.minutes
 
     def drives(self) -> list[tuple[str, int]]:
@@ -87,9 +92,10 @@ class TrackSuiteOptions(Options):
         return [(style, seed) for style in styles for seed in tracks[style]]
 
     def drive_options(self, style: str, seed: int) -> TrackDriveOptions:
-        return TrackDriveOptions(seed, self.track_minutes, FPS, 0.0, TRACK_SUITES[self.suite]["lane_width"], style,
-                                 self.calibration, self.throttle, self.max_throttle, self.latency,
-                                 self.throttle_scale)
+        return TrackDriveOptions(seed=seed, minutes=self.place_minutes, fps=FPS, limit_m=0.0,
+                                 lane_width=TRACK_SUITES[self.suite]["lane_width"], style=style,
+                                 calibration=self.calibration, throttle=self.throttle, max_throttle=self.max_throttle,
+                                 latency=self.latency, throttle_scale=self.throttle_scale)
 
     def expert_folder(self) -> str:
         """The folder of the expert's drives under this cap."""
@@ -99,18 +105,18 @@ class TrackSuiteOptions(Options):
         """The racing expert's recording of one track of the suite, to replay models on against their drives there
         (`run.record(..., suite_ok=True)`): the suite's track (its lane width and style) through this camera for
         the suite's minutes, without drift episodes."""
-        return TrackRecordOptions(seed=seed, minutes=self.track_minutes, drift=False,
+        return TrackRecordOptions(seed=seed, minutes=self.place_minutes, drift=False,
                                   lane_width=TRACK_SUITES[self.suite]["lane_width"], style=style,
                                   calibration=self.calibration)
 
-    def key(self, checkpoint: Path) -> dict:
-        """Everything that changes a drive's result besides its track: the checkpoint's content, the suite
+    def key(self, entrant: Entrant) -> dict:
+        """Everything that changes a drive's result besides its track: the pilot's identity, the suite
         version, minutes, smoothing, the constant throttle, the learned throttle's cap, the camera's calibration
         (its K and D), and where set the steering step, the latency and the throttle's scale (drives made before
         they existed stay reusable)."""
         camera = None if self.calibration is None else list(astuple(camera_of(self.calibration)))
-        return as_stored({"checkpoint_sha256": file_sha256(checkpoint), "suite": self.suite,
-                          "minutes": self.track_minutes, "smoothing": self.smoothing,
+        return as_stored({**entrant.identity, "suite": self.suite,
+                          "minutes": self.place_minutes, "smoothing": self.smoothing,
                           "throttle": constant_throttle(self.throttle),
                           "max_throttle": self.max_throttle, "camera": camera,
                           **when_set(self, "steering_step", "latency", "throttle_scale")})
@@ -169,48 +175,71 @@ class SuiteSummary:
     command_gamma_deg: float
 
 
-def _job(checkpoint: str | None, o: TrackSuiteOptions, style: str, seed: int, out: str, key: dict) -> TrackDrive:
-    """One drive of the suite: a checkpoint through the donkeycar part, or (None) the racing expert."""
+def checkpoint_pilot(checkpoint: str, o: TrackSuiteOptions) -> PartPilot:
+    """steerlab's donkeycar part on `checkpoint`, as the suite races it (`run.checkpoint_pilot`)."""
+    return run.checkpoint_pilot(checkpoint, o, DriveWith(o.smoothing, o.steering_step))
+
+
+def part_entrant(label: str, model: str | Path, make_part: Callable) -> Entrant:
+    """A donkeycar part as a pilot of the suite: `make_part()` makes the part (anything with `run(img_arr) ->
+    (angle, throttle)`; a module-level function or a partial of one) and `model` is the file it drives with, whose
+    sha256 is its identity. Its throttle reaches the car times the suite's `throttle_scale`, then capped at its
+    `max_throttle` (`race_part`)."""
+    return Entrant(label, str(model), {"model_sha256": file_sha256(Path(model))},
+                   partial(race_part, make_part, label, str(model)))
+
+
+def race_part(make_part: Callable, name: str, source: str, o: TrackSuiteOptions) -> PartPilot:
+    """The part of `make_part()` driving the track world's car under the suite's throttle scale and cap."""
+    return PartPilot(make_part(), CARS["donkey"].full_lock_deg, name=name, source=source,
+                     throttle_scale=o.throttle_scale, max_throttle=o.max_throttle)
+
+
+def _job(entrant: Entrant | None, o: TrackSuiteOptions, style: str, seed: int, out: str, key: dict) -> TrackDrive:
+    """One drive of the suite: an entrant's pilot, or (None) the racing expert."""
     d = o.drive_options(style, seed)
-    if checkpoint is None:
+    if entrant is None:
         return drive_expert(out, d, on_tick=tick_reporter(), meta={"cache_key": key})
-    return drive_checkpoint(checkpoint, out, d, DriveWith(o.smoothing, o.steering_step), progress=False,
-                            on_tick=tick_reporter(), plot=False, meta={"cache_key": key})
+    pilot = entrant.make(o)
+    try:
+        return run.drive(pilot, out, d, progress=False, on_tick=tick_reporter(), plot=False, meta={"cache_key": key})
+    finally:
+        close(pilot)
 
 
-def run_suite(checkpoints, out: str | Path, o: TrackSuiteOptions = TrackSuiteOptions(), progress: bool = True,
+def run_suite(pilots, out: str | Path, o: TrackSuiteOptions = TrackSuiteOptions(), progress: bool = True,
               plots: bool = True) -> list[SuiteSummary]:
-    """Drive every checkpoint (and the expert) on every track of the suite (or of the styles in `o.styles`);
-    write `suite.csv`, `summary.csv`, `suite.md` and, with `plots`, `tracks/<style>-<seed>.png`. Returns the
-    summary rows."""
-    return report(race(checkpoints, out, o, progress), out, o, plots)
+    """Drive every pilot (checkpoints, or `core.suite.Entrant`s: `part_entrant`) and the expert on every track of
+    the suite (or of the styles in `o.styles`); write `suite.csv`, `summary.csv`, `suite.md` and, with `plots`,
+    `tracks/<style>-<seed>.png`. Returns the summary rows."""
+    return report(race(pilots, out, o, progress), out, o, plots)
 
 
-def race(checkpoints, out: str | Path, o: TrackSuiteOptions, progress: bool = True) -> list[SuiteDrive]:
-    """Every checkpoint's drive of every track of the suite, with the expert's on the same track (under the same
+def race(pilots, out: str | Path, o: TrackSuiteOptions, progress: bool = True) -> list[SuiteDrive]:
+    """Every pilot's drive of every track of the suite, with the expert's on the same track (under the same
     cap): drives kept in `out/<label>/<style>-<seed>/` and reused."""
-    checkpoints, labels = checkpoints_to_drive(checkpoints)
-    check_outputs({"output folder": out}, inputs=checkpoints, kind="suite")
+    racing = entrants(pilots, checkpoint_pilot)
+    check_outputs({"output folder": out}, inputs=[e.source for e in racing], kind="suite")
     check_world_of(out, "track", "road", "road_type")
     tracks, out = o.drives(), Path(out)
-    taken = [c for c, label in zip(checkpoints, labels) if label.startswith(EXPERT)]
+    taken = [e.source for e in racing if e.label.startswith(EXPERT)]
     if taken:
         raise SteerlabError(f"{taken[0]}: its label begins with {EXPERT!r}, as the folders of the expert's drives do; "
                             "name it otherwise (its run folder)")
-    if o.throttle is not None and all(learns_throttle(c) for c in checkpoints):
+    checkpoints = [e.source for e in racing if "checkpoint_sha256" in e.identity]
+    if o.throttle is not None and checkpoints and all(learns_throttle(c) for c in checkpoints):
         raise SteerlabError(f"--throttle {o.throttle:g} is the constant throttle of a model that predicts none; every "
                             "checkpoint here learned its own: leave it out (--throttle-scale and --max-throttle "
                             "shape a learned throttle)")
-    expert_key = as_stored({"suite": o.suite, "minutes": o.track_minutes, "max_throttle": o.max_throttle})
-    runs = [(o.expert_folder(), None, expert_key),
-            *((label, str(c), o.key(c)) for label, c in zip(labels, checkpoints))]
+    expert_key = as_stored({"suite": o.suite, "minutes": o.place_minutes, "max_throttle": o.max_throttle})
+    runs = [(o.expert_folder(), None, expert_key), *((e.label, e, o.key(e)) for e in racing)]
     planned = [Planned((label, seed), out / label / f"{style}-{seed}", key,
-                       (ckpt, o, style, seed, str(out / label / f"{style}-{seed}"), key))
-               for label, ckpt, key in runs for style, seed in tracks]
-    rows = run_drives(_job, TrackDrive, planned, o.workers, frames_in(o.track_minutes, FPS), progress,
+                       (entrant, o, style, seed, str(out / label / f"{style}-{seed}"), key))
+               for label, entrant, key in runs for style, seed in tracks]
+    rows = run_drives(_job, TrackDrive, planned, o.workers, frames_in(o.place_minutes, FPS), progress,
                       f"track suite {o.suite}")
-    return [drive_row(rows[(label, seed)], rows[(o.expert_folder(), seed)], label, ckpt, style, seed)
-            for label, ckpt, _ in runs[1:] for style, seed in tracks]
+    return [drive_row(rows[(e.label, seed)], rows[(o.expert_folder(), seed)], e.label, e.source, style, seed)
+            for e in racing for style, seed in tracks]
 
 
 def report(drives: list[SuiteDrive], out: str | Path, o: TrackSuiteOptions, plots: bool = True) -> list[SuiteSummary]:
@@ -233,10 +262,13 @@ def drive_row(r: TrackDrive, expert: TrackDrive, label: str, checkpoint: str, st
     """A drive's row of suite.csv, with the expert's lap times on the same track and the pace, the ratio of the
     mean clean lap times (None without a clean lap)."""
     ratio = None if r.mean_lap_s is None or expert.mean_lap_s is None else r.mean_lap_s / expert.mean_lap_s
-    return SuiteDrive(label, checkpoint, style, seed, r.lap_m, r.minutes, r.laps_driven, r.laps, r.clean_laps,
-                      r.best_lap_s, r.mean_lap_s, expert.best_lap_s, expert.mean_lap_s, ratio, r.off_track,
-                      r.off_track_per_lap, r.off_track_per_km, r.autonomy, r.distance_km, r.mean_speed,
-                      r.mean_abs_offset_m, r.command_gamma_deg)
+    return SuiteDrive(label=label, checkpoint=checkpoint, style=style, seed=seed, lap_m=r.lap_m, minutes=r.minutes,
+                      laps_driven=r.laps_driven, laps=r.laps, clean_laps=r.clean_laps, best_lap_s=r.best_lap_s,
+                      mean_lap_s=r.mean_lap_s, expert_best_lap_s=expert.best_lap_s,
+                      expert_mean_lap_s=expert.mean_lap_s, pace=ratio, off_track=r.off_track,
+                      off_track_per_lap=r.off_track_per_lap, off_track_per_km=r.off_track_per_km, autonomy=r.autonomy,
+                      distance_km=r.distance_km, mean_speed=r.mean_speed, mean_abs_offset_m=r.mean_abs_offset_m,
+                      command_gamma_deg=r.command_gamma_deg)
 
 
 def summarize(drives: list[SuiteDrive]) -> list[SuiteSummary]:
@@ -255,11 +287,26 @@ def summarize(drives: list[SuiteDrive]) -> list[SuiteSummary]:
         laps_driven = sum(d.laps_driven for d in ds)
         seconds = sum(d.minutes * 60 for d in ds)
         paces = [d.pace for d in ds if (d.style, d.seed) in finished[style]]
-        out.append(SuiteSummary(label, style, len(ds), sum(d.pace is not None for d in ds), seconds / 60, km, laps,
-                                clean, 100 * clean / laps if laps else None, n, n / max(laps_driven, 1e-9),
-                                n / max(km, 1e-9), autonomy(n, seconds), float(np.mean(paces)) if paces else None,
-                                len(paces), float(np.mean([d.command_gamma_deg for d in ds]))))
+        out.append(SuiteSummary(
+            label=label, style=style, tracks=len(ds), finished=sum(d.pace is not None for d in ds),
+            minutes=seconds / 60, distance_km=km, laps=laps, clean_laps=clean,
+            clean_pct=100 * clean / laps if laps else None, off_track=n, off_track_per_lap=n / max(laps_driven, 1e-9),
+            off_track_per_km=n / max(km, 1e-9), autonomy=autonomy(n, seconds),
+            pace=float(np.mean(paces)) if paces else None, pace_tracks=len(paces),
+            command_gamma_deg=float(np.mean([d.command_gamma_deg for d in ds]))))
     return out
+
+
+def closed_loop_metrics(checkpoint: Path, o: TrackSuiteOptions, progress: bool, plots: bool = True) -> dict:
+    """A checkpoint on the track suite (drives kept in the `suite` folder beside it): autonomy over all tracks and
+    per style, clean laps in % of the laps (NaN without a lap), the pace (NaN without a finished track), off-track
+    events per lap and command gamma."""
+    summary = run_suite([checkpoint], checkpoint.parent / "suite", o, progress=progress, plots=plots)
+    a = next(s for s in summary if s.style == "all")
+    return {**{f"autonomy_{s.style}": s.autonomy for s in summary}, "autonomy": a.autonomy,
+            "clean_laps_pct": math.nan if a.clean_pct is None else a.clean_pct,
+            "lap_ratio": math.nan if a.pace is None else a.pace, "off_track_per_lap": a.off_track_per_lap,
+            "command_gamma_deg": a.command_gamma_deg}
 
 
 def round_columns(summary: list[SuiteSummary]) -> dict:
@@ -277,7 +324,7 @@ def _num(v, fmt: str) -> str:
 
 def markdown(summary: list[SuiteSummary], drives: list[SuiteDrive], o: TrackSuiteOptions) -> str:
     scaled = "" if o.throttle_scale == 1 else f" (the learned one times {o.throttle_scale:g} first)"
-    lines = [f"Track suite {o.suite}: {o.track_minutes:g} min per track, {TRACK_SUITES[o.suite]['lane_width']:g} m "
+    lines = [f"Track suite {o.suite}: {o.place_minutes:g} min per track, {TRACK_SUITES[o.suite]['lane_width']:g} m "
              f"lanes, the learned throttle and the expert's capped at {o.max_throttle:g}{scaled}, constant throttle "
              f"{constant_throttle(o.throttle):g} for models that predict none. A lap is clean without an off-track "
              "event (the first starts standing); a track is finished with a clean lap; pace: mean clean lap over the "

@@ -1,0 +1,62 @@
+"""The road world's registry entry (`core.entry.WorldEntry`, registered by `sim/worlds.py`): what the commands,
+DAgger, experiments and tuning use of it, and its own options of a `dagger:` section."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from steerlab.options import Options, option
+from steerlab.sim.core.entry import Column, WorldEntry
+from steerlab.sim.replay.run import ReplayOptions
+from steerlab.sim.road import run, suite
+from steerlab.sim.road.world import ROAD_CAMERAS, ROADS, DriveOptions, RecordOptions, _roads, road_types
+
+TYPES = tuple(t for k in suite.SUITES.values() for t in k["roads"])  # the suites' road types, in their order
+
+
+@dataclass(frozen=True)
+class RoadDaggerOptions(Options):
+    """The options of a `dagger:` section that only the road world takes."""
+
+    roads: str = option("mixed", _roads, ROADS, help="road world: road types of the rollouts")
+    suite_roads: str | None = option(None, help="road world: comma list of the suite's road types to drive "
+                                     "(default: all)")
+
+    suite_keys = {"roads": "suite_roads"}  # the round's suite options these set, and their names in `dagger:`
+    suite_places = "suite_roads"  # the one that picks the suite's places
+
+    def kinds(self) -> list[str]:
+        """The road types of a round's rollouts, one rollout of each."""
+        return road_types(self.roads)
+
+
+def _autonomy(types) -> tuple[str, ...]:
+    return tuple(f"autonomy_{t}" for t in dict.fromkeys(types))
+
+
+
+def plot_drives(out, suites: dict, o) -> None:
+    """An experiment's figures of its entries' seed-0 drives (`plots.plot_drives`)."""
+    from steerlab.sim.road.plots import plot_drives as plot  # matplotlib: imported where it draws
+
+    plot(out, suites, o)
+
+
+ENTRY = WorldEntry(
+    name="road", help="a full-size car on procedural roads", cameras=ROAD_CAMERAS,
+    record_options=RecordOptions, record=run.record,
+    drive_options=DriveOptions, drive=run.drive_checkpoint,
+    drive_files="trajectory.csv, path.png, frames.png, drive.json",
+    suite_options=suite.SuiteOptions, suites=suite.SUITES, suite=suite.run_suite, suite_figures="roads/*.png",
+    replay_options=ReplayOptions,
+    dagger_options=RoadDaggerOptions, rollout=run.rollout_job, rollout_camera=lambda rec: rec.geometry,
+    rollout_done="recording.json", round_columns=suite.round_columns,
+    dagger_columns=(*_autonomy(TYPES), "autonomy_all", "interventions_per_km"),
+    dagger_series=(*zip(_autonomy(TYPES), ("o-", "s-", "^-"), dict.fromkeys(TYPES)), ("autonomy_all", "k.--", "all")),
+    closed_loop_metrics=suite.closed_loop_metrics,
+    closed_loop_table=(Column(header="autonomy [%]", keys=("autonomy",), digits=1, std=True),
+                       Column(header=" / ".join(dict.fromkeys(TYPES)) + " [%]", keys=_autonomy(TYPES), digits=1),
+                       Column(header="interventions/km", keys=("interventions_per_km",), digits=2),
+                       Column(header="command gamma [deg]", keys=("command_gamma_deg",), digits=3)),
+    worst=Column(header="worst seed: " + " / ".join(dict.fromkeys(TYPES)) + " [%]", keys=_autonomy(TYPES), digits=1),
+    plot_drives=plot_drives)
