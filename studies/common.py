@@ -257,7 +257,7 @@ def replay_donkey(python: Path, car: Path, model: Path, kind: str, tub: Path, b:
     from steerlab.data.readers import Source
     from steerlab.sim.core.part import PartPilot
     from steerlab.sim.replay.run import replay_recording
-    from steerlab.sim.replay.track import TrackReplayOptions
+    from steerlab.sim.track.replay import TrackReplayOptions
 
     rec = Source(str(tub), reader=READER).open()
     replay = TrackReplayOptions(workers=1).setup(rec).replay

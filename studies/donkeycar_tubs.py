@@ -44,7 +44,7 @@ from steerlab.cli import run_script, script_parser
 from steerlab.data.readers import Source
 from steerlab.evaluate.offline import evaluate
 from steerlab.sim.replay.run import run_replay
-from steerlab.sim.replay.track import TrackReplayOptions
+from steerlab.sim.track.replay import TrackReplayOptions
 from steerlab.train.config import load_config
 from steerlab.models import list_models
 from steerlab.options import AT_LEAST_1, names_from, names_held, option

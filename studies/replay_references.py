@@ -29,7 +29,7 @@ from steerlab.data.geometry import CAMERAS
 from steerlab.options import SPEED, Options, option
 from steerlab.pilot import Controls, Pilot
 from steerlab.sim.replay.run import replay_recording
-from steerlab.sim.replay.track import TrackReplay
+from steerlab.sim.track.replay import TrackReplay
 from steerlab.sim.replay.world import Replay
 from steerlab.sim.track.world import lane_width_option
 from studies.common import machine

@@ -129,7 +129,7 @@ def replay(ckpts: list[Path], recs: dict, out: Path, workers: int, mode: str) ->
     """Every checkpoint on every expert recording (the speed as `speed_options(mode)`, the suite's lane width);
     per checkpoint interventions over the laps the replayed car covers, summed over the tracks."""
     from steerlab.data.readers import Source
-    from steerlab.sim.replay.track import TrackReplayOptions
+    from steerlab.sim.track.replay import TrackReplayOptions
     from steerlab.sim.track.track import Track
 
     labels = labels_for(ckpts)

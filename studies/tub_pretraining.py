@@ -24,7 +24,7 @@ from steerlab.data.readers import Source
 from steerlab.evaluate.offline import evaluate
 from steerlab.options import names_from
 from steerlab.sim.replay.run import run_replay
-from steerlab.sim.replay.track import TrackReplayOptions
+from steerlab.sim.track.replay import TrackReplayOptions
 from steerlab.train.config import load_config
 from steerlab.train.loop import train
 from studies.common import (FULL_LOCK_DEG, READER, ROOT, TUB_NAMES, TUBS, TubStudy, blocks, donkey_or_skip, machine,

@@ -132,12 +132,10 @@ def test_recording_layouts_sit_below_the_dispatcher():
 # its registry entry and replay flavour), and the registry of worlds on top; a room imports only from its own level
 # and the levels below
 SIM_LEVELS = [["core"], ["replay"], ["road", "track"], ["worlds"]]
-# replay/track.py: the alias of track/replay.py under its earlier path, kept for the studies that import it there
-ALIASES = {"sim.replay.track": "track"}
 
 
 def room_of(module: str) -> str:
-    return ALIASES.get(module, module.split(".")[1])
+    return module.split(".")[1]
 
 
 def sim_level(module: str) -> int:
@@ -169,7 +167,6 @@ def test_sim_rooms_import_down_and_the_worlds_not_each_other():
         "sim.track.world imports sim.road.world: the worlds stand side by side",
         "sim.core.driving imports sim.replay.run, a room above it",
         "sim.replay.run imports sim.track.world, a room above it"]
-    assert not [m for m, deps in modules().items() for d in deps if d in ALIASES]  # nothing in steerlab uses an alias
     assert {p.name for p in (PACKAGE / "sim").iterdir() if p.is_dir() and p.name != "__pycache__"} == \
         {room for rooms in SIM_LEVELS for room in rooms if room != "worlds"}
 
