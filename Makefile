@@ -1,14 +1,22 @@
 # Two entry points for a fresh machine: `make demo` (the main job) and `make test`.
 # `make demo` installs steerlab with its runtime only; `make test` adds every extra and the test tools. Both install
-# the versions of constraints.txt, the ones the suite last passed with (`make lock` refreshes them).
+# the versions of constraints.txt, the lock of pyproject.toml (`make lock` writes it), with uv.
 PYTHON ?= python3
 MIN_PYTHON := 3.11# the same as requires-python in pyproject.toml
 VENV := .venv
 BIN := $(VENV)/bin
-# Packages are installed without byte-compiling (half the install time); Python writes each module's bytecode
-# when it is first imported, also where the environment says PYTHONDONTWRITEBYTECODE.
+UV := $(BIN)/uv
+UV_VERSION := 0.13.8
+# uv installs without byte-compiling (half the install time); Python writes each module's bytecode when it is first
+# imported, also where the environment says PYTHONDONTWRITEBYTECODE.
 export PYTHONDONTWRITEBYTECODE =
-INSTALL := $(BIN)/python -m pip install --quiet --no-compile --constraint constraints.txt
+# uv reads no pip.conf: it is given the index, the extra indexes and the wheel folders pip is configured with (`pip
+# config list`; a machine's wheel folder may hold torch's CPU build) and takes the best match across them, as pip
+# does; it works for .venv's python and never downloads a Python of its own.
+UV_ENV = eval "$$($(BIN)/python -m pip config list | sed -n -e 's/^[^.]*\.index-url=/export UV_DEFAULT_INDEX=/p' \
+	-e 's/^[^.]*\.extra-index-url=/export UV_INDEX=/p' -e 's/^[^.]*\.find-links=/export UV_FIND_LINKS=/p')"; \
+	export UV=$(UV) UV_PYTHON=$(BIN)/python UV_PYTHON_DOWNLOADS=never UV_INDEX_STRATEGY=unsafe-best-match;
+INSTALL = $(UV_ENV) $(UV) pip install --quiet --constraint constraints.txt
 
 .PHONY: install demo test docs check-deps lock bench clean rebuild
 
@@ -19,14 +27,16 @@ PYTHON_VERSION = $(call version_of,$(PYTHON))
 check_python = $(if $(PYTHON_VERSION),,$(error steerlab needs Python $(MIN_PYTHON) or newer (tested on 3.11, 3.12 and 3.13); PYTHON=$(PYTHON) is $(or $(shell $(PYTHON) -c 'import platform; print("Python", platform.python_version())' 2>/dev/null),not a Python that runs)))
 
 # The .venv is used only as make leaves it. One that make did not finish making, whose last install did not finish
-# (.venv/.installing stays from the start of an install to its end, as after Ctrl-C), whose python does not run, or
-# made with another Python than a PYTHON given to make, is made anew, with one line saying why.
+# (.venv/.installing stays from the start of an install to its end, as after Ctrl-C), whose python does not run,
+# without uv (made before make installed with uv), or made with another Python than a PYTHON given to make, is made
+# anew, with one line saying why.
 ifneq ($(wildcard $(VENV)),)
 ifeq ($(wildcard $(VENV)/.made),)
 WHY := it was not made by make, or its making did not finish
 else
 VENV_VERSION := $(call version_of,$(BIN)/python)
 WHY := $(if $(wildcard $(VENV)/.installing),its last install did not finish,$(if $(VENV_VERSION),,its python does not run))
+WHY := $(or $(WHY),$(if $(wildcard $(UV)),,it has no uv))
 ifneq ($(origin PYTHON),file)
 $(check_python)
 WHY := $(or $(WHY),$(if $(filter $(VENV_VERSION),$(PYTHON_VERSION)),,it has Python $(VENV_VERSION), PYTHON=$(PYTHON) is $(PYTHON_VERSION)))
@@ -42,13 +52,13 @@ $(VENV)/.made: $(REBUILD)
 	$(check_python)
 	rm -rf $(VENV)
 	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet uv==$(UV_VERSION)
 	touch $@
 
-# steerlab with $(1) ("." or ".[test]") installed in one pip run, then the modules $(2) and $(3) imported once, the
+# steerlab with $(1) ("." or ".[test]") installed in one uv run, then the modules $(2) and $(3) imported once, the
 # two lists side by side (which also writes their bytecode); .venv/.installing marks an install that has not finished.
 define install
 	touch $(VENV)/.installing
-	$(INSTALL) --upgrade pip
 	$(INSTALL) -e '$(1)'
 	$(BIN)/python -W ignore -c 'import $(2)' & pid=$$!; $(BIN)/python -W ignore -c 'import $(3)' && wait $$pid
 	rm $(VENV)/.installing
@@ -87,16 +97,18 @@ $(VENV)/.docs: pyproject.toml constraints.txt $(REBUILD) | $(VENV)/.runtime
 docs: $(VENV)/.docs
 	NO_MKDOCS_2_WARNING=1 $(BIN)/python -m mkdocs build --strict
 
-# That the runtime, each extra and the test set resolve on every supported Python (and the runtime on aarch64),
-# by pip's own rules, with pyproject.toml's ranges and with constraints.txt: dry runs, no install.
-check-deps: $(VENV)/.runtime
-	$(BIN)/python .ci/resolve_check.py
+# That constraints.txt is pyproject.toml's lock, and that the runtime and the test set resolve on every supported
+# Python for x86-64 and aarch64 Linux, with pyproject.toml's ranges and with constraints.txt: uv's dry runs from
+# wheels only, nothing installed (.ci/deps.sh).
+check-deps: $(VENV)/.made
+	$(UV_ENV) sh .ci/deps.sh check
 
-# constraints.txt anew for PYTHON (make lock PYTHON=python3.12, ...): the newest versions pyproject.toml allows
-# (torch stays at its pinned build), installed in a separate venv; written only when the suite passes there.
-lock:
-	$(check_python)
-	sh .ci/lock.sh $(PYTHON)
+# constraints.txt anew, for every Python and platform at once (.ci/deps.sh): the pins already there kept where they
+# still fit pyproject.toml, or with UPGRADE=1 the newest versions its ranges allow (torch stays at its pin); then the
+# test suite with them. Review the diff and commit it when the suite passed (on 3.12, 3.13: make test PYTHON=...).
+lock: $(VENV)/.made
+	$(UV_ENV) sh .ci/deps.sh lock $(if $(UPGRADE),--upgrade)
+	$(MAKE) test
 
 bench: $(VENV)/.test  # the timings of benchmarks/ (the experiments of studies/ run one by one, some for hours)
 	for b in benchmarks/bench_*.py; do $(BIN)/python -m benchmarks.$$(basename $$b .py) || exit 1; done

@@ -1,8 +1,8 @@
-"""The install: the Python versions make and pip accept, the resolve check's pip arguments, constraints.txt's
-format, and make's handling of an unsupported Python and of a broken .venv (in a copy of the Makefile: nothing is
-installed)."""
+"""The install: the Python versions make and pip accept, the lock and the dependency check (.ci/deps.sh, with a uv
+that only logs), constraints.txt's pins, and make's handling of an unsupported Python and of a broken .venv (in a copy
+of the Makefile: nothing is installed)."""
 
-import importlib.util
+import json
 import os
 import re
 import shutil
@@ -12,15 +12,9 @@ import tomllib
 from pathlib import Path
 
 import pytest
+from packaging.requirements import Requirement
 
 ROOT = Path(__file__).resolve().parents[1]
-
-
-def load(name: str):
-    spec = importlib.util.spec_from_file_location(name, ROOT / ".ci" / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def pyproject() -> dict:
@@ -34,68 +28,125 @@ def test_make_and_pip_accept_the_same_pythons():
     assert sys.version_info[:2] >= tuple(map(int, minimum.split(".")))  # this suite runs on one of them
 
 
-def test_resolve_check_asks_pip_for_each_python_and_platform(tmp_path):
-    check = load("resolve_check")
-    args = check.pip_args("3.13", "aarch64", "steerlab[tune]", tmp_path / "w", tmp_path / "c.txt", tmp_path / "r.json")
-    assert args[:2] == ["install", "--dry-run"] and args[-1] == "steerlab[tune]"
+FAKE_UV = """#!{python}
+import json, os, sys
+args = sys.argv[1:]
+held = open(args[args.index("--constraint") + 1]).read() if "--universal" in args else None
+with open(os.environ["UV_LOG"], "a") as log:
+    log.write(json.dumps([args, held]) + "\\n")
+out = args[args.index("--output-file") + 1]
+if "--universal" in args:
+    open(out, "w").write(os.environ["UV_LOCK"])
+elif os.environ["UV_FAIL"] in " ".join(args):
+    sys.exit("error: no wheel of torch==2.13.0 for manylinux_2_28_aarch64")
+else:
+    open(out, "w").write("# header\\ntorch==2.13.0\\nnumpy==2.5.5 ; python_full_version >= '3.12'\\n")
+"""
+
+
+def deps(tmp_path, *args, lock="torch==2.13.0\n", fail="no such target"):
+    """.ci/deps.sh ARGS in a copy of the project whose constraints.txt pins torch, with a uv that logs its arguments
+    (and the torch pin a universal resolution holds), writes `lock` for a universal resolution and fails a dry run
+    whose arguments hold `fail`: the run and [(uv's arguments, the held pin)]."""
+    (tmp_path / ".ci").mkdir()
+    shutil.copy(ROOT / ".ci" / "deps.sh", tmp_path / ".ci" / "deps.sh")
+    shutil.copy(ROOT / "pyproject.toml", tmp_path / "pyproject.toml")
+    (tmp_path / "constraints.txt").write_text("# make lock\ntorch==2.13.0\n")
+    uv = tmp_path / "uv"
+    uv.write_text(FAKE_UV.format(python=sys.executable))
+    uv.chmod(0o755)
+    env = {**os.environ, "UV": str(uv), "UV_LOG": str(tmp_path / "log"), "UV_LOCK": lock, "UV_FAIL": fail}
+    run = subprocess.run(["sh", str(tmp_path / ".ci" / "deps.sh"), *args], capture_output=True, text=True, env=env)
+    calls = [json.loads(line) for line in (tmp_path / "log").read_text().splitlines()]
+    return run, calls
+
+
+def test_lock_is_one_universal_resolution_with_torch_held(tmp_path):
+    run, calls = deps(tmp_path, "lock", "--upgrade", lock="# make lock\nnumpy==2.4.6 ; python_full_version < '3.12'\n")
+    assert run.returncode == 0, run.stdout + run.stderr
+    [(args, held)] = calls
+    assert args[:2] == ["pip", "compile"] and args[-1] == "pyproject.toml"
     options = list(zip(args, args[1:]))
-    for pair in [("--python-version", "3.13"), ("--implementation", "cp"), ("--abi", "cp313"),
-                 ("--find-links", str(tmp_path / "w")), ("--constraint", str(tmp_path / "c.txt"))]:
+    for pair in [("--python-version", "3.11"), ("--extra", "test"), ("--output-file", "constraints.txt"),
+                 ("--custom-compile-command", "make lock")]:
         assert pair in options
-    assert "--only-binary=:all:" in args and "--ignore-installed" in args
-    platforms = [b for a, b in options if a == "--platform"]
-    assert "manylinux_2_28_aarch64" in platforms and "manylinux2014_aarch64" in platforms
-    assert all(p.endswith("_aarch64") for p in platforms)
-    assert "--constraint" not in check.pip_args("3.11", "x86_64", "steerlab", tmp_path, None, tmp_path / "r.json")
-    # every extra, the runtime and the test set on x86-64; the runtime on aarch64
-    extras = set(pyproject()["project"]["optional-dependencies"])
-    assert set(check.sets("x86_64")) == {"steerlab"} | {f"steerlab[{e}]" for e in extras}
-    assert check.sets("x86_64")[-1] == "steerlab[test]" and check.sets("aarch64") == ["steerlab"]
-    assert check.PYTHONS == ("3.11", "3.12", "3.13")
+    assert "--universal" in args and "--upgrade" in args and held == "torch==2.13.0\n"
+    assert (tmp_path / "constraints.txt").read_text() == "# make lock\nnumpy==2.4.6 ; python_full_version < '3.12'\n"
+    again = tmp_path / "again"
+    again.mkdir()
+    _, calls = deps(again, "lock")
+    assert "--upgrade" not in calls[0][0]  # without it, the pins there are kept where they fit
+
+
+def test_check_resolves_each_python_and_platform_from_wheels(tmp_path):
+    run, calls = deps(tmp_path, "check", lock="# make lock\ntorch==2.13.0\n")
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert "--universal" in calls[0][0] and calls[0][1] == "torch==2.13.0\n"  # the lock, written anew: the same
+    runs = {}
+    for args, _ in calls[1:]:
+        options = dict(zip(args, args[1:]))
+        assert "--universal" not in args and "--only-binary" in args and options["--only-binary"] == ":all:"
+        assert options["--no-binary"] == "docopt"  # pure Python, an sdist only
+        key = (options["--python-version"], options["--python-platform"], options.get("--constraint"))
+        runs[key] = options.get("--extra")
+    assert set(runs) == {(python, f"{arch}-manylinux_2_28", constraints) for python in ("3.11", "3.12", "3.13")
+                         for arch in ("x86_64", "aarch64") for constraints in (None, "constraints.txt")}
+    assert all(extra == ("test" if platform.startswith("x86_64") else None) for (_, platform, _), extra in runs.items())
+    lines = run.stdout.splitlines()
+    assert lines[0].startswith("ok     constraints.txt is pyproject.toml's lock") and len(lines) == 14
+    assert re.fullmatch(r"ok     Python 3\.11 x86_64  ranges          the test set: 2 packages "
+                        r"\(torch==2\.13\.0 numpy==2\.5\.5\), \d+ s", lines[1]), lines[1]
+    assert lines[-1].startswith("dependency check: every set resolves on Python 3.11 3.12 3.13")
+
+
+def test_check_names_what_fails(tmp_path):
+    run, _ = deps(tmp_path, "check", lock="# make lock\ntorch==2.14.0\n", fail="3.13 --python-platform aarch64")
+    assert run.returncode == 1
+    assert "FAILED constraints.txt is not pyproject.toml's lock (make lock writes it):" in run.stdout
+    assert "    -torch==2.13.0" in run.stdout and "    +torch==2.14.0" in run.stdout  # the diff make lock would make
+    assert "FAILED Python 3.13 aarch64 ranges          the runtime does not resolve:" in run.stdout
+    assert "    error: no wheel of torch==2.13.0 for manylinux_2_28_aarch64" in run.stdout
+    assert run.stderr.startswith("dependency check FAILED (")
+    assert run.stderr.rstrip().endswith(
+        "s): the lock; Python 3.13 aarch64 (ranges); Python 3.13 aarch64 (constraints.txt)")
 
 
 def test_the_test_set_holds_every_extra():
-    """The resolve check resolves the test set alone when it passes: each extra must be part of it."""
+    """The check resolves the test set alone on x86-64: each extra must be part of it."""
     extras = pyproject()["project"]["optional-dependencies"]
     inner = next(r for r in extras["test"] if r.startswith("steerlab["))
     assert set(inner[len("steerlab["):-1].split(",")) == set(extras) - {"test"}
 
 
-def test_lock_merges_one_python_and_marks_what_differs(tmp_path):
-    lock = load("lock")
-    path = tmp_path / "constraints.txt"
-    (tmp_path / "f311").write_text("numpy==2.4.6\nDocOpt==0.6.2\ntorch==2.13.0+cpu\npip==26.3\nsetuptools==65.5.0\n")
-    (tmp_path / "f313").write_text("numpy==2.5.5\ntorch==2.13.0\npip==26.3\n")
-    lock.merge(path, "3.11", tmp_path / "f311")
-    rows = [line for line in path.read_text().splitlines() if not line.startswith("#")]
-    assert rows == ['docopt==0.6.2; python_version == "3.11"', 'numpy==2.4.6; python_version == "3.11"',
-                    'pip==26.3; python_version == "3.11"', "torch==2.13.0"]  # 3.13 not locked yet: held to torch
-    lock.merge(path, "3.13", tmp_path / "f313")
-    rows = [line for line in path.read_text().splitlines() if not line.startswith("#")]
-    assert rows == ['docopt==0.6.2; python_version == "3.11"', 'numpy==2.4.6; python_version == "3.11"',
-                    'numpy==2.5.5; python_version == "3.13"', "pip==26.3", "torch==2.13.0"]
-    assert "# pythons: 3.11 3.13" in path.read_text()
-    (tmp_path / "f313b").write_text("numpy==2.4.6\ntorch==2.13.0\npip==26.3\n")  # 3.13 refreshed: the same numpy
-    lock.merge(path, "3.13", tmp_path / "f313b")
-    rows = [line for line in path.read_text().splitlines() if not line.startswith("#")]
-    assert rows == ['docopt==0.6.2; python_version == "3.11"', "numpy==2.4.6", "pip==26.3", "torch==2.13.0"]
-    assert lock.hold(path) == "torch==2.13.0\n"
+def pins(python: str, machine: str) -> dict[str, list[str]]:
+    """constraints.txt's pins that hold on CPython `python` (3.11.7) on Linux `machine`: {package: [versions]}."""
+    env = {"python_version": python.rsplit(".", 1)[0], "python_full_version": python, "platform_machine": machine,
+           "sys_platform": "linux", "implementation_name": "cpython", "platform_system": "Linux", "os_name": "posix"}
+    found: dict[str, list[str]] = {}
+    for line in (ROOT / "constraints.txt").read_text().splitlines():
+        if line.strip() and not line.startswith("#"):
+            requirement = Requirement(line)
+            if requirement.marker is None or requirement.marker.evaluate(env):
+                found.setdefault(requirement.name, []).append(str(requirement.specifier))
+    return found
 
 
-def test_constraints_pin_torch_and_what_pyproject_pins_exactly():
-    """torch's CPU build for every Python; each exact pin of pyproject.toml (the simulator's python-socketio and
-    python-engineio) at that version for every Python constraints.txt was locked on."""
-    lock = load("lock")
-    text = (ROOT / "constraints.txt").read_text()
-    assert re.search(r"^torch==2\.13\.0$", text, re.M)
-    pythons, pins = lock.read(ROOT / "constraints.txt")
-    assert set(pythons) <= {"3.11", "3.12", "3.13"}
+@pytest.mark.parametrize("python", ["3.11.0", "3.11.7", "3.12.0", "3.13.0"])
+@pytest.mark.parametrize("machine", ["x86_64", "aarch64"])
+def test_constraints_pin_one_version_of_each_package_for_each_python(python, machine):
+    """One pin of each package wherever it is installed; torch's release (its CPU or CUDA build by the index); each
+    exact pin of pyproject.toml (the simulator's python-socketio and python-engineio) as it is there."""
+    found = pins(python, machine)
+    assert all(len(versions) == 1 and versions[0].startswith("==") for versions in found.values()), found
+    assert found["torch"] == ["==2.13.0"]
     project = pyproject()["project"]
     exact = [r.split(";")[0].split("==") for r in [*project["dependencies"],
                                                       *sum(project["optional-dependencies"].values(), [])] if "==" in r]
     assert ["python-socketio", "4.6.1"] in exact and ["python-engineio", "3.14.2"] in exact
     for name, version in exact:
-        assert pins.get(name, {}) == {python: version for python in pythons}, name
+        assert found[name] == [f"=={version}"], name
+    # pymdown-extensions 13 needs Python 3.11.5: the lock holds 12.3 for the 3.11 releases before it
+    assert found["pymdown-extensions"] == (["==12.3"] if python == "3.11.0" else ["==13.1.2"])
 
 
 @pytest.fixture
@@ -130,12 +181,14 @@ def test_make_refuses_an_old_or_missing_python_in_one_line(project, tmp_path):
 
 
 @pytest.mark.skipif(shutil.which("make") is None, reason="make is not installed")
-@pytest.mark.parametrize("state", ["interrupted", "python gone", "other python", "not made by make"])
+@pytest.mark.parametrize("state", ["interrupted", "python gone", "no uv", "other python", "not made by make"])
 def test_make_rebuilds_a_broken_venv_and_says_why(project, state):
     venv = project / ".venv"
     (venv / "bin").mkdir(parents=True)
     if state != "not made by make":
         (venv / ".made").touch()
+    if state != "no uv":  # as a .venv made before make installed with uv
+        (venv / "bin" / "uv").touch()
     (venv / ".runtime").touch()
     python = venv / "bin" / "python"
     if state == "python gone":
@@ -149,14 +202,18 @@ def test_make_rebuilds_a_broken_venv_and_says_why(project, state):
         (venv / ".installing").touch()  # make writes it before an install and removes it after the smoke test
     run = make(project, "demo", *([f"PYTHON={sys.executable}"] if state == "other python" else []))
     why = {"interrupted": "its last install did not finish", "python gone": "its python does not run",
-           "other python": f"it has Python 3.99, PYTHON={sys.executable} is {sys.version_info[0]}.{sys.version_info[1]}",
+           "no uv": "it has no uv",
+           "other python": f"it has Python 3.99, PYTHON={sys.executable} is {'%d.%d' % sys.version_info[:2]}",
            "not made by make": "it was not made by make, or its making did not finish"}[state]
     lines = run.stdout.splitlines()
     assert lines[0] == f".venv: {why}; making it anew", run.stdout + run.stderr
     python = sys.executable if state == "other python" else "python3"
-    assert lines[1:6] == ["rm -rf .venv", f"{python} -m venv .venv", "touch .venv/.made", "touch .venv/.installing",
-                          ".venv/bin/python -m pip install --quiet --no-compile --constraint constraints.txt "
-                          "--upgrade pip"], run.stdout
+    assert lines[1:6] == ["rm -rf .venv", f"{python} -m venv .venv",
+                          ".venv/bin/python -m pip install --quiet uv==0.13.8", "touch .venv/.made",
+                          "touch .venv/.installing"], run.stdout
+    install = lines[6].split("; ")  # uv, told where pip is configured to look
+    assert install[0].startswith('eval "$(.venv/bin/python -m pip config list | sed -n ')
+    assert install[-1] == ".venv/bin/uv pip install --quiet --constraint constraints.txt -e '.'", run.stdout
     assert lines[-1] == ".venv/bin/steerlab demo --out runs/demo"
     assert (venv / ".runtime").exists()  # make -n changes nothing
 
@@ -166,6 +223,7 @@ def test_make_uses_a_finished_venv_as_it_is(project):
     venv = project / ".venv"
     (venv / "bin").mkdir(parents=True)
     (venv / "bin" / "python").symlink_to(sys.executable)
+    (venv / "bin" / "uv").touch()
     for stamp in (".made", ".runtime"):
         (venv / stamp).touch()
     run = make(project, "demo")
