@@ -126,7 +126,8 @@ def round_suite(o: DaggerOptions):
     world = WORLDS[o.world]
     if o.suite and o.suite not in world.suites:
         raise SteerlabError(f"dagger.suite: {o.suite} is a {suite_world(o.suite).name} suite; world {o.world} "
-                            f"drives a {o.world} suite ({', '.join(world.suites)}) or none (null)")
+                            f"drives a {o.world} suite ({', '.join(world.suites)}) or none (null): set it to one of "
+                            "them")
     given = {"suite": o.suite, "minutes": o.suite_minutes, "workers": o.workers,
              world.kinds: getattr(o, f"suite_{world.kinds}")}
     if "max_throttle" in {f.name for f in fields(world.suite_options)}:

@@ -130,7 +130,7 @@ class SteerlabPilot:
         self.max_throttle = _check("max_throttle", max_throttle, 0.0, 1.0, low_open=True)  # 0: the car never moves
         if {"speed", "command"} & set(self.pilot.targets) and self.throttle > self.max_throttle:
             raise SteerlabError(f"SteerlabPilot: the cruising throttle {self.throttle:g} exceeds max_throttle "
-                                f"{self.max_throttle:g}")
+                                f"{self.max_throttle:g}: lower the throttle or raise max_throttle")
         self.speed_control = SpeedControl(_check("kp", kp, 0.0, 10.0), _check("ki", ki, 0.0, 10.0), self.throttle,
                                           0.0, self.max_throttle)
         self.command_step = _check("command_step", command_step, 0.0, 1.0)

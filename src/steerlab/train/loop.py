@@ -288,7 +288,8 @@ def build(cfg: TrainConfig, ranks: Ranks, progress: bool, init: dict | None, tea
     if model.recurrent:
         samples = sequence_windows(train_codes, data.starts, model.seq_len)
         if len(samples) == 0:
-            raise SteerlabError(f"no training window of {model.seq_len} consecutive frames in one segment")
+            raise SteerlabError(f"no training window of {model.seq_len} consecutive frames in one segment: "
+                            "lower model.seq_len")
     repeats = None
     if t.recovery_weight > 1:
         episodes = data.episodes()

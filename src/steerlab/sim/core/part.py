@@ -33,7 +33,8 @@ class PartPilot:
     def __init__(self, part, full_lock_deg: float, name: str | None = None, geometry: str | None = "donkey",
                  source: str | None = None, with_speed: bool = False):
         if not callable(getattr(part, "run", None)):
-            raise SteerlabError(f"{type(part).__name__} is not a donkeycar part: it has no run(img_arr)")
+            raise SteerlabError(f"{type(part).__name__} is not a donkeycar part: it has no run(img_arr); "
+                                "give a part that has one")
         if not 0 < full_lock_deg < 90:
             raise SteerlabError(f"full_lock_deg must lie in (0, 90) degrees, got {full_lock_deg}")
         self.part, self.with_speed = part, with_speed

@@ -49,7 +49,7 @@ def checkpoints_to_drive(checkpoints) -> tuple[list[Path], list[str]]:
         raise SteerlabError("no checkpoint to drive: name at least one")
     for c in checkpoints:
         if not c.is_file():
-            raise SteerlabError(f"{c}: checkpoint not found")
+            raise SteerlabError(f"{c}: checkpoint not found: check the path")
     return checkpoints, labels_for(checkpoints)
 
 

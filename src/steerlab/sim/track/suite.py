@@ -198,9 +198,9 @@ def race(checkpoints, out: str | Path, o: TrackSuiteOptions, progress: bool = Tr
         raise SteerlabError(f"{taken[0]}: its label begins with {EXPERT!r}, as the folders of the expert's drives do; "
                             "name it otherwise (its run folder)")
     if o.throttle is not None and all(learns_throttle(c) for c in checkpoints):
-        raise SteerlabError(f"--throttle {o.throttle:g} is the constant throttle of a model that predicts none; every "
-                            "checkpoint here learned its own: leave it out (--throttle-scale and --max-throttle "
-                            "shape a learned throttle)")
+        raise SteerlabError(f"the throttle {o.throttle:g} (steerlab sim bench --throttle) is the constant throttle "
+                            "of a model that predicts none; every checkpoint here learned its own: leave it out "
+                            "(throttle_scale and max_throttle shape a learned throttle)")
     expert_key = as_stored({"suite": o.suite, "minutes": o.track_minutes, "max_throttle": o.max_throttle})
     runs = [(o.expert_folder(), None, expert_key),
             *((label, str(c), o.key(c)) for label, c in zip(labels, checkpoints))]
