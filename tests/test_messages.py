@@ -23,12 +23,11 @@ from steerlab.cli import Parser, build_parser, data, driving, main, training
 SRC = Path(steerlab.__file__).parent
 ERRORS = {"SteerlabError", "DataError"}
 
-# A fix is either an instruction (a verb of this list opening a clause: after the start, ":", ";", "(", ",",
-# or "or"/"and"/"then"/"to") or a statement of what is expected ("expected ...", "must ...", "one of ...").
-VERBS = ("give|use|choose|name|remove|delete|rename|move|copy|set|add|pass|leave|drop|keep|quote|save|write|fix|"
-         "run|rerun|record|train|export|calibrate|replay|evaluate|time|install|pip|free|lower|raise|wait|resume|"
-         "start|convert|make|check|split|point")
-FIX = re.compile(rf"(?:^|[:;(,]\s*|\b(?:or|and|then|to)\s+)(?:{VERBS})\b"
+# A fix is either an instruction (a verb of this list opening a clause: after ":", ";", "(", "," or "or"/"and"/"then",
+# and not a config key such as train.lr) or a statement of what is expected ("expected ...", "must ...", "one of ...").
+VERBS = ("give|use|choose|name|remove|delete|copy|set|add|pass|leave|keep|quote|save|write|fix|make|convert|check|"
+         "run|record|train|pretrain|export|calibrate|replay|evaluate|time|split|install|pip|free|lower|raise|wait|start")
+FIX = re.compile(rf"(?:[:;(,]\s*|\b(?:or|and|then)\s+)(?:{VERBS})\b(?![.(_=])"
                  r"|\b(?:expected|expects?|must|needs?|takes?|one of|known:|available:|at least|at most|e\.g\.)",
                  re.I)
 FLAG = re.compile(r"(?<![\w-])--[a-z][a-z0-9-]*")
@@ -98,7 +97,8 @@ def test_the_fix_rule():
                  "the split must be a mapping", "unknown options {}; known: {}", "remove the line or fix its JSON"):
         assert FIX.search(good), good
     for bad in ("the label file is empty", "the frame name {} is not a name", "cannot decode image (corrupt)",
-                "the training run failed", "a data set of {} frames", "only {} frames"):
+                "the training run failed", "a data set of {} frames", "only {} frames", "train split {} overlaps",
+                "(train.lr {} may be too high)", "run() after shutdown()", "none to time after {} frames"):
         assert not FIX.search(bad), bad
 
 

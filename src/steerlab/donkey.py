@@ -165,7 +165,7 @@ class SteerlabPilot:
         """One camera frame (RGB, as donkeycar's cameras give it) and optionally the measured speed (m/s) ->
         (angle in [-1, 1] positive right, throttle)."""
         if self._closed:
-            raise SteerlabError("SteerlabPilot: run() after shutdown()")
+            raise SteerlabError("SteerlabPilot: run() after shutdown(): make a new one")
         now = self.clock()
         gap = self._last is not None and self.reset_after_s is not None and now - self._last > self.reset_after_s
         self._last = now

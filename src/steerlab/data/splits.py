@@ -124,5 +124,5 @@ def make_split(spec: Split, n: int, sessions: np.ndarray | None = None) -> tuple
     train, val = (by_sessions(part, sessions, k) if isinstance(part, Mapping) else block(part, n, k)
                   for k, part in (("train", spec.train), ("val", spec.val)))
     if np.intersect1d(train, val).size:
-        raise SteerlabError(f"train split {spec.train} and val split {spec.val} overlap")
+        raise SteerlabError(f"train split {spec.train} and val split {spec.val} overlap: give ranges that do not")
     return train, val

@@ -199,7 +199,8 @@ def read_tub(folder: str | Path, frame_range=None, full_lock_deg: float | None =
         if not image.is_file():
             if not skip_missing:
                 raise DataError(path, f"record {rec['_index']}: image {image} is missing (reader option "
-                                      "skip_missing: true leaves such records out)", line)
+                                      "skip_missing: true leaves such records out): copy it back, or set "
+                                      "skip_missing", line)
             missing.append(rec["_index"])
             continue
         kept.append((image, rec))

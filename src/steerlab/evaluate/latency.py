@@ -90,7 +90,8 @@ def measure(pilot: Pilot, frames: list[tuple], count: int | None = None, threads
     after the warm-up."""
     count = len(frames) - warmup if count is None else count
     if count < 1:
-        raise SteerlabError(f"{len(frames)} frames leave none to time after {warmup} warm-up frames")
+        raise SteerlabError(f"{len(frames)} frames leave none to time after {warmup} warm-up frames: give more "
+                            "frames")
     pilot.reset()
     net = pilot.net = TimedModel(pilot.net)
     times = []

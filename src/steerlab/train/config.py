@@ -133,11 +133,11 @@ class TrainConfig(Options):
                                 "of consecutive frames: split by blocks (split.train and split.val)")
         if hasattr(cls, "loss") and t.loss != "mse":
             raise SteerlabError(f"model {self.model.name!r} trains on a loss of its own; train.loss={t.loss} does "
-                                "not apply")
+                                "not apply: remove it")
         if t.throttle_weight > 0 and not learns_throttle(self.model.name):
             able = ", ".join(m for m in list_models() if learns_throttle(m))
             raise SteerlabError(f"train.throttle_weight: model {self.model.name!r} does not learn a throttle; "
-                                f"these do: {able}")
+                                f"these do: {able}; choose one of them, or set train.throttle_weight to 0")
         inputs = self.preprocessing()
         if t.hue_deg and inputs.color != "rgb":
             raise SteerlabError(f"train.hue_deg turns the hue of RGB inputs; preprocess.color is {inputs.color}: "
