@@ -597,12 +597,13 @@ BAD_INPUTS = {
     "replay a road recording with a track option": (_with("--lane-width", "0.5", command="replay"),
                                                     "--lane-width is an option of the track world (--world track)"),
     "replay the throttle of a model without one": (_tub_replay("--throttle", "model"),
-                                                   "model.pt predicts no throttle: --throttle model needs a model "
-                                                   "that learned it"),
+                                                   "model.pt predicts no throttle: steerlab replay --throttle model "
+                                                   "needs a model that learned it"),
     "replay the model's throttle at a given speed": (_tub_replay("--throttle", "model", "--speed", "2"),
                                                      "--speed and --throttle model exclude each other"),
     "replay a tub without throttle": (_tub_replay(records={i: {"user/throttle": None} for i in range(ROWS)}),
-                                      "tub: records no throttle to take the speed from: give one with --speed M/S"),
+                                      "tub: records no throttle to take the speed from: give one with steerlab "
+                                      "replay --speed M/S"),
     "replay a tub whose fisheye is no camera": (_tub_replay(metadata={"fisheye": {"fx": -1.0}}),
                                                 "manifest.json: the fisheye camera: a fisheye camera needs an image "
                                                 "of at least 2x2 px and positive focal lengths"),
@@ -622,7 +623,8 @@ BAD_INPUTS = {
                            "< GRACE"),
     "tune join a study that does not exist": (
         lambda t, s: _tune_storage("{tmp}/s.journal")(t, s) + ["--join"],
-        "s.journal: no such file, so no study to join; check --storage, or start the study without --join"),
+        "s.journal: no such file, so no study to join; check steerlab tune --storage, or start the study "
+        "without --join"),
     # l) latency: models, threads and checkpoints checked before anything is timed
     "latency unknown model": (lambda t, s: ["latency", "--models", "pilotnet,pilot-net", "--out", str(t / "out")],
                               "unknown model 'pilot-net'; available: cg23,"),
@@ -633,7 +635,8 @@ BAD_INPUTS = {
     "latency missing checkpoint": (lambda t, s: ["latency", str(t / "gone.pt"), "--out", str(t / "out")],
                                    "gone.pt: checkpoint not found"),
     "latency onnx file on torch": (lambda t, s: ["latency", str(_exported(t)), "--runtime", "torch"],
-                                   "m.onnx runs on ONNX Runtime only: time it with --runtime onnx or both"),
+                                   "m.onnx runs on ONNX Runtime only: time it with steerlab latency --runtime "
+                                   "onnx or both"),
     # m) every option and every file field checked where it enters (no traceback)
     "tub deleted_indexes of text": (_compile(_tub_manifest(["3", "x"])),
                                     "manifest.json, row 5: deleted_indexes must be a list of record indexes"),
@@ -1226,7 +1229,7 @@ def test_an_experiment_refuses_a_seed_override(tmp_path):
     cfg = config(tmp_path, sim_log(tmp_path / "sim"))
     cfg.write_text(cfg.read_text() + "models:\n  - {model: {name: zero}}\n")
     with pytest.raises(SteerlabError, match=r"override train.seed: an experiment's runs take the seeds 0..N-1 of "
-                                            r"--seeds; leave it out"):
+                                            r"steerlab experiment --seeds; leave it out"):
         load_experiment(cfg, ["train.seed=5"])
     assert load_experiment(cfg, ["train.epochs=2"]).overrides == ("train.epochs=2",)
 
@@ -1839,7 +1842,7 @@ def test_rule3_files_as_people_save_them(file, variant, taken, tmp_path):
     with pytest.raises(SteerlabError) as e:
         read()
     assert str(path) in str(e.value) and "\n" not in str(e.value), str(e.value)
-    said = {"a checkpoint": "a zip archive (a steerlab checkpoint .pt is one), where the", "a JPEG image":
+    said = {"a checkpoint": "a steerlab checkpoint, where the", "a JPEG image":
             "a JPEG image, where the"}.get(variant, "")
     assert said in str(e.value), str(e.value)
 

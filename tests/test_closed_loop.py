@@ -302,7 +302,7 @@ def test_another_camera_is_refused_unless_asked_for(tiny_checkpoint, ch2_folder,
           progress=False)
     assert "trained on the 'sim' camera geometry" in capsys.readouterr().err
     source = Source(str(ch2_folder), labels=str(ch2_folder / "labels.csv"))
-    with pytest.raises(SteerlabError, match="pass --allow-other-camera"):
+    with pytest.raises(SteerlabError, match="run steerlab evaluate with --allow-other-camera"):
         evaluate(tiny_checkpoint, source, tmp_path / "e", progress=False)
     evaluate(tiny_checkpoint, source, tmp_path / "e", progress=False, other_camera=True)
     assert "has the 'ch2' geometry" in capsys.readouterr().err

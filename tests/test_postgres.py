@@ -313,7 +313,8 @@ def test_postgres_joining_a_study_that_does_not_exist(postgres, tmp_path, tiny_r
                                               value=0.2))
     cfg = tune_config(tmp_path, tiny_recording, tmp_path / "j", epochs=1)
     with pytest.raises(SteerlabError, match=r"study 'mm-lstn' does not exist in postgresql://postgres@127\.0\.0\.1:"
-                                            r"\d+/t\d+ \(studies there: 'mm-lstm'\); check --study and --storage"):
+                                            r"\d+/t\d+ \(studies there: 'mm-lstm'\); check steerlab tune --study and "
+                                            r"--storage"):
         run_tune(cfg, trials=1, storage=url, study_name="mm-lstn", progress=False, join=True)
     assert not (tmp_path / "j").exists()  # nothing written
     assert optuna.get_all_study_names(_storage(url)) == ["mm-lstm"]  # no study made

@@ -94,7 +94,7 @@ def test_load_calibration_json_yaml_opencv_and_ros(tmp_path):
 @pytest.mark.parametrize("name,content,message", [
     ("a.json", "{not json", "not valid JSON"),
     ("a.yaml", "K: [1, 2\n", "not a YAML calibration file"),
-    ("a.yaml", "- 1\n- 2\n", "holds a mapping"),
+    ("a.yaml", "- 1\n- 2\n", "must hold a mapping"),
     ("a.json", {**GOOD, "K": None}, "K must be the 3x3 camera matrix"),
     ("a.json", {k: v for k, v in GOOD.items() if k != "D"}, "missing the four fisheye coefficients"),
     ("a.json", {k: v for k, v in GOOD.items() if k != "image_size"}, "missing the image size"),

@@ -286,8 +286,8 @@ def test_a_model_that_learned_the_throttle_drives_the_track_with_its_own(tmp_pat
         assert main(["sim", *argv, "--world", "track", "--minutes", "0.02", "--throttle", "0.6", "--out",
                      str(tmp_path / "refused")]) == 2
         err = capsys.readouterr().err
-        assert err.count("\n") == 1 and "learned" in err and "--throttle 0.6 is the constant throttle of a model " \
-            "that predicts none" in err and "leave it out" in err, err
+        assert err.count("\n") == 1 and "learned" in err and f"the throttle 0.6 (steerlab sim {argv[0]} --throttle) " \
+            "is the constant throttle of a model that predicts none" in err and "leave it out" in err, err
     assert not (tmp_path / "refused").exists()
     out = tmp_path / "own"
     assert main(["sim", "drive", str(ckpt), "--world", "track", "--minutes", "0.02", "--out", str(out)]) == 0

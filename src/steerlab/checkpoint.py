@@ -104,7 +104,8 @@ def save_payload(path: str | Path, payload: dict) -> None:
     torch.save(_plain({**payload, "format": FORMAT}), buffer)
     data = buffer.getbuffer()  # no copies of the bytes: a checkpoint with its optimiser state is tens of MB
     if data[-22:-18] != EOCD or data[-2:] != b"\0\0":
-        raise SteerlabError("checkpoint: torch.save wrote an unexpected file layout (no plain zip end record)")
+        raise SteerlabError("checkpoint: torch.save wrote an unexpected file layout (no plain zip end record): install "
+                            "the torch version pyproject.toml names")
     comment = (len(SEAL) + 64).to_bytes(2, "little") + SEAL
     digest = hashlib.sha256(data[:-2])
     digest.update(comment)
@@ -141,35 +142,40 @@ def load_checkpoint(path: str | Path) -> dict:
                             "it was exported from")
     data = path.read_bytes()
     if not data.startswith(b"PK\x03\x04"):  # what torch.save writes, and so every checkpoint: a zip file
-        raise SteerlabError(f"{path}: not a readable checkpoint (not the zip file torch.save writes)")
+        raise SteerlabError(f"{path}: not a readable checkpoint (not the zip file torch.save writes): give a steerlab "
+                            "checkpoint (best.pt of a training run)")
     try:
         with warnings.catch_warnings():  # a plain pickle's protocol: refused below, not worth a warning
             warnings.simplefilter("ignore")
             ckpt = torch.load(io.BytesIO(data), map_location="cpu", weights_only=True)
     except pickle.UnpicklingError as e:
         if "weights only" not in str(e).lower():
-            raise SteerlabError(f"{path}: not a readable checkpoint (UnpicklingError)") from None
+            raise SteerlabError(f"{path}: not a readable checkpoint (UnpicklingError): give a steerlab "
+                                "checkpoint (best.pt of a training run)") from None
         try:
             names = ", ".join(torch.serialization.get_unsafe_globals_in_checkpoint(path)) or "unknown objects"
         except Exception:  # noqa: BLE001 - only used to name them
             names = "unknown objects"
         raise SteerlabError(f"{path}: the checkpoint holds objects other than tensors and plain values ({names}): not "
                             "a steerlab checkpoint; steerlab does not load them, as loading could run code from the "
-                            "file") from None
+                            "file; give a checkpoint that steerlab wrote (best.pt of a training run)") from None
     except Exception as e:  # noqa: BLE001 - any reading failure means the same thing to the user
-        raise SteerlabError(f"{path}: not a readable checkpoint ({e.__class__.__name__})") from None
+        raise SteerlabError(f"{path}: not a readable checkpoint ({e.__class__.__name__}): give a steerlab checkpoint "
+                            "(best.pt of a training run)") from None
     if not isinstance(ckpt, dict) or ckpt.get("format") not in FORMATS or not isinstance(ckpt.get("state_dict"), dict):
-        raise SteerlabError(f"{path}: not a steerlab checkpoint")
+        raise SteerlabError(f"{path}: not a steerlab checkpoint: give best.pt or last.pt of a training run")
     seal = _seal_intact(data)
     if not seal:  # damaged, or written before seals: those carry inner hashes (the earliest: the weights' or none)
         if "sha256" in ckpt and weights_hash(ckpt["state_dict"]) != ckpt["sha256"]:
-            raise SteerlabError(f"{path}: the weights do not match the checkpoint's sha256: the file is damaged")
+            raise SteerlabError(f"{path}: the weights do not match the checkpoint's sha256: the file is damaged; "
+                                "copy it again, or train it again")
         if "content_sha256" in ckpt and content_hash(ckpt) != ckpt["content_sha256"]:
             raise SteerlabError(f"{path}: the checkpoint's settings (statistics, preprocessing, convention, "
-                                "training state) do not match its sha256: the file is damaged")
+                                "training state) do not match its sha256: the file is damaged; copy it again, or train "
+                                "it again")
         if seal is False:
             raise SteerlabError(f"{path}: the file's bytes do not match the sha256 stored with them: the file is "
-                                "damaged")
+                                "damaged; copy it again, or train it again")
         if ckpt["format"] == FORMAT or "content_sha256" in ckpt:  # steerlab sealed every file of these when it wrote it
             raise SteerlabError(f"{path}: a checkpoint that steerlab sealed, without its seal: it was written again "
                                 "by another tool (torch.save?), which may have changed anything in it; steerlab does "
@@ -205,13 +211,14 @@ def save_ensemble(checkpoints: list[str | Path], out: str | Path) -> Path:
                           ("preprocessing", "preprocess")):
             if ckpt.get(key) != first.get(key):
                 raise SteerlabError(f"{path} and {path0} differ in {what} ({ckpt.get(key)} and {first.get(key)}): "
-                                    f"an ensemble averages models of one {what}")
+                                    f"an ensemble averages models of one {what}: choose members that share it")
         for what in ("recurrent", "speed_history", "targets", "throttle"):
             value, value0 = ((c["model_cfg"].get("throttle", False) for c in (ckpt, first)) if what == "throttle"
                              else (getattr(m, what) for m in (model, models[0])))
             if value != value0:
                 raise SteerlabError(f"{path} ({ckpt['model']}) and {path0} ({first['model']}) differ in "
-                                    f"{what.replace('_', ' ')}: an ensemble averages models that run alike")
+                                    f"{what.replace('_', ' ')}: an ensemble averages models that run alike: "
+                                    "choose members that do")
     members = [{"model": c["model"], "model_cfg": c["model_cfg"], "stats": c["stats"]} for c in ckpts]
     ensemble = Ensemble(members)
     ensemble.nets.load_state_dict({f"{k}.{name}": t for k, c in enumerate(ckpts)

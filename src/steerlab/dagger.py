@@ -149,7 +149,8 @@ def round_suite(o: DaggerOptions):
     world = WORLDS[o.world]
     if o.suite and o.suite not in world.suites:
         raise SteerlabError(f"dagger.suite: {o.suite} is a {suite_world(o.suite).name} suite; world {o.world} "
-                            f"drives a {o.world} suite ({', '.join(world.suites)}) or none (null)")
+                            f"drives a {o.world} suite ({', '.join(world.suites)}) or none (null): set it to one of "
+                            "them")
     keys = type(o.own).suite_keys  # the suite's options that the world's own options set, and their dagger keys
     given = {"suite": o.suite, "minutes": o.suite_minutes, "workers": o.workers,
              **{k: getattr(o.own, v) for k, v in keys.items()}}

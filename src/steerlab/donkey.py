@@ -130,7 +130,7 @@ class SteerlabPilot:
         self.max_throttle = _check("max_throttle", max_throttle, 0.0, 1.0, low_open=True)  # 0: the car never moves
         if {"speed", "command"} & set(self.pilot.targets) and self.throttle > self.max_throttle:
             raise SteerlabError(f"SteerlabPilot: the cruising throttle {self.throttle:g} exceeds max_throttle "
-                                f"{self.max_throttle:g}")
+                                f"{self.max_throttle:g}: lower the throttle or raise max_throttle")
         self.speed_control = SpeedControl(_check("kp", kp, 0.0, 10.0), _check("ki", ki, 0.0, 10.0), self.throttle,
                                           0.0, self.max_throttle)
         self.command_step = _check("command_step", command_step, 0.0, 1.0)
@@ -165,7 +165,7 @@ class SteerlabPilot:
         """One camera frame (RGB, as donkeycar's cameras give it) and optionally the measured speed (m/s) ->
         (angle in [-1, 1] positive right, throttle)."""
         if self._closed:
-            raise SteerlabError("SteerlabPilot: run() after shutdown()")
+            raise SteerlabError("SteerlabPilot: run() after shutdown(): make a new one")
         now = self.clock()
         gap = self._last is not None and self.reset_after_s is not None and now - self._last > self.reset_after_s
         self._last = now

@@ -118,7 +118,8 @@ def load_experiment(path: str | Path, overrides=()) -> ExperimentConfig:
         except SteerlabError as e:
             raise SteerlabError(f"{path}: models entry {i + 1}: {e}") from None
     if any(override_key(o) == "train.seed" for o in overrides):  # it would give every run one seed
-        raise SteerlabError("override train.seed: an experiment's runs take the seeds 0..N-1 of --seeds; leave it out")
+        raise SteerlabError("override train.seed: an experiment's runs take the seeds 0..N-1 of steerlab experiment "
+                            "--seeds; leave it out")
     exp = ExperimentConfig(shared, tuple(entries), closed, replay, tuple(overrides), world)
     names = [e.name for e in exp.entries]
     for i, name in enumerate(names):  # two entries of one name would share their run folders and their row

@@ -57,9 +57,9 @@ def export_onnx(checkpoint: str | Path, out: str | Path, calib: str | Path | Non
 
     ckpt = load_checkpoint(checkpoint)
     if calib is not None and ckpt.get("geometry") not in (None, calib_rec.geometry):
-        raise SteerlabError(f"--calib {calib}: the recording's camera geometry ({calib_rec.geometry}) is not the "
-                            f"model's ({ckpt['geometry']}): calibrate on frames of the camera {checkpoint} was "
-                            "trained on")
+        raise SteerlabError(f"steerlab export --calib {calib}: the recording's camera geometry "
+                            f"({calib_rec.geometry}) is not the model's ({ckpt['geometry']}): calibrate on frames of "
+                            f"the camera {checkpoint} was trained on")
     model, pre, convention = model_from_checkpoint(ckpt)
     c = sum(pre.channels().values())
     x = torch.zeros(1, c, pre.height, pre.width)
@@ -137,7 +137,8 @@ def quantize_int8(fp32: bytes, rec, calib_range: str | None) -> tuple[bytes, dic
                                           quantize_static)
 
     if not any(node.op_type in QUANTIZED_OPS for node in onnx.load_from_string(fp32).graph.node):
-        raise SteerlabError("the model has no convolution or matrix product to quantize: export it without --int8")
+        raise SteerlabError("the model has no convolution or matrix product to quantize: run steerlab export "
+                            "without --int8")
     n = len(rec) if calib_range else min(len(rec), CALIB_FRAMES)
     with tempfile.TemporaryDirectory() as folder:
         fp32_path, pre, int8 = (Path(folder) / f"{k}.onnx" for k in ("fp32", "pre", "int8"))
@@ -196,7 +197,8 @@ def _with_metadata(data: bytes, meta_json: str) -> bytes:
     proto.metadata_props.add(key=HASH_KEY, value=digest)
     data = proto.SerializeToString()
     if content_sha256(data)[0] != digest:  # the serialiser wrote the rest of the model differently: never expected
-        raise SteerlabError("ONNX export: the model's bytes changed while its metadata was written")
+        raise SteerlabError("ONNX export: the model's bytes changed while its metadata was written: export "
+                            "it again")
     return data
 
 

@@ -12,6 +12,7 @@ import json
 import math
 import os
 import secrets
+import zipfile
 from pathlib import Path
 from typing import Any
 
@@ -47,16 +48,28 @@ def decode(data: bytes, path: str | Path) -> str:
                         row) from None
 
 
-def read_text(path: str | Path, what: str = "file") -> str:
+def read_text(path: str | Path, what: str = "file", form: str = "text") -> str:
     """A text file as people save it (see `decode`); line ends stay as they are (the readers split lines)."""
     path = regular_file(Path(path), what)
     data = path.read_bytes()
     kind = next((name for magic, name in BINARY.items() if data.startswith(magic)), None)
     if kind is None and data[4:8] in (b"ftyp", b"moov"):
         kind = "an MP4 or MOV video"
+    if kind is not None and kind.startswith("a zip") and _torch_zip(data):
+        beside = path.parent / "config.json"
+        raise DataError(path, f"a steerlab checkpoint, where the {what} is expected ({form}): give the {what}"
+                              + (f", e.g. {beside}, the config its run trained with" if beside.is_file() else ""))
     if kind is not None:
-        raise DataError(path, f"{kind}, where the {what} is expected (text)")
+        raise DataError(path, f"{kind}, where the {what} is expected ({form}): give the {what}")
     return decode(data, path)
+
+
+def _torch_zip(data: bytes) -> bool:
+    """Whether a zip archive is what torch.save writes (every steerlab checkpoint): its pickle is data.pkl."""
+    try:
+        return any(n.endswith("/data.pkl") for n in zipfile.ZipFile(io.BytesIO(data)).namelist())
+    except (zipfile.BadZipFile, OSError, ValueError):
+        return False
 
 
 def read_csv(path: str | Path, what: str = "CSV file") -> list[list[str]]:
@@ -65,7 +78,8 @@ def read_csv(path: str | Path, what: str = "CSV file") -> list[list[str]]:
     text = read_text(path, what)
     body = text.rstrip("\r\n")
     if "\0" in body[:body.rfind("\n") + 1]:  # in the last line, NUL bytes are a torn write the readers read past
-        raise DataError(path, "NUL bytes in a line before the last: not text (torn by a crash, or not a CSV file)",
+        raise DataError(path, "NUL bytes in a line before the last: not text (torn by a crash, or not a CSV file): "
+                        "remove the line, or give the CSV file",
                         text[:text.index("\0")].count("\n") + 1)
     return [row for row in csv.reader(io.StringIO(text, newline="")) if row and any(c.strip() for c in row)]
 
@@ -85,15 +99,18 @@ class UniqueKeys(yaml.SafeLoader):
     last silently, dropping the first block)."""
 
 
+class KeyTwice(yaml.constructor.ConstructorError):
+    """A YAML mapping that names a key twice."""
+
+
 def _mapping(loader: UniqueKeys, node: yaml.MappingNode, deep: bool = False):
     seen = {}
     for key_node, _ in node.value:
         key = loader.construct_object(key_node, deep=True)
         try:
             if key in seen:
-                raise yaml.constructor.ConstructorError(
-                    None, None, f"key {key!r} is given twice (lines {seen[key] + 1} and "
-                    f"{key_node.start_mark.line + 1}); keep one")
+                raise KeyTwice(None, None, f"key {key!r} is given twice (lines {seen[key] + 1} and "
+                               f"{key_node.start_mark.line + 1})")
             seen[key] = key_node.start_mark.line
         except TypeError:  # an unhashable key: PyYAML's own error follows
             pass
@@ -112,13 +129,16 @@ def parse_yaml(text: str, where: str | Path) -> Any:
         row = (mark.line + 1 if mark is not None else
                text[:e.position].count("\n") + 1 if isinstance(e, yaml.reader.ReaderError) else None)
         problem = getattr(e, "problem", None) or str(e).splitlines()[0]
-        raise SteerlabError(f"{where}: not valid YAML: {'' if row is None else f'line {row}: '}{problem}") from None
+        if isinstance(e, KeyTwice):
+            raise SteerlabError(f"{where}: not valid YAML: {problem}; keep one") from None
+        raise SteerlabError(f"{where}: not valid YAML: {'' if row is None else f'line {row}: '}{problem}; fix it "
+                            "(a value holding ': ' or ' #' needs quotes)") from None
 
 
 def read_yaml(path: str | Path, what: str = "YAML file") -> Any:
     """A YAML file as people save it, keys unique."""
     path = Path(path)
-    return parse_yaml(read_text(path, what), path)
+    return parse_yaml(read_text(path, what, "YAML text"), path)
 
 
 def _unique_pairs(path):
@@ -139,7 +159,7 @@ def parse_json(text: str, where: str | Path) -> Any:
     try:
         return json.loads(text, object_pairs_hook=_unique_pairs(where), parse_constant=constant)
     except json.JSONDecodeError as e:
-        raise DataError(where, f"not valid JSON: {e.msg}", e.lineno) from None
+        raise DataError(where, f"not valid JSON: {e.msg}; fix its JSON", e.lineno) from None
 
 
 def read_json(path: str | Path, what: str = "JSON file") -> Any:

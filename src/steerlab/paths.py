@@ -58,7 +58,7 @@ def regular_file(path: Path, what: str = "file") -> Path:
     path = name_fits(path)
     _dangling(path, what)
     if not path.exists():
-        raise DataError(path, f"{what} not found")
+        raise DataError(path, f"{what} not found: check the path")
     if path.is_dir():
         raise DataError(path, f"a folder, where a {what} is expected")
     if not path.is_file():
@@ -172,7 +172,8 @@ def reason(e: OSError) -> str:
 def os_error(e: OSError) -> SteerlabError:
     """An OSError (a write that failed half-way: the disk full, permissions changed) as one line naming the path
     and the reason."""
-    return SteerlabError(f"{e.filename}: {reason(e)}" if e.filename else reason(e))
+    return SteerlabError(f"{e.filename}: {reason(e)}: fix that and run the command again" if e.filename
+                         else f"{reason(e)}: fix that and run the command again")
 
 
 def writable(path: Path, what: str = "output folder") -> None:
@@ -183,20 +184,21 @@ def writable(path: Path, what: str = "output folder") -> None:
         try:
             open(path, "ab").close()
         except OSError as e:
-            raise DataError(path, f"cannot be written ({reason(e)})") from None
+            raise DataError(path, f"cannot be written ({reason(e)}): choose another path") from None
         return
     existing = path
     while not existing.exists() and existing != existing.parent:
         existing = existing.parent
     if not existing.is_dir():
-        raise DataError(path, f"cannot be written: {existing} is a file")
+        raise DataError(path, f"cannot be written: {existing} is a file; choose another path")
     try:
         fd, probe = tempfile.mkstemp(dir=existing, prefix=".steerlab-probe-")
         os.close(fd)
         os.unlink(probe)
     except OSError as e:
         raise DataError(existing, f"cannot be written ({reason(e)})" + (
-            "" if existing == path else f", so the {what} {path} cannot be made there")) from None
+            "" if existing == path else f", so the {what} {path} cannot be made there") + "; choose another path"
+        ) from None
 
 
 def check_outputs(folders: dict[str, str | Path | None] | None = None,
@@ -223,10 +225,14 @@ def check_outputs(folders: dict[str, str | Path | None] | None = None,
                     place != folder and held[0].continued):  # a run's own subfolders (its suite, its replay)
                 continue
             where = "holds" if place == folder else "lies inside a folder that holds"
+            if held == (KINDS["recording"], "center") and (place / "center" / "000000.jpg").is_file():  # cut short
+                raise DataError(folder, f"the {what} {where} a recording without its recording.json ({place}), "
+                                        "as an interrupted recording (Ctrl-C) leaves it: remove that folder to record "
+                                        "again, or choose another")
             raise DataError(folder, f"the {what} {where} {_a(held[0].name)} ({place / held[1]}); "
                                     f"{_a(own.name) if own else 'this command'} "
                                     f"{'goes' if own else 'writes'} into a new folder"
-                                    f"{' or one of its own' if own and own.continued else ''}")
+                                    f"{' or one of its own' if own and own.continued else ''}: choose one")
         for p in inputs:
             rel = _inside(p, folder)
             if rel is not None and rel.parts and own and any(fnmatch.fnmatch(rel.parts[0], w) for w in own.writes):
@@ -241,7 +247,8 @@ def check_outputs(folders: dict[str, str | Path | None] | None = None,
             raise DataError(file, f"a folder, where {_a(what)} to write is expected")
         for p in inputs:
             if same_path(p, file):
-                raise DataError(file, f"the {what} is an input of this command; writing it would destroy it")
+                raise DataError(file, f"the {what} is an input of this command; writing it would destroy it: "
+                                      "choose another file")
         held = kind_of(file.parent)
         if held and held[0] is not own and (not held[0].continued or any(fnmatch.fnmatch(file.name, w)
                                                                           for w in held[0].writes)):

@@ -27,7 +27,7 @@ from steerlab.data.car import CARS, car_of
 from steerlab.data.geometry import CAMERAS
 from steerlab.data.modalities import frame_difference, optical_flow
 from steerlab.data.preprocess import preprocess
-from steerlab.errors import SteerlabError, warn
+from steerlab.errors import DataError, SteerlabError, warn
 from steerlab.options import FRACTION, POSITIVE, THREADS, Options, option
 from steerlab.runtime import load_model
 
@@ -159,7 +159,15 @@ class Pilot:
         `step` frame by frame, continuing from the Pilot's state as `step` does (call `reset()` before a new
         segment). `load`, when given, turns each item into a BGR frame on the worker threads (a frame index or
         a file, say)."""
-        prepare = self._prepare if load is None else lambda item: self._prepare(load(item))
+        def prepare(item) -> tuple:
+            frame = item if load is None else load(item)
+            try:
+                return self._prepare(frame)
+            except SteerlabError as e:  # a frame loaded from a file is named by it
+                if load is not None and isinstance(item, (str, Path)):
+                    raise DataError(item, str(e)) from None
+                raise
+
         checked = None if speeds is None else map(self._plausible, map(_check_speed, speeds))
         pairs = zip(frames, repeat(None)) if speeds is None else _paired(frames, checked)
         before = self._prev  # the frame before the first one (None: the first starts a segment)

@@ -152,12 +152,12 @@ def read_metadata(path: str | Path) -> tuple[dict, bytes]:
     """The steerlab metadata of an exported model and the file's bytes, its sha256 checked."""
     path = Path(path)
     if not path.is_file():
-        raise SteerlabError(f"{path}: ONNX file not found")
+        raise SteerlabError(f"{path}: ONNX file not found: check the path")
     data = path.read_bytes()
     try:
         digest, props = content_sha256(data)
     except (ValueError, UnicodeDecodeError):
-        raise SteerlabError(f"{path}: not an ONNX model (damaged or truncated?)") from None
+        raise SteerlabError(f"{path}: not an ONNX model (damaged or truncated?): export the checkpoint again") from None
     if META_KEY not in props:
         raise SteerlabError(f"{path}: no steerlab metadata in the model: not written by steerlab export, or by a "
                             "version that kept it in a .json sidecar (export the checkpoint again)")
@@ -167,7 +167,8 @@ def read_metadata(path: str | Path) -> tuple[dict, bytes]:
     try:
         meta = json.loads(props[META_KEY])
     except json.JSONDecodeError as e:
-        raise SteerlabError(f"{path}: its steerlab metadata is not valid JSON ({e.msg})") from None
+        raise SteerlabError(f"{path}: its steerlab metadata is not valid JSON ({e.msg}): export the "
+                            "checkpoint again") from None
     if not isinstance(meta, dict) or meta.get("format") != FORMAT:
         raise SteerlabError(f"{path}: unknown steerlab metadata format "
                             f"{meta.get('format') if isinstance(meta, dict) else meta!r} (expected {FORMAT})")
@@ -194,7 +195,8 @@ class OnnxModel:
         try:
             self.session = ort.InferenceSession(data, options, providers=["CPUExecutionProvider"])
         except Exception as e:  # noqa: BLE001 - onnxruntime raises its own exception types for bad files
-            raise SteerlabError(f"{path}: not a loadable ONNX model ({e.__class__.__name__})") from None
+            raise SteerlabError(f"{path}: not a loadable ONNX model ({e.__class__.__name__}): export the "
+                                "checkpoint again") from None
         self.name = meta["model"]
         self.config = PreprocessConfig.from_dict(meta["preprocess"])
         self.convention = SteeringConvention(**meta["convention"])

@@ -200,7 +200,8 @@ def serve(checkpoint: str | Path, o: ServeOptions = ServeOptions(), host: str = 
     try:
         listener = eventlet.listen((host, o.port), reuse_port=False)
     except OSError as e:
-        raise SteerlabError(f"cannot listen on port {o.port}: {e.strerror}") from None
+        raise SteerlabError(f"cannot listen on port {o.port}: {e.strerror}; choose another one "
+                            "(steerlab serve --port)") from None
     print(f"steerlab serve: {pilot.name} on port {o.port}, set speed {o.set_speed:.1f} m/s"
           + (f", recording to {o.record}" if o.record else "") + " - start the simulator in autonomous mode",
           flush=True)

@@ -43,7 +43,8 @@ class DriveVideo:
             self.writer = cv2.VideoWriter(str(self.path), cv2.VideoWriter_fourcc(*"mp4v"), self.fps,
                                           (out.shape[1], out.shape[0]))
             if not self.writer.isOpened():
-                raise SteerlabError(f"{self.path}: OpenCV cannot write an MP4 video here")
+                raise SteerlabError(f"{self.path}: OpenCV cannot write an MP4 video here: choose another "
+                                    "path")
         self.writer.write(out)
         self.frames += 1
 

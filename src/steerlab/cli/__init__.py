@@ -203,9 +203,27 @@ def data_args(q: argparse.ArgumentParser, range_help: str = "frames to use, STAR
         q.add_argument("--camera", default="center", help="camera to use (default center)")
 
 
+def reader_options(items: list[str]) -> dict:
+    """Reader options given as `--reader key=value` texts; values are read as YAML scalars (numbers, true/false,
+    text)."""
+    import yaml
+
+    from steerlab.files import UniqueKeys
+
+    out = {}
+    for item in items:
+        if "=" not in item:
+            raise SteerlabError(f"--reader {item!r} must look like key=value, e.g. full_lock_deg=25")
+        key, value = item.split("=", 1)
+        if key.strip() in out:
+            raise SteerlabError(f"--reader {key.strip()}= is given twice; give each reader option once")
+        out[key.strip()] = yaml.load(value, Loader=UniqueKeys)
+    return out
+
+
 def source(args: argparse.Namespace):
     """The recording the data flags name."""
-    from steerlab.data.readers import Source, reader_options
+    from steerlab.data.readers import Source
 
     return Source(args.data, args.range, args.labels, reader_options(args.reader))
 

@@ -20,7 +20,8 @@ def cmd_compile(a) -> None:
     pre = parse(PreprocessOptions, {"preset": a.preset, "color": a.color, "modalities": a.modalities.split(","),
                                     "flow": a.flow}, name=lambda f: f"--{f}").resolve(rec.geometry)
     if a.camera not in rec.frames:
-        raise SteerlabError(f"{rec.source} has no {a.camera!r} camera (it has {', '.join(rec.cameras)})")
+        raise SteerlabError(f"{rec.source} has no {a.camera!r} camera (it has {', '.join(rec.cameras)}): "
+                            "choose one of them with --camera")
     ds = compile_recording(rec, pre, a.cache, a.camera)
     print(f"{len(ds)} frames, {len(rec.segments())} segment(s) -> {ds.path}")
     for m, arr in ds.arrays.items():

@@ -37,7 +37,8 @@ def cmd_train(a) -> None:
         cmd = [sys.executable, "-m", "torch.distributed.run", "--standalone", f"--nproc-per-node={nproc}",
                "-m", "steerlab", "train", a.config, *a.overrides]
         if subprocess.run(cmd).returncode:
-            raise SteerlabError(f"distributed training with {nproc} ranks failed (see the messages above)")
+            raise SteerlabError(f"distributed training with {nproc} ranks failed (see the messages above): fix the "
+                                "first error they name and run it again")
         return
     try:
         best = train(cfg)

@@ -158,13 +158,15 @@ def _extract(path: Path, topics: dict, cache: Path) -> tuple[Path, dict]:
                     cameras[role].append([stamp, name])
     except (AnyReaderError, OSError, KeyError, AttributeError) as e:
         shutil.rmtree(tmp, ignore_errors=True)
-        raise DataError(path, f"cannot read this bag ({e.__class__.__name__}: {e})") from None
+        raise DataError(path, f"cannot read this bag ({e.__class__.__name__}: {e}): copy it again if it was cut off, "
+                              "or give another bag") from None
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
     if not cameras["center"] or not reports:
         shutil.rmtree(tmp, ignore_errors=True)
-        raise DataError(path, f"no messages on {topics['center'] if not cameras['center'] else topics['steering']}")
+        raise DataError(path, f"no messages on {topics['center'] if not cameras['center'] else topics['steering']}: "
+                              "name the bag's topics with the reader option topics")
     index = {"cameras": cameras, "steering": reports}
     (tmp / "index.json").write_text(json.dumps(index))
     try:

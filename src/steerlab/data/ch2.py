@@ -25,9 +25,13 @@ def _ch2_label_file(folder: Path) -> Path:
     csvs = sorted(folder.glob("*.csv"))
     if len(csvs) == 1:
         return csvs[0]
+    if not csvs and (folder / "center" / "000000.jpg").is_file():  # the first frame a steerlab recording writes
+        raise DataError(folder, "a recording without its recording.json, as an interrupted recording (Ctrl-C) "
+                                "leaves it: record it again")
     if not csvs:
         raise DataError(folder, "no label CSV found (expected interpolated.csv or frame_id,steering_angle CSV)")
-    raise DataError(folder, f"several label CSVs ({', '.join(c.name for c in csvs)}); choose one with --labels")
+    raise DataError(folder, f"several label CSVs ({', '.join(c.name for c in csvs)}); choose one "
+                              "with the labels option")
 
 
 def read_ch2(folder: str | Path, frame_range=None, labels: str | Path | None = None) -> Recording:
@@ -35,7 +39,8 @@ def read_ch2(folder: str | Path, frame_range=None, labels: str | Path | None = N
     label_path = Path(labels) if labels else _ch2_label_file(folder)
     rows = read_rows(label_path, "label file")
     if not rows:
-        raise DataError(label_path, "the label file is empty")
+        raise DataError(label_path, "the label file is empty: label the frames (frame_id,steering_angle rows) "
+                                    "or give the right file")
     header = csv_header(label_path, rows[0])
     body = rows[1:]
     if "frame_id" in header and "steering_angle" in header:
@@ -46,7 +51,7 @@ def read_ch2(folder: str | Path, frame_range=None, labels: str | Path | None = N
         raise DataError(label_path, f"unknown columns {header}; expected 'frame_id,steering_angle[,public]' or "
                                     "the interpolated.csv layout 'index,timestamp,...,filename,angle,torque,speed,...'", 1)
     if len(ids) == 0:
-        raise DataError(label_path, "no labelled frames")
+        raise DataError(label_path, "no labelled frames: give a label file with a row per frame")
     check_unique(ids, label_path, 2)
     check_increasing(ids, label_path, 2)
     cut = apply_range(len(ids), frame_range, label_path)
@@ -55,7 +60,7 @@ def read_ch2(folder: str | Path, frame_range=None, labels: str | Path | None = N
     speed = None if speed is None else speed[cut]
     frames = {cam: [folder / p for p in names[cut]] for cam, names in cams.items()}
     for paths in frames.values():
-        check_images(paths, label_path, first_row)
+        check_images(paths, label_path, first_row, cut.start)
     return Recording(
         name=folder.name, source=folder, frames=frames, timestamps_ns=ids.astype(np.int64), steering=steer,
         convention=CH2_CONVENTION, frame_ids=ids, speed=speed, geometry="ch2",
@@ -93,7 +98,8 @@ def _ch2_interpolated_rows(path: Path, header: list[str], body: list[list[str]])
         spd = number(path, r, "speed", row[col["speed"]]) if "speed" in col else math.nan
         by_cam.setdefault(cam, []).append((ts, row[col["filename"]], angle, spd, r))
     if "center" not in by_cam:
-        raise DataError(path, "no rows with frame_id 'center_camera'")
+        raise DataError(path, "no rows with frame_id 'center_camera': give the label file of the "
+                              "center camera's frames")
     center = sorted(by_cam["center"])
     ids = np.array([c[0] for c in center], dtype=np.int64)
     cams = {"center": np.array([c[1] for c in center], dtype=object)}

@@ -179,7 +179,8 @@ def _build(rec: Recording, cfg: PreprocessConfig, camera: str, view, final: Path
         frame = rec.load_frame(i, camera)
         if frame.shape[:2] != size:
             raise DataError(rec.frames[camera][i], f"the frame is {frame.shape[1]}x{frame.shape[0]}; the recording's "
-                                                   f"frames are {size[1]}x{size[0]} (frame {i})")
+                                                   f"frames are {size[1]}x{size[0]} (frame {i}): resize it, or give "
+                                                   "a frame range without it")
         return frame if view is None else shift_view(frame, geometry, *view)
 
     def work(start: int) -> int:

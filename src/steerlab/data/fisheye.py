@@ -68,7 +68,7 @@ class FisheyeCamera:
                                 f"got {self.width}x{self.height}, fx={self.fx}, fy={self.fy}")
         if not (0 <= self.cx <= self.width - 1 and 0 <= self.cy <= self.height - 1):
             raise SteerlabError(f"the principal point ({self.cx}, {self.cy}) lies outside the "
-                                f"{self.width}x{self.height} image")
+                                f"{self.width}x{self.height} image: fix cx and cy (the calibration's K)")
         # every pixel must see a ray: theta_d(theta) has to rise monotonically past the image corners
         corners = np.array([[0, 0], [self.width - 1, 0], [0, self.height - 1], [self.width - 1, self.height - 1]])
         reach = float(np.max(np.hypot(*self._normalised(corners[:, 0], corners[:, 1]))))
@@ -188,7 +188,7 @@ def fisheye_from(path: Path, value) -> FisheyeCamera:
     try:
         return FisheyeCamera(**value)
     except (SteerlabError, TypeError, ValueError) as e:
-        raise DataError(path, f"the fisheye camera: {e}") from None
+        raise DataError(path, f"the fisheye camera: {e}; fix it in this file") from None
 
 
 def pinhole_matrix(cam: FisheyeCamera, focal: float | None = None) -> np.ndarray:
@@ -265,7 +265,7 @@ def shift_view(img: np.ndarray, cam: FisheyeCamera, shift_m: float, yaw_deg: flo
 def _check_frame(img: np.ndarray, cam: FisheyeCamera) -> None:
     if img.shape[:2] != (cam.height, cam.width):
         raise SteerlabError(f"a {img.shape[1]}x{img.shape[0]} frame does not fit the {cam.width}x{cam.height} "
-                            "fisheye camera")
+                            "fisheye camera: give the calibration of the camera that took it")
 
 
 # --- calibration files -------------------------------------------------------------------------------------------
@@ -294,9 +294,10 @@ def _parse(path: Path) -> dict:
             data = yaml.load(text, Loader=_Loader)
     except (json.JSONDecodeError, yaml.YAMLError) as e:
         kind = "JSON" if path.suffix.lower() == ".json" else "YAML"
-        raise DataError(path, f"not a {kind} calibration file ({str(e).splitlines()[0]})") from None
+        raise DataError(path, f"not a {kind} calibration file ({str(e).splitlines()[0]}): give the YAML file the "
+                              "calibration wrote") from None
     if not isinstance(data, dict):
-        raise DataError(path, "a calibration file holds a mapping with the image size, K and D")
+        raise DataError(path, "a calibration file must hold a mapping with the image size, K and D")
     return data
 
 
@@ -305,7 +306,7 @@ def _matrix(path: Path, data: dict, names: tuple[str, ...], shapes: tuple[tuple[
     """The matrix under the first of `names`, in one of the accepted `shapes`, flattened."""
     key = next((k for k in names if k in data), None)
     if key is None:
-        raise DataError(path, f"missing {what} (key {' or '.join(names)})")
+        raise DataError(path, f"missing {what} (key {' or '.join(names)}): add it")
     value = data[key]
     if isinstance(value, dict):  # OpenCV FileStorage and ROS camera_info: {rows, cols, data}
         value = value.get("data")
@@ -317,7 +318,7 @@ def _matrix(path: Path, data: dict, names: tuple[str, ...], shapes: tuple[tuple[
         raise DataError(path, f"{key} must be {what} ({' or '.join('x'.join(map(str, s)) for s in shapes)}), got "
                               f"shape {'x'.join(map(str, m.shape)) or 'scalar'}")
     if not np.all(np.isfinite(m)):
-        raise DataError(path, f"{key} holds a value that is not finite: {m.ravel().tolist()}")
+        raise DataError(path, f"{key} holds a value that is not finite: {m.ravel().tolist()}; finite numbers expected")
     return m.ravel()
 
 
@@ -327,7 +328,7 @@ def _size(path: Path, data: dict) -> tuple[int, int]:
     else:
         key = next((k for k in ("image_size", "DIM") if k in data), None)
         if key is None:
-            raise DataError(path, f"missing the image size (key {' or '.join(SIZE_KEYS)}: width, height)")
+            raise DataError(path, f"missing the image size (key {' or '.join(SIZE_KEYS)}: width, height): add it")
         value = data[key]
     if (not isinstance(value, (list, tuple)) or len(value) != 2
             or not all(isinstance(v, int) and not isinstance(v, bool) for v in value)):

@@ -115,7 +115,7 @@ def shift_view(bgr: np.ndarray, cam: Camera, shift_m: float, yaw_deg: float = 0.
     does not show repeat its nearest border pixels."""
     if bgr.shape[:2] != (cam.height, cam.width):
         raise SteerlabError(f"a {bgr.shape[1]}x{bgr.shape[0]} frame does not fit the {cam.width}x{cam.height} "
-                            "camera geometry of its preset")
+                            "camera geometry of its preset: give frames of that camera")
     if shift_m == 0 and yaw_deg == 0:
         return bgr.copy()
     ground, sky = viewpoint_homographies(cam, float(shift_m), float(yaw_deg))

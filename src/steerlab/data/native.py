@@ -26,7 +26,7 @@ def read_native(folder: str | Path, frame_range=None) -> Recording:
         raise DataError(meta_path, "recording metadata must be a JSON object")
     rows = read_rows(log, "log")
     if not rows:
-        raise DataError(log, "missing or empty log")
+        raise DataError(log, "missing or empty log: record it again, or give another recording")
     header = csv_header(log, rows[0])
     missing = [c for c in NATIVE_COLUMNS if c not in header]
     if missing:
@@ -34,7 +34,7 @@ def read_native(folder: str | Path, frame_range=None) -> Recording:
     col = {h: i for i, h in enumerate(header)}
     body = rows[1:]
     if not body:
-        raise DataError(log, "the recording has no frames")
+        raise DataError(log, "the recording has no frames: record it again, or give another recording")
     cut = apply_range(len(body), frame_range, log)
     body, first = body[cut], 2 + cut.start
     cams = [c for c in ("center", "left", "right") if body[0][col[c]].strip()]
@@ -61,7 +61,7 @@ def read_native(folder: str | Path, frame_range=None) -> Recording:
     check_unique(stamps_a, log, first)
     check_increasing(stamps_a, log, first)
     for paths in frames.values():
-        check_images(paths, log, first)
+        check_images(paths, log, first, cut.start)
     conv = meta.get("steering", {})
     return Recording(
         name=folder.name, source=folder, frames=frames, timestamps_ns=stamps_a,

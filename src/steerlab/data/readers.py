@@ -18,26 +18,9 @@ from steerlab.data.recording import Recording
 from steerlab.data.rows import parse_range
 from steerlab.data.simlog import SIM_OPTIONS, read_sim_log
 from steerlab.errors import DataError, SteerlabError
-from steerlab.files import UniqueKeys
 from steerlab.options import options_of, parse
 
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mkv", ".mov")
-
-
-def reader_options(items: list[str]) -> dict:
-    """Reader options given as `key=value` texts (`--reader` on the command line); values are read as YAML
-    scalars (numbers, true/false, text)."""
-    import yaml
-
-    out = {}
-    for item in items:
-        if "=" not in item:
-            raise SteerlabError(f"--reader {item!r} must look like key=value, e.g. full_lock_deg=25")
-        key, value = item.split("=", 1)
-        if key.strip() in out:
-            raise SteerlabError(f"--reader {key.strip()}= is given twice; give each reader option once")
-        out[key.strip()] = yaml.load(value, Loader=UniqueKeys)
-    return out
 
 
 @dataclass(frozen=True)
@@ -63,7 +46,7 @@ def open_recording(path: str | Path, frame_range: str | tuple | None = None, lab
     bag's frames are extracted to."""
     path = Path(path)
     if not path.exists():
-        raise DataError(path, "recording not found")
+        raise DataError(path, "recording not found: check the path")
     rng = parse_range(frame_range) if isinstance(frame_range, str) or frame_range is None else frame_range
     reader, kind = _reader_of(path)
     known = [o.key for o in options_of(kind)] if kind else []
@@ -78,7 +61,7 @@ def open_recording(path: str | Path, frame_range: str | tuple | None = None, lab
     options = {k: getattr(typed, k) for k in known}
     if labels is not None:
         if reader is not read_ch2:
-            raise DataError(path, "a label file (--labels) belongs to CH2 folders only")
+            raise DataError(path, "a label file (labels) belongs to CH2 folders only: leave it out")
         options["labels"] = labels
     if reader is bag.read_bag:
         options["cache"] = cache

@@ -149,9 +149,10 @@ class Recording:
     def __post_init__(self):
         n = len(self.timestamps_ns)
         if n == 0:
-            raise DataError(self.source, "the recording is empty (no frames)")
+            raise DataError(self.source, "the recording is empty (no frames): record it again, or give another "
+                                          "recording")
         if "center" not in self.frames:
-            raise DataError(self.source, "the recording has no 'center' camera")
+            raise DataError(self.source, "the recording has no 'center' camera: name its frames' camera center")
         for cam, paths in self.frames.items():
             if len(paths) != n:
                 raise DataError(self.source, f"camera {cam!r} has {len(paths)} frames, expected {n}")
@@ -223,7 +224,8 @@ class VideoFrames:
         ok, frame = local.capture.read()
         if not ok or frame is None:
             local.capture = None
-            raise DataError(self.path, f"cannot decode video frame {target}")
+            raise DataError(self.path, f"cannot decode video frame {target}: copy the video again, or give a "
+                                           "frame range that stops before it")
         local.next = target + 1
         return frame
 
@@ -232,10 +234,11 @@ def read_image(path: Path) -> np.ndarray:
     """Read an image file into a BGR uint8 array, with a clear error for missing or corrupt files."""
     data = np.fromfile(path, dtype=np.uint8) if Path(path).is_file() else None
     if data is None:
-        raise DataError(path, "image file not found")
+        raise DataError(path, "image file not found: copy it back, or give a frame range without it")
     image = cv2.imdecode(data, cv2.IMREAD_COLOR) if data.size else None
     if image is None or _truncated_jpeg(data):
-        raise DataError(path, "cannot decode image (corrupt or not a JPEG/PNG)")
+        raise DataError(path, "cannot decode image (corrupt or not a JPEG/PNG): copy it again, or give a "
+                              "frame range without it")
     return image
 
 

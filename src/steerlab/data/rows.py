@@ -35,7 +35,8 @@ def apply_range(n: int, rng, source: Path) -> slice:
     if start >= stop:
         raise DataError(source, f"frame range {start}:{stop} is empty: START must be below STOP")
     if not (0 <= start and stop <= n):
-        raise DataError(source, f"frame range {start}:{stop} is outside the {n} labelled frames (0:{n})")
+        raise DataError(source, f"frame range {start}:{stop} is outside the {n} labelled frames (0:{n}): "
+                                "give a range inside it")
     return slice(start, stop)
 
 
@@ -54,11 +55,14 @@ def number(path: Path, row: int, column: str, text: str, allow_nan: bool = False
     return value
 
 
-def check_images(paths: list[Path], source: Path, first_row: int) -> None:
+def check_images(paths: list[Path], source: Path, first_row: int, start: int) -> None:
+    """Every image of frames start.. exists (`paths`, listed from row `first_row` of `source`)."""
     for i, p in enumerate(paths):
         if not p.is_file():
-            raise DataError(source, f"image {p} is missing (use a frame range that covers only the frames that exist, "
-                                    f"e.g. --range 0:{i})" if i else f"image {p} is missing", first_row + i)
+            raise DataError(source, f"image {p} is missing (give a frame range that covers only the frames that exist, "
+                                    f"e.g. range {start}:{start + i})" if i else
+                            f"image {p} is missing: copy it back, or give a frame range that starts after it",
+                            first_row + i)
 
 
 def nearest(sorted_times: np.ndarray, times: np.ndarray) -> np.ndarray:
@@ -83,7 +87,7 @@ def check_unique(ids: np.ndarray, path: Path, first_row: int) -> None:
     dup = np.flatnonzero(np.diff(ids[order]) == 0)
     if dup.size:
         row = int(order[dup[0] + 1])
-        raise DataError(path, f"duplicate frame id {ids[row]}", first_row + row)
+        raise DataError(path, f"duplicate frame id {ids[row]}: remove the repeated row", first_row + row)
 
 
 

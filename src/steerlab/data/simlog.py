@@ -121,7 +121,7 @@ def read_sim_log(log: str | Path, frame_range=None, strict: bool = False) -> Rec
                  f"({e.message}; reader option strict: true refuses such a log)")
             rows = rows[:-1]
     if not rows:
-        raise DataError(log, "the driving log has no rows")
+        raise DataError(log, "the driving log has no rows: record it again, or give another log")
     cut = apply_range(len(rows), frame_range, log)
     rows, first = rows[cut], first + cut.start
     frames: dict[str, list[Path]] = {"center": [], "left": [], "right": []}
@@ -139,7 +139,7 @@ def read_sim_log(log: str | Path, frame_range=None, strict: bool = False) -> Rec
     check_unique(stamps_a, log, first)
     check_increasing(stamps_a, log, first)
     for paths in frames.values():
-        check_images(paths, log, first)
+        check_images(paths, log, first, cut.start)
     return Recording(
         name=log.parent.name, source=log, frames=frames, timestamps_ns=stamps_a,
         steering=np.array(vals["steering"]) * SIM_FULL_LOCK_RAD, convention=SIM_CONVENTION, frame_ids=stamps_a,

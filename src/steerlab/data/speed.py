@@ -22,7 +22,8 @@ def estimate_speed(rec: Recording, cam: Camera, count: int = 100) -> float:
     horizon, h = cam.horizon, cam.height
     top, bottom = int(horizon + 0.15 * (h - horizon)), int(h - 0.12 * (h - horizon))
     if bottom - top < 8:
-        raise DataError(rec.source, "the camera sees too little road to estimate the speed; give it with --speed M/S")
+        raise DataError(rec.source, "the camera sees too little road to estimate the speed; give it (steerlab replay "
+                                    "--speed M/S, or speed: in a config's replay: section)")
     rows = np.arange(top, bottom)[:, None] + 0.5
     distance = lambda v: cam.mount_height / np.tan(np.arctan2(v - cam.cy, cam.focal) + np.radians(cam.pitch_deg))  # noqa: E731
     dis = cv2.DISOpticalFlow_create(cv2.DISOPTICAL_FLOW_PRESET_MEDIUM)
@@ -40,5 +41,6 @@ def estimate_speed(rec: Recording, cam: Camera, count: int = 100) -> float:
             estimates.append(float(np.median(drove[use])) / ((rec.timestamps_ns[i + 1] - rec.timestamps_ns[i]) / 1e9))
     if len(estimates) < max(5, 0.5 * min(count, len(pairs))):
         raise DataError(rec.source, "cannot estimate the speed from the frames (the road shows too little texture); "
-                                    "give it with --speed M/S")
+                                    "give it (steerlab replay --speed M/S, or speed: in a config's replay: "
+                                    "section)")
     return float(np.median(estimates))

@@ -21,7 +21,8 @@ def block(text: str, n: int, name: str) -> np.ndarray:
     start = 0 if start is None else start
     stop = n if stop is None else stop
     if not (0 <= start < stop <= n):
-        raise SteerlabError(f"{name} range {text!r} is empty or outside the dataset's 0:{n}")
+        raise SteerlabError(f"{name} range {text!r} is empty or outside the dataset's 0:{n}: give a "
+                            "START:STOP inside it")
     return np.arange(start, stop)
 
 
@@ -36,7 +37,7 @@ def paper_protocol(n: int, k: int = 3, length: int = 1000) -> tuple[np.ndarray, 
         val.append(np.arange(start, start + length))
     val_idx = np.unique(np.concatenate(val))
     if len(val_idx) != k * length:
-        raise SteerlabError(f"{k} validation segments of {length} frames overlap in {n} frames")
+        raise SteerlabError(f"{k} validation segments of {length} frames overlap in {n} frames: lower k or length")
     train_idx = np.setdiff1d(np.arange(n), val_idx)
     return train_idx, val_idx
 
@@ -45,13 +46,14 @@ def by_sessions(part: dict, sessions: np.ndarray | None, name: str) -> np.ndarra
     """Frame indices of the sessions listed in {"sessions": [...]} (donkeycar tubs record one per drive)."""
     wanted = part.get("sessions")
     if sessions is None:
-        raise SteerlabError(f"the {name} split names sessions, but this recording has no sessions")
+        raise SteerlabError(f"the {name} split names sessions, but this recording has no sessions: give "
+                            "frame ranges instead")
     if not isinstance(wanted, list) or not wanted:
         raise SteerlabError(f"the {name} split needs a non-empty list of sessions, e.g. {{sessions: [{sessions[0]}]}}")
     unknown = sorted(set(map(str, wanted)) - set(sessions))
     if unknown:
         raise SteerlabError(f"{name} sessions {unknown} are not in the recording; it has "
-                            f"{', '.join(dict.fromkeys(sessions))}")
+                            f"{', '.join(dict.fromkeys(sessions))}: choose among them")
     return np.flatnonzero(np.isin(sessions, [str(w) for w in wanted]))
 
 
@@ -84,7 +86,8 @@ class Split:
             return cls(None, 3, 1000, None, None, fraction, value_of(int, value.get("seed", 0), f"{where}.seed",
                                                                      Range(0)))
         if "seed" in value:
-            raise SteerlabError(f"{where}.seed is the seed of a random split ({where}.random)")
+            raise SteerlabError(f"{where}.seed is the seed of a random split ({where}.random): set "
+                                f"{where}.random too, or remove the seed")
         if value.get("protocol") is not None:
             if value["protocol"] != "paper" or "train" in value or "val" in value:
                 raise SteerlabError(f"{where}: protocol must be paper (without train and val ranges), got "
@@ -115,10 +118,11 @@ def make_split(spec: Split, n: int, sessions: np.ndarray | None = None) -> tuple
     if spec.random is not None:
         val = np.sort(np.random.default_rng(spec.seed).permutation(n)[:max(1, round(spec.random * n))])
         if len(val) == n:
-            raise SteerlabError(f"a random split of {spec.random:g} leaves no training frame of {n}")
+            raise SteerlabError(f"a random split of {spec.random:g} leaves no training frame of {n}: "
+                                "give a smaller fraction")
         return np.setdiff1d(np.arange(n), val), val
     train, val = (by_sessions(part, sessions, k) if isinstance(part, Mapping) else block(part, n, k)
                   for k, part in (("train", spec.train), ("val", spec.val)))
     if np.intersect1d(train, val).size:
-        raise SteerlabError(f"train split {spec.train} and val split {spec.val} overlap")
+        raise SteerlabError(f"train split {spec.train} and val split {spec.val} overlap: give ranges that do not")
     return train, val

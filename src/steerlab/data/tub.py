@@ -69,7 +69,8 @@ def _json_lines(path: Path, torn: list[int] | None = None) -> list[tuple[int, ob
                 out.append((n, json.loads(text)))
             except json.JSONDecodeError as e:
                 if torn is None:
-                    raise DataError(path, f"broken JSON line ({e.msg} at column {e.colno})", n) from None
+                    raise DataError(path, f"broken JSON line ({e.msg} at column {e.colno}): remove the line or fix its "
+                                          "JSON", n) from None
                 if n not in torn:
                     torn.append(n)
     return out
@@ -107,10 +108,12 @@ def _manifest(folder: Path) -> tuple[list[str], list[str], set[int], dict]:
                               f"({', '.join(MANIFEST_LINES)})")
     keys, catalogs = lines[0][1], lines[4][1]
     if not isinstance(keys, list) or "cam/image_array" not in keys or "user/angle" not in keys:
-        raise DataError(path, f"the record keys {keys} lack 'cam/image_array' or 'user/angle'", lines[0][0])
+        raise DataError(path, f"the record keys {keys} lack 'cam/image_array' or 'user/angle': give a "
+                              "tub that records both", lines[0][0])
     if not isinstance(catalogs, dict) or not isinstance(catalogs.get("paths"), list) \
             or not all(isinstance(p, str) and p for p in catalogs["paths"]):
-        raise DataError(path, "the catalog line lacks 'paths' (the catalog files in order, by name)", lines[4][0])
+        raise DataError(path, "the catalog line lacks 'paths' (the catalog files in order, by name): copy the "
+                              "tub again", lines[4][0])
     deleted = catalogs.get("deleted_indexes", [])
     if not isinstance(deleted, list) or not all(_integer(i) for i in deleted):
         raise DataError(path, f"deleted_indexes must be a list of record indexes (integers), got {deleted!r}",
@@ -153,13 +156,15 @@ def read_tub(folder: str | Path, frame_range=None, full_lock_deg: float | None =
         if torn and strict:
             raise DataError(folder / name, "a torn line (NUL bytes or half a JSON record: the car lost power "
                                            "mid-write?), refused as reader option strict is true (without it, torn "
-                                           "lines are read past with a warning)", torn[0])
+                                           "lines are read past with a warning): remove the line, or leave strict "
+                                           "out", torn[0])
         if torn:
             torn_at[name], lost = torn, lost + _records_lost(lines, torn)
         cut = _lines_cut_off(folder / name)
         if cut and strict:
             raise DataError(folder / name, f"the catalog ends {cut} line(s) before its catalog_manifest does (cut off), "
-                                           "refused as reader option strict is true")
+                                           "refused as reader option strict is true: copy the tub again, or leave "
+                                           "strict out")
         if cut:
             cut_at[name], lost = cut, lost + cut
         for line, rec in lines:
@@ -180,7 +185,8 @@ def read_tub(folder: str | Path, frame_range=None, full_lock_deg: float | None =
         warn(f"{folder}: read past torn catalog lines (a car that lost power mid-write?): {where}; {lost} "
              "record(s) lost (reader option strict: true refuses such a tub)")
     if not records:
-        raise DataError(folder, "the tub has no records (all deleted or empty catalogs)")
+        raise DataError(folder, "the tub has no records (all deleted or empty catalogs): record it "
+                                "again, or give another tub")
     records = records[apply_range(len(records), frame_range, folder)]
     kept, missing = [], []
     for path, line, rec in records:
@@ -193,7 +199,8 @@ def read_tub(folder: str | Path, frame_range=None, full_lock_deg: float | None =
         if not image.is_file():
             if not skip_missing:
                 raise DataError(path, f"record {rec['_index']}: image {image} is missing (reader option "
-                                      "skip_missing: true leaves such records out)", line)
+                                      "skip_missing: true leaves such records out): copy it back, or set "
+                                      "skip_missing", line)
             missing.append(rec["_index"])
             continue
         kept.append((image, rec))
@@ -201,12 +208,13 @@ def read_tub(folder: str | Path, frame_range=None, full_lock_deg: float | None =
         warn(f"{folder}: skipped {len(missing)} record(s) whose image is missing (indexes "
              f"{', '.join(map(str, missing[:10]))}{' ...' if len(missing) > 10 else ''})")
     if not kept:
-        raise DataError(folder, "no record has its image")
+        raise DataError(folder, "no record has its image: copy the tub's images folder with it")
     try:
         convention = SteeringConvention("normalized", "right",
                                         None if full_lock_deg is None else math.radians(float(full_lock_deg)))
     except ValueError as e:
-        raise SteerlabError(f"{folder}: reader option full_lock_deg: {e}") from None
+        raise SteerlabError(f"{folder}: reader option full_lock_deg: {e}; give the full-lock angle in degrees, "
+                            "e.g. full_lock_deg=25") from None
     said_full_lock(full_lock_deg, f"{folder}: reader option")
     recs = [r for _, r in kept]
     throttle = np.array([math.nan if r.get("user/throttle") is None else float(r["user/throttle"]) for r in recs])

@@ -54,19 +54,19 @@ def read_video(path: str | Path, frame_range=None, log: str | Path | None = None
     ok = capture.isOpened() and capture.read()[0]
     capture.release()
     if not ok or count <= 0:
-        raise DataError(path, "cannot decode this video with OpenCV")
+        raise DataError(path, "cannot decode this video with OpenCV: convert it to MP4 (H.264)")
     if geometry not in CROP_PRESETS:
         raise DataError(path, f"unknown camera geometry {geometry!r}; choose one of {', '.join(CROP_PRESETS)}")
     try:
         convention = SteeringConvention(steering, positive,
                                         None if full_lock_deg is None else math.radians(float(full_lock_deg)))
     except ValueError as e:
-        raise DataError(log, f"reader options steering/positive/full_lock_deg: {e}") from None
+        raise DataError(log, f"reader options steering/positive/full_lock_deg: {e}; fix them") from None
     said_full_lock(full_lock_deg, f"{log}: reader option")
 
     rows = read_rows(log)
     if len(rows) < 2:
-        raise DataError(log, "the log has no rows")
+        raise DataError(log, "the log has no rows: give the log of this video's frames")
     header = csv_header(log, rows[0])
     col = {h: i for i, h in enumerate(header)}
     time_col = next((c for c in ("timestamp_ns", "timestamp", "frame") if c in col), None)
@@ -82,11 +82,13 @@ def read_video(path: str | Path, frame_range=None, log: str | Path | None = None
             raise DataError(log, "frame numbers must increase", int(bad[0]) + 3)
         if positions[0] < 0 or positions[-1] >= count:
             raise DataError(log, f"the log labels video frame {positions[-1]} but {path.name} has only {count} "
-                                 f"frames ({positions[-1] + 1 - count} too few)", len(body) + 1)
+                                 f"frames ({positions[-1] + 1 - count} too few): give the log of this "
+                                 "video", len(body) + 1)
     elif len(body) != count:
         more = "more" if len(body) > count else "fewer"
         raise DataError(log, f"the log has {len(body)} rows but {path.name} has {count} frames "
-                             f"({abs(len(body) - count)} {more} rows than frames)")
+                             f"({abs(len(body) - count)} {more} rows than frames): give the log "
+                             "written with this video")
     for r, row in enumerate(body, start=2):
         if len(row) < len(header):
             raise DataError(log, f"expected {len(header)} columns, got {len(row)}", r)

@@ -129,7 +129,8 @@ class TubWriter:
             self.sessions.append(f"{self.day}_{len(self.sessions)}")
         name = f"{i}_cam_image_array_.jpg"
         if not cv2.imwrite(str(self.out / "images" / name), frame, TUB_JPEG):
-            raise SteerlabError(f"cannot write {self.out / 'images' / name}")
+            raise SteerlabError(f"cannot write {self.out / 'images' / name}: free disk space, or choose "
+                                "another output folder")
         self.records.append({"_index": i, "_session_id": self.sessions[-1],
                              "_timestamp_ms": (self.start_ns + int(timestamp_ns)) // 1_000_000,
                              "cam/image_array": name, "user/angle": self.servo(road_wheel),

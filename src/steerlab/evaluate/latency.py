@@ -90,7 +90,8 @@ def measure(pilot: Pilot, frames: list[tuple], count: int | None = None, threads
     after the warm-up."""
     count = len(frames) - warmup if count is None else count
     if count < 1:
-        raise SteerlabError(f"{len(frames)} frames leave none to time after {warmup} warm-up frames")
+        raise SteerlabError(f"{len(frames)} frames leave none to time after {warmup} warm-up frames: give more "
+                            "frames")
     pilot.reset()
     net = pilot.net = TimedModel(pilot.net)
     times = []
@@ -189,9 +190,10 @@ def run_latency(checkpoints=(), o: LatencyOptions = LatencyOptions(), source: So
             model_class(name)  # an unknown name fails here, before anything runs
     for path in map(Path, checkpoints):
         if not path.is_file():
-            raise SteerlabError(f"{path}: checkpoint not found")
+            raise SteerlabError(f"{path}: checkpoint not found: check the path")
         if path.suffix == ".onnx" and "onnx" not in runtimes:
-            raise SteerlabError(f"{path} runs on ONNX Runtime only: time it with --runtime onnx or both")
+            raise SteerlabError(f"{path} runs on ONNX Runtime only: time it with steerlab latency "
+                                "--runtime onnx or both")
     rec = None if source is None else replace(source, range=source.range or f"0:{DISTINCT_FRAMES}").open()
     geometry = o.geometry or (rec.geometry if rec else "donkey")
     size = rec and rec.load_frame(0).shape[:2]

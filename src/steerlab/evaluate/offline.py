@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from functools import partial
 from itertools import islice
 from pathlib import Path
 
@@ -12,6 +11,7 @@ from tqdm import tqdm
 from steerlab.data.car import car_of
 from steerlab.data.labels import speed_targets
 from steerlab.data.readers import Source
+from steerlab.data.recording import read_image
 from steerlab.evaluate.metrics import SMOOTHING_ALPHA, all_metrics, exponential_smoothing, steering_metrics
 from steerlab.errors import SteerlabError, warn
 from steerlab.files import write_json
@@ -39,7 +39,8 @@ def evaluate(checkpoint: str | Path, source: Source, out: str | Path, camera: st
     out = Path(out)
     rec = source.open()
     if camera not in rec.frames:
-        raise SteerlabError(f"{rec.source} has no {camera!r} camera (it has {', '.join(rec.cameras)})")
+        raise SteerlabError(f"{rec.source} has no {camera!r} camera (it has {', '.join(rec.cameras)}): "
+                            "choose one of them")
     pilot = Pilot(checkpoint, other_camera=other_camera)
     if pilot.speed_history and rec.speed is None:
         raise SteerlabError(f"model {pilot.name!r} needs the measured speed with every frame; {rec.source} has none")
@@ -52,7 +53,8 @@ def evaluate(checkpoint: str | Path, source: Source, out: str | Path, camera: st
             also = ("" if pilot.geometry in (None, rec.geometry) else f"; and the recording's camera geometry "
                     f"({rec.geometry}) is not the model's ({pilot.geometry}) either")
             raise SteerlabError(f"{what}: the metrics would mix units; evaluate it on recordings of its own "
-                                f"convention, or pass --allow-convention-mismatch to convert its predictions{also}")
+                                f"convention, or run steerlab evaluate with --allow-convention-mismatch to convert its "
+                                f"predictions{also}")
         try:
             pilot.convention.convert(0.0, rec.convention, *ratios)
             convert = lambda y: pilot.convention.convert(y, rec.convention, *ratios)  # noqa: E731
@@ -65,8 +67,8 @@ def evaluate(checkpoint: str | Path, source: Source, out: str | Path, camera: st
         what = (f"{checkpoint} was trained on the {pilot.geometry!r} camera geometry and {rec.source} has the "
                 f"{rec.geometry!r} geometry")
         if not other_camera:
-            raise SteerlabError(f"{what}: evaluate it on recordings of its own camera, or pass --allow-other-camera "
-                                "to crop and resize these frames anyway")
+            raise SteerlabError(f"{what}: evaluate it on recordings of its own camera, or run steerlab evaluate with "
+                                "--allow-other-camera to crop and resize these frames anyway")
         warn(f"{what}: expect worse predictions than the model can make")
     if video:  # both sides are shown as a steering-wheel angle, which needs a physical scale
         try:
@@ -82,7 +84,7 @@ def evaluate(checkpoint: str | Path, source: Source, out: str | Path, camera: st
         return conv.to_road_wheel_left(y, ratio) * ratios[1]
 
     if rec.video is None:  # image files: read and decoded on the Pilot's worker threads
-        frames, load = iter(range(len(rec))), partial(rec.load_frame, camera=camera)
+        frames, load = iter(rec.frames[camera]), read_image
     else:  # a video decodes fastest in order, as it is read
         frames, load = (rec.load_frame(i, camera) for i in range(len(rec))), None
     controls = []

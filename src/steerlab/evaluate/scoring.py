@@ -18,7 +18,7 @@ def read_steering_csv(path: str | Path, need_public: bool = False) -> tuple[np.n
     path = Path(path)
     rows = read_csv(path, "predictions file")
     if not rows:
-        raise DataError(path, "the file is empty")
+        raise DataError(path, "the file is empty: give the predictions, a frame_id,steering_angle row per frame")
     header = csv_header(path, rows[0])
     if "frame_id" not in header or "steering_angle" not in header:
         raise DataError(path, f"expected columns 'frame_id,steering_angle', got {header}", 1)
@@ -34,7 +34,7 @@ def read_steering_csv(path: str | Path, need_public: bool = False) -> tuple[np.n
         except (ValueError, IndexError):
             raise DataError(path, f"frame_id must be an integer, got {row[i_id] if len(row) > i_id else ''!r}", r) from None
         if fid in seen:
-            raise DataError(path, f"duplicate frame_id {fid} (first on row {seen[fid]})", r)
+            raise DataError(path, f"duplicate frame_id {fid} (first on row {seen[fid]}): remove one of them", r)
         seen[fid] = r
         try:
             v = float(row[i_st])
@@ -47,7 +47,7 @@ def read_steering_csv(path: str | Path, need_public: bool = False) -> tuple[np.n
         if i_pub is not None:
             pub.append(row[i_pub].strip() in ("1", "True", "true"))
     if not ids:
-        raise DataError(path, "no rows")
+        raise DataError(path, "no rows: give a frame_id,steering_angle row per frame")
     return np.array(ids, np.int64), np.array(vals), (np.array(pub) if i_pub is not None else None)
 
 
@@ -75,12 +75,13 @@ def score(truth_path: str | Path, pred_path: str | Path) -> dict[str, float]:
     missing = [f for f in t_ids if int(f) not in pos]
     if missing:
         raise DataError(pred_path, f"{len(missing)} frame ids of the answer file are missing, "
-                                   f"first {missing[0]}")
+                                   f"first {missing[0]}: give a prediction for each of its frames")
     extra = len(p_ids) - (len(t_ids) - len(missing))
     if extra:
         known = set(int(f) for f in t_ids)
         first = next(int(f) for f in p_ids if int(f) not in known)
-        raise DataError(pred_path, f"{extra} frame ids are not in the answer file, first {first}")
+        raise DataError(pred_path, f"{extra} frame ids are not in the answer file, first {first}: remove "
+                                   "them, or give the answer file of these frames")
     aligned = pred[[pos[int(f)] for f in t_ids]]
     most = float(np.abs(truth).max())
     if most > MOST_RAD:

@@ -98,7 +98,8 @@ def create_model(name: str, in_channels: int | None = None, height: int | None =
     try:
         model = cls(in_channels=in_channels, **options)
     except TypeError as e:
-        raise SteerlabError(f"bad options for model {name!r}: {e}") from None
+        raise SteerlabError(f"bad options for model {name!r}: {e}; it takes "
+                            f"{', '.join(model_option_types(name)) or 'none'}") from None
     x = torch.zeros((1, 1, in_channels, height, width) if model.recurrent else (1, in_channels, height, width))
     extra = {"speeds": torch.zeros(1, model.speed_history)} if model.speed_history else {}
     try:
@@ -150,7 +151,7 @@ class ModelSpec:
         options = {k: v for k, v in value.items() if k != "name"}
         if "throttle" in options:
             raise SteerlabError(f"{where}.throttle is not set by hand: training adds the throttle output when "
-                                "train.throttle_weight > 0 and the recording's throttle varies")
+                                "train.throttle_weight > 0 and the recording's throttle varies: remove it")
         unknown = sorted(set(options) - set(types))
         if unknown:
             raise SteerlabError(f"unknown {where} options {unknown} for model {name!r}; it takes {sorted(types)}")

@@ -23,7 +23,7 @@ WORLDS: dict[str, WorldEntry] = {w.name: w for w in (ROAD, TRACK)}  # the first:
 def register(entry: WorldEntry) -> WorldEntry:
     """Add a world to the registry (a world named as one already there is refused). Returns it."""
     if entry.name in WORLDS:
-        raise SteerlabError(f"a world named {entry.name!r} is registered already")
+        raise SteerlabError(f"a world named {entry.name!r} is registered already: choose another name")
     WORLDS[entry.name] = entry
     return entry
 

@@ -69,8 +69,9 @@ class FrameBatches(Dataset):
         if throttle:
             missing = [ds.meta["source"] for ds, _ in sources if "throttle" not in ds.labels]
             if missing:
-                raise SteerlabError(f"the throttle is learned from the main recording, but {missing[0]} has none "
-                                    "(train.throttle_weight=0 learns the steering alone)")
+                raise SteerlabError(f"the throttle is learned from the main recording, but {missing[0]} has none: "
+                                    "give recordings that record it, or set train.throttle_weight to 0 to learn the "
+                                    "steering alone")
             self.targets["throttle"] = np.concatenate([ds.labels["throttle"] for ds, _ in sources])
         self.speed_history, self.rotation_deg, self.brightness, self.hue_deg = (speed_history, rotation_deg,
                                                                                brightness, hue_deg)

@@ -116,7 +116,7 @@ class TrainConfig(Options):
         for i, extra in enumerate(self.extra_data):  # every frame of an extra recording trains
             if same_path(_folder(extra), _folder(self.data)):
                 raise SteerlabError(f"extra_data[{i}] {extra} is the training recording itself (data): its "
-                                    "validation frames would be trained on")
+                                    "validation frames would be trained on; remove it from extra_data")
         distinct(self.extra_data, "recording of extra_data")
         t, cls = self.train, self.model.cls
         if t.smoothness > 0 and not cls.recurrent:
@@ -127,17 +127,17 @@ class TrainConfig(Options):
                                 f"{self.model.options['seq_len']}")
         if t.balance and cls.recurrent:
             raise SteerlabError("balanced sampling picks single frames; recurrent models train on sequences "
-                                "(paper 003 does not balance its LSTM either)")
+                                "(paper 003 does not balance its LSTM either): set train.balance to false")
         if self.split.random is not None and cls.recurrent:
             raise SteerlabError(f"split.random draws single frames; model {self.model.name!r} trains on sequences "
                                 "of consecutive frames: split by blocks (split.train and split.val)")
         if hasattr(cls, "loss") and t.loss != "mse":
             raise SteerlabError(f"model {self.model.name!r} trains on a loss of its own; train.loss={t.loss} does "
-                                "not apply")
+                                "not apply: remove it")
         if t.throttle_weight > 0 and not learns_throttle(self.model.name):
             able = ", ".join(m for m in list_models() if learns_throttle(m))
             raise SteerlabError(f"train.throttle_weight: model {self.model.name!r} does not learn a throttle; "
-                                f"these do: {able}")
+                                f"these do: {able}; choose one of them, or set train.throttle_weight to 0")
         inputs = self.preprocessing()
         if t.hue_deg and inputs.color != "rgb":
             raise SteerlabError(f"train.hue_deg turns the hue of RGB inputs; preprocess.color is {inputs.color}: "
@@ -239,7 +239,8 @@ def apply_override(cfg: dict, text: str) -> None:
     for p in parts[:-1]:
         node = node.setdefault(p, {})
         if not isinstance(node, dict):
-            raise SteerlabError(f"override {text!r}: {p!r} is not a section")
+            raise SteerlabError(f"override {text!r}: {p!r} is not a section; give the key of a value, "
+                                "e.g. train.epochs=2")
     # a frame range such as 0:1800 stays text (YAML 1.1 would read it as a base-60 number)
     if re.fullmatch(r"\s*\d*:\d*\s*", value):
         node[parts[-1]] = value

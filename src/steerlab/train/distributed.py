@@ -47,7 +47,8 @@ def device_of(option: str) -> torch.device:
     if option not in ("auto", "cpu", "cuda"):
         raise SteerlabError(f"train.device must be auto, cpu or cuda, got {option!r}")
     if option == "cuda" and not torch.cuda.is_available():
-        raise SteerlabError("train.device is cuda, but torch sees no CUDA device (a CPU build or no GPU)")
+        raise SteerlabError("train.device is cuda, but torch sees no CUDA device (a CPU build or no GPU): "
+                            "set train.device to cpu")
     return torch.device("cuda" if option == "cuda" or (option == "auto" and torch.cuda.is_available()) else "cpu")
 
 

@@ -242,7 +242,7 @@ def _with_throttle_row(init: dict, own: dict, where, say: bool) -> dict:
         if w.shape != mine.shape:
             if w.shape[1:] != mine.shape[1:] or {w.shape[0], mine.shape[0]} != {1, 2}:
                 raise SteerlabError(f"{where}: train.init's {key} has the shape {tuple(w.shape)}, the model's "
-                                    f"{tuple(mine.shape)}")
+                                    f"{tuple(mine.shape)}: give a train.init of this model and its options")
             out[key] = w[:1] if mine.shape[0] == 1 else torch.cat([w, mine[1:]])
             change = "its throttle output dropped" if mine.shape[0] == 1 else "a new throttle output"
     if say and change:
@@ -288,7 +288,8 @@ def build(cfg: TrainConfig, ranks: Ranks, progress: bool, init: dict | None, tea
     if model.recurrent:
         samples = sequence_windows(train_codes, data.starts, model.seq_len)
         if len(samples) == 0:
-            raise SteerlabError(f"no training window of {model.seq_len} consecutive frames in one segment")
+            raise SteerlabError(f"no training window of {model.seq_len} consecutive frames in one segment: "
+                            "lower model.seq_len")
     repeats = None
     if t.recovery_weight > 1:
         episodes = data.episodes()
@@ -368,7 +369,7 @@ def fit(run: Run, ranks: Ranks, progress: bool, on_epoch=None) -> dict:
             if not math.isfinite(value):  # stop before a diverged model can become the best one
                 kept = "no checkpoint was saved" if best is None else f"best.pt keeps epoch {best['epoch']}"
                 raise SteerlabError(f"training diverged in epoch {epoch}: the {what} is {value} (train.lr "
-                                    f"{t.lr:g} may be too high); {kept}")
+                                    f"{t.lr:g} may be too high: lower it); {kept}")
         if log is not None:
             history.append(log.write(epoch, loss, m, time.time() - t0))
         if progress:

@@ -55,7 +55,8 @@ def prepare_dataset(cfg: TrainConfig, progress: bool = True, camera: str | None 
     check_camera(cfg, rec)
     camera = camera or cfg.camera
     if camera not in rec.frames:
-        raise SteerlabError(f"{rec.source} has no {camera!r} camera (it has {', '.join(rec.cameras)})")
+        raise SteerlabError(f"{rec.source} has no {camera!r} camera (it has {', '.join(rec.cameras)}): "
+                            "choose one of them")
     if view is not None and rec.geometry not in CAMERAS:
         raise SteerlabError(f"viewpoint shifts need the camera geometry of the recording; {rec.source} has the "
                             f"{rec.geometry!r} preset, and geometry is known for {', '.join(CAMERAS)}")
@@ -76,7 +77,7 @@ def usable_frames(ds: CompiledDataset, idx: np.ndarray, name: str, min_speed: fl
         idx = idx[~np.isin(ds.labels["episode"][idx], list(exclude_episodes))]
     if len(idx) == 0:
         raise SteerlabError(f"the {name} split is empty" + (f" once frames slower than {min_speed} m/s are dropped"
-                                                             if min_speed else ""))
+                                                             if min_speed else "") + ": give it more frames")
     return idx
 
 
@@ -128,7 +129,7 @@ def teacher_steering(cfg: TrainConfig, teacher: dict, progress: bool) -> np.ndar
                             f"{rec.convention.describe()} steering: a teacher of the recording's convention is needed")
     if pilot.geometry != rec.geometry:
         raise SteerlabError(f"{where} was trained on the {pilot.geometry!r} camera geometry and {rec.source} has "
-                            f"the {rec.geometry!r} geometry")
+                            f"the {rec.geometry!r} geometry: give a teacher of this recording's camera")
     out = []
     with tqdm(total=len(rec), desc="teacher", unit="frame", disable=None if progress else True) as bar:
         for a, b in rec.segments():

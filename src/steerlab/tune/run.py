@@ -55,13 +55,14 @@ def _load_study(cfg: TrainConfig, o: TuneOptions, storage, name: str, url: str |
         names = [repr(n) for n in optuna.get_all_study_names(storage)]
         there = ", ".join(names[:10]) + (", ..." if len(names) > 10 else "") if names else "none"
         raise SteerlabError(f"study {name!r} does not exist in {shown_url(url) if url else 'the storage'} (studies "
-                            f"there: {there}); check --study and --storage, or start the study without --join")
+                            f"there: {there}); check steerlab tune --study and --storage, or start "
+                            "the study without --join")
     # studies created before the reduction factor was an option stored "prune": true (factor 3) or false
     older = json.dumps({"tune": cfg.tune, "objective": objective, "prune": pruning is not None},
                        sort_keys=True) if pruning in (None, 3) else None
     if existing is not None and existing.user_attrs.get("signature") not in (None, signature, older):
         raise SteerlabError(f"study {name!r} exists in this storage with a different search space, objective or "
-                            "pruning; choose another --study name")
+                            "pruning; choose another steerlab tune --study name")
     # a worker that continues a study draws anew: seeded with the trials already there, so that the same --seed
     # does not propose the study's first configurations again (a new study with a seed is reproducible)
     done = len(existing.trials) if existing is not None else 0

@@ -49,7 +49,8 @@ def search_space(spec, cfg: TrainConfig) -> dict:
     import optuna
 
     if not isinstance(spec, dict) or not spec:
-        raise SteerlabError("the config has no tune: section (config key -> range) to search")
+        raise SteerlabError("the config has no tune: section (config key -> range) to search: add one, "
+                            "e.g. tune: {train.lr: {low: 1.0e-5, high: 1.0e-3, log: true}}")
     space = {}
     for key, rng in spec.items():
         option = _option(key, cfg)

@@ -68,8 +68,8 @@ def storage_of(url: str | None, out: Path, join: bool = False):
     scheme = url.split(":", 1)[0]
     local = url[len("sqlite:///"):] if scheme == "sqlite" else None if "://" in url else url.removeprefix("journal:")
     if join and local is not None and not Path(local).is_file():
-        raise SteerlabError(f"{local}: no such file, so no study to join; check --storage, or start the study "
-                            "without --join")
+        raise SteerlabError(f"{local}: no such file, so no study to join; check steerlab tune --storage, or start the "
+                            "study without --join")
     if scheme.split("+", 1)[0] in ("sqlite", "postgresql", "mysql"):  # postgresql+psycopg2://...
         interval, grace = heartbeat()
         engine = url
@@ -87,7 +87,8 @@ def storage_of(url: str | None, out: Path, join: bool = False):
             raise SteerlabError(f"cannot open storage {shown_url(url)}: its database driver is not installed "
                                 f"(no module {e.name!r}; for PostgreSQL: pip install 'psycopg[binary]')") from None
         except Exception as e:  # noqa: BLE001 - SQLAlchemy raises many types for a bad URL or server
-            raise SteerlabError(f"cannot open storage {shown_url(url)}: {_first_line(e)}") from None
+            raise SteerlabError(f"cannot open storage {shown_url(url)}: {_first_line(e)}; check the URL "
+                                "and the database server") from None
     path = url.removeprefix("journal:")
     if "://" in path or not path.endswith((".journal", ".log")):
         raise SteerlabError(f"unknown storage {url!r}: use a journal file (*.journal, *.log, journal:PATH) or "
@@ -100,7 +101,7 @@ def storage_of(url: str | None, out: Path, join: bool = False):
         return JournalStorage(JournalFileBackend(str(path)))
     except ValueError as e:  # Optuna's reader: a damaged line before the last one
         raise SteerlabError(f"{path}: a line before the last one is damaged ({e.__class__.__name__}); only a torn "
-                            "last line can be skipped") from None
+                            "last line can be skipped: remove the damaged line") from None
     except PermissionError as e:
         raise SteerlabError(f"{e.filename or path}: permission denied (the study's journal needs to be readable "
                             "and writable, with its folder writable for the lock file)") from None
@@ -140,10 +141,10 @@ def _check_journal_access(path: Path) -> None:
     """A journal that this worker cannot write (or whose folder cannot take Optuna's lock file) is refused
     before anything runs, naming the file."""
     if path.is_dir():
-        raise SteerlabError(f"{path}: a folder, not a journal file")
+        raise SteerlabError(f"{path}: a folder, not a journal file: name a file in it")
     if path.exists() and not os.access(path, os.R_OK | os.W_OK):
         raise SteerlabError(f"{path}: the journal file is not writable (permission denied); the study needs "
-                            "to append to it: make it writable or choose another --storage")
+                            "to append to it: make it writable or choose another steerlab tune --storage")
     if not os.access(path.parent, os.W_OK | os.X_OK):
         raise SteerlabError(f"{path.parent}: the journal's folder is not writable (permission denied); the "
                             f"study needs it for {path.name} and its lock file")

@@ -37,7 +37,8 @@ class PartPilot:
                  source: str | None = None, with_speed: bool = False, throttle_scale: float = 1.0,
                  max_throttle: float = 1.0):
         if not callable(getattr(part, "run", None)):
-            raise SteerlabError(f"{type(part).__name__} is not a donkeycar part: it has no run(img_arr)")
+            raise SteerlabError(f"{type(part).__name__} is not a donkeycar part: it has no run(img_arr); "
+                                "give a part that has one")
         if not 0 < full_lock_deg < 90:
             raise SteerlabError(f"full_lock_deg must lie in (0, 90) degrees, got {full_lock_deg}")
         if not 0 < throttle_scale <= 10:

@@ -78,7 +78,7 @@ def entrants(pilots, pilot_of: Callable) -> list[Entrant]:
         raise SteerlabError("no checkpoint to drive: name at least one")
     labels = [e.label for e in out]
     if twice := sorted({n for n in labels if labels.count(n) > 1}):
-        raise SteerlabError(f"two pilots of the suite are labelled {twice[0]!r}: label each once")
+        raise SteerlabError(f"two pilots of the suite are labelled {twice[0]!r}: give each a label of its own")
     return out
 
 
@@ -95,7 +95,7 @@ def checkpoints_to_drive(checkpoints) -> tuple[list[Path], list[str]]:
         raise SteerlabError("no checkpoint to drive: name at least one")
     for c in checkpoints:
         if not c.is_file():
-            raise SteerlabError(f"{c}: checkpoint not found")
+            raise SteerlabError(f"{c}: checkpoint not found: check the path")
     return checkpoints, labels_for(checkpoints)
 
 

@@ -81,5 +81,6 @@ def replay_segments(rec: Recording, frames: np.ndarray | None = None) -> list[tu
     runs = [(int(r[0]), int(r[-1]) + 1) for r in np.split(idx, breaks) if len(r)]
     out = [(a, b) for a, b in runs if times[b - 1] - times[a] >= MIN_SECONDS]
     if not out:
-        raise DataError(rec.source, f"too short to replay: no segment lasts {MIN_SECONDS:g} s ({len(idx)} frames)")
+        raise DataError(rec.source, f"too short to replay: no segment lasts {MIN_SECONDS:g} s ({len(idx)} frames): "
+                                    "give a longer recording")
     return out

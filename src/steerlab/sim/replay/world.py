@@ -21,6 +21,7 @@ import numpy as np
 from steerlab.data.car import Car
 from steerlab.data.geometry import Camera, shift_view
 from steerlab.data.recording import Recording
+from steerlab.errors import DataError, SteerlabError
 from steerlab.options import Range
 from steerlab.sim.core.vehicle import Vehicle, VehicleState
 from steerlab.sim.replay.path import HumanPath, human_path, human_road_wheel, replay_segments
@@ -118,7 +119,12 @@ class ReplayWorld:
         shift, yaw = self.relative_view(j)
         if not lateral:
             self.view = (shift, yaw)
-        return self.warp(self.rec.load_frame(self.start + j), shift + lateral, yaw)
+        i = self.start + j
+        frame = self.rec.load_frame(i)
+        try:
+            return self.warp(frame, shift + lateral, yaw)
+        except SteerlabError as e:  # a frame of another size than the camera's: named by its file
+            raise DataError(self.rec.frames["center"][i], f"frame {i}: {e}") from None
 
     def relative_view(self, j: int) -> tuple[float, float]:
         """(m to the left, degrees turned left) of the car's camera relative to the human's at frame j; the

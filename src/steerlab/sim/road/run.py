@@ -95,7 +95,7 @@ def geometry_for(pilot, geometry: str | None) -> str:
             return pilot.geometry or "sim"
         raise SteerlabError(f"{pilot.source}: model {pilot.name!r} was trained on the {pilot.geometry!r} camera, which "
                             f"the road world does not render (it renders {', '.join(ROAD_CAMERAS)}); choose one with "
-                            "--geometry to drive it with another camera anyway")
+                            "geometry (steerlab sim drive --geometry) to drive it with another camera anyway")
     if geometry != pilot.geometry and getattr(pilot, "frame_size", None) is not None:
         raise SteerlabError(f"{pilot.source}: model {pilot.name!r} was trained on the {pilot.geometry!r} camera and "
                             f"takes no {geometry!r} frames (a Pilot with other_camera=True does)")

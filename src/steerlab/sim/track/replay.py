@@ -63,14 +63,17 @@ class TrackReplayOptions(Options):
         car = CARS["donkey"]
         if rec.geometry != "donkey":
             raise SteerlabError(f"{rec.source}: the track replay is for the donkey camera (donkeycar tubs, the track "
-                                f"world's recordings), not the {rec.geometry!r} camera: replay it with --world road")
+                                f"world's recordings), not the {rec.geometry!r} camera: replay it with steerlab "
+                                "replay --world road")
         if self.lane_width <= car.body.width:
-            raise SteerlabError(f"--lane-width {self.lane_width:g} m leaves no room for the car's {car.body.width:g} m "
-                                "wide body")
+            raise SteerlabError(f"steerlab replay --lane-width {self.lane_width:g} m leaves no room for the car's "
+                                f"{car.body.width:g} m wide body: give a wider lane")
         if self.speed is not None and self.throttle == "model":
-            raise SteerlabError("--speed and --throttle model exclude each other: the model's throttle sets the speed")
+            raise SteerlabError("steerlab replay --speed and --throttle model exclude each other: the model's "
+                                "throttle sets the speed; leave --speed out")
         if self.speed is None and rec.throttle is None:
-            raise DataError(rec.source, "records no throttle to take the speed from: give one with --speed M/S")
+            raise DataError(rec.source, "records no throttle to take the speed from: give one with steerlab replay "
+                                        "--speed M/S")
         fisheye = rec.fisheye or DONKEY_FISHEYE
         if self.calibration is not None:
             fisheye = load_calibration(self.calibration, fisheye)
@@ -88,8 +91,8 @@ class TrackReplayOptions(Options):
     def check_pilot(self, pilot, checkpoint, rec: Recording) -> None:
         """A checkpoint that `--throttle model` cannot replay (it learned no throttle) is refused."""
         if self.throttle == "model" and "throttle" not in pilot.targets:
-            raise SteerlabError(f"{checkpoint} predicts no throttle: --throttle model needs a model that learned it "
-                                "(train.throttle_weight)")
+            raise SteerlabError(f"{checkpoint} predicts no throttle: steerlab replay --throttle model needs a model "
+                                "that learned it (train.throttle_weight)")
 
 
 class TrackReplayWorld(ReplayWorld):

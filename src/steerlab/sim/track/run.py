@@ -182,9 +182,9 @@ def checkpoint_pilot(checkpoint: str | Path, o, w: DriveWith = DriveWith()):
     pilot = donkey_pilot(checkpoint, constant_throttle(o.throttle), w.smoothing, o.max_throttle,
                          steering_step=w.steering_step, throttle_scale=o.throttle_scale)
     if o.throttle is not None and pilot.part.learned:
-        raise SteerlabError(f"{checkpoint} learned the throttle; --throttle {o.throttle:g} is the constant throttle of "
-                            "a model that predicts none: leave it out (--throttle-scale and --max-throttle shape a "
-                            "learned throttle)")
+        raise SteerlabError(f"{checkpoint} learned the throttle; the throttle {o.throttle:g} (steerlab sim drive "
+                            "--throttle) is the constant throttle of a model that predicts none: leave it out "
+                            "(throttle_scale and max_throttle shape a learned throttle)")
     return pilot
 
 

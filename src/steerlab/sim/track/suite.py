@@ -228,9 +228,9 @@ def race(pilots, out: str | Path, o: TrackSuiteOptions, progress: bool = True) -
                             "name it otherwise (its run folder)")
     checkpoints = [e.source for e in racing if "checkpoint_sha256" in e.identity]
     if o.throttle is not None and checkpoints and all(learns_throttle(c) for c in checkpoints):
-        raise SteerlabError(f"--throttle {o.throttle:g} is the constant throttle of a model that predicts none; every "
-                            "checkpoint here learned its own: leave it out (--throttle-scale and --max-throttle "
-                            "shape a learned throttle)")
+        raise SteerlabError(f"the throttle {o.throttle:g} (steerlab sim bench --throttle) is the constant throttle "
+                            "of a model that predicts none; every checkpoint here learned its own: leave it out "
+                            "(throttle_scale and max_throttle shape a learned throttle)")
     expert_key = as_stored({"suite": o.suite, "minutes": o.place_minutes, "max_throttle": o.max_throttle})
     runs = [(o.expert_folder(), None, expert_key), *((e.label, e, o.key(e)) for e in racing)]
     planned = [Planned((label, seed), out / label / f"{style}-{seed}", key,

@@ -92,7 +92,8 @@ class Track:
             if self._draw(rng):
                 break
         else:  # pragma: no cover - seeds 0-59 close within 112 draws, with lanes of 0.3 to 2 m
-            raise SteerlabError(f"no track could be drawn from seed {seed} with a {lane_width} m lane")
+            raise SteerlabError(f"no track could be drawn from seed {seed} with a {lane_width} m lane: "
+                            "choose another seed")
         self._speed_cache: dict = {}
 
     # --- drawing ---------------------------------------------------------------------------------------------
