@@ -104,7 +104,7 @@ bench: $(VENV)/.test  # the timings of benchmarks/ (the experiments of studies/ 
 # Mutation testing (docs/results/mutation.md) of the functions that decide results: lap timing and pace, the mirror
 # and augmentations, the throttle's scale and cap, the checkpoint's seal, option ranges, replay's interventions and
 # the leaderboard's scoring. pyproject.toml's [tool.mutmut] names their files and the tests that exercise them; the
-# mutants live in mutants/. Not part of `make test`: about an hour on two cores.
+# mutants live in mutants/. Not part of `make test`: hours on two shared cores.
 MUTATE := 'steerlab.sim.track.world.x?Laps?*' 'steerlab.sim.track.suite.x_drive_row__*' \
 	'steerlab.sim.track.suite.x_summarize__*' 'steerlab.sim.track.suite.x_round_columns__*' \
 	'steerlab.train.augment.*' 'steerlab.donkey.x?SteerlabPilot?_throttle__*' 'steerlab.donkey.x__check__*' \

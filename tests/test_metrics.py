@@ -16,6 +16,7 @@ from conftest import CH2, needs_ch2
 def test_gamma_hand_computed():
     # successive differences 1, 2, 3 degrees -> population std sqrt(2/3)
     assert gamma_deg(np.radians([0, 1, 3, 6])) == pytest.approx(np.sqrt(2 / 3))
+    assert gamma_deg([0.1, 0.2]) == 0.0 and np.isnan(gamma_deg([0.1]))  # one difference: no spread; none: undefined
     m = steering_metrics(np.radians([1, 1]), np.radians([0, 2]))
     assert m["mae_deg"] == pytest.approx(1.0) and m["rmse"] == pytest.approx(np.radians(1))
 

@@ -355,6 +355,20 @@ def test_the_learned_throttle_is_capped_both_ways_and_braking_is_scaled_too(tmp_
         part = SteerlabPilot(ckpt, throttle_scale=scale, max_throttle=cap)
         part.pilot.step = lambda image, speed=None, learned=learned: Controls(0.1, throttle=learned)
         assert part.run(frame) == pytest.approx((0.1, expected))
+    # a speed-command model: the throttle steps by command_step up (2) or down (0) from 0.3, within [0, max_throttle]
+    command = made(tmp_path, "normalized", "right", "donkey", name="command.pt", model="speed-command")
+    part = SteerlabPilot(command, 0.3, command_step=0.1, max_throttle=0.5)
+    for said, expected in [(2, 0.4), (2, 0.5), (2, 0.5), (0, 0.4), (0, 0.3), (0, 0.2), (0, 0.1), (0, 0.0), (0, 0.0)]:
+        part.pilot.step = lambda image, speed=None, said=said: Controls(0.0, command=said)
+        assert part.run(frame)[1] == pytest.approx(expected)
+    # the part's numbers in their intervals: closed ends taken, open ones and booleans refused, the interval named
+    steering = made(tmp_path, "normalized", "right", "donkey", name="steering.pt", full_lock_deg=25)
+    SteerlabPilot(steering, throttle=0.0, kp=0.0, ki=0.0, command_step=0.0, max_throttle=1.0)
+    for given, said in [({"throttle": True}, r"throttle must be a number in \[0, 1\], got True"),
+                        ({"throttle": 1.5}, r"throttle must be a number in \[0, 1\], got 1.5"),
+                        ({"max_throttle": 0.0}, r"max_throttle must be a number in \(0, 1\], got 0.0")]:
+        with pytest.raises(SteerlabError, match=f"^SteerlabPilot: {said}$"):
+            SteerlabPilot(steering, **given)
 
 
 def test_sim_bench_world_track_writes_its_tables_and_reuses_drives(tmp_path, capsys):
