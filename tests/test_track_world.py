@@ -64,6 +64,9 @@ def test_laps_are_timed_where_the_progress_passes_the_line():
     assert r["laps"] == 2 and r["off_track_laps"] == [2] and r["clean_laps"] == 1
     assert r["best_lap_s"] == r["mean_lap_s"] == pytest.approx(10 / 3)
     assert laps.progress == pytest.approx(79 * 0.3 - 2.0)
+    first = Laps(10.0)
+    first.advance(12.0, 2.0)  # 12 m in the first 2 s from the start: the line passed at 10 / 12 of them
+    assert first.crossings == pytest.approx([0.0, 5 / 3])
     assert Laps(5.0).result() == {"laps": 0, "clean_laps": 0, "best_lap_s": None, "mean_lap_s": None,
                                   "lap_times_s": [], "off_track_laps": []}
 
