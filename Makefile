@@ -18,7 +18,7 @@ UV_ENV = eval "$$($(BIN)/python -m pip config list | sed -n -e 's/^[^.]*\.index-
 	export UV=$(UV) UV_PYTHON=$(BIN)/python UV_PYTHON_DOWNLOADS=never UV_INDEX_STRATEGY=unsafe-best-match;
 INSTALL = $(UV_ENV) $(UV) pip install --quiet --constraint constraints.txt
 
-.PHONY: install demo test docs check-deps lock bench clean rebuild
+.PHONY: install demo test docs check-deps lock bench mutation clean rebuild
 
 # A Python's version ("3.12"), or nothing when it does not run or is older than MIN_PYTHON.
 comma := ,
@@ -113,5 +113,30 @@ lock: $(VENV)/.made
 bench: $(VENV)/.test  # the timings of benchmarks/ (the experiments of studies/ run one by one, some for hours)
 	for b in benchmarks/bench_*.py; do $(BIN)/python -m benchmarks.$$(basename $$b .py) || exit 1; done
 
+# Mutation testing (docs/results/mutation.md) of the functions that decide results: lap timing and pace, the mirror
+# and augmentations, the throttle's scale and cap, the checkpoint's seal, option ranges, replay's interventions and
+# the leaderboard's scoring. pyproject.toml's [tool.mutmut] names their files and the tests that exercise them; the
+# mutants live in mutants/. Not part of `make test`: hours on two shared cores.
+MUTATE := 'steerlab.sim.track.world.x?Laps?*' 'steerlab.sim.track.suite.x_drive_row__*' \
+	'steerlab.sim.track.suite.x_summarize__*' 'steerlab.sim.track.suite.x_round_columns__*' \
+	'steerlab.train.augment.*' 'steerlab.donkey.x?SteerlabPilot?_throttle__*' 'steerlab.donkey.x__check__*' \
+	'steerlab.sim.track.world.x?RacerPilot?step__*' \
+	'steerlab.checkpoint.x_save_payload__*' 'steerlab.checkpoint.x__seal_intact__*' \
+	'steerlab.checkpoint.x_load_checkpoint__*' \
+	'steerlab.options.x?Range?__call____*' 'steerlab.options.x?Range?words__*' 'steerlab.options.x__num__*' \
+	'steerlab.sim.replay.world.x?ReplayWorld?observe__*' 'steerlab.sim.replay.world.x?ReplayWorld?leaves_lane__*' \
+	'steerlab.sim.replay.world.x?ReplayWorld?intervene__*' 'steerlab.sim.replay.track.x?TrackReplayWorld?overhang__*' \
+	'steerlab.sim.replay.track.x?TrackReplayWorld?leaves_lane__*' 'steerlab.sim.core.driving.x_autonomy__*' \
+	'steerlab.sim.core.driving.x?Trajectory?interventions__*' 'steerlab.sim.core.driving.x?Trajectory?metrics__*' \
+	'steerlab.evaluate.scoring.x_score__*' 'steerlab.evaluate.scoring.x_read_steering_csv__*' \
+	'steerlab.evaluate.scoring.x_spread_said__*' 'steerlab.evaluate.metrics.x_mse__*' \
+	'steerlab.evaluate.metrics.x_rmse__*' 'steerlab.evaluate.metrics.x_mae__*' 'steerlab.evaluate.metrics.x_mae_deg__*' \
+	'steerlab.evaluate.metrics.x_gamma_deg__*'
+
+mutation: $(VENV)/.test
+	$(INSTALL) mutmut==3.8.1
+	nice -n 10 $(BIN)/mutmut run --max-children 1 $(MUTATE)
+	$(BIN)/mutmut results
+
 clean:
-	rm -rf runs .steerlab-cache site .hypothesis
+	rm -rf runs .steerlab-cache site .hypothesis mutants

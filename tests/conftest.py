@@ -62,7 +62,11 @@ def pytest_configure(config):
         from multiprocessing import forkserver
 
         mp.get_context("forkserver").set_forkserver_preload(PRELOAD)
-        forkserver.ensure_running()
+        try:
+            forkserver.ensure_running()
+        except ChildProcessError:  # a run in a process forked from one that started the server (mutmut's workers):
+            server = forkserver._forkserver  # that server is not its child; it starts its own if a test needs one
+            server._forkserver_pid = server._forkserver_address = server._forkserver_alive_fd = None
 
 
 def _run_cli(argv: list[str], env: dict, cwd: str, stderr: str, prelude: str) -> None:

@@ -9,7 +9,7 @@ import torch
 from steerlab.data.dataset import CompiledDataset
 from steerlab.data.preprocess import PreprocessConfig
 from steerlab.models.dropout import Dropout, keep_mask
-from steerlab.train.augment import augment, hue_turns, mirror, no_motion
+from steerlab.train.augment import augment, first_channel, hue_turns, mirror, no_motion
 from steerlab.train.batches import Batch, FrameBatches
 
 
@@ -33,7 +33,13 @@ def test_no_motion_is_what_a_segment_start_shows():
     assert out[..., 1].tolist() == [[[128.0]], [[128.0]]] and not out[..., 2:4].any()
     stacked = PreprocessConfig(stack=3)  # three gray frames, oldest first: the newest one three times
     assert no_motion(x[..., :3], stacked)[0, 0, 0].tolist() == [2.0, 2.0, 2.0]
+    assert no_motion(x[..., :2], PreprocessConfig(stack=2))[1, 0, 0].tolist() == [6.0, 6.0]  # two frames: 6 twice
+    flow_first = PreprocessConfig(modalities=("image", "flow", "diff"))  # the flow's two channels, then the diff
+    assert no_motion(x[..., :4], flow_first)[1, 0, 0].tolist() == [5.0, 0.0, 0.0, 128.0]
     assert x[0, 0, 0, 0] == 0.0  # the input is not modified
+    assert (first_channel(cfg, "image"), first_channel(cfg, "diff"), first_channel(cfg, "flow")) == (0, 1, 2)
+    with pytest.raises(KeyError, match="flow"):
+        first_channel(stacked, "flow")
 
 
 def _dataset(images: np.ndarray, steering: list[float], cfg: PreprocessConfig) -> CompiledDataset:
@@ -63,6 +69,11 @@ def test_augmentation_hand_computed():
     out = augment(x.clone(), cfg, np.random.default_rng(5), rotation_deg=10, brightness=0.2)
     a = np.radians(angle)
     np.testing.assert_allclose(out[0, 5, 10], [100 * factor, np.cos(a), -np.sin(a)], rtol=1e-5)
+    np.testing.assert_allclose(out[0, ..., 0], 100 * factor, rtol=1e-5)  # the corners too: the border repeated
+    x[..., 1], x[..., 2] = 3.0, 2.0  # flow (3, 2): (3 cos a + 2 sin a, 2 cos a - 3 sin a)
+    out = augment(x.clone(), cfg, np.random.default_rng(5), rotation_deg=10, brightness=0.2)
+    np.testing.assert_allclose(out[0, 5, 10, 1:], [3 * np.cos(a) + 2 * np.sin(a), 2 * np.cos(a) - 3 * np.sin(a)],
+                               rtol=1e-5)
     x[..., 0] = 250.0
     assert augment(x.clone(), cfg, np.random.default_rng(1), 0, 0.5)[..., 0].max() <= 255
 
@@ -87,6 +98,18 @@ def test_each_sample_gets_the_draws_it_gets_augmented_alone():
     for i in range(3):
         a, factor = np.radians(r.uniform(-20, 20)), r.uniform(0.7, 1.3)
         np.testing.assert_allclose(out[i, 5, 10], [100 * factor, np.cos(a), -np.sin(a)], rtol=1e-5)
+
+
+def test_brightness_scales_only_the_brightness_channel_of_each_frame():
+    """Gray and RGB: every channel of the image; YUV: Y; HSV: V; the difference image never (hand-computed)."""
+    factor = np.random.default_rng(4).uniform(0.5, 1.5)
+    for color, channels, scaled in [("gray", 1, [True]), ("rgb", 3, [True] * 3), ("yuv", 3, [True, False, False]),
+                                    ("hsv", 3, [False, False, True])]:
+        cfg = PreprocessConfig(color=color, stack=2, modalities=("image", "diff"))
+        x = torch.full((1, 2, 2, 3 * channels), 100.0)
+        out = augment(x.clone(), cfg, np.random.default_rng(4), 0, 0.5)[0, 0, 0].tolist()
+        want = [100 * factor if on else 100.0 for on in scaled] * 2 + [100.0] * channels
+        assert out == pytest.approx(want, rel=1e-5), color
 
 
 def test_rotation_turns_the_image_as_opencv_does():
@@ -127,6 +150,11 @@ def test_hue_augmentation_turns_every_stacked_frame_alike():
         want = np.clip(hue_turns(np.array([a]))[0] @ [200.0, 30.0, 30.0], 0, 255)
         np.testing.assert_allclose(out[i, 1, 1], np.concatenate([want, want]), rtol=1e-5)
     np.testing.assert_allclose(out[1, 0, 0], 90.0, rtol=1e-5)
+    with_diff = torch.cat([x, torch.full((2, 4, 5, 3), 7.0)], dim=-1)  # and a difference image, which stays
+    turned = augment(with_diff, PreprocessConfig(stack=2, modalities=("image", "diff")), np.random.default_rng(3), 0,
+                     0, hue_deg=180)
+    np.testing.assert_allclose(turned[..., :6], out, rtol=1e-5)
+    assert (turned[..., 6:] == 7.0).all()
     assert not np.allclose(out[0, 1, 1], out[1, 1, 1])  # a draw per sample
 
 

@@ -1006,6 +1006,32 @@ def test_every_numeric_config_option_is_range_checked(key, kind, check, expected
             assert f"{key} must be" in str(e.value) and "\n" not in str(e.value), (value, str(e.value))
 
 
+def test_a_range_takes_its_bounds_as_declared_and_says_them_in_words():
+    """`options.Range` by hand: closed ends take their bound, open ends refuse it and take the next float inside,
+    an absent end takes any finite number that way; NaN and infinities never. Its words, as errors print them."""
+    from steerlab.options import Range
+
+    closed, open_ = Range(-1.5, 2.5), Range(0, 1, lo_open=True, hi_open=True)
+    assert [closed(v) for v in (-1.5, 2.5, -1.5000001, 2.5000001, 0.0)] == [True, True, False, False, True]
+    assert [open_(v) for v in (0.0, 1.0, 1e-12, 1 - 1e-12, -1e-12, 1 + 1e-12)] == [False, False, True, True, False,
+                                                                                   False]
+    assert [Range(2)(v) for v in (2, 1.999, 1e300)] == [True, False, True]
+    assert [Range(hi=3, hi_open=True)(v) for v in (3, 2.999, -1e300)] == [False, True, True]
+    assert [Range()(v) for v in (0.0, -1e300, float("nan"), float("inf"), -float("inf"))] == [True, True, False, False,
+                                                                                            False]
+    assert [Range(0, 1)(v) for v in (float("nan"), float("inf"))] == [False, False]
+    assert Range(1, 1_000_000).words(int) == "an integer of at least 1 (at most 1000000)"
+    assert Range(1, 4096).words(int) == "an integer in [1, 4096]"
+    assert Range(0, 1, lo_open=True).words(float) == "a number in (0, 1]"
+    assert Range(-1.5, 2.5, hi_open=True, unit="m").words(float) == "a number in [-1.5, 2.5) m"
+    assert Range(0, 4294967295).words(float) == "a number in [0, 4294967295]"
+    assert Range(2).words(int) == "an integer of at least 2" and Range().words(int) == "an integer"
+    assert Range(0, lo_open=True, unit="m/s").words(float) == "a positive finite number m/s"
+    assert Range(0.5, unit="min").words(float) == "a finite number min of at least 0.5"
+    assert Range(0).words(float) == "a finite number of at least 0"
+    assert Range(unit="m").words(float) == "a finite number m" and Range().words(float) == "a finite number"
+
+
 def test_a_numeric_option_takes_exactly_the_values_its_range_declares():
     """Property-based (Hypothesis): for any option whose type is a number, in the config or on the command line, and
     any value a user may type (integers and floats of any size, NaN, infinities, booleans, number-like text), the

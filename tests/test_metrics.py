@@ -1,3 +1,5 @@
+import warnings
+
 import numpy as np
 import pytest
 
@@ -6,7 +8,7 @@ from steerlab.data.splits import Split, make_split, paper_protocol
 from steerlab.errors import DataError, SteerlabError
 from steerlab.evaluate.metrics import (all_metrics, exponential_smoothing, gamma_deg, quantized_classification_error,
                                        speed_weighted_mae, steering_metrics, thresholded_relative_error)
-from steerlab.evaluate.scoring import score, write_predictions
+from steerlab.evaluate.scoring import read_steering_csv, score, write_predictions
 
 from conftest import CH2, needs_ch2
 
@@ -14,6 +16,7 @@ from conftest import CH2, needs_ch2
 def test_gamma_hand_computed():
     # successive differences 1, 2, 3 degrees -> population std sqrt(2/3)
     assert gamma_deg(np.radians([0, 1, 3, 6])) == pytest.approx(np.sqrt(2 / 3))
+    assert gamma_deg([0.1, 0.2]) == 0.0 and np.isnan(gamma_deg([0.1]))  # one difference: no spread; none: undefined
     m = steering_metrics(np.radians([1, 1]), np.radians([0, 2]))
     assert m["mae_deg"] == pytest.approx(1.0) and m["rmse"] == pytest.approx(np.radians(1))
 
@@ -148,7 +151,9 @@ def test_score_refuses_bad_predictions(tmp_path):
     cases = {
         "frame_id,steering_angle\n1,0\n2,0\n": "1 frame ids of the answer file are missing, first 3",
         "frame_id,steering_angle\n1,0\n2,0\n3,0\n4,0\n": "1 frame ids are not in the answer file, first 4",
-        "frame_id,steering_angle\n1,0\n2,0\n2,0\n3,0\n": "row 4: duplicate frame_id 2",
+        "frame_id,steering_angle\n1,0\n2,0\n2,0\n3,0\n": "row 4: duplicate frame_id 2 (first on row 3)",
+        "frame_id,steering_angle,frame_id\n1,0,1\n": "pred.csv, row 1: the header names column(s) ['frame_id'] twice",
+        "frame_id,angle\n1,0\n": "expected columns 'frame_id,steering_angle', got ['frame_id', 'angle']",
         "frame_id,steering_angle\n1,0\n2,nan\n3,0\n": "row 3: steering_angle is 'nan'",
         "id,angle\n1,0\n": "expected columns",
     }
@@ -161,6 +166,60 @@ def test_score_refuses_bad_predictions(tmp_path):
     pred.write_text("frame_id,steering_angle\n3,0.3\n1,0.1\n2,0.2\n")
     s = score(truth, pred)
     assert s["rmse"] == 0 and s["rmse_public"] == 0
+    (tmp_path / "answers.csv").write_text("frame_id,steering_angle\n1,0.1\n2,0.2\n3,0.3\n")
+    with pytest.raises(DataError, match="answers.csv, row 1: the answer file needs a 'public' column"):
+        score(tmp_path / "answers.csv", pred)
+    with pytest.raises(DataError, match="predictions file not found"):
+        score(truth, tmp_path / "none.csv")
+    ids, angles, public = read_steering_csv(pred)  # a predictions file has no public column
+    assert ids.dtype == np.int64 and ids.tolist() == [3, 1, 2] and angles.tolist() == [0.3, 0.1, 0.2] and public is None
+
+
+def test_score_hand_computed(tmp_path, capsys):
+    """The leaderboard's numbers on four frames, predicted out of order: errors 0.1, 0.2, 0 and 0 rad; frames 1
+    and 3 public ('1', 'True'), 2 and 4 private ('0', 'no')."""
+    from steerlab.evaluate.scoring import spread_said
+
+    truth, pred = tmp_path / "truth.csv", tmp_path / "pred.csv"
+    truth.write_text("frame_id,steering_angle,public\n1,0.0,1\n2,0.1,0\n3,0.3,True\n4,0.6,no\n")
+    pred.write_text("frame_id,steering_angle\n4,0.6\n2,0.3\n1,0.1\n3,0.3\n")
+    s = score(truth, pred)
+    assert s["rmse"] == pytest.approx(np.sqrt(0.05 / 4)) and s["mae_deg"] == pytest.approx(np.degrees(0.075))
+    assert s["rmse_public"] == pytest.approx(np.sqrt(0.01 / 2)) and s["rmse_private"] == pytest.approx(0.2 / np.sqrt(2))
+    assert s["gamma_deg"] == pytest.approx(np.degrees(np.std([0.2, 0.0, 0.3])))  # of the predictions, in frame order
+    assert s["truth_gamma_deg"] == pytest.approx(np.degrees(0.1 * np.sqrt(2 / 3)))
+    assert (s["frames"], s["public_frames"]) == (4, 2)
+    truth.write_text("frame_id,steering_angle,public\n1,0.0,1\n2,0.1,true\n")
+    pred.write_text("frame_id,steering_angle\n1,0.1\n2,0.1\n")
+    with warnings.catch_warnings():  # no private frames: NaN, without a mean taken over nothing
+        warnings.simplefilter("error")
+        s = score(truth, pred)
+    assert s["rmse_public"] == pytest.approx(np.sqrt(0.005)) and np.isnan(s["rmse_private"])
+    truth.write_text("frame_id,steering_angle,public\n1,0.0,0\n2,0.1,False\n")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        s = score(truth, pred)
+    assert s["rmse_private"] == pytest.approx(np.sqrt(0.005)) and np.isnan(s["rmse_public"])
+    assert capsys.readouterr().err == ""
+    # answers beyond two turns of the wheel (4 pi rad), predictions spread 20 times as far: both said
+    truth.write_text("frame_id,steering_angle,public\n1,12.6,1\n2,12.5,0\n")
+    pred.write_text("frame_id,steering_angle\n1,1\n2,-1\n")
+    score(truth, pred)
+    said = capsys.readouterr().err
+    assert "steering angles up to 12.6 rad, beyond a steering wheel's two turns each way (12.57 rad)" in said
+    assert "the predictions spread 20 times as far as the answers (std 1 against 0.05): degrees where radians are " \
+           "expected, or another unit?" in said
+    truth.write_text(f"frame_id,steering_angle,public\n1,{4 * np.pi!r},1\n2,12.4,0\n")  # at two turns: not said
+    score(truth, pred)
+    assert "two turns" not in capsys.readouterr().err
+    assert spread_said(np.array([-1.0, 1.0]), np.array([-0.01, 0.01])) == (
+        "the predictions spread 100 times as far as the answers (std 1 against 0.01): degrees where radians are "
+        "expected?")
+    assert spread_said(np.array([-5.0, 5.0]), np.array([-0.5, 0.5])) is None  # 10 times: not beyond
+    assert spread_said(np.array([-1.0, 1.0]), np.array([0.2, 0.2])) is None  # answers that never change
+    assert spread_said(np.array([-3.75, 3.75]), np.array([-0.125, 0.125])).endswith("expected, or another unit?")  # 30
+    assert spread_said(np.array([-3.8125, 3.8125]), np.array([-0.125, 0.125])).endswith(  # 30.5 times
+        "the answers (std 3.812 against 0.125): degrees where radians are expected?")
 
 
 def test_drift_episodes_and_rank_correlation():

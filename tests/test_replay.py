@@ -78,6 +78,33 @@ def test_replaying_the_human_scores_100_and_zero_steering_does_not(twisty):
     assert traj.interventions == rows[-1]["interventions"]
 
 
+def test_leaving_the_path_or_turning_beyond_the_warp_is_an_intervention(twisty):
+    """On a straight path along x with a 1 m limit: 1 m off is inside, beyond it (either side) the car is put back on
+    the path; on the path, a heading error beyond the warp's 10 degrees is one too, 9 degrees is not; where the human
+    stood still over the whole search there is no path to leave."""
+    from steerlab.sim.core.vehicle import VehicleState
+
+    replay, t = Replay(CAMERAS["sim"], CARS["sim"]), np.arange(60) * 0.05
+    world = replay.world(twisty, 0, human_path(np.zeros(60), np.full(60, 10.0), t, CARS["sim"]))
+    for y, deg, leaves in ((1.0, 0.0, False), (1.001, 0.0, True), (-1.001, 0.0, True), (0.0, 9.0, False),
+                           (0.0, 11.0, True), (-0.5, -11.0, True)):
+        world.vehicle.state = VehicleState(5.2, y, math.radians(deg), 10.0)
+        put_back, offset, heading = world.intervene(1.0)
+        assert put_back == leaves, (y, deg)
+        if leaves:
+            assert (offset, heading) == (0.0, 0.0) and (world.state.y, world.state.psi) == (0.0, 0.0)
+        else:
+            assert (offset, heading) == (pytest.approx(y), pytest.approx(math.radians(deg)))
+    # exactly at the limits is inside: 1 m off, and the warp's 10 degrees either way
+    assert not any(world.leaves_lane(o, h, 1.0) for o, h in ((1.0, 0.0), (-1.0, 0.0), (0.0, world.max_heading),
+                                                              (0.0, -world.max_heading)))
+    world.vehicle.state = VehicleState(5.2, 0.3, math.radians(340.0), 10.0)  # 5.2 m along, turned 20 deg right
+    assert world.observe() == (pytest.approx(0.3), pytest.approx(math.radians(-20.0))) and world.s == pytest.approx(5.2)
+    still = replay.world(twisty, 0, human_path(np.zeros(60), np.zeros(60), t, CARS["sim"]))
+    still.vehicle.state = VehicleState(0.0, 5.0, 0.5, 0.0)
+    assert still.observe() == (0.0, 0.0) and still.intervene(1.0) == (False, 0.0, 0.0)
+
+
 def test_replay_world_matches_the_renderer_and_labels_point_back(twisty):
     """0.5 m right of the human's path the car sees what the renderer shows from there, and the label steers it
     back to the left of the human's steering."""

@@ -159,6 +159,12 @@ def test_the_body_leaving_the_lane_is_an_intervention_and_a_turn_alone_is_not(tr
         put_back, offset, _ = world.intervene(replay.limit)
         assert put_back == leaves, (y, psi)
         assert (offset, world.state.y) == ((0.0, 0.0) if leaves else (pytest.approx(y), y))
+    world.overhang = lambda: 0.0  # a corner exactly on the lane's edge is still inside
+    assert not world.leaves_lane(0.0, 0.0, replay.limit)
+    # where the human stood still over the whole search there is no path to leave: never an intervention
+    still = replay.world(open_tub(track_tub), 0, human_path(np.zeros(60), np.zeros(60), t, DONKEY))
+    still.vehicle.state = VehicleState(0.0, 5.0, 0.0, 0.0)
+    assert still.overhang() == -math.inf and still.intervene(replay.limit) == (False, 0.0, 0.0)
 
 
 def test_a_track_world_tub_carries_its_camera_and_replays(track_tub):

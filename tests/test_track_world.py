@@ -64,6 +64,9 @@ def test_laps_are_timed_where_the_progress_passes_the_line():
     assert r["laps"] == 2 and r["off_track_laps"] == [2] and r["clean_laps"] == 1
     assert r["best_lap_s"] == r["mean_lap_s"] == pytest.approx(10 / 3)
     assert laps.progress == pytest.approx(79 * 0.3 - 2.0)
+    first = Laps(10.0)
+    first.advance(12.0, 2.0)  # 12 m in the first 2 s from the start: the line passed at 10 / 12 of them
+    assert first.crossings == pytest.approx([0.0, 5 / 3])
     assert Laps(5.0).result() == {"laps": 0, "clean_laps": 0, "best_lap_s": None, "mean_lap_s": None,
                                   "lap_times_s": [], "off_track_laps": []}
 
@@ -90,6 +93,24 @@ def test_the_expert_races_laps_without_leaving_the_lane():
         assert t.interventions == 0 and r["laps"] >= 3 and r["clean_laps"] == r["laps"]
         assert 1.0 < world.track.length / r["mean_lap_s"] < 5.0  # racing speeds of a 1:10 car
         assert sum(r["lap_times_s"]) <= 60.0 and world.overhang() < 0
+
+
+def test_the_expert_as_a_pilot_drifts_out_recovers_and_keeps_under_its_cap():
+    """With drift episodes every 2 s, the expert drifts out by its offset and recovers (never leaving the lane);
+    its throttle is capped at 0.5 and it brakes below zero into the turns."""
+    world = TrackWorld(0, camera=None)
+    pilot = RacerPilot(world, 0, drift_every_s=2.0, max_throttle=0.5)
+    episodes, throttles = [], []
+
+    def on_step(tick):
+        episodes.append(pilot.episode)
+        throttles.append(tick.throttle)
+
+    t = drive_loop(world, pilot, 400, 0.0, 20.0, progress=False, on_step=on_step)
+    assert t.interventions == 0 and {"normal", "drift-out", "recover"} == set(episodes)
+    assert max(throttles) == 0.5 and min(throttles) < 0
+    pilot.racer.act = lambda state, s, offset, t: (0.1, -0.9, "normal")  # a harder brake than the cap: capped too
+    assert pilot.step(None) == Controls(0.1, throttle=-0.5)
 
 
 def test_full_lock_leaves_the_lane_when_the_body_corner_crosses_the_line_and_the_car_is_put_back():
@@ -325,6 +346,34 @@ def test_the_throttle_scale_multiplies_the_learned_throttle_before_the_cap(tmp_p
     assert 0 < speeds["0.1"] < speeds["1"] / 2
 
 
+def test_the_learned_throttle_is_capped_both_ways_and_braking_is_scaled_too(tmp_path):
+    """The part's throttle of a model that learned it, by hand: the learned value times the scale, then capped to
+    +-max_throttle, forward and braking alike (the model's answers replaced by known ones)."""
+    from steerlab.donkey import SteerlabPilot
+
+    ckpt = made(tmp_path, "normalized", "right", "donkey", full_lock_deg=25, throttle=True)
+    frame = np.zeros((120, 160, 3), np.uint8)
+    for learned, scale, cap, expected in [(0.4, 0.5, 0.3, 0.2), (0.4, 2.0, 0.5, 0.5), (-0.8, 0.5, 0.3, -0.3),
+                                          (-0.8, 0.5, 0.5, -0.4), (-0.8, 2.0, 1.0, -1.0)]:
+        part = SteerlabPilot(ckpt, throttle_scale=scale, max_throttle=cap)
+        part.pilot.step = lambda image, speed=None, learned=learned: Controls(0.1, throttle=learned)
+        assert part.run(frame) == pytest.approx((0.1, expected))
+    # a speed-command model: the throttle steps by command_step up (2) or down (0) from 0.3, within [0, max_throttle]
+    command = made(tmp_path, "normalized", "right", "donkey", name="command.pt", model="speed-command")
+    part = SteerlabPilot(command, 0.3, command_step=0.1, max_throttle=0.5)
+    for said, expected in [(2, 0.4), (2, 0.5), (2, 0.5), (0, 0.4), (0, 0.3), (0, 0.2), (0, 0.1), (0, 0.0), (0, 0.0)]:
+        part.pilot.step = lambda image, speed=None, said=said: Controls(0.0, command=said)
+        assert part.run(frame)[1] == pytest.approx(expected)
+    # the part's numbers in their intervals: closed ends taken, open ones and booleans refused, the interval named
+    steering = made(tmp_path, "normalized", "right", "donkey", name="steering.pt", full_lock_deg=25)
+    SteerlabPilot(steering, throttle=0.0, kp=0.0, ki=0.0, command_step=0.0, max_throttle=1.0)
+    for given, said in [({"throttle": True}, r"throttle must be a number in \[0, 1\], got True"),
+                        ({"throttle": 1.5}, r"throttle must be a number in \[0, 1\], got 1.5"),
+                        ({"max_throttle": 0.0}, r"max_throttle must be a number in \(0, 1\], got 0.0")]:
+        with pytest.raises(SteerlabError, match=f"^SteerlabPilot: {said}$"):
+            SteerlabPilot(steering, **given)
+
+
 def test_sim_bench_world_track_writes_its_tables_and_reuses_drives(tmp_path, capsys):
     (tmp_path / "a").mkdir()
     ckpt = made(tmp_path / "a", "normalized", "right", "donkey", name="best.pt", full_lock_deg=25)
@@ -453,14 +502,14 @@ def test_the_pace_of_a_track_and_of_the_suite_is_over_the_same_tracks():
     """Three tracks (expert laps 10, 8 and 9 s); X laps A in 12 s and C in 9.9 s but never B cleanly, Y laps A in
     11 s and B in 10 s but never C cleanly. The headline pace of each is over A alone, the one track both finished."""
     from steerlab.sim.track.run import TrackDrive
-    from steerlab.sim.track.suite import drive_row, summarize
+    from steerlab.sim.track.suite import drive_row, round_columns, summarize
 
     def drive(label, style, seed, crossings, dirty=()):
         r = timed_laps(40.0, crossings, list(dirty))
         return TrackDrive(label, seed, style, 0.9, 40.0, 1.0, float(len(crossings)), **r, off_track=len(dirty),
                           off_track_per_lap=len(dirty) / len(crossings), off_track_per_km=0.0, autonomy=100.0,
                           distance_km=0.04 * len(crossings), mean_speed=3.0, mean_abs_offset_m=0.1,
-                          max_abs_offset_m=0.2, command_gamma_deg=1.0)
+                          max_abs_offset_m=0.2, command_gamma_deg=float(seed))
 
     expert = {1: drive("expert", "taped", 1, [10, 20, 30]), 2: drive("expert", "taped", 2, [8, 16, 24]),
               3: drive("expert", "centre", 3, [9, 18, 27])}
@@ -481,6 +530,28 @@ def test_the_pace_of_a_track_and_of_the_suite_is_over_the_same_tracks():
     assert (x.pace, x.pace_tracks, y.pace, y.pace_tracks) == (pytest.approx(35 / 30), 1, pytest.approx(1.1), 1)
     assert summary["X", "taped"].pace == pytest.approx(35 / 30) and summary["X", "centre"].pace is None
     assert summary["X", "centre"].finished == 1 and summary["Y", "centre"].finished == 0
+    # a row carries its drive and the expert's laps: X on A laps in 13, 11, 12 and 12 s, the first not clean
+    assert vars(rows[0]) == pytest.approx(
+        {"label": "X", "checkpoint": "X.pt", "style": "taped", "seed": 1, "lap_m": 40.0, "minutes": 1.0,
+         "laps_driven": 4.0, "laps": 4, "clean_laps": 3, "best_lap_s": 11.0, "mean_lap_s": 35 / 3,
+         "expert_best_lap_s": 10.0, "expert_mean_lap_s": 10.0, "pace": 35 / 30, "off_track": 1,
+         "off_track_per_lap": 0.25, "off_track_per_km": 0.0, "autonomy": 100.0, "distance_km": 0.16,
+         "mean_speed": 3.0, "mean_abs_offset_m": 0.1, "command_gamma_deg": 1.0})
+    # X drove 3 minutes and 0.32 km (8 laps of 40 m) with 3 events: autonomy 1 - 3 x 6 s / 180 s; gamma 1, 2, 3
+    assert (x.minutes, x.distance_km, x.off_track_per_lap, x.off_track_per_km, x.autonomy, x.command_gamma_deg) == \
+        pytest.approx((3.0, 0.32, 3 / 8, 3 / 0.32, 90.0, 2.0))
+    assert (y.off_track_per_lap, y.off_track_per_km) == pytest.approx((3 / 7, 3 / 0.28))
+    taped = summary["X", "taped"]
+    assert (taped.minutes, taped.distance_km, taped.autonomy, taped.command_gamma_deg) == \
+        pytest.approx((2.0, 0.24, (1 - 3 * 6 / 120) * 100, 1.5))
+    x_only = [s for s in summarize(rows) if s.label == "X"]
+    assert round_columns(x_only) == pytest.approx({"clean_laps_pct": 62.5, "lap_ratio": 35 / 30,
+                                                   "off_track_per_lap": 0.375})
+    # a label that completes no lap: half a lap driven (0.16 km) with one event; its DAgger columns are empty
+    (z,) = [s for s in summarize([replace(rows[0], label="Z", laps=0, clean_laps=0, laps_driven=0.5, pace=None)])
+            if s.style == "all"]
+    assert (z.clean_pct, z.pace, z.off_track_per_lap, z.off_track_per_km) == (None, None, 2.0, pytest.approx(6.25))
+    assert round_columns([z]) == {"clean_laps_pct": "", "lap_ratio": "", "off_track_per_lap": 2.0}
 
 
 def test_the_experts_reference_laps_are_driven_under_the_models_cap(tmp_path):

@@ -51,7 +51,7 @@ from steerlab.data.car import car_of
 from steerlab.data.geometry import CAMERAS
 from steerlab.data.recording import SteeringConvention, said_full_lock
 from steerlab.errors import SteerlabError, warn
-from steerlab.pilot import Pilot
+from steerlab.pilot import Controls, Pilot
 
 
 def _check(name: str, value, low: float, high: float, low_open: bool = False) -> float:
@@ -190,17 +190,21 @@ class SteerlabPilot:
         self.frames += 1
         out = self.pilot.step(np.ascontiguousarray(img[..., ::-1]), speed)
         angle = servo_angle(out.steering, self.pilot.convention, self.full_lock, self.steering_ratio)
+        return angle, self._throttle(out, speed)
+
+    def _throttle(self, out: Controls, speed: float | None) -> float:
+        """The throttle of the model's answer `out` (see the module's docstring): the learned one times
+        `throttle_scale` capped to +-`max_throttle`, the speed controller's, the speed command's step, or the
+        constant one."""
         if self.learned:
-            throttle = float(np.clip(self.throttle_scale * out.throttle, -self.max_throttle, self.max_throttle))
-        elif out.speed is not None:
-            throttle = self.speed_control.update(out.speed, speed)
-        elif out.command is not None:
+            return float(np.clip(self.throttle_scale * out.throttle, -self.max_throttle, self.max_throttle))
+        if out.speed is not None:
+            return self.speed_control.update(out.speed, speed)
+        if out.command is not None:
             self._commanded = float(np.clip(self._commanded + self.command_step * (out.command - 1), 0.0,
                                             self.max_throttle))
-            throttle = self._commanded
-        else:
-            throttle = self.throttle
-        return angle, throttle
+            return self._commanded
+        return self.throttle
 
     def shutdown(self) -> None:
         """donkeycar calls it when the vehicle stops: the model is released."""
