@@ -125,8 +125,8 @@ MUTATE := 'steerlab.sim.track.world.x?Laps?*' 'steerlab.sim.track.suite.x_drive_
 	'steerlab.checkpoint.x_load_checkpoint__*' \
 	'steerlab.options.x?Range?__call____*' 'steerlab.options.x?Range?words__*' 'steerlab.options.x__num__*' \
 	'steerlab.sim.replay.world.x?ReplayWorld?observe__*' 'steerlab.sim.replay.world.x?ReplayWorld?leaves_lane__*' \
-	'steerlab.sim.replay.world.x?ReplayWorld?intervene__*' 'steerlab.sim.replay.track.x?TrackReplayWorld?overhang__*' \
-	'steerlab.sim.replay.track.x?TrackReplayWorld?leaves_lane__*' 'steerlab.sim.core.driving.x_autonomy__*' \
+	'steerlab.sim.replay.world.x?ReplayWorld?intervene__*' 'steerlab.sim.track.replay.x?TrackReplayWorld?overhang__*' \
+	'steerlab.sim.track.replay.x?TrackReplayWorld?leaves_lane__*' 'steerlab.sim.core.driving.x_autonomy__*' \
 	'steerlab.sim.core.driving.x?Trajectory?interventions__*' 'steerlab.sim.core.driving.x?Trajectory?metrics__*' \
 	'steerlab.evaluate.scoring.x_score__*' 'steerlab.evaluate.scoring.x_read_steering_csv__*' \
 	'steerlab.evaluate.scoring.x_spread_said__*' 'steerlab.evaluate.metrics.x_mse__*' \
