@@ -9,7 +9,7 @@ import tempfile
 from pathlib import Path
 
 import torch
-from common import Report, arguments, machine, median_seconds
+from common import Report, arguments, machine, median_seconds, guarded
 
 from steerlab.checkpoint import load_checkpoint, save_checkpoint
 from steerlab.data.preprocess import PreprocessConfig
@@ -53,4 +53,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    guarded(main)

@@ -7,7 +7,7 @@ python benchmarks/bench_compile.py [--json PATH]
 
 import tempfile
 
-from common import CH2, Report, arguments, machine, need_ch2, timed
+from common import CH2, Report, arguments, machine, need_ch2, guarded, timed
 
 from steerlab.data.dataset import compile_recording
 from steerlab.data.preprocess import PreprocessConfig
@@ -42,4 +42,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    guarded(main)

@@ -14,7 +14,7 @@ import subprocess
 import sys
 
 import yaml
-from common import ROOT, Report, arguments, machine
+from common import ARG, ROOT, Report, arguments, machine, guarded
 
 from steerlab.data.readers import open_recording
 
@@ -37,8 +37,11 @@ def run(cfg: dict, name: str, nproc: int) -> float:
 def main() -> None:
     ap = arguments(__doc__)
     ap.add_argument("--model", default="pilotnet")
-    ap.add_argument("--epochs", type=int, default=3)
+    ap.add_argument("--epochs", type=ARG["count"], default=3)
     args = ap.parse_args()
+    from steerlab.models.registry import model_class
+
+    model_class(args.model)  # an unknown model refused before the recording
     report = Report(__file__, {"model": args.model, "epochs": args.epochs, "global_batch": 64}, args.json)
     rec = OUT / "recording"
     if not (rec / "recording.json").exists():
@@ -60,4 +63,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    guarded(main)

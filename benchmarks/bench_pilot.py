@@ -19,7 +19,7 @@ import cv2
 import numpy as np
 import torch
 
-from common import CH2, Report, arguments, each_ms, machine, need_ch2
+from common import CH2, Report, arguments, each_ms, machine, need_ch2, guarded
 
 from steerlab.data.readers import open_recording
 from steerlab.evaluate.latency import TimedModel, untrained_checkpoint
@@ -86,4 +86,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    guarded(main)

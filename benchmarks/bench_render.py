@@ -10,7 +10,7 @@ import os
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import cv2  # noqa: E402
-from common import Report, arguments, machine, per_second  # noqa: E402
+from common import Report, arguments, machine, per_second, guarded  # noqa: E402
 
 from steerlab.data.writer import JPEG  # noqa: E402
 from steerlab.sim.road.render import Renderer  # noqa: E402
@@ -40,4 +40,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    guarded(main)

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import torch
 from bench_pilot import checkpoint
-from common import CH2, Report, arguments, machine, need_ch2, timed
+from common import CH2, Report, arguments, machine, need_ch2, guarded, timed
 
 from steerlab.data.readers import Source
 from steerlab.evaluate.offline import evaluate
@@ -44,4 +44,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    guarded(main)

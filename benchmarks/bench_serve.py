@@ -25,7 +25,7 @@ with warnings.catch_warnings():  # eventlet, imported by python-socketio 4, anno
     warnings.simplefilter("ignore")
     import socketio
 
-from common import SHARED, Report, arguments, each_ms, machine  # noqa: E402
+from common import Report, SHARED, arguments, each_ms, machine, guarded  # noqa: E402
 
 from steerlab.checkpoint import save_checkpoint  # noqa: E402
 from steerlab.data.preprocess import PreprocessConfig  # noqa: E402
@@ -121,4 +121,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    guarded(main)

@@ -19,7 +19,7 @@ import cv2
 import numpy as np
 import torch
 from bench_pilot import checkpoint
-from common import CH2, Report, arguments, machine, need_ch2, per_second
+from common import CH2, Report, arguments, machine, need_ch2, per_second, guarded
 
 from steerlab.data.readers import open_recording
 from steerlab.export import export_onnx
@@ -88,4 +88,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    guarded(main)

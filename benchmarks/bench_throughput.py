@@ -21,7 +21,7 @@ import tempfile
 
 import numpy as np
 import torch
-from common import ROOT, SHARED, Report, arguments, machine, timed
+from common import ROOT, Report, SHARED, arguments, machine, guarded, timed
 
 from steerlab.data.dataset import compile_recording
 from steerlab.data.inputs import channel_stats, segment_starts
@@ -100,6 +100,8 @@ def main() -> None:
         print(f"skipped: {SIM} not found (the benchmark uses the real simulator recording)")
         return
     models = a.models.split(",") if a.models else [n for n in list_models() if model_class(n).trainable]
+    for name in models:
+        model_class(name)  # an unknown name refused before any work
     report = Report(__file__, {"frames": N, "models": models, "baseline_commit": None if a.no_baseline else BASELINE},
                     a.json)
     rec = open_recording(SIM, f"0:{N}")
@@ -121,4 +123,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    guarded(main)

@@ -26,7 +26,7 @@ from collections import defaultdict  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import cv2  # noqa: E402
-from common import ROOT, Report, arguments, machine, record_race_tubs  # noqa: E402
+from common import ROOT, Report, arguments, machine, record_race_tubs, guarded  # noqa: E402
 
 from steerlab.errors import SteerlabError  # noqa: E402
 from steerlab.options import frames_in  # noqa: E402
@@ -137,4 +137,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    guarded(main)

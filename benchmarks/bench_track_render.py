@@ -10,7 +10,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import cv2  # noqa: E402
 import numpy as np  # noqa: E402
-from common import Report, arguments, machine, per_second  # noqa: E402
+from common import Report, arguments, machine, per_second, guarded  # noqa: E402
 
 from steerlab.sim.road.render import Renderer  # noqa: E402
 from steerlab.sim.road.road import Road  # noqa: E402
@@ -52,4 +52,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    guarded(main)

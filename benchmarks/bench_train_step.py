@@ -34,7 +34,7 @@ from pathlib import Path
 
 import numpy as np
 import torch
-from common import ROOT, Report, arguments, machine
+from common import ROOT, Report, arguments, machine, guarded
 
 B, H, W, FRAMES, STEPS, WARMUP = 128, 120, 160, 2048, 20, 5
 VARIANTS = ["shipped", "torch-dropout", "default-malloc", "nchw", "1-thread", "pinned-threads", "1-worker", "compile",
@@ -129,6 +129,9 @@ def main() -> None:
                    help="the earlier source to time as 'before' (a git worktree of it; default 808d063, the source "
                         "before these levers; '' to skip)")
     args = p.parse_args()
+    if args.before and subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--verify", "--quiet",
+                                       f"{args.before}^{{commit}}"], capture_output=True).returncode:
+        p.error(f"--before {args.before}: not a commit of {ROOT}")
     report = Report(__file__, {"model": "donkey-linear", "batch": B, "input": f"{W}x{H} rgb", "steps": STEPS,
                                "before": args.before}, args.json)
     print(f"machine: {machine()}; donkey-linear, batches of {B} RGB {W}x{H}, median of {STEPS} steps after {WARMUP}")
@@ -155,4 +158,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    guarded(main)

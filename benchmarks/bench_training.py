@@ -11,7 +11,7 @@ import tempfile
 
 import numpy as np
 import torch
-from common import CH2, Report, arguments, machine, need_ch2, timed
+from common import CH2, Report, arguments, machine, need_ch2, guarded, timed
 
 from steerlab.data.dataset import compile_recording
 from steerlab.data.modalities import optical_flow
@@ -93,4 +93,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    guarded(main)

@@ -24,7 +24,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from common import CH2, ROOT, Report, arguments, donkey_car, donkey_python, machine, record_race_tubs
+from common import CH2, ROOT, Report, arguments, donkey_car, donkey_python, machine, record_race_tubs, guarded
 
 
 STEERLAB = [sys.executable, "-m", "steerlab", "train"]
@@ -115,4 +115,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    guarded(main)

@@ -122,10 +122,128 @@ def each_ms(fn, items) -> tuple[np.ndarray, list]:
 
 # a timing's report
 
+# a script's command line: bad arguments refused before any work, in one line, as the steerlab command does
+
+def guarded(main) -> None:
+    """`main()` of a script: what it meets of bad input ends in one line (`error: ...`, exit code 2) as the steerlab
+    command's does: a SteerlabError, an OSError, a steerlab command it ran that failed (which said why above it),
+    Ctrl-C."""
+    from steerlab.errors import SteerlabError
+    from steerlab.paths import os_error
+
+    try:
+        main()
+    except SteerlabError as e:
+        sys.exit(f"error: {e}")
+    except OSError as e:
+        sys.exit(f"error: {os_error(e)}")
+    except subprocess.CalledProcessError as e:
+        cmd = [Path(str(c)).name if i == 0 else str(c) for i, c in enumerate(e.cmd)]
+        sys.exit(f"error: {' '.join(cmd)[:160]} ended with exit code {e.returncode} (its message is above)")
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        sys.exit(130)
+
+
+def checked(kind: type, check):
+    """An argparse type: a `kind` (int or float) that `check` (a steerlab.options.Range) takes."""
+    def parse(text: str):
+        try:
+            value = kind(text)
+        except ValueError:
+            value = None
+        if value is None or not check(value):
+            raise argparse.ArgumentTypeError(f"must be {check.words(kind)}, got {text!r}")
+        return value
+    parse.__name__ = kind.__name__
+    return parse
+
+
+def _ranges():
+    from steerlab.options import AT_LEAST_1, SEED, SPEED, WORKERS, Range
+
+    return {"count": checked(int, AT_LEAST_1), "seed": checked(int, SEED), "workers": checked(int, WORKERS),
+            "minutes": checked(float, Range(0, 1440, lo_open=True, unit="min")), "speed": checked(float, SPEED),
+            "positive": checked(float, Range(0, lo_open=True))}
+
+
+ARG = _ranges()  # the argument types of the scripts: ARG["count"] (at least 1), "minutes", "workers", ...
+
+
+def existing(what: str):
+    """An argparse type: the path of an existing file or folder (`what` it must be, in the message)."""
+    def parse(text: str) -> Path:
+        if not Path(text).exists():
+            raise argparse.ArgumentTypeError(f"{text}: {what} not found")
+        return Path(text)
+    return parse
+
+
+def output_folder(text: str) -> Path:
+    """An argparse type: a study's output folder, checked as every steerlab command's output (not a file, not a
+    recording, a run or another's folder, writable)."""
+    from steerlab.errors import SteerlabError
+    from steerlab.paths import check_outputs
+
+    try:
+        check_outputs({"output folder (--out)": text})
+    except SteerlabError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+    return Path(text)
+
+
+def json_output(text: str) -> Path:
+    """An argparse type: where a timing writes its report: a .json file that is not a folder and, when it exists,
+    an earlier report (a JSON object with "script"), never another file."""
+    path = Path(text)
+    if path.suffix != ".json" or path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text}: a .json file is expected (the report)")
+    if path.exists():
+        try:
+            earlier = json.loads(path.read_text())
+        except (OSError, UnicodeDecodeError, ValueError):
+            earlier = None
+        if not isinstance(earlier, dict) or "script" not in earlier:
+            raise argparse.ArgumentTypeError(f"{text}: exists and is not a timing's report; writing it would destroy "
+                                             "it: name another file")
+    return path
+
+
+def one_of(choices, what: str):
+    """An argparse type: a comma list of names of `choices`, each once."""
+    def parse(text: str) -> list[str]:
+        names = text.split(",")
+        wrong = [n for n in names if n not in choices]
+        if wrong or len(set(names)) < len(names) or not text:
+            raise argparse.ArgumentTypeError(f"must be a comma list of {what} of {', '.join(choices)}, each once, "
+                                             f"got {text!r}")
+        return names
+    return parse
+
+
+def comma(kind: type, name: str):
+    """An argparse type: a comma list of `name`s (seed: integers in [0, 4294967295]; cap: numbers in (0, 1]),
+    checked and kept as text."""
+    from steerlab.options import SEED, Range
+
+    check = {"seed": SEED, "cap": Range(0, 1, lo_open=True)}[name]
+    one = checked(kind, check)
+
+    def parse(text: str) -> str:
+        try:
+            for item in text.split(","):
+                one(item)
+        except argparse.ArgumentTypeError:
+            raise argparse.ArgumentTypeError(f"must be a comma list of {name}s, each {check.words(kind)}, got "
+                                             f"{text!r}") from None
+        return text
+    return parse
+
+
 def arguments(doc: str) -> argparse.ArgumentParser:
     """A timing's command line: its docstring as the help, and `--json PATH` (where `Report` writes)."""
     p = argparse.ArgumentParser(description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--json", metavar="PATH", help="where to write the results as JSON (default: "
+    p.add_argument("--json", metavar="PATH", type=json_output, help="where to write the results as JSON (default: "
                    "runs/benchmarks/<script>.json)")
     return p
 

@@ -43,7 +43,7 @@ import numpy as np
 import yaml
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from common import ROOT, SHARED, DonkeycarPart, donkey_car, donkey_python, machine  # noqa: E402
+from common import ARG, ROOT, SHARED, DonkeycarPart, donkey_car, donkey_python, machine, guarded  # noqa: E402
 
 from steerlab.data.readers import Source  # noqa: E402
 from steerlab.evaluate.offline import evaluate  # noqa: E402
@@ -230,8 +230,8 @@ def table_rows(name: str, results: dict) -> list[str]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--epochs", type=int, default=30, help="steerlab's epochs (early stopping after 5)")
-    ap.add_argument("--seeds", type=int, default=3, help="runs of every trainer and model")
+    ap.add_argument("--epochs", type=ARG["count"], default=30, help="steerlab's epochs (early stopping after 5)")
+    ap.add_argument("--seeds", type=ARG["count"], default=3, help="runs of every trainer and model")
     ap.add_argument("--skip-donkey", action="store_true", help="steerlab models only")
     ap.add_argument("--models", default=",".join(STEERLAB_MODELS), help="steerlab models (comma list; default "
                     f"{','.join(STEERLAB_MODELS)}; {TRACK_BEST}: configs/track_best.yaml's recipe)")
@@ -239,6 +239,13 @@ def main() -> None:
                     f"default {','.join(DONKEY_MODELS)})")
     ap.add_argument("--tubs", default="hall,taped-track", help="the shared tubs to run on")
     args = ap.parse_args()
+    from steerlab.models.registry import model_class
+
+    for name in args.tubs.split(","):  # every argument checked before any work
+        Source(str(TUBS / name), reader=READER).open()
+    for name in args.models.split(","):
+        if name != TRACK_BEST:
+            model_class(name)
     python = donkey_or_skip(args.skip_donkey)
     os.environ.setdefault("STEERLAB_CACHE", str(OUT / "cache"))
     lines = [f"machine: {machine()}", "", f"replay: held-out block as a small car (--world track), full lock "
@@ -266,4 +273,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    guarded(main)

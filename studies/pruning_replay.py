@@ -40,11 +40,13 @@ def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("study_dir", help="output folder of a study run with --no-pruning (holds study.journal)")
     p.add_argument("--as", dest="name", help="study name that decides the brackets (default: the study's own)")
-    p.add_argument("--factors", type=int, nargs="+", default=[3, 4, 5])
+    p.add_argument("--factors", type=int, nargs="+", default=[3, 4, 5], help="reduction factors (at least 2)")
     a = p.parse_args()
     journal = Path(a.study_dir) / "study.journal"
     if not journal.is_file():
-        sys.exit(f"{journal}: not found (run the study with --no-pruning first)")
+        sys.exit(f"error: {journal}: not found (run the study with --no-pruning first)")
+    if min(a.factors) < 2:
+        sys.exit(f"error: --factors must be integers of at least 2 (a reduction factor), got {min(a.factors)}")
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     storage = optuna.storages.JournalStorage(optuna.storages.journal.JournalFileBackend(str(journal)))
     source = optuna.load_study(study_name=optuna.get_all_study_names(storage)[0], storage=storage)
@@ -52,7 +54,7 @@ def main() -> None:
     epochs = max(max(t.intermediate_values) for t in trials)
     curves = [t.intermediate_values for t in trials]
     if any(len(c) != epochs for c in curves):
-        sys.exit(f"{journal}: some trials stopped before epoch {epochs} (patience); replay needs full curves")
+        sys.exit(f"error: {journal}: some trials stopped before epoch {epochs} (patience); replay needs full curves")
     full = len(curves) * epochs
     best_full = min(t.value for t in trials)
     print(f"{source.study_name}: {len(curves)} trials x {epochs} epochs = {full}, best {best_full:.5f}")

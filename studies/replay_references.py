@@ -25,7 +25,7 @@ import numpy as np
 from scipy.stats import spearmanr
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from common import machine  # noqa: E402
+from common import ARG, existing, machine, guarded  # noqa: E402
 
 from steerlab.data.car import CARS  # noqa: E402
 from steerlab.data.fisheye import DONKEY_FISHEYE  # noqa: E402
@@ -61,11 +61,14 @@ def main() -> None:
     ap.add_argument("--range")
     ap.add_argument("--labels")
     ap.add_argument("--reader", action="append", default=[], help="reader option KEY=VALUE (repeatable)")
-    ap.add_argument("--speed", type=float, help="m/s (default: the recorded speed; --world track: from the throttle)")
+    ap.add_argument("--speed", type=ARG["speed"],
+                    help="m/s (default: the recorded speed; --world track: from the throttle)")
     ap.add_argument("--world", choices=("road", "track"), default="road", help="the road replay (default) or the "
                     "small cars' (fisheye, speed from the throttle, the body leaving the lane)")
-    ap.add_argument("--lane-width", type=float, default=LANE_WIDTH, help=f"m, --world track (default {LANE_WIDTH})")
-    ap.add_argument("--checkpoint", action="append", default=[], help="a trained model to drive as well (repeatable)")
+    ap.add_argument("--lane-width", type=ARG["positive"], default=LANE_WIDTH,
+                    help=f"m, --world track (default {LANE_WIDTH})")
+    ap.add_argument("--checkpoint", action="append", default=[], type=existing("checkpoint"),
+                    help="a trained model to drive as well (repeatable)")
     ap.add_argument("--camera-variants", action="store_true", help="--world track: also through cameras +-20 %% "
                     "in focal length, distortion, height and pitch, and how the drivers' ranking changes")
     args = ap.parse_args()
@@ -109,4 +112,4 @@ def main() -> None:
             print(f"| {camera} | {' / '.join(map(str, values))} | {rho:.3f} |")
 
 if __name__ == "__main__":
-    main()
+    guarded(main)

@@ -33,7 +33,8 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from common import (correlation_table, begin_study, correlations, record_expert, replay_missing,  # noqa: E402
+from common import (ARG, output_folder, guarded,  # noqa: E402
+                    correlation_table, begin_study, correlations, record_expert, replay_missing,  # noqa: E402
                     scatter_axes, train_baseline, train_snapshots, write_table)
 
 from steerlab.sim.core.suite import labels_for  # noqa: E402
@@ -210,9 +211,10 @@ def warp_error(out: Path) -> list[str]:
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--out", default="runs/replay-truth")
-    p.add_argument("--minutes", type=float, default=1.0, help="minutes per suite road, for the truth and the recordings")
-    p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--out", default="runs/replay-truth", type=output_folder)
+    p.add_argument("--minutes", type=ARG["minutes"], default=1.0,
+                   help="minutes per suite road, for the truth and the recordings")
+    p.add_argument("--workers", type=ARG["workers"], default=2)
     p.add_argument("--skip-warp", action="store_true", help="leave out the warp-error table")
     a = p.parse_args()
     out = Path(a.out)
@@ -275,4 +277,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    guarded(main)

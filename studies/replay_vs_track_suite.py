@@ -35,7 +35,8 @@ from pathlib import Path
 
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from common import (ROOT, correlation_table, begin_study, correlations, record_expert, replay_missing,  # noqa: E402
+from common import (ARG, existing, output_folder, guarded,  # noqa: E402
+                    ROOT, correlation_table, begin_study, correlations, record_expert, replay_missing,  # noqa: E402
                     replayed, scatter_axes, train_baseline, train_snapshots, write_table)
 
 from steerlab.data.car import CARS  # noqa: E402
@@ -176,16 +177,18 @@ def scatter(path: Path, table: list[dict], corr: dict, minutes: float) -> None:
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--out", default="runs/replay-track-truth")
-    p.add_argument("--minutes", type=float, default=0.5, help="minutes per suite track, for the truth and the "
+    p.add_argument("--out", default="runs/replay-track-truth", type=output_folder)
+    p.add_argument("--minutes", type=ARG["minutes"], default=0.5, help="minutes per suite track, for the truth and the "
                    "recordings")
-    p.add_argument("--workers", type=int, default=1)
-    p.add_argument("--tubs", nargs="+", default=[str(ROOT / "runs" / "track" / f"tub-{k}") for k in range(1, 5)],
+    p.add_argument("--workers", type=ARG["workers"], default=1)
+    p.add_argument("--tubs", nargs="+", type=existing("tub"),
+                   default=[str(ROOT / "runs" / "track" / f"tub-{k}") for k in range(1, 5)],
                    help="the track-world tubs of configs/track_pilotnet.yaml (tub 1 first)")
     p.add_argument("--speed", choices=["model", "recorded"], default="model",
                    help="replay speed: model = as the suite drives (the learned throttle, else the suite's constant "
                    "throttle's speed); recorded = the recorded throttle's")
-    p.add_argument("--extra", nargs="*", default=[], help="more checkpoints of the donkey camera to include")
+    p.add_argument("--extra", nargs="*", default=[], type=existing("checkpoint"),
+                   help="more checkpoints of the donkey camera to include")
     a = p.parse_args()
     out = Path(a.out)
     t_start, cpu_start = begin_study(out, a.workers)
@@ -232,4 +235,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    guarded(main)

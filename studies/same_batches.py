@@ -47,6 +47,8 @@ def main() -> int:
     p.add_argument("--batches", type=int, default=3, help="batches compared (default %(default)s)")
     p.add_argument("--seed", type=int, default=0, help="train.seed (default %(default)s)")
     a = p.parse_args()
+    if not (ROOT / a.config).is_file():
+        p.error(f"--config {a.config}: no such file")
     if not (Path(a.before) / "src" / "steerlab").is_dir():
         p.error(f"--before {a.before}: no src/steerlab there; give a source tree of steerlab (git worktree add)")
     if a.batches < 1:

@@ -6,6 +6,7 @@ Recordings: two synthetic drives made here (the camera geometry is exactly known
 CH2 (no speed signal) and the donkeycar hall tub (no speed signal) from ../shared/data.
 """
 
+import argparse
 import sys
 import tempfile
 import time
@@ -24,6 +25,7 @@ from steerlab.sim.road.world import RecordOptions  # noqa: E402
 
 
 def main() -> None:
+    argparse.ArgumentParser(description=__doc__.split("\n\n")[0]).parse_args()  # it takes no arguments
     print("| recording | estimated [m/s] | recorded, median [m/s] | seconds |\n|---|---|---|---|")
     with tempfile.TemporaryDirectory() as tmp:
         recordings = [

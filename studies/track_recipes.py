@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from common import ROOT, DonkeycarPart, donkey_car, donkey_python, machine  # noqa: E402
+from common import ARG, ROOT, DonkeycarPart, comma, donkey_car, donkey_python, machine, output_folder, guarded  # noqa: E402
 
 from steerlab.data.car import CARS  # noqa: E402
 from steerlab.data.readers import open_recording  # noqa: E402
@@ -321,17 +321,20 @@ def markdown(rows: list[dict], suite: str) -> str:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--recipes", default=",".join(RECIPES), help=f"comma list of {', '.join(RECIPES)}")
-    ap.add_argument("--seeds", default="0,1", help="training seeds (train.seed) of every recipe")
-    ap.add_argument("--suite", default="s1", help="the track suite raced (s1: selection tracks; t1 scores)")
-    ap.add_argument("--caps", default="1,0.5", help="throttle caps (the learned throttle's and the expert's)")
+    ap.add_argument("--seeds", default="0,1", type=comma(int, "seed"),
+                    help="training seeds (train.seed) of every recipe")
+    ap.add_argument("--suite", default="s1", choices=("s1", "t1"),
+                    help="the track suite raced (s1: selection tracks; t1 scores)")
+    ap.add_argument("--caps", default="1,0.5", type=comma(float, "cap"),
+                    help="throttle caps (the learned throttle's and the expert's)")
     ap.add_argument("--donkeycar", action="store_true", help="also donkeycar's linear model (its own trainer)")
-    ap.add_argument("--donkeycar-runs", type=int, default=3, help="how many runs of donkeycar's trainer race")
+    ap.add_argument("--donkeycar-runs", type=ARG["count"], default=3, help="how many runs of donkeycar's trainer race")
     ap.add_argument("--donkeycar-tubs", default="donkey", help="the recipe whose tubs donkeycar's trainer trains on "
                     "(default: the 8 tubs of donkeycar's recipe)")
     ap.add_argument("--donkeycar-throttle-scale", type=float, default=1.0, help="donkeycar's throttle times this "
                     "before the cap (as its AI_THROTTLE_MULT, which is 1 in its default config)")
-    ap.add_argument("--workers", type=int, default=2, help="tracks driven in parallel")
-    ap.add_argument("--out", default=str(ROOT / "runs" / "race"))
+    ap.add_argument("--workers", type=ARG["workers"], default=2, help="tracks driven in parallel")
+    ap.add_argument("--out", default=str(ROOT / "runs" / "race"), type=output_folder)
     ap.add_argument("--table", default="table", help="the name of the table files in OUT (.md, .csv, .json)")
     a = ap.parse_args()
     recipes = [r for r in a.recipes.split(",") if r]
@@ -376,4 +379,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    guarded(main)

@@ -23,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-from common import ROOT, machine, track_tubs  # noqa: E402
+from common import ARG, ROOT, machine, guarded, track_tubs  # noqa: E402
 from donkeycar_tubs import FULL_LOCK_DEG, READER, TUBS, blocks, donkey_or_skip, run_donkey, spread  # noqa: E402
 
 from steerlab.data.readers import Source  # noqa: E402
@@ -88,10 +88,12 @@ def rows(name: str, results: dict) -> list[str]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--seeds", type=int, default=3, help="runs of every arm")
+    ap.add_argument("--seeds", type=ARG["count"], default=3, help="runs of every arm")
     ap.add_argument("--skip-donkey", action="store_true", help="steerlab's arms only")
     ap.add_argument("--tubs", default="hall,taped-track", help="the shared tubs to run on")
     args = ap.parse_args()
+    for name in args.tubs.split(","):  # every tub checked before any work
+        Source(str(TUBS / name), reader=READER).open()
     python = donkey_or_skip(args.skip_donkey)
     lines = [f"machine: {machine()}", "", "| tub | model | runs | held-out steering MAE [deg] | vs donkeycar linear | "
              "held-out throttle MAE | replay: interventions |", "|---|---|---|---|---|---|---|"]
@@ -114,4 +116,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    guarded(main)

@@ -26,7 +26,11 @@ def _ch2_label_file(folder: Path) -> Path:
     if len(csvs) == 1:
         return csvs[0]
     if not csvs:
-        raise DataError(folder, "no label CSV found (expected interpolated.csv or frame_id,steering_angle CSV)")
+        stopped = "" if not (folder / "left").is_dir() else (
+            "; frames of several cameras and no log.csv nor recording.json: a steerlab recording whose writing was "
+            "stopped (sim record writes them last)? record it again")
+        raise DataError(folder, "no label CSV found (expected interpolated.csv or frame_id,steering_angle CSV)"
+                        + stopped)
     raise DataError(folder, f"several label CSVs ({', '.join(c.name for c in csvs)}); choose one with --labels")
 
 
