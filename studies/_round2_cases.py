@@ -39,7 +39,7 @@ def _kill_when(proc, ready, sig, settle=1.0, limit=60.0):
         time.sleep(0.2)
     time.sleep(settle)
     if proc.poll() is None:
-        os.kill(proc.pid, sig)
+        os.killpg(proc.pid, sig)  # the command and its workers, as a terminal's Ctrl-C
     _, err = proc.communicate(timeout=60)
     return proc.returncode, err
 
@@ -215,7 +215,7 @@ def main_cases():
             code, err = _kill_when(_steerlab(argv), lambda: ready(out), sig)
             if "Traceback" in err:
                 raise RuntimeError(f"interrupted run: {err.strip().splitlines()[-1]}")
-            if sig == signal.SIGINT and (code != 130 or "interrupted" not in err):
+            if sig == signal.SIGINT and code != 0 and (code != 130 or "interrupted" not in err):  # 0: done before
                 raise RuntimeError(f"interrupted run: exit code {code}, stderr {err.strip()[-200:]!r}")
             return m(*(again or argv))
         return fn
