@@ -12,6 +12,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import statistics
 import subprocess
@@ -22,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from steerlab.cli import path_option, script_parser
+from steerlab.errors import DataError
 from steerlab.files import json_text, plain
 from studies.common import ROOT, SHARED, machine
 
@@ -100,11 +102,12 @@ class Report:
     """A timing's results as JSON, beside the prose it prints: the machine line, the commit measured, the load
     average at the start and at the end (above the number of cores, other work shared them), the settings, and
     every number measured and every ratio, under names (`add`). `write()` writes them to `path`, by default
-    runs/benchmarks/<script>.json."""
+    runs/benchmarks/<script>.json: a .json file, new or an earlier report (never another file written over)."""
 
     def __init__(self, script: str, settings: dict, path: str | Path | None = None):
         name = Path(script).stem
         self.path = Path(path) if path else ROOT / "runs" / "benchmarks" / f"{name}.json"
+        _a_report(self.path)
         self.data = {"script": name, "machine": machine(), "commit": _commit(),
                      "load_average": {"start": os.getloadavg()[0]}, "settings": plain(settings), "results": {}}
 
@@ -119,6 +122,19 @@ class Report:
         self.path.write_text(json_text(self.data, indent=1) + "\n")
         print(f"wrote {self.path}")
         return self.path
+
+
+def _a_report(path: Path) -> None:
+    """A one-line error, before any timing, when `path` is not a .json file or exists and is not a timing's report."""
+    if path.suffix != ".json":
+        raise DataError(path, "a .json file is expected for the report (--json): give a name ending in .json")
+    if path.is_file():
+        try:
+            earlier = json.loads(path.read_text())
+        except (OSError, ValueError):
+            earlier = None
+        if not (isinstance(earlier, dict) and "script" in earlier and "results" in earlier):
+            raise DataError(path, "exists and is not a timing's report: give a new name for the report (--json)")
 
 
 def _commit() -> str | None:

@@ -2,6 +2,10 @@
 
 import sys
 
-from steerlab.cli import main
+try:  # Ctrl-C while the command starts (its imports take seconds) ends as Ctrl-C later does
+    from steerlab.cli import main
+except KeyboardInterrupt:
+    print("interrupted", file=sys.stderr)
+    sys.exit(130)
 
 sys.exit(main())

@@ -136,7 +136,7 @@ def _seal_intact(data: bytes) -> bool | None:
 
 
 def load_checkpoint(path: str | Path) -> dict:
-    path = regular_file(Path(path), "checkpoint")
+    path = regular_file(path, "checkpoint")
     if path.suffix == ".onnx":
         raise SteerlabError(f"{path}: an exported .onnx model, not a steerlab checkpoint (.pt): name the checkpoint "
                             "it was exported from")
@@ -198,6 +198,8 @@ def save_ensemble(checkpoints: list[str | Path], out: str | Path) -> Path:
     """One checkpoint that runs the mean of several (`steerlab ensemble`). They must agree on everything the
     Pilot does around the model: preprocessing, camera geometry, steering convention, speed history, outputs
     and recurrence; a one-line error names the first that differs."""
+    if isinstance(checkpoints, (str, os.PathLike)) or not isinstance(checkpoints, (list, tuple)):
+        raise SteerlabError(f"save_ensemble: checkpoints must be a list of checkpoint paths, got {checkpoints!r}")
     if len(checkpoints) < 2:
         raise SteerlabError("an ensemble needs at least two checkpoints")
     check_outputs(files={"ensemble": out}, inputs=distinct(checkpoints, "checkpoint"))

@@ -51,6 +51,7 @@ from steerlab.data.car import car_of
 from steerlab.data.geometry import CAMERAS
 from steerlab.data.recording import SteeringConvention, said_full_lock
 from steerlab.errors import SteerlabError, warn
+from steerlab.paths import a_path
 from steerlab.pilot import Controls, Pilot
 
 
@@ -113,7 +114,7 @@ class SteerlabPilot:
             _check("smoothing", smoothing, 0.0, 1.0, low_open=True)
         if not isinstance(learned_throttle, bool):
             raise SteerlabError(f"SteerlabPilot: learned_throttle must be True or False, got {learned_throttle!r}")
-        self.source = Path(model)
+        self.source = a_path(model, "SteerlabPilot: model")
         self.pilot = Pilot(model, smoothing=smoothing, steering_step=steering_step,
                            threads=max(1, (os.cpu_count() or 2) // 2) if threads is None else threads)
         self.learned = learned_throttle and "throttle" in self.pilot.targets

@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from steerlab.errors import SteerlabError
-from steerlab.paths import check_outputs
+from steerlab.paths import a_path, check_outputs
 from steerlab.runtime import FORMAT, HASH_KEY, META_KEY, content_sha256
 
 OPSET = 18
@@ -43,7 +43,7 @@ def export_onnx(checkpoint: str | Path, out: str | Path, calib: str | Path | Non
                 calib_range: str | None = None) -> Path:
     """Write `out` (.onnx) with its metadata inside; returns its path. With `calib`, a recording, the model is
     quantized to int8 (`quantize_int8`) on its frames `calib_range` (default: its first CALIB_FRAMES)."""
-    out = Path(out)
+    out = a_path(out, "export_onnx: out")
     if out.suffix != ".onnx":
         raise SteerlabError(f"{out}: the export file must end in .onnx")
     check_outputs(files={"export": out}, inputs=[checkpoint, calib])

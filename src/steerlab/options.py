@@ -18,6 +18,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import math
+import numbers
 import os
 import types
 from collections.abc import Callable, Iterator, Mapping
@@ -39,6 +40,8 @@ class Range:
     unit: str = ""
 
     def __call__(self, v) -> bool:
+        if isinstance(v, bool) or not isinstance(v, numbers.Real):  # True is no number, "0.5" no number yet
+            return False
         return (math.isfinite(v) and (self.lo is None or (self.lo < v if self.lo_open else self.lo <= v))
                 and (self.hi is None or (v < self.hi if self.hi_open else v <= self.hi)))
 
@@ -142,10 +145,10 @@ class Options:
         hints = _hints(type(self))
         for f in fields(self):
             value, check = getattr(self, f.name), f.metadata.get("check")
-            if value is None or check is None:
+            if value is None:
                 continue
             try:
-                ok = bool(check(value))
+                ok = _of_type(hints[f.name], value) and (check is None or bool(check(value)))
             except (TypeError, ValueError):
                 ok = False
             if not ok:
@@ -153,6 +156,23 @@ class Options:
                            value)
         for name, expected in self.related(self):
             raise _bad(f"{type(self).__name__}.{name}", expected, getattr(self, name))
+
+
+def _of_type(kind, value) -> bool:
+    """Whether `value` is of the field type `kind` as made in Python (no conversion: "25" is no number, 1 no
+    boolean, "donkey" no choice of Literal["sim", "ch2"]); types it does not know hold anything."""
+    kind = optional(kind)[0]
+    if get_origin(kind) is Literal:
+        return not isinstance(value, bool) and value in get_args(kind)
+    if kind is bool:
+        return isinstance(value, bool)
+    if kind is int:
+        return isinstance(value, numbers.Integral) and not isinstance(value, bool)
+    if kind is float:
+        return isinstance(value, numbers.Real) and not isinstance(value, bool)
+    if kind is str:
+        return isinstance(value, str)
+    return True
 
 
 def option(default: Any = MISSING, check: Callable | None = None, expected: str | None = None, help: str = "",

@@ -19,6 +19,14 @@ from pathlib import Path
 from steerlab.errors import DataError, SteerlabError
 
 
+def a_path(value, what: str) -> Path:
+    """`value` as a Path: the Python API takes a file or folder as a str or an os.PathLike (pathlib.Path), not
+    empty; anything else (None, a number, a list of paths) is a one-line error naming `what`."""
+    if not isinstance(value, (str, os.PathLike)) or not str(value):
+        raise SteerlabError(f"{what} must be a path (a str or pathlib.Path), got {value!r}")
+    return Path(value)
+
+
 def name_fits(path: str | Path) -> Path:
     """`path`, whose every name fits the file system (255 bytes, mostly): a one-line error instead of the
     OSError that asking about it would raise."""
@@ -55,7 +63,7 @@ def _special(path: Path, what: str) -> None:
 def regular_file(path: Path, what: str = "file") -> Path:
     """`path`, which must be a regular file: a one-line error for a missing path, a folder, or anything else that
     is not a regular file (a pipe or a device, which reading would wait on forever)."""
-    path = name_fits(path)
+    path = name_fits(a_path(path, what))
     _dangling(path, what)
     if not path.exists():
         raise DataError(path, f"{what} not found: check the path")
@@ -69,7 +77,7 @@ def regular_file(path: Path, what: str = "file") -> Path:
 def folder_to_write(path: str | Path, what: str = "output folder") -> Path:
     """`path`, a folder to write into (it may not exist yet): a one-line error when it names a file, a device or a
     symbolic link to nothing."""
-    path = name_fits(path)
+    path = name_fits(a_path(path, what))
     _special(path, what)
     if path.exists() and not path.is_dir():
         raise DataError(path, f"a file, where {_a(what)} is expected")
@@ -210,7 +218,7 @@ def check_outputs(folders: dict[str, str | Path | None] | None = None,
     would write over one inside its folder; a folder of another kind (a run's folder for an evaluation, a
     recording for anything), or an existing recording for a recording; a file inside a recording, or one that
     another kind of folder writes (a run's best.pt); an output that cannot be written."""
-    inputs = [Path(p) for p in inputs if p is not None]
+    inputs = [a_path(p, "an input") for p in inputs if p is not None]
     own = KINDS[kind] if kind else None
     for what, folder in (folders or {}).items():
         if folder is None:
@@ -241,7 +249,7 @@ def check_outputs(folders: dict[str, str | Path | None] | None = None,
     for what, file in (files or {}).items():
         if file is None:
             continue
-        file = name_fits(file)
+        file = name_fits(a_path(file, what))
         _special(file, what)
         if file.is_dir():
             raise DataError(file, f"a folder, where {_a(what)} to write is expected")

@@ -105,6 +105,8 @@ class Pilot:
             raise SteerlabError(f"steering_step must be a positive finite number, got {steering_step!r}")
         if threads is not None and (isinstance(threads, bool) or not isinstance(threads, int) or not THREADS(threads)):
             raise SteerlabError(f"threads must be {THREADS.words(int)} (this machine's cores), got {threads!r}")
+        if not isinstance(other_camera, bool):
+            raise SteerlabError(f"other_camera must be True or False, got {other_camera!r}")
         self.net = load_model(checkpoint, threads)
         self.source = f"checkpoint of {checkpoint['model']}" if isinstance(checkpoint, dict) else str(checkpoint)
         self.name, self.config, self.convention = self.net.name, self.net.config, self.net.convention
@@ -159,6 +161,16 @@ class Pilot:
         `step` frame by frame, continuing from the Pilot's state as `step` does (call `reset()` before a new
         segment). `load`, when given, turns each item into a BGR frame on the worker threads (a frame index or
         a file, say)."""
+        for name, value in (("frames", frames), ("speeds", speeds)):
+            if (value is not None or name == "frames") and (isinstance(value, (str, bytes))
+                                                          or not isinstance(value, Iterable)):
+                raise SteerlabError(f"Pilot.stream: {name} must be a sequence (a list, a generator), one item a frame"
+                                    f"{'' if name == 'frames' else ' (None: not measured)'}, got {type(value).__name__}"
+                                    f"{'' if name == 'frames' else f' {value!r}'}; Pilot.step takes one frame")
+        if load is not None and not callable(load):
+            raise SteerlabError(f"Pilot.stream: load must be a function of an item that returns its BGR frame, got "
+                                f"{load!r}")
+
         def prepare(item) -> tuple:
             frame = item if load is None else load(item)
             try:

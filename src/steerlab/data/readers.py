@@ -19,6 +19,7 @@ from steerlab.data.rows import parse_range
 from steerlab.data.simlog import SIM_OPTIONS, read_sim_log
 from steerlab.errors import DataError, SteerlabError
 from steerlab.options import options_of, parse
+from steerlab.paths import a_path
 
 VIDEO_SUFFIXES = (".mp4", ".avi", ".mkv", ".mov")
 
@@ -38,18 +39,29 @@ class Source:
         return open_recording(self.data, self.range, self.labels, self.reader, cache)
 
 
+def a_source(source, where: str) -> Source:
+    """`source` when it is a Source: what the Python API's functions on a recording take (a path is wrapped by the
+    caller, Source(PATH, range=...)); anything else a one-line error."""
+    if not isinstance(source, Source):
+        raise SteerlabError(f"{where}: the recording must be given as a steerlab.data.readers.Source "
+                            f"(Source(PATH, range=...)), got {source!r}")
+    return source
+
+
 def open_recording(path: str | Path, frame_range: str | tuple | None = None, labels: str | Path | None = None,
                    options: dict | None = None, cache: str | Path | None = None) -> Recording:
     """Open any supported recording. `frame_range` ("a:b") keeps frames [a, b) before images are checked.
     `options` are reader options (config section `reader:`), e.g. `full_lock_deg` and `skip_missing` for
     donkeycar tubs, `topics` for ROS bags, `log` for videos. `cache`: the cache root (`data.cache`), where a ROS
     bag's frames are extracted to."""
-    path = Path(path)
+    path = a_path(path, "the recording")
     if not path.exists():
         raise DataError(path, "recording not found: check the path")
-    rng = parse_range(frame_range) if isinstance(frame_range, str) or frame_range is None else frame_range
+    rng = parse_range(frame_range)
     reader, kind = _reader_of(path)
     known = [o.key for o in options_of(kind)] if kind else []
+    if options is not None and not isinstance(options, dict):
+        raise DataError(path, f"reader options must be a dict (e.g. {{'strict': True}}), got {options!r}")
     unknown = sorted(set(options or {}) - set(known))
     if unknown:
         raise DataError(path, f"unknown reader option(s) {unknown}; this recording's reader takes "
@@ -62,7 +74,7 @@ def open_recording(path: str | Path, frame_range: str | tuple | None = None, lab
     if labels is not None:
         if reader is not read_ch2:
             raise DataError(path, "a label file (labels) belongs to CH2 folders only: leave it out")
-        options["labels"] = labels
+        options["labels"] = a_path(labels, "labels")
     if reader is bag.read_bag:
         options["cache"] = cache
     return reader(path, rng, **options)

@@ -12,12 +12,17 @@ from steerlab.errors import DataError
 from steerlab.files import csv_header, read_csv  # noqa: F401 - csv_header: the readers' header
 
 
-def parse_range(text: str | None) -> tuple[int | None, int | None] | None:
-    """Parse "a:b" (either side may be empty) into a tuple; None stays None."""
+def parse_range(text: str | tuple | None) -> tuple[int | None, int | None] | None:
+    """Parse "a:b" (either side may be empty) into a tuple; None stays None, and a (start, stop) pair of
+    integers or None (the Python API's form) is taken as it is."""
     if text is None:
         return None
+    if isinstance(text, (tuple, list)) and len(text) == 2 and all(
+            v is None or (isinstance(v, int) and not isinstance(v, bool)) for v in text):
+        return tuple(text)  # type: ignore[return-value]
     if not isinstance(text, str):
-        raise DataError("<range>", f"frame range {text!r} must be text like \"0:1800\" (quote it in YAML files)")
+        raise DataError("<range>", f"frame range {text!r} must be text like \"0:1800\" (quote it in YAML files) or "
+                                   "a (start, stop) pair of integers")
     parts = str(text).split(":")
     if len(parts) != 2:
         raise DataError("<range>", f"frame range {text!r} must look like START:STOP, e.g. 0:1800")

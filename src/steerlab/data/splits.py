@@ -21,8 +21,8 @@ def block(text: str, n: int, name: str) -> np.ndarray:
     start = 0 if start is None else start
     stop = n if stop is None else stop
     if not (0 <= start < stop <= n):
-        raise SteerlabError(f"{name} range {text!r} is empty or outside the dataset's 0:{n}: give a "
-                            "START:STOP inside it")
+        raise SteerlabError(f"split.{name} range {text!r} is empty or outside the recording's {n} frames: give a "
+                            f"range START:STOP within 0:{n}")
     return np.arange(start, stop)
 
 

@@ -17,7 +17,7 @@ import sys
 import tempfile
 import time
 from contextlib import contextmanager
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from itertools import cycle, islice
 from pathlib import Path
 from typing import Literal
@@ -27,7 +27,7 @@ import numpy as np
 from tqdm import tqdm
 
 from steerlab.data.geometry import camera
-from steerlab.data.readers import Source
+from steerlab.data.readers import Source, a_source
 from steerlab.options import AT_LEAST_1, Options, THREADS, option
 from steerlab.errors import SteerlabError
 from steerlab.export import export_onnx
@@ -106,10 +106,11 @@ def measure(pilot: Pilot, frames: list[tuple], count: int | None = None, threads
     return {"pilot": _stats(np.array(times[warmup:])), "model": _stats(np.array(net.ms[warmup:]))}
 
 
-def recording_frames(rec, decode: bool = False) -> list[tuple]:
-    """(frame, speed) pairs of a recording's frames; speed: the recorded one, else SPEED."""
+def recording_frames(rec, decode: bool = False, limit: int | None = None) -> list[tuple]:
+    """(frame, speed) pairs of a recording's frames (its first `limit`); speed: the recorded one, else SPEED."""
     speeds = rec.speed if rec.speed is not None else np.full(len(rec), SPEED)
-    return _encoded([(rec.load_frame(i), float(speeds[i])) for i in range(len(rec))], decode)
+    n = len(rec) if limit is None else min(limit, len(rec))
+    return _encoded([(rec.load_frame(i), float(speeds[i])) for i in range(n)], decode)
 
 
 def synthetic_frames(geometry: str, decode: bool = False) -> list[tuple]:
@@ -194,7 +195,8 @@ def run_latency(checkpoints=(), o: LatencyOptions = LatencyOptions(), source: So
         if path.suffix == ".onnx" and "onnx" not in runtimes:
             raise SteerlabError(f"{path} runs on ONNX Runtime only: time it with steerlab latency "
                                 "--runtime onnx or both")
-    rec = None if source is None else replace(source, range=source.range or f"0:{DISTINCT_FRAMES}").open()
+    rec = None if source is None else a_source(source, "run_latency").open()
+    limit = None if source is None or source.range else DISTINCT_FRAMES  # a recording shorter than that: all
     geometry = o.geometry or (rec.geometry if rec else "donkey")
     size = rec and rec.load_frame(0).shape[:2]
     frames = {}  # geometry -> frames
@@ -210,9 +212,9 @@ def run_latency(checkpoints=(), o: LatencyOptions = LatencyOptions(), source: So
                 cam = camera(geo)
                 if rec is not None and size != (cam.height, cam.width):
                     raise SteerlabError(f"{item}: the model takes frames of the {geo!r} camera geometry "
-                                        f"({cam.width}x{cam.height}); the frames of {source.data} are {size[1]}x{size[0]}")
+                                        f"({cam.width}x{cam.height}); the frames of {rec.source} are {size[1]}x{size[0]}")
                 if geo not in frames:
-                    frames[geo] = synthetic_frames(geo, decode) if rec is None else recording_frames(rec, decode)
+                    frames[geo] = synthetic_frames(geo, decode) if rec is None else recording_frames(rec, decode, limit)
                 r = measure(pilot, frames[geo], count, threads)
                 p99 = r["pilot"]["p99_ms"]
                 rows.append({"model": pilot.name, "source": source, "runtime": rt, "geometry": geo,

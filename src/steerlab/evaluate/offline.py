@@ -10,14 +10,14 @@ from tqdm import tqdm
 
 from steerlab.data.car import car_of
 from steerlab.data.labels import speed_targets
-from steerlab.data.readers import Source
+from steerlab.data.readers import Source, a_source
 from steerlab.data.recording import read_image
 from steerlab.evaluate.metrics import SMOOTHING_ALPHA, all_metrics, exponential_smoothing, steering_metrics
 from steerlab.errors import SteerlabError, warn
 from steerlab.files import write_json
 from steerlab.evaluate.plots import plot_steering
 from steerlab.evaluate.scoring import write_predictions
-from steerlab.paths import check_outputs
+from steerlab.paths import a_path, check_outputs
 from steerlab.pilot import Pilot
 from steerlab.video import DriveVideo
 
@@ -35,6 +35,7 @@ def evaluate(checkpoint: str | Path, source: Source, out: str | Path, camera: st
     recording's convention (or compared unconverted where normalized steering has no full-lock angle). A
     recording of another camera geometry than the model's is refused too; with `other_camera` its frames are
     cropped and resized as the model's own would be, with a warning."""
+    checkpoint, source = a_path(checkpoint, "evaluate: checkpoint"), a_source(source, "evaluate")
     check_outputs({"output folder": out}, {"video": video}, [checkpoint, source.data, source.labels], "evaluation")
     out = Path(out)
     rec = source.open()

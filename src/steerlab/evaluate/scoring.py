@@ -10,12 +10,13 @@ import numpy as np
 
 from steerlab.files import csv_header, read_csv
 from steerlab.errors import DataError, warn
+from steerlab.paths import a_path
 from steerlab.evaluate.metrics import gamma_deg, mae_deg, rmse
 
 
 def read_steering_csv(path: str | Path, need_public: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
     """Read `frame_id,steering_angle[,public]`; returns ids, angles and the public flags (or None)."""
-    path = Path(path)
+    path = a_path(path, "the predictions file")
     rows = read_csv(path, "predictions file")
     if not rows:
         raise DataError(path, "the file is empty: give the predictions, a frame_id,steering_angle row per frame")

@@ -22,7 +22,7 @@ from steerlab.data.tub import is_tub
 from steerlab.errors import SteerlabError
 from steerlab.models.registry import ModelSpec, learns_throttle, list_models
 from steerlab import files
-from steerlab.paths import distinct, same_path
+from steerlab.paths import a_path, distinct, same_path
 from steerlab.files import UniqueKeys
 from steerlab.options import (AT_LEAST_0, AT_LEAST_1, Options, POSITIVE, Range, SEED, UNIT, WORKERS, as_dict, option,
                               parse)
@@ -281,10 +281,11 @@ def layered(*layers: dict | None, overrides=()) -> dict:
     return cfg
 
 
-def parse_config(*layers: dict | None, overrides=()) -> TrainConfig:
+def parse_config(*layers: dict | None, overrides=(), source: Path | None = None) -> TrainConfig:
     """Raw config layers (plain values, merged by `layered`) and overrides as a TrainConfig. Under them lie the
     default model and, when the data is a donkeycar tub, TUB_DEFAULTS (a model with a loss of its own keeps it, a
-    model that cannot learn the throttle learns none)."""
+    model that cannot learn the throttle learns none). `source`: the config file, named in errors about the whole
+    config."""
     plain = layered({"model": as_dict(ModelSpec())}, *layers, overrides=overrides)
     raw = plain
     if isinstance(plain.get("data"), str) and is_tub(Path(plain["data"])):
@@ -294,13 +295,20 @@ def parse_config(*layers: dict | None, overrides=()) -> TrainConfig:
             raw["train"]["loss"] = own.get("loss", "mse")
         if isinstance(model, dict) and not learns_throttle(ModelSpec.parse_option(model, "model").name):
             raw["train"]["throttle_weight"] = own.get("throttle_weight", 0.0)
-    unknown = sorted(set(raw) - set(SECTIONS))
+    unknown, where = sorted(set(raw) - set(SECTIONS)), f"{source}: " if source else ""  # the file, when one
     if unknown:
-        raise SteerlabError(f"unknown config sections {unknown}; known: {sorted(SECTIONS)}")
+        raise SteerlabError(f"{where}unknown config sections {unknown}; known: {sorted(SECTIONS)}: is it a config?")
+    if not raw.get("data"):
+        raise SteerlabError(f"{where}the config names no data (set data: PATH or pass data=PATH)")
     return parse(TrainConfig, raw)
 
 
 def load_config(path: str | Path | None = None, overrides=(), base: dict | None = None) -> TrainConfig:
     """`base` <- the YAML file <- overrides, parsed. Relative data paths are taken relative to the working
     directory."""
-    return parse_config(base, None if path is None else read_yaml(path), overrides=overrides)
+    if base is not None and not isinstance(base, dict):
+        raise SteerlabError(f"load_config: base must be a dict of config sections, got {base!r}")
+    if isinstance(overrides, str) or not isinstance(overrides, (list, tuple)):
+        raise SteerlabError(f"load_config: overrides must be a list of section.key=value texts, got {overrides!r}")
+    path = None if path is None else a_path(path, "load_config: path")
+    return parse_config(base, None if path is None else read_yaml(path), overrides=overrides, source=path)

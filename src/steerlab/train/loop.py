@@ -150,6 +150,8 @@ def train(cfg: TrainConfig, progress: bool = True, on_epoch=None) -> dict:
     `on_epoch(epoch, metrics)` is called after every epoch's checkpoint (steerlab tune reports and prunes
     there: an exception it raises ends the run, which stays resumable). The run holds a lock on `out`: a
     second run into the same folder is refused while the first one runs."""
+    if not isinstance(cfg, TrainConfig):
+        raise SteerlabError(f"train takes a TrainConfig (steerlab.train.config.load_config(PATH)), got {cfg!r}")
     check_outputs({"output folder (out)": cfg.out}, inputs=cfg.inputs(), kind="run")
     check_outputs({"cache folder (cache)": cache_root(cfg.cache)}, inputs=cfg.inputs(), kind="cache")
     keep_freed_memory()
@@ -288,8 +290,9 @@ def build(cfg: TrainConfig, ranks: Ranks, progress: bool, init: dict | None, tea
     if model.recurrent:
         samples = sequence_windows(train_codes, data.starts, model.seq_len)
         if len(samples) == 0:
-            raise SteerlabError(f"no training window of {model.seq_len} consecutive frames in one segment: "
-                            "lower model.seq_len")
+            raise SteerlabError(f"{ds.meta['source']}: no training window of {model.seq_len} consecutive frames in "
+                                f"one segment of the training frames (split.train): train on more frames, or set "
+                                f"model.seq_len below {model.seq_len}")
     repeats = None
     if t.recovery_weight > 1:
         episodes = data.episodes()

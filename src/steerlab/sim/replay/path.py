@@ -48,12 +48,15 @@ def human_path(road_wheel: np.ndarray, speed: np.ndarray, times_s: np.ndarray, c
 def replay_speed(rec: Recording, cam: Camera, car: Car, speed: float | None) -> tuple[float | None, str]:
     """The speed to replay `rec` at (None: the recorded one) and where it comes from: given, recorded, or
     estimated from the frames (printed; refused when it is not a speed the car drives at)."""
-    if speed is not None:  # checked where it enters (options.SPEED)
+    low, high = car.speeds
+    if speed is not None:  # checked where it enters (options.SPEED), and here against the recording's car
+        if speed > high:
+            raise DataError(rec.source, f"--speed {speed:g} m/s is beyond what this recording's car drives "
+                                        f"({low:g}-{high:g} m/s): km/h or mph where m/s is expected?")
         return speed, "given (--speed)"
     if rec.speed is not None:
         return None, "recorded"
     speed = estimate_speed(rec, cam)
-    low, high = car.speeds
     if not low <= speed <= high:
         raise DataError(rec.source, f"no speed recorded, and the one estimated from the frames, {speed:.2f} m/s, is "
                                     f"not one this car drives at ({low:g}-{high:g} m/s): the camera geometry may not "

@@ -48,7 +48,7 @@ class ReplayOptions(Options):
     mount_height: float | None = option(None, MOUNT_HEIGHT, help="camera height above the road, m (default: the "
                                         "geometry's)")
     pitch: float | None = option(None, PITCH, help="camera pitch, degrees down (default: the geometry's)")
-    fov: float | None = option(None, Range(0, 180, lo_open=True, hi_open=True, unit="degrees"),
+    fov: float | None = option(None, Range(10, 180, hi_open=True, unit="degrees"),  # below 10: radians?
                                help="road: horizontal field of view, degrees (default: the geometry's)")
     workers: int = option(2, WORKERS, help="checkpoints replayed in parallel")
     smoothing: float | None = smoothing_option()
