@@ -63,6 +63,10 @@ def test_drive_metrics_hand_computed():
     twisty, overall = summarize(drives)
     assert twisty.autonomy == pytest.approx(90.0) and twisty.distance_km == pytest.approx(2.4)
     assert twisty.interventions_per_km == pytest.approx(2 / 2.4) and overall.road_type == "all"
+    # a drive of one tick has no change of command: its gamma is 0, not a standard deviation of nothing
+    one = Trajectory(*[np.zeros(1)] * 4, np.full(1, 0.2), np.full(1, 0.1), np.full(1, 20.0), np.zeros(1),
+                     np.zeros(1, bool)).metrics(dt)
+    assert one.command_gamma_deg == 0.0 and one.distance_km == pytest.approx(0.001)
 
 
 def test_suite_roads_are_never_recorded(tmp_path):
