@@ -1,6 +1,6 @@
 """Regenerate the figures of the docs.
 
-python docs/figures.py                     # docs/ARCHITECTURE.md: a preprocessed synthetic frame next to a
+python docs/figures.py                     # docs/architecture/road-world.md: a preprocessed synthetic frame next to a
                                            # preprocessed real frame per camera geometry, the donkeycar crop
                                            # (needs ../shared/data)
 python docs/figures.py open-vs-closed runs/experiment-synthetic runs/experiment-recipe

@@ -173,7 +173,7 @@ def test_sim_rooms_import_down_and_the_worlds_not_each_other():
 
 def test_every_world_is_a_folder_with_the_same_modules():
     """What a world provides, by its modules: another world is another folder with these (its entry in `entry.py`),
-    and one line in the registry (sim/worlds.py; docs/ARCHITECTURE.md, "Adding a world")."""
+    and one line in the registry (sim/worlds.py; docs/architecture/worlds.md, "Adding a world")."""
     from steerlab.sim.worlds import WORLDS
 
     for name in WORLDS:

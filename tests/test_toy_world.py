@@ -1,4 +1,4 @@
-"""A fourth world, as docs/ARCHITECTURE.md ("Adding a world") says to add one: a toy world registered here, and
+"""A fourth world, as docs/architecture/worlds.md ("Adding a world") says to add one: a toy world registered here, and
 driven through the command line (record, drive, bench), DAgger and a suite with no line of steerlab naming it.
 
 The toy world is an endless straight lane: the car keeps 10 m/s, steering turns it (a kinematic bicycle), its

@@ -198,7 +198,7 @@ def data_args(q: argparse.ArgumentParser, range_help: str = "frames to use, STAR
     path_option(q, "--labels", kind="file", help="CH2: label CSV when the folder holds several")
     q.add_argument("--reader", action="append", default=[], metavar="KEY=VALUE",
                    help="reader option, repeatable: full_lock_deg=25, skip_missing=true (tubs), log=FILE.csv "
-                        "(videos), ... (docs/ARCHITECTURE.md lists them)")
+                        "(videos), ... (docs/architecture/other-recordings.md lists them)")
     if camera:
         q.add_argument("--camera", default="center", help="camera to use (default center)")
 

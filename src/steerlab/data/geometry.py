@@ -3,7 +3,7 @@
 A `Camera` is a pinhole camera on a car: image size, focal length, principal row, mount height and pitch
 (down positive), looking straight ahead from the car's centre line. Vehicle axes are forward, left, up
 (metres); camera axes x right, y down, z along the optical axis. The presets carry the name of the
-preprocessing preset whose frames they match (docs/ARCHITECTURE.md shows real and rendered frames side by
+preprocessing preset whose frames they match (docs/architecture/road-world.md shows real and rendered frames side by
 side), and the road world renders with the same cameras.
 
 `shift_view(frame, cam, shift_m, yaw_deg)` turns a frame into the frame a camera moved `shift_m` to the left
@@ -51,7 +51,7 @@ class Camera:
 
 
 # Geometry chosen so that a preprocessed synthetic frame looks like a preprocessed real one of the dataset
-# whose preprocessing preset has the same name (see docs/ARCHITECTURE.md for the side-by-side). donkey: the
+# whose preprocessing preset has the same name (see docs/architecture/road-world.md for the side-by-side). donkey: the
 # 160x120 wide-angle camera of a donkeycar, mounted low and pitched down (horizon near row 35, as in the shared
 # tubs); its lens is a fisheye, which a pinhole of 100 degrees horizontal field of view only approximates.
 CAMERAS = {

@@ -12,5 +12,5 @@
   `world.py` (the world and its options), `run.py` (record, drive, DAgger's rollouts), `suite.py` (its fixed
   suite), `render.py`, `expert.py` and `plots.py`;
 - `worlds.py`: the registry, one entry per world: what the commands, DAgger, experiments and tuning use of it. A
-  fourth world is a fourth folder like `road/` and one line there (docs/ARCHITECTURE.md, "Adding a world").
+  fourth world is a fourth folder like `road/` and one line there (docs/architecture/worlds.md, "Adding a world").
 """

@@ -5,7 +5,7 @@ A world is a folder of `sim/` (`road/`, `track/`) with the same modules: `entry.
 and its options of a `dagger:` section), `world.py` (the world as the driving loop steps it, `core.contracts.World`,
 and the options of recording and driving in it), `run.py` (recording its expert, a model's drive, DAgger's
 rollouts), `suite.py` (its fixed, versioned suite), `render.py`, `expert.py` and `plots.py`. A fourth world is a
-fourth folder and one more line in `WORLDS` (docs/ARCHITECTURE.md, "Adding a world"); `register` adds one at run
+fourth folder and one more line in `WORLDS` (docs/architecture/worlds.md, "Adding a world"); `register` adds one at run
 time (the tests' toy world).
 """
 
