@@ -205,17 +205,19 @@ def preload():
             pass
 
 
-def parser():
-    p = script_parser(__spec__.name, __doc__)
+def parser(module: str = __spec__.name, doc: str = __doc__):
+    """A round's command line: its folder, OUT_DIR."""
+    p = script_parser(module, doc)
     path_option(p, "out_dir", kind="folder", metavar="OUT_DIR", help="the round's folder (a new one, or an earlier "
                 "round's)")
     return p
 
 
-def main(a):
+def begin(out_dir) -> None:
+    """The round's folders under `out_dir` (a new one or an earlier round's), emptied, and its fixtures made."""
     import torch
 
-    inputs.place(a.out_dir)
+    inputs.place(out_dir)
     torch.set_num_threads(1)  # no OpenMP thread team in this process: a forked child using one would hang
     if inputs.ROOT.exists() and not (inputs.ROOT / "fx").is_dir():
         raise SteerlabError(f"{inputs.ROOT} exists and is not an earlier round's folder (it has no fx/): name a new "
@@ -224,6 +226,10 @@ def main(a):
     subprocess.run(["chattr", "-i", str(inputs.ROOT / "ro")], capture_output=True)
     shutil.rmtree(inputs.ROOT, ignore_errors=True)
     setup()
+
+
+def main(a):
+    begin(a.out_dir)
     cases = inputs.main_cases()
     counts, bad = Counter(), []
     for n, case in enumerate(cases):

@@ -8,13 +8,11 @@ OUT_DIR/failures.txt.
 usage: python -m studies.bad_input_round2 OUT_DIR    (from the repository root)"""
 
 import shutil
-import subprocess
 import sys
 import time
 from collections import Counter
 
-from steerlab.cli import path_option, run_script, script_parser
-from steerlab.errors import SteerlabError
+from steerlab.cli import run_script
 from studies import _round_cases as inputs
 from studies import bad_input_round as first
 from studies._round2_cases import main_cases, setup
@@ -26,25 +24,9 @@ def snapshot():
     return {p: t for p, t in first.snapshot().items() if p.name != ".lock"}
 
 
-def parser():
-    p = script_parser(__spec__.name, __doc__)
-    path_option(p, "out_dir", kind="folder", metavar="OUT_DIR", help="the round's folder (a new one, or an earlier "
-                "round's)")
-    return p
-
-
 def main(a):
-    import torch
-
-    inputs.place(a.out_dir)
-    torch.set_num_threads(1)  # no OpenMP thread team in this process: a forked child using one would hang
+    first.begin(a.out_dir)
     root = inputs.ROOT
-    if root.exists() and not (root / "fx").is_dir():
-        raise SteerlabError(f"{root} exists and is not an earlier round's folder (it has no fx/): name a new one")
-    first.preload()
-    subprocess.run(["chattr", "-i", str(root / "ro")], capture_output=True)
-    shutil.rmtree(root, ignore_errors=True)
-    first.setup()
     setup()
     cases = main_cases()
     counts, bad, start = Counter(), [], time.monotonic()
@@ -76,4 +58,4 @@ def main(a):
 
 
 if __name__ == "__main__":
-    run_script(parser(), main)
+    run_script(first.parser(__spec__.name, __doc__), main)
