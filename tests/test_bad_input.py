@@ -917,6 +917,46 @@ def test_checkpoints_load_without_pickled_code_and_are_sealed(tmp_path):
     assert load_checkpoint(tmp_path / "first.pt")["model"] == "pilotnet"
 
 
+def test_each_hash_of_a_checkpoint_is_checked_and_an_earlier_geometry_name_is_read(tmp_path):
+    """The inner hashes of the versions before seals, each checked on its own (a changed weight, a changed
+    statistic), a sealed file whose stored bytes changed while it still reads, a missing file named as a checkpoint,
+    and the camera geometry's earlier name (`preset`) read as `geometry`."""
+    import torch
+
+    from steerlab.checkpoint import content_hash, load_checkpoint, save_payload, weights_hash
+
+    raw = torch.load(trained(tmp_path), weights_only=True)
+    raw = {k: v for k, v in raw.items() if k not in ("sha256", "content_sha256")}
+    weights = {k: v.clone() for k, v in raw["state_dict"].items()}
+    first = {**raw, "format": "steerlab-checkpoint-1", "sha256": weights_hash(weights)}
+    torch.save(first, tmp_path / "first.pt")
+    assert load_checkpoint(tmp_path / "first.pt")["sha256"] == weights_hash(weights)  # intact: taken
+    name = next(iter(weights))
+    torch.save({**first, "state_dict": {**weights, name: weights[name] + 1}}, tmp_path / "weights.pt")
+    with pytest.raises(SteerlabError, match="weights.pt: the weights do not match the checkpoint's sha256"):
+        load_checkpoint(tmp_path / "weights.pt")
+    earliest = {**{k: v for k, v in first.items() if k != "geometry"}, "preset": "ch2"}  # the geometry's earlier name
+    torch.save(earliest, tmp_path / "earliest.pt")
+    assert load_checkpoint(tmp_path / "earliest.pt")["geometry"] == "ch2" and "preset" not in load_checkpoint(
+        tmp_path / "earliest.pt")
+
+    def sealed_then_damaged(name, payload):  # the digest changed: the seal is broken, the zip still reads
+        save_payload(tmp_path / name, payload)
+        data = bytearray((tmp_path / name).read_bytes())
+        data[-1] = ord("0") if data[-1] != ord("0") else ord("1")
+        (tmp_path / name).write_bytes(bytes(data))
+        return tmp_path / name
+
+    whole = {**raw, "content_sha256": content_hash({**raw, "format": "steerlab-checkpoint-2"})}
+    with pytest.raises(SteerlabError, match="sealed.pt: the file's bytes do not match the sha256 stored with them"):
+        load_checkpoint(sealed_then_damaged("sealed.pt", whole))
+    changed = {**whole, "stats": {**whole["stats"], "mean": [v + 1 for v in whole["stats"]["mean"]]}}
+    with pytest.raises(SteerlabError, match="stats.pt: the checkpoint's settings .* do not match its sha256"):
+        load_checkpoint(sealed_then_damaged("stats.pt", changed))
+    with pytest.raises(SteerlabError, match="gone.pt: checkpoint not found"):
+        load_checkpoint(tmp_path / "gone.pt")
+
+
 # ---------------------------------------------------------------- generated sweeps: every option, every path
 
 def _numeric_options():

@@ -45,11 +45,15 @@ def run_parallel(fn, jobs: list[tuple], workers: int, ticks_per_job: int, progre
         with ProcessPoolExecutor(min(workers, len(jobs)), ctx, _init_worker, (queue, dict(os.environ))) as pool:
             futures = {pool.submit(fn, *job): i for i, job in enumerate(jobs)}
             pending = set(futures)
-            while pending:
-                finished, pending = wait(pending, timeout=0.5, return_when=FIRST_COMPLETED)
-                while not queue.empty():
-                    bar.update(queue.get())
-                for f in finished:
-                    results[futures[f]] = f.result()
+            try:
+                while pending:
+                    finished, pending = wait(pending, timeout=0.5, return_when=FIRST_COMPLETED)
+                    while not queue.empty():
+                        bar.update(queue.get())
+                    for f in finished:
+                        results[futures[f]] = f.result()
+            except BaseException:  # Ctrl-C or a job's error: the jobs not started are dropped, not run to the end
+                pool.shutdown(cancel_futures=True)
+                raise
         bar.update(bar.total - bar.n)
     return results
