@@ -926,9 +926,16 @@ def test_each_hash_of_a_checkpoint_is_checked_and_an_earlier_geometry_name_is_re
     from steerlab.checkpoint import content_hash, load_checkpoint, save_payload, weights_hash
 
     raw = torch.load(trained(tmp_path), weights_only=True)
-    raw = {k: v for k, v in raw.items() if k not in ("sha256", "content_sha256")}
+    raw = {k: v for k, v in raw.items() if k not in ("sha256", "content_sha256", "format")}  # save_payload sets it
     weights = {k: v.clone() for k, v in raw["state_dict"].items()}
     first = {**raw, "format": "steerlab-checkpoint-1", "sha256": weights_hash(weights)}
+    for name, content in (("no-weights.pt", {"format": "steerlab-checkpoint-1"}), ("a-list.pt", [1, 2])):
+        torch.save(content, tmp_path / name)
+        with pytest.raises(SteerlabError, match=f"{name}: not a steerlab checkpoint"):
+            load_checkpoint(tmp_path / name)
+    (tmp_path / "m.onnx").write_bytes(b"an ONNX model")
+    with pytest.raises(SteerlabError, match="m.onnx: an exported .onnx model, not a steerlab checkpoint"):
+        load_checkpoint(tmp_path / "m.onnx")
     torch.save(first, tmp_path / "first.pt")
     assert load_checkpoint(tmp_path / "first.pt")["sha256"] == weights_hash(weights)  # intact: taken
     name = next(iter(weights))
