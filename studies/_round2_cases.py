@@ -1,5 +1,5 @@
-"""The inputs of studies/bad_input_round2.py, each a case {name, group, fn, expect, hint} as in
-studies/_round_cases.py: every command given the wrong kind of file (A), runs interrupted and rerun (B), mixed
+"""The inputs of the second round of studies/bad_input_round.py (`--round 2`), each a case {name, group, fn,
+expect, hint} as in studies/_round_cases.py: every command given the wrong kind of file (A), runs interrupted and rerun (B), mixed
 recordings (C), the Python API with wrong types and units (D), and the scripts of studies/ and benchmarks/ with bad
 arguments (E). The fixtures are the first round's (OUT_DIR/fx) and a few more made by `setup`."""
 

@@ -7,8 +7,11 @@ The fixtures are those of tests/test_bad_input.py (the tiny inputs of `studies.c
 case runs in a forked process of its own with a 45 s limit; the counts are printed, and every input not handled is
 written to OUT_DIR/failures.txt.
 
-usage: PYTHONPATH=src python -m studies.bad_input_round OUT_DIR    (from the repository root; PYTHONPATH picks
-the build that is tried)"""
+`--round 2`: the second round (studies/_round2_cases.py): every command given the wrong kind of file, runs
+interrupted and rerun, mixed recordings, the Python API with wrong types and units, the scripts with bad arguments.
+
+usage: PYTHONPATH=src python -m studies.bad_input_round [--round 2] OUT_DIR    (from the repository root;
+PYTHONPATH picks the build that is tried)"""
 
 import contextlib
 import io
@@ -18,15 +21,24 @@ import shutil
 import signal
 import subprocess
 import sys
+import time
 import traceback
 from collections import Counter
+from dataclasses import dataclass
+from typing import Literal
 
 from steerlab.cli import path_option, run_script, script_parser
 from steerlab.errors import SteerlabError
+from steerlab.options import Options, option
 from studies import _round_cases as inputs
 from studies.common import ch2, made, sim_log, tub  # the tiny inputs of the bad-input tests
 
-TIMEOUT = 45
+TIMEOUT = 45  # s a case may take (a case's own "timeout" says more)
+
+
+@dataclass(frozen=True)
+class RoundOptions(Options):
+    round: Literal[1, 2] = option(1, help="the round: 1, or 2 (studies/_round2_cases.py)")
 
 
 def setup():
@@ -54,7 +66,10 @@ def setup():
 
 
 def snapshot():
-    return {p: (p.stat().st_size, p.stat().st_mtime_ns) for p in inputs.FIX.rglob("*") if p.is_file()}
+    """The fixtures' files but a stale lock a command takes over (a killed run's `.lock`, emptied when it is
+    released): a lock is no result nor input."""
+    return {p: (p.stat().st_size, p.stat().st_mtime_ns) for p in inputs.FIX.rglob("*") if p.is_file()
+            and p.name != ".lock"}
 
 
 def run_case(fn):
@@ -93,7 +108,6 @@ def run_case(fn):
             os._exit(0)
     os.close(w)
     import select
-    import time
 
     chunks, deadline = [], time.monotonic() + TIMEOUT
     while True:
@@ -205,9 +219,8 @@ def preload():
             pass
 
 
-def parser(module: str = __spec__.name, doc: str = __doc__):
-    """A round's command line: its folder, OUT_DIR."""
-    p = script_parser(module, doc)
+def parser():
+    p = script_parser(__spec__.name, __doc__, RoundOptions)
     path_option(p, "out_dir", kind="folder", metavar="OUT_DIR", help="the round's folder (a new one, or an earlier "
                 "round's)")
     return p
@@ -229,26 +242,39 @@ def begin(out_dir) -> None:
 
 
 def main(a):
+    global TIMEOUT
     begin(a.out_dir)
-    cases = inputs.main_cases()
-    counts, bad = Counter(), []
+    if a.round == 2:
+        from studies import _round2_cases as second
+
+        second.setup()
+    cases = inputs.main_cases() if a.round == 1 else second.main_cases()
+    counts, bad, start = Counter(), [], time.monotonic()
     for n, case in enumerate(cases):
         if n % 50 == 0:
-            print(f"{n}/{len(cases)}", file=sys.stderr, flush=True)
+            print(f"{n}/{len(cases)} ({time.monotonic() - start:.0f} s)", file=sys.stderr, flush=True)
         before = snapshot()
+        TIMEOUT = case.get("timeout", 45)  # an interrupted run and its rerun: two commands' start-up
         result = run_case(case["fn"])
         after = snapshot()
         cls = classify(case, result, before, after)
         if cls == "silent-refusal":
             cls = "handled"  # refused though acceptable: a stricter build; counted as handled
+        if cls == "handled" and case.get("after"):
+            cls = case["after"]() or cls  # what the case checks on disk afterwards (an output it must keep)
         counts[cls] += 1
         if cls != "handled":
             code, err, exc, *_ = result
-            bad.append(f"{cls:<10} {case['name'][:150]}\n           {(exc.strip().splitlines() or [''])[-1][:200] if exc else err.strip()[-200:]}")
+            said = (exc.strip().splitlines() or [""])[-1][:300] if exc else err.strip()[-300:]
+            bad.append(f"{cls:<10} [{case.get('group', '-')}] {case['name'][:200]}\n           {said}")
         if cls == "lost":  # put the fixtures back for the next case
             shutil.rmtree(inputs.FIX)
             setup()
-    print(f"{len(cases)} inputs: " + ", ".join(f"{k} {v}" for k, v in counts.most_common()))
+            if a.round == 2:
+                second.setup()
+    groups = Counter(case.get("group", "-") for case in cases)
+    print(f"{len(cases)} inputs ({', '.join(f'{g} {k}' for g, k in groups.items())}) in "
+          f"{time.monotonic() - start:.0f} s: " + ", ".join(f"{k} {v}" for k, v in counts.most_common()))
     (inputs.ROOT / "failures.txt").write_text("\n".join(bad) + "\n")
     print("\n".join(bad))
 

@@ -1,4 +1,4 @@
-"""The rules a second new user's round (studies/bad_input_round2.py) added to "Nothing silent", each with its
+"""The rules a second new user's round (`python -m studies.bad_input_round --round 2`) added to "Nothing silent", each with its
 cases: the Python API checks the type of every value and every path where it enters (as the command line does),
 Ctrl-C ends in one line at any moment, an error about a whole config or recording names the file and what to
 do, a number in other units is refused where its range cannot hold it, and every script of studies/ and
@@ -246,8 +246,8 @@ def test_a_replay_speed_the_car_cannot_drive_is_refused(tmp_path, capsys):
     ckpt = made(tmp_path)
     sim = sim_log(tmp_path / "sim").parent
     assert main(["replay", str(ckpt), "--data", str(sim), "--speed", "60", "--out", str(tmp_path / "rp")]) == 2
-    assert "--speed 60 m/s is beyond what this recording's car drives (1-45 m/s): km/h or mph where m/s is " \
-           "expected?" in capsys.readouterr().err
+    assert "the speed 60 m/s (steerlab replay --speed) is beyond what this recording's car drives (1-45 m/s): km/h " \
+           "or mph where m/s is expected? give it in m/s" in capsys.readouterr().err
 
 
 def test_a_field_of_view_in_radians_is_refused():

@@ -51,8 +51,9 @@ def replay_speed(rec: Recording, cam: Camera, car: Car, speed: float | None) -> 
     low, high = car.speeds
     if speed is not None:  # checked where it enters (options.SPEED), and here against the recording's car
         if speed > high:
-            raise DataError(rec.source, f"--speed {speed:g} m/s is beyond what this recording's car drives "
-                                        f"({low:g}-{high:g} m/s): km/h or mph where m/s is expected?")
+            raise DataError(rec.source, f"the speed {speed:g} m/s (steerlab replay --speed) is beyond what this "
+                                        f"recording's car drives ({low:g}-{high:g} m/s): km/h or mph where m/s is "
+                                        "expected? give it in m/s")
         return speed, "given (--speed)"
     if rec.speed is not None:
         return None, "recorded"
