@@ -1,5 +1,6 @@
 """The inputs of the second round of studies/bad_input_round.py (`--round 2`), each a case {name, group, fn,
-expect, hint} as in studies/_round_cases.py: every command given the wrong kind of file (A), runs interrupted and rerun (B), mixed
+expect, hint} as in studies/_round_cases.py: every command given the wrong kind of file (A), runs interrupted and
+rerun (B), mixed
 recordings (C), the Python API with wrong types and units (D), and the scripts of studies/ and benchmarks/ with bad
 arguments (E). The fixtures are the first round's (OUT_DIR/fx) and a few more made by `setup`."""
 
@@ -542,10 +543,12 @@ def main_cases():
     group[0] = "E"
 
     def script(path, *argv, timeout=25):
-        """`python -m MODULE ARGV` (PATH as a module) from the repository: its exit code and stderr, as the CLI's (argparse's usage line
-        left out, `prog: error:` read as `error:`); still running after `timeout` s: taken (exit code 0)."""
+        """`python -m MODULE ARGV` (PATH as a module) from the repository: its exit code and stderr, as the CLI's
+        (argparse's usage line left out, `prog: error:` read as `error:`); still running after `timeout` s: taken
+        (exit code 0)."""
         def fn():
-            p = subprocess.Popen([PY, "-m", path.removesuffix(".py").replace("/", "."), *map(str, argv)], cwd=REPO, stdout=subprocess.DEVNULL,
+            module = path.removesuffix(".py").replace("/", ".")
+            p = subprocess.Popen([PY, "-m", module, *map(str, argv)], cwd=REPO, stdout=subprocess.DEVNULL,
                                  stderr=subprocess.PIPE, text=True, start_new_session=True)
             try:
                 _, err = p.communicate(timeout=timeout)

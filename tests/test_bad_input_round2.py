@@ -1,4 +1,5 @@
-"""The rules a second new user's round (`python -m studies.bad_input_round --round 2`) added to "Nothing silent", each with its
+"""The rules a second new user's round (`python -m studies.bad_input_round --round 2`) added to "Nothing silent",
+each with its
 cases: the Python API checks the type of every value and every path where it enters (as the command line does),
 Ctrl-C ends in one line at any moment, an error about a whole config or recording names the file and what to
 do, a number in other units is refused where its range cannot hold it, and every script of studies/ and

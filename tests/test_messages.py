@@ -26,7 +26,8 @@ ERRORS = {"SteerlabError", "DataError"}
 # A fix is either an instruction (a verb of this list opening a clause: after ":", ";", "(", "," or "or"/"and"/"then",
 # and not a config key such as train.lr) or a statement of what is expected ("expected ...", "must ...", "one of ...").
 VERBS = ("give|use|choose|name|remove|delete|copy|set|add|pass|leave|keep|quote|save|write|fix|make|convert|check|"
-         "run|record|train|pretrain|export|calibrate|replay|evaluate|time|split|install|pip|free|lower|raise|wait|start")
+         "run|record|train|pretrain|export|calibrate|replay|evaluate|time|split|install|pip|free|lower|raise|wait|"
+         "start")
 FIX = re.compile(rf"(?:[:;(,]\s*|\b(?:or|and|then)\s+)(?:{VERBS})\b(?![.(_=])"
                  r"|\b(?:expected|expects?|must|needs?|takes?|one of|known:|available:|at least|at most|e\.g\.)",
                  re.I)

@@ -104,7 +104,8 @@ def test_a_drive_kept_without_a_key_is_driven_again(tmp_path):
 def test_two_pilots_of_one_label_and_a_part_out_of_range_are_refused(tmp_path):
     model = tmp_path / "model.h5"
     model.write_bytes(b"weights")
-    with pytest.raises(SteerlabError, match="two pilots of the suite are labelled 'stub': give each a label of its own"):
+    with pytest.raises(SteerlabError,
+                       match="two pilots of the suite are labelled 'stub': give each a label of its own"):
         race([stub(model), stub(model)], tmp_path / "suite", options(), progress=False)
     with pytest.raises(SteerlabError, match=r"max_throttle must lie in \(0, 1\], got 1.5"):
         PartPilot(Stub(0.0, 0.0), 25.0, max_throttle=1.5)
