@@ -25,11 +25,10 @@ import time
 import traceback
 from collections import Counter
 from dataclasses import dataclass
-from typing import Literal
 
 from steerlab.cli import path_option, run_script, script_parser
 from steerlab.errors import SteerlabError
-from steerlab.options import Options, option
+from steerlab.options import Options, Range, option
 from studies import _round_cases as inputs
 from studies.common import ch2, made, sim_log, tub  # the tiny inputs of the bad-input tests
 
@@ -38,7 +37,7 @@ TIMEOUT = 45  # s a case may take (a case's own "timeout" says more)
 
 @dataclass(frozen=True)
 class RoundOptions(Options):
-    round: Literal[1, 2] = option(1, help="the round: 1, or 2 (studies/_round2_cases.py)")
+    round: int = option(1, Range(1, 2), help="the round: 1, or 2 (studies/_round2_cases.py)")
 
 
 def setup():
@@ -241,14 +240,14 @@ def begin(out_dir) -> None:
     setup()
 
 
-def main(a):
+def main(a, o: RoundOptions):
     global TIMEOUT
     begin(a.out_dir)
-    if a.round == 2:
+    if o.round == 2:
         from studies import _round2_cases as second
 
         second.setup()
-    cases = inputs.main_cases() if a.round == 1 else second.main_cases()
+    cases = inputs.main_cases() if o.round == 1 else second.main_cases()
     counts, bad, start = Counter(), [], time.monotonic()
     for n, case in enumerate(cases):
         if n % 50 == 0:
@@ -270,7 +269,7 @@ def main(a):
         if cls == "lost":  # put the fixtures back for the next case
             shutil.rmtree(inputs.FIX)
             setup()
-            if a.round == 2:
+            if o.round == 2:
                 second.setup()
     groups = Counter(case.get("group", "-") for case in cases)
     print(f"{len(cases)} inputs ({', '.join(f'{g} {k}' for g, k in groups.items())}) in "
