@@ -310,7 +310,8 @@ CAPS = NumberList(float, Range(0, 1, lo_open=True))  # as --max-throttle of the 
 
 @dataclass(frozen=True)
 class Races(Options):
-    recipes: str = option(",".join(RECIPES), help="comma list of the recipes raced")
+    recipes: str = option(",".join(RECIPES), help="comma list of the recipes raced (empty with --donkeycar: "
+                          "donkeycar's model alone)")
     seeds: str = option("0,1", SEEDS, SEEDS.words, help="training seeds (train.seed) of every recipe")
     suite: str = option("s1", lambda v: v in TRACK_SUITES, " or ".join(TRACK_SUITES),
                         help="the track suite raced (s1: selection tracks; t1 scores)")
@@ -327,7 +328,8 @@ class Races(Options):
 
     @classmethod
     def related(cls, v):
-        return names_held(v, "recipes", RECIPES, "recipes")
+        if v.recipes.strip() or not v.donkeycar:
+            yield from names_held(v, "recipes", RECIPES, "recipes")
 
 
 def parser():
@@ -335,7 +337,7 @@ def parser():
 
 
 def main(_, a: Races) -> None:
-    recipes = names_from(a.recipes, RECIPES, "recipes")
+    recipes = names_from(a.recipes, RECIPES, "recipes") if a.recipes.strip() else []
     out = Path(a.out)
     tubs = out / "tubs"
     record_tubs(tubs, TUBS)

@@ -180,3 +180,9 @@ def test_a_comma_list_of_numbers_gives_them_in_order():
     assert seeds.of("0,1,7") == [0, 1, 7] and caps.of("1,0.5") == [1.0, 0.5]
     assert seeds("3") and not seeds("1,1") and not seeds("-1") and not caps("0") and not caps("0.5,nan")
     assert caps.words == "a comma list of numbers in (0, 1], each once"
+
+
+def test_no_recipes_is_taken_only_where_donkeycars_model_races_alone(capsys):
+    """`--recipes ""` races donkeycar's model alone beside --donkeycar, and is refused without it."""
+    assert _refused("studies.track_recipes", ["--recipes", ""], capsys).startswith("error: --recipes must be a comma")
+    assert script_args(parser_of("studies.track_recipes"), ["--recipes", "", "--donkeycar"])[1][0].recipes == ""
