@@ -430,7 +430,7 @@ BAD_INPUTS = {
         "dagger.world: track renders the donkey camera, and"),
     "sim dagger in the track world with a road suite": (
         lambda t, s: ["sim", "dagger", str(config(t, tub(t / "tub"))), "dagger.world=track", "dagger.suite=v1"],
-        "dagger.suite: v1 is a road suite; world track drives a track suite (t1, s1) or none (null)"),
+        "dagger.suite: v1 is a road suite; world track drives a track suite (t1, s1, t2) or none (null)"),
     "sim dagger in the track world with a track style that does not exist": (
         lambda t, s: ["sim", "dagger", str(config(t, tub(t / "tub"))), "dagger.world=track", "dagger.suite=t1",
                       "dagger.suite_styles=gravel"],

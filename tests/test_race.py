@@ -124,11 +124,13 @@ def test_the_selection_tracks_are_not_the_suites_and_are_never_recorded(tmp_path
     from steerlab.sim.track.suite import TRACK_SUITES, TrackSuiteOptions
     from steerlab.sim.track.world import TrackRecordOptions
 
-    seeds = {s: {t for ts in TRACK_SUITES[s]["tracks"].values() for t in ts} for s in ("t1", "s1")}
-    assert len(seeds["s1"]) == len(seeds["t1"]) == 8 and not seeds["s1"] & seeds["t1"]
+    seeds = {s: {t for ts in TRACK_SUITES[s]["tracks"].values() for t in ts} for s in ("t1", "s1", "t2")}
+    assert len(seeds["s1"]) == len(seeds["t1"]) == len(seeds["t2"]) == 8
+    assert not seeds["s1"] & seeds["t1"] and not seeds["t2"] & (seeds["s1"] | seeds["t1"])
     assert [d[1] for d in TrackSuiteOptions(suite="s1").drives()] == sorted(seeds["s1"])
-    with pytest.raises(SteerlabError, match="reserved for the track suites"):
-        record(tmp_path / "r", TrackRecordOptions(seed=9501, minutes=0.01), progress=False)
+    for seed in (9501, 9701, 9752):
+        with pytest.raises(SteerlabError, match="reserved for the track suites"):
+            record(tmp_path / "r", TrackRecordOptions(seed=seed, minutes=0.01), progress=False)
 
 
 def test_a_random_split_draws_frames_as_its_seed_says():

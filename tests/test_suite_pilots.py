@@ -109,3 +109,32 @@ def test_two_pilots_of_one_label_and_a_part_out_of_range_are_refused(tmp_path):
         race([stub(model), stub(model)], tmp_path / "suite", options(), progress=False)
     with pytest.raises(SteerlabError, match=r"max_throttle must lie in \(0, 1\], got 1.5"):
         PartPilot(Stub(0.0, 0.0), 25.0, max_throttle=1.5)
+    with pytest.raises(SteerlabError, match=r"throttle_floor must lie in \[0, 1\], got -0.1"):
+        PartPilot(Stub(0.0, 0.0), 25.0, throttle_floor=-0.1)
+
+
+def test_a_throttle_floor_holds_only_while_the_car_stands():
+    """A part that brakes (-0.2): at rest (speed below 0.1 m/s) the car gets the floor 0.15, within the cap (0.1
+    under a cap of 0.1); moving, or with no floor, the brake as it was."""
+    frame = np.zeros((120, 160, 3), np.uint8)
+
+    def throttle(speed, floor, cap=1.0):
+        return PartPilot(Stub(0.0, -0.2), 25.0, max_throttle=cap, throttle_floor=floor).step(frame, speed).throttle
+
+    assert throttle(0.0, 0.15) == 0.15 and throttle(0.099, 0.15) == 0.15 and throttle(0.0, 0.15, cap=0.1) == 0.1
+    assert throttle(0.1, 0.15) == -0.2 and throttle(2.0, 0.15) == -0.2 and throttle(0.0, 0.0) == -0.2
+    assert PartPilot(Stub(0.0, 0.4), 25.0, throttle_floor=0.15).step(frame, 0.0).throttle == 0.4  # above the floor
+    assert throttle(None, 0.15) == -0.2  # no speed measured: no floor
+
+
+def test_a_part_that_brakes_at_rest_stands_and_the_floor_gets_it_going(tmp_path):
+    """In the suite: a part that always brakes (-0.1) drives 0 m; with a floor of 0.3 the car leaves the line, then
+    creeps on, each time the floor lifts it to 0.1 m/s. The floor changes the drive's key: it is driven again."""
+    model = tmp_path / "model.h5"
+    model.write_bytes(b"weights")
+    out = tmp_path / "suite"
+    distance = {}
+    for floor in (0.0, 0.3):
+        race([stub(model, throttle=-0.1)], out, options(throttle_floor=floor), progress=False)
+        distance[floor] = json.loads((out / "stub" / "centre-9451" / "drive.json").read_text())["distance_km"]
+    assert distance[0.0] == 0.0 and distance[0.3] > 0.0

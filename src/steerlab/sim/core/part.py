@@ -22,6 +22,8 @@ from steerlab.donkey import SteerlabPilot
 from steerlab.errors import SteerlabError
 from steerlab.pilot import Controls, Pilot
 
+AT_REST = 0.1  # m/s: slower than this, the car stands (or creeps) as far as a throttle floor is concerned
+
 
 class PartPilot:
     """`part`: anything with `run(img_arr) -> (angle, throttle)`, or `run(img_arr, speed)` with `with_speed`
@@ -29,13 +31,15 @@ class PartPilot:
     road-wheel angle of the driven car at angle +-1. The part's throttle reaches the car times `throttle_scale`,
     then limited to +-`max_throttle` (at most 1, the ESC's range): min(max_throttle, throttle_scale x throttle)
     going forward, as steerlab's own part shapes a learned throttle (donkeycar's AI_THROTTLE_MULT scales after its
-    cap instead). `reset()` calls the part's own `reset` if it has one (after an off-track event the pilot forgets
+    cap instead). While the car is at rest (slower than AT_REST), the throttle is at least `throttle_floor` (within
+    the cap): a throttle learned from the image alone brakes at rest where the expert braked at speed, and would
+    leave the car standing for good. `reset()` calls the part's own `reset` if it has one (after an off-track event the pilot forgets
     its past), `close()` its `close` (a part behind a pipe). `name`, `geometry` (the camera the part expects;
     "donkey" for donkeycar's 160x120 camera) and `source` (what messages name) describe it to the loop."""
 
     def __init__(self, part, full_lock_deg: float, name: str | None = None, geometry: str | None = "donkey",
                  source: str | None = None, with_speed: bool = False, throttle_scale: float = 1.0,
-                 max_throttle: float = 1.0):
+                 max_throttle: float = 1.0, throttle_floor: float = 0.0):
         if not callable(getattr(part, "run", None)):
             raise SteerlabError(f"{type(part).__name__} is not a donkeycar part: it has no run(img_arr); "
                                 "give a part that has one")
@@ -45,7 +49,9 @@ class PartPilot:
             raise SteerlabError(f"throttle_scale must lie in (0, 10], got {throttle_scale}")
         if not 0 < max_throttle <= 1:
             raise SteerlabError(f"max_throttle must lie in (0, 1], got {max_throttle}")
-        self.part, self.with_speed = part, with_speed
+        if not 0 <= throttle_floor <= 1:
+            raise SteerlabError(f"throttle_floor must lie in [0, 1], got {throttle_floor}")
+        self.part, self.with_speed, self.throttle_floor = part, with_speed, throttle_floor
         self.throttle_scale, self.max_throttle = throttle_scale, max_throttle
         self.convention = SteeringConvention("normalized", "right", math.radians(full_lock_deg))
         self.name = name or type(part).__name__
@@ -54,7 +60,8 @@ class PartPilot:
 
     def step(self, frame: np.ndarray, speed: float | None = None) -> Controls:
         """One BGR frame (and the car's speed) -> the part's angle as steering, limited to [-1, 1] as the servo
-        limits it, and its throttle times `throttle_scale`, limited to +-`max_throttle`."""
+        limits it, and its throttle times `throttle_scale`, limited to +-`max_throttle`, at least `throttle_floor`
+        (within the cap) while the car is at rest."""
         rgb = np.ascontiguousarray(frame[..., ::-1])
         out = self.part.run(rgb, speed) if self.with_speed else self.part.run(rgb)
         try:
@@ -65,6 +72,8 @@ class PartPilot:
         if not (math.isfinite(angle) and math.isfinite(throttle)):
             raise SteerlabError(f"{self.source}: run() returned ({angle}, {throttle}); finite numbers are expected")
         throttle = float(np.clip(self.throttle_scale * throttle, -self.max_throttle, self.max_throttle))
+        if self.throttle_floor and speed is not None and speed < AT_REST:
+            throttle = max(throttle, min(self.throttle_floor, self.max_throttle))
         return Controls(float(np.clip(angle, -1.0, 1.0)), throttle=throttle)
 
     def reset(self) -> None:
@@ -85,10 +94,11 @@ def learns_throttle(checkpoint: str | Path) -> bool:
 
 def donkey_pilot(checkpoint: str | Path, throttle: float, smoothing: float | None = None, max_throttle: float = 0.5,
                  car: Car = CARS["donkey"], steering_step: float | None = None,
-                 throttle_scale: float = 1.0) -> PartPilot:
+                 throttle_scale: float = 1.0, throttle_floor: float = 0.0) -> PartPilot:
     """steerlab's donkeycar part on `checkpoint` driving `car`: its full lock turns the angles of models trained
     on angles into servo commands, `throttle` is the part's constant throttle for models that predict none (a
-    model that learned the throttle drives with its own times `throttle_scale`, capped at `max_throttle`),
+    model that learned the throttle drives with its own times `throttle_scale`, capped at `max_throttle`, at least
+    `throttle_floor` at rest),
     `smoothing` and `steering_step` shape its steering as the Pilot's do, the measured speed is its second input
     (speed models need it), and it forgets the past when the world puts the car back, not after a gap in
     wall-clock time (a simulation keeps no wall-clock pace)."""
@@ -101,4 +111,4 @@ def donkey_pilot(checkpoint: str | Path, throttle: float, smoothing: float | Non
     if not part.learned:
         part = part_with(throttle)
     return PartPilot(part, car.full_lock_deg, name=part.pilot.name, geometry=part.pilot.geometry,
-                     source=str(checkpoint), with_speed=True)
+                     source=str(checkpoint), with_speed=True, throttle_floor=throttle_floor)

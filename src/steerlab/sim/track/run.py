@@ -175,12 +175,13 @@ def drive(pilot, out: str | Path | None, o: TrackDriveOptions = TrackDriveOption
 def checkpoint_pilot(checkpoint: str | Path, o, w: DriveWith = DriveWith()):
     """steerlab's donkeycar part on `checkpoint` (`core.part.donkey_pilot`) as the options `o` of a drive or a suite
     race it: the constant throttle `o.throttle` for a model that predicts none (refused for one that learned the
-    throttle), its learned throttle times `o.throttle_scale` capped at `o.max_throttle`, its steering shaped as `w`
-    says."""
+    throttle), its learned throttle times `o.throttle_scale` capped at `o.max_throttle` (at least `o.throttle_floor`
+    while the car stands), its steering shaped as `w` says."""
     from steerlab.sim.core.part import donkey_pilot
 
     pilot = donkey_pilot(checkpoint, constant_throttle(o.throttle), w.smoothing, o.max_throttle,
-                         steering_step=w.steering_step, throttle_scale=o.throttle_scale)
+                         steering_step=w.steering_step, throttle_scale=o.throttle_scale,
+                         throttle_floor=o.throttle_floor)
     if o.throttle is not None and pilot.part.learned:
         raise SteerlabError(f"{checkpoint} learned the throttle; the throttle {o.throttle:g} (steerlab sim drive "
                             "--throttle) is the constant throttle of a model that predicts none: leave it out "
@@ -248,7 +249,8 @@ def rollout_job(checkpoint: str, out: str, seed: int, minutes: float, style: str
     from steerlab.sim.core.part import donkey_pilot
 
     pilot = donkey_pilot(checkpoint, constant_throttle(suite.throttle), suite.smoothing, suite.max_throttle,
-                         steering_step=suite.steering_step, throttle_scale=suite.throttle_scale)
+                         steering_step=suite.steering_step, throttle_scale=suite.throttle_scale,
+                         throttle_floor=suite.throttle_floor)
     return rollout(pilot, out, seed, minutes, style, beta, camera, on_tick=tick_reporter(),
                    max_throttle=suite.max_throttle, latency=suite.latency)
 

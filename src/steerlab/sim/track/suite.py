@@ -44,7 +44,7 @@ from steerlab.sim.track import run
 from steerlab.sim.track.run import TrackDrive, drive_expert
 from steerlab.sim.track.world import (TrackDriveOptions, TrackRecordOptions, calibration_option, camera_of,
                                       constant_throttle, latency_option, max_throttle_option, throttle_option,
-                                      throttle_scale_option)
+                                      throttle_floor_option, throttle_scale_option)
 
 TRACK_SUITES = {
     # 8 tracks of 2 minutes, 0.9 m lanes: six taped, two with a painted centre line (28-54 m laps; the expert
@@ -54,6 +54,10 @@ TRACK_SUITES = {
     # the selection tracks: recipes are chosen on these, and scored on t1's (also reserved: never recorded)
     "s1": {"minutes": 2.0, "lane_width": 0.9,
            "tracks": {"taped": [9501, 9502, 9503, 9504, 9505, 9506], "centre": [9551, 9552]}},
+    # the second scoring suite: t1 was raced after each round of selection and so became one; t2 is raced once,
+    # when a recipe is chosen (docs/results/racing.md, "The suites and how often each was raced")
+    "t2": {"minutes": 2.0, "lane_width": 0.9,
+           "tracks": {"taped": [9701, 9702, 9703, 9704, 9705, 9706], "centre": [9751, 9752]}},
 }
 FPS = 20.0
 EXPERT = "expert"  # the label of the expert's reference laps (its drives: `expert_folder`)
@@ -72,6 +76,7 @@ class TrackSuiteOptions(Options):
     throttle: float | None = throttle_option()
     max_throttle: float = max_throttle_option()
     throttle_scale: float = throttle_scale_option()
+    throttle_floor: float = throttle_floor_option()
     latency: int = latency_option()
     calibration: str | None = calibration_option()
 
@@ -95,7 +100,8 @@ class TrackSuiteOptions(Options):
         return TrackDriveOptions(seed=seed, minutes=self.place_minutes, fps=FPS, limit_m=0.0,
                                  lane_width=TRACK_SUITES[self.suite]["lane_width"], style=style,
                                  calibration=self.calibration, throttle=self.throttle, max_throttle=self.max_throttle,
-                                 latency=self.latency, throttle_scale=self.throttle_scale)
+                                 latency=self.latency, throttle_scale=self.throttle_scale,
+                                 throttle_floor=self.throttle_floor)
 
     def expert_folder(self) -> str:
         """The folder of the expert's drives under this cap."""
@@ -112,14 +118,14 @@ class TrackSuiteOptions(Options):
     def key(self, entrant: Entrant) -> dict:
         """Everything that changes a drive's result besides its track: the pilot's identity, the suite
         version, minutes, smoothing, the constant throttle, the learned throttle's cap, the camera's calibration
-        (its K and D), and where set the steering step, the latency and the throttle's scale (drives made before
-        they existed stay reusable)."""
+        (its K and D), and where set the steering step, the latency, the throttle's scale and floor (drives made
+        before they existed stay reusable)."""
         camera = None if self.calibration is None else list(astuple(camera_of(self.calibration)))
         return as_stored({**entrant.identity, "suite": self.suite,
                           "minutes": self.place_minutes, "smoothing": self.smoothing,
                           "throttle": constant_throttle(self.throttle),
                           "max_throttle": self.max_throttle, "camera": camera,
-                          **when_set(self, "steering_step", "latency", "throttle_scale")})
+                          **when_set(self, "steering_step", "latency", "throttle_scale", "throttle_floor")})
 
 
 @dataclass(frozen=True)
@@ -184,15 +190,15 @@ def part_entrant(label: str, model: str | Path, make_part: Callable) -> Entrant:
     """A donkeycar part as a pilot of the suite: `make_part()` makes the part (anything with `run(img_arr) ->
     (angle, throttle)`; a module-level function or a partial of one) and `model` is the file it drives with, whose
     sha256 is its identity. Its throttle reaches the car times the suite's `throttle_scale`, then capped at its
-    `max_throttle` (`race_part`)."""
+    `max_throttle`, at least its `throttle_floor` at rest (`race_part`)."""
     return Entrant(label, str(model), {"model_sha256": file_sha256(Path(model))},
                    partial(race_part, make_part, label, str(model)))
 
 
 def race_part(make_part: Callable, name: str, source: str, o: TrackSuiteOptions) -> PartPilot:
-    """The part of `make_part()` driving the track world's car under the suite's throttle scale and cap."""
+    """The part of `make_part()` driving the track world's car under the suite's throttle scale, cap and floor."""
     return PartPilot(make_part(), CARS["donkey"].full_lock_deg, name=name, source=source,
-                     throttle_scale=o.throttle_scale, max_throttle=o.max_throttle)
+                     throttle_scale=o.throttle_scale, max_throttle=o.max_throttle, throttle_floor=o.throttle_floor)
 
 
 def _job(entrant: Entrant | None, o: TrackSuiteOptions, style: str, seed: int, out: str, key: dict) -> TrackDrive:
@@ -324,6 +330,8 @@ def _num(v, fmt: str) -> str:
 
 def markdown(summary: list[SuiteSummary], drives: list[SuiteDrive], o: TrackSuiteOptions) -> str:
     scaled = "" if o.throttle_scale == 1 else f" (the learned one times {o.throttle_scale:g} first)"
+    if o.throttle_floor:
+        scaled += f", at least {min(o.throttle_floor, o.max_throttle):g} while the car stands"
     lines = [f"Track suite {o.suite}: {o.place_minutes:g} min per track, {TRACK_SUITES[o.suite]['lane_width']:g} m "
              f"lanes, the learned throttle and the expert's capped at {o.max_throttle:g}{scaled}, constant throttle "
              f"{constant_throttle(o.throttle):g} for models that predict none. A lap is clean without an off-track "

@@ -85,6 +85,12 @@ def throttle_scale_option():
                   "where the model slows (as donkeycar's AI_THROTTLE_MULT, which scales after the cap)")
 
 
+def throttle_floor_option():
+    """The option of every track command that drives a model: the least throttle while the car is at rest."""
+    return option(0.0, UNIT, help="the least throttle while the car stands (below 0.1 m/s), within the cap: a "
+                  "throttle learned from the image alone can brake at rest where the expert braked at speed (0: none)")
+
+
 def latency_option():
     """The option of every track command that drives a model: the age of the frame it steers on."""
     return option(0, Range(0, 20), help="ticks the frame the model steers on is late (a real part's camera and "
@@ -135,6 +141,7 @@ class TrackDriveOptions(Options):
     max_throttle: float = max_throttle_option()
     latency: int = latency_option()
     throttle_scale: float = throttle_scale_option()
+    throttle_floor: float = throttle_floor_option()
 
     related = holds_frames("minutes")
 
