@@ -7,7 +7,8 @@
 - The machine a result is measured on, `machine`, and a study's start, `begin_study` (the timings of benchmarks/
   print the same machine line).
 - donkeycar's own environment, in which the studies run donkeycar's trainer and parts (steerlab never imports
-  donkeycar): `donkey_python`, `donkey_car`, and `DonkeycarPart`, donkeycar's pilot part behind a pipe.
+  donkeycar): `donkey_python`, `donkey_car`, `donkey_models` (`donkey train`'s linear models), and
+  `DonkeycarPart`, donkeycar's pilot part behind a pipe.
 - donkeycar's trainer on the shared tubs (`studies/donkeycar_tubs.py`, `studies/tub_pretraining.py`): `TubStudy`,
   their options, `TUBS`, `READER`, `blocks`, `donkey_or_skip`, `run_donkey`, `spread`.
 - Replay against the truth of a world's suite (`studies/replay_vs_road_suite.py`, `studies/replay_vs_track_suite.py`):
@@ -125,6 +126,27 @@ def donkey_car(python: Path, car: Path) -> Path:
         with open(car / "myconfig.py", "a") as f:
             f.write("\nSHOW_PLOT = False\nCREATE_TF_LITE = False\nSAVE_MODEL_AS_H5 = True\n")
     return car
+
+
+def donkey_models(out: Path, tubs: Path, runs: int, names: tuple[str, ...],
+                  work: str = "donkey") -> tuple[Path, list[Path]]:
+    """donkeycar's car folder and its first `runs` linear models, trained by `donkey train` on the tubs `names`
+    (folders of `tubs`; once each: a model counts once `donkey train` has finished), in out/`work`."""
+    python = donkey_python()
+    work = out / work
+    car = donkey_car(python, work / "car")
+    models = []
+    for k in range(runs):
+        model, done = work / f"linear-{k}.h5", work / f"linear-{k}.done"  # donkey train saves every better epoch
+        if not done.exists():
+            print(f"== training donkeycar's linear model, run {k} (donkey train)", flush=True)
+            with open(work / f"train-{k}.log", "w") as log:
+                subprocess.run([str(python.parent / "donkey"), "train", "--tub", ",".join(str(tubs / t) for t in names),
+                                "--model", str(model), "--type", "linear", "--framework", "tensorflow"], cwd=car,
+                               check=True, stdout=log, stderr=subprocess.STDOUT)
+            done.write_text("trained\n")
+        models.append(model)
+    return car, models
 
 
 class DonkeycarPart:

@@ -41,7 +41,7 @@ from steerlab.data.readers import open_recording
 from steerlab.options import AT_LEAST_1, SEED, WORKERS, Options, Range, names_from, names_held, option
 from steerlab.sim.track.suite import TRACK_SUITES, TrackSuiteOptions, part_entrant, race, report, summarize
 from steerlab.sim.track.world import throttle_scale_option
-from studies.common import ROOT, DonkeycarPart, NumberList, donkey_car, donkey_python, machine
+from studies.common import ROOT, DonkeycarPart, NumberList, donkey_models, donkey_python, machine
 
 TUBS = [f"{style}-{seed}" for style in ("taped", "centre") for seed in (1, 2, 3, 4)]
 TUB_MINUTES = 2.0
@@ -222,27 +222,6 @@ def recipe_tubs(name: str) -> tuple[str, ...]:
     """The tubs a recipe trains on."""
     recipe = RECIPES[name]
     return recipe.tubs if recipe.only else (*TUBS, *recipe.tubs)
-
-
-def donkey_models(out: Path, tubs: Path, runs: int, names: tuple[str, ...] = tuple(TUBS),
-                  work: str = "donkey") -> tuple[Path, list[Path]]:
-    """donkeycar's car folder and its first `runs` linear models, trained by `donkey train` on the tubs `names`
-    (once each), in out/`work`."""
-    python = donkey_python()
-    work = out / work
-    car = donkey_car(python, work / "car")
-    models = []
-    for k in range(runs):
-        model, done = work / f"linear-{k}.h5", work / f"linear-{k}.done"  # donkey train saves every better epoch
-        if not done.exists():
-            print(f"== training donkeycar's linear model, run {k} (donkey train)", flush=True)
-            with open(work / f"train-{k}.log", "w") as log:
-                subprocess.run([str(python.parent / "donkey"), "train", "--tub", ",".join(str(tubs / t) for t in names),
-                                "--model", str(model), "--type", "linear", "--framework", "tensorflow"], cwd=car,
-                               check=True, stdout=log, stderr=subprocess.STDOUT)
-            done.write_text("trained\n")
-        models.append(model)
-    return car, models
 
 
 def race_donkeycar(car: Path, models: list[Path], out: Path, o: TrackSuiteOptions, label: str = DONKEYCAR) -> list:

@@ -568,3 +568,15 @@ def test_the_experts_reference_laps_are_driven_under_the_models_cap(tmp_path):
         speeds = [float(row.split(",")[6]) for row in rows]
         assert max(speeds) <= steady_speed(cap, 1 / 20, CARS["donkey"]) + 1e-3  # never faster than the cap holds
     assert laps[0.5].mean_lap_s > 1.1 * laps[1.0].mean_lap_s
+
+
+def test_another_light_scales_the_rooms_frames_and_leaves_the_room_as_drawn():
+    """`light` replaces the room's drawn light level and nothing else: at its own level the frame is the same bytes;
+    at half of it the frame's mean is half (within the rounding to 8 bits); the floor, the tape and the track are
+    the ones drawn."""
+    own = TrackWorld(9506, 0.9, "taped", 20.0)
+    level = own.renderer.room.light
+    same, half = (TrackWorld(9506, 0.9, "taped", 20.0, light=v) for v in (level, level / 2))
+    assert np.array_equal(same.render(), own.render())
+    assert half.renderer.room.tape_name == own.renderer.room.tape_name and half.track.length == own.track.length
+    assert half.render().mean() / own.render().mean() == pytest.approx(0.5, abs=0.01)

@@ -40,9 +40,10 @@ class TrackRenderer:
     """Renders `track` through `cam` (by default the donkeycar fisheye at 160x120). The room's look is drawn
     from the track's seed, or from `seed` to put one track into several rooms."""
 
-    def __init__(self, track: Track, cam: FisheyeCamera = DONKEY_FISHEYE, seed: int | None = None):
+    def __init__(self, track: Track, cam: FisheyeCamera = DONKEY_FISHEYE, seed: int | None = None,
+                 light: float | None = None):
         self.track, self.cam = track, cam
-        self.room = room = Room(track, seed)
+        self.room = room = Room(track, seed, light)
         fwd, left, up = (a.astype(np.float32).ravel() for a in cam.vehicle_rays())
         h = cam.mount_height
         below = up < -1e-6

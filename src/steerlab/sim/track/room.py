@@ -57,9 +57,10 @@ def _tile(rng: np.random.Generator, shape: tuple[int, int], amplitude: float, bl
 
 class Room:
     """Everything about a track's room that does not move: its size, the atlas of its surfaces, the ceiling's
-    lights, the clutter, and the light along the lap."""
+    lights, the clutter, and the light along the lap. `light`: the room's light level instead of its own (drawn in
+    0.75-1.2; everything else as drawn), the same room at another time of day."""
 
-    def __init__(self, track: Track, seed: int | None = None):
+    def __init__(self, track: Track, seed: int | None = None, light: float | None = None):
         self.track = track
         rng = np.random.default_rng([track.seed if seed is None else seed, 21])
         self.floor_kind = str(rng.choice(list(FLOORS), p=[0.25, 0.25, 0.15, 0.15, 0.2]))
@@ -76,7 +77,9 @@ class Room:
         self.x0, self.y0 = (float(v) for v in outline.min(0) - margin[:2])  # Python floats keep the per-pixel
         self.x1, self.y1 = (float(v) for v in outline.max(0) + margin[2:])  # arithmetic in float32
         self.height = float(rng.uniform(2.6, 5.0))
-        self.light = float(rng.uniform(0.75, 1.2))
+        self.light = float(rng.uniform(0.75, 1.2))  # drawn also where `light` replaces it: the rest stays as drawn
+        if light is not None:
+            self.light = float(light)
         self.warmth = rng.uniform(0.92, 1.08, 3).astype(np.float32)
         self.lamps, self.tubes_along_x = self._lamps(rng)
         floor = self._floor(rng)

@@ -138,7 +138,8 @@ def drive(pilot, out: str | Path | None, o: TrackDriveOptions = TrackDriveOption
     With `out`: trajectory.csv, frames.png (a frame every 5 s), drive.json (the result and `meta`) and, with
     `plot`, track.png (the driven line on the track)."""
     check_camera(pilot)
-    world = TrackWorld(o.seed, o.lane_width, o.style, o.fps, camera_of(o.calibration), constant_throttle(o.throttle))
+    world = TrackWorld(o.seed, o.lane_width, o.style, o.fps, camera_of(o.calibration), constant_throttle(o.throttle),
+                       light=o.light)
     check_steers(pilot, world.car)
     strip = []
     movie = DriveVideo(video, o.fps) if video else None

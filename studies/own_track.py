@@ -1,0 +1,230 @@
+"""Your own track, as a donkeycar owner races it: drive K minutes on one track, train, race that track.
+
+For every K of `--minutes`, the racing expert drives K minutes on track `--track` (`steerlab sim record --world
+track --seed TRACK --minutes K`: a tub, its drift-outs cut as an owner cuts them), and on that tub are trained
+`configs/track_best.yaml`'s recipe (every `--seeds` seed; validation on the tub's last fifth) and, with
+`--donkeycar`, donkeycar's linear model by its own trainer (`donkey train`, its default config: a random 80/20
+split; `--donkeycar-runs` runs). Each races the same track for `--race-minutes` minutes uncapped, in the room's
+own light and in another (`--light`: the room's light level instead of its own, drawn in 0.75-1.2), steerlab's
+learned throttle times `--throttle-scale` and donkeycar's times `--donkeycar-throttle-scale` (each the scale chosen
+for it on s1). Synthetic closed loop.
+
+OUT/own-track.md, .csv, .json: per pilot, K and light the mean over its runs of laps, clean laps (their share),
+off-track events and pace (the mean clean lap over the expert's on the same track, uncapped), each with the runs'
+min-max; and the fewest minutes of driving to >= 95 % clean laps. OUT/own-track.png: clean laps against K. Every
+tub, model and drive is kept and reused (a drive while its key, the model's sha256 and the options, holds).
+
+python -m studies.own_track [--track 77] [--style taped] [--minutes 0.5,1,2,4] [--seeds 0,1] [--light 0.55]
+    [--donkeycar [--donkeycar-runs 3] [--donkeycar-throttle-scale 1]] [--workers 2] [--out runs/own-track]
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from steerlab.cli import run_script, script_parser
+from steerlab.data.car import CARS
+from steerlab.data.readers import open_recording
+from steerlab.options import AT_LEAST_1, MINUTES, SEED, WORKERS, Options, Range, option
+from steerlab.sim.core.part import PartPilot
+from steerlab.sim.core.suite import Planned, as_stored, file_sha256, run_drives
+from steerlab.sim.track import run
+from steerlab.sim.track.world import TrackDriveOptions, TrackRecordOptions, throttle_scale_option
+from studies.common import ROOT, DonkeycarPart, NumberList, donkey_models, donkey_python, machine, write_table
+
+RECIPE = ROOT / "configs" / "track_best.yaml"
+CLEAN = 95.0  # % of laps clean: the target
+DONKEYCAR, STEERLAB, EXPERT = "donkeycar", "track_best", "expert"
+
+
+def record(tubs: Path, track: int, style: str, minutes: float) -> Path:
+    """The expert's K-minute tub of the track (recorded once)."""
+    tub = tubs / f"{style}-{track}-{minutes:g}min"
+    if not (tub / "manifest.json").exists():
+        run.record(tub, TrackRecordOptions(seed=track, minutes=minutes, style=style), progress=False)
+    return tub
+
+
+def train(tub: Path, seed: int, out: Path) -> Path:
+    """configs/track_best.yaml's recipe on the tub alone, validated on its last fifth (trained once; an interrupted
+    training resumes)."""
+    from steerlab.train.config import load_config
+    from steerlab.train.loop import train as train_config
+
+    if not (out / "done.json").exists():
+        cfg = yaml.safe_load(RECIPE.read_text())
+        usable = len(open_recording(str(tub), options=cfg["reader"]))
+        cut = int(round(0.8 * usable))
+        cfg.update(data=str(tub), split={"train": f"0:{cut}", "val": f"{cut}:{usable}"})
+        cfg.pop("extra_data", None)
+        print(f"== training {STEERLAB} on {tub.name}, seed {seed}", flush=True)
+        metrics = train_config(load_config(None, base=cfg, overrides=[f"train.seed={seed}", f"out={out}"]),
+                               progress=False)
+        (out / "done.json").write_text(json.dumps(metrics, indent=1, default=str))
+    return out / "best.pt"
+
+
+def drive(kind: str, model: str | None, car: str | None, folder: str, o: TrackDriveOptions, key: dict):
+    """One drive (a worker's job): the expert's reference laps, a steerlab checkpoint through its donkeycar part,
+    or donkeycar's model through donkeycar's own part (in donkeycar's environment)."""
+    meta = {"cache_key": key}
+    if kind == EXPERT:
+        return run.drive_expert(folder, o, meta=meta)
+    if kind == STEERLAB:
+        return run.drive_checkpoint(model, folder, o, progress=False, plot=False, meta=meta)
+    Path(folder).mkdir(parents=True, exist_ok=True)
+    part = DonkeycarPart(donkey_python(), Path(car), Path(model), Path(folder) / "part.log", math.inf)
+    pilot = PartPilot(part, CARS["donkey"].full_lock_deg, name=DONKEYCAR, source=model,
+                      throttle_scale=o.throttle_scale, max_throttle=o.max_throttle)
+    try:
+        return run.drive(pilot, folder, o, progress=False, plot=False, meta=meta)
+    finally:
+        pilot.close()
+
+
+def spread(values: list[float | None], fmt: str) -> str:
+    """The mean and the min-max of the runs' values ('-' where a run has none: no clean lap for a pace)."""
+    got = [v for v in values if v is not None]
+    if not got:
+        return "-"
+    text = format(float(np.mean(got)), fmt)
+    text += f" ({format(min(got), fmt)}-{format(max(got), fmt)})" if len(got) > 1 else ""
+    return text + (f", {len(got)} of {len(values)}" if len(got) < len(values) else "")
+
+
+def rows_of(results: dict, expert: dict, pilots: dict) -> list[dict]:
+    """Per pilot, K and light: the runs' values (laps, clean laps, their share, off-track events, pace)."""
+    rows = []
+    for (who, minutes, light), runs in pilots.items():
+        drives = [results[r] for r in runs]
+        ref = expert[light].mean_lap_s
+        rows.append({"pilot": who, "minutes": minutes, "light": light, "runs": len(drives),
+                     "laps": [d.laps for d in drives], "clean_laps": [d.clean_laps for d in drives],
+                     "clean_pct": [100.0 * d.clean_laps / d.laps if d.laps else 0.0 for d in drives],
+                     "off_track": [d.off_track for d in drives],
+                     "pace": [d.mean_lap_s / ref if d.mean_lap_s and ref else None for d in drives]})
+    return rows
+
+
+def fewest_minutes(rows: list[dict], who: str, light: str) -> float | None:
+    """The fewest minutes of driving whose runs lap >= CLEAN % of their laps cleanly, on the mean."""
+    ok = [r["minutes"] for r in rows if r["pilot"] == who and r["light"] == light and np.mean(r["clean_pct"]) >= CLEAN]
+    return min(ok) if ok else None
+
+
+def markdown(rows: list[dict], a: "OwnTrack") -> str:
+    lines = [f"machine: {machine()}", "",
+             f"Own track: {a.style} track {a.track}, K minutes of the racing expert's driving, raced {a.race_minutes:g} "
+             f"min uncapped in the room's own light and at light {a.light:g} (synthetic closed loop); mean over the "
+             "runs (min-max).", "",
+             "| pilot | minutes driven | light | runs | laps | clean laps [%] | off track | pace |",
+             "|---|---|---|---|---|---|---|---|"]
+    lines += [f"| {r['pilot']} | {r['minutes']:g} | {r['light']} | {r['runs']} | {spread(r['laps'], '.1f')} | "
+              f"{spread(r['clean_pct'], '.1f')} | {spread(r['off_track'], '.1f')} | {spread(r['pace'], '.3f')} |"
+              for r in rows]
+    lines += ["", f"Fewest minutes of driving to >= {CLEAN:g} % clean laps (mean over the runs):", ""]
+    for who in dict.fromkeys(r["pilot"] for r in rows):
+        for light in dict.fromkeys(r["light"] for r in rows):
+            k = fewest_minutes(rows, who, light)
+            lines.append(f"- {who}, {light} light: " + (f"{k:g} min" if k is not None else
+                                                         f"not reached within {max(r['minutes'] for r in rows):g}"))
+    return "\n".join(lines) + "\n"
+
+
+def plot(rows: list[dict], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    for who in dict.fromkeys(r["pilot"] for r in rows):
+        for light, style in (("own", "-"), ("other", "--")):
+            mine = sorted((r for r in rows if r["pilot"] == who and r["light"] == light), key=lambda r: r["minutes"])
+            if mine:
+                k = [r["minutes"] for r in mine]
+                mean = np.array([np.mean(r["clean_pct"]) for r in mine])
+                low, high = (np.array([f(r["clean_pct"]) for r in mine]) for f in (min, max))
+                ax.errorbar(k, mean, yerr=[mean - low, high - mean], fmt="o" + style, capsize=3,
+                            label=f"{who}, {light} light")
+    ax.axhline(CLEAN, color="grey", lw=0.8, ls=":")
+    ax.set(xscale="log", xlabel="minutes of driving on the track", ylabel="clean laps [%]", ylim=(-2, 102))
+    ax.set_xticks(sorted({r["minutes"] for r in rows}), [f"{m:g}" for m in sorted({r["minutes"] for r in rows})])
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+
+
+MINUTES_LIST = NumberList(float, MINUTES)
+SEEDS = NumberList(int, SEED)
+
+
+@dataclass(frozen=True)
+class OwnTrack(Options):
+    track: int = option(77, Range(0, 8999), help="the track's seed (not one of the suites', 9000-9999)")
+    style: str = option("taped", lambda v: v in ("taped", "centre"), "taped or centre", help="the track's style")
+    minutes: str = option("0.5,1,2,4", MINUTES_LIST, MINUTES_LIST.words, help="the minutes of driving K, each a tub")
+    seeds: str = option("0,1", SEEDS, SEEDS.words, help="training seeds of the recipe (train.seed)")
+    race_minutes: float = option(2.0, MINUTES, help="minutes of each race of the track")
+    light: float = option(0.55, Range(0.2, 2), help="the other light: the room's light level instead of its own")
+    throttle_scale: float = option(1.2, Range(0, 10, lo_open=True), help="steerlab's learned throttle times this "
+                                   "(default: track_best's scale uncapped, chosen on s1)")
+    donkeycar: bool = option(False, help="also donkeycar's linear model by its own trainer on the same tubs")
+    donkeycar_runs: int = option(3, AT_LEAST_1, help="how many runs of donkeycar's trainer race")
+    donkeycar_throttle_scale: float = throttle_scale_option()
+    workers: int = option(2, WORKERS, help="steerlab's drives in parallel (donkeycar's run one at a time)")
+    out: str = option(str(ROOT / "runs" / "own-track"), path="folder", help="the study's folder")
+
+
+def parser():
+    return script_parser(__spec__.name, __doc__, OwnTrack)
+
+
+def main(_, a: OwnTrack) -> None:
+    out = Path(a.out)
+    lights = {"own": None, "other": a.light}
+    base = TrackDriveOptions(seed=a.track, minutes=a.race_minutes, style=a.style, max_throttle=1.0)
+    expert = {name: TrackDriveOptions(**{**asdict(base), "light": light}) for name, light in lights.items()}
+    planned = {EXPERT: [Planned(name, out / "expert" / name, as_stored(asdict(o)),
+                                (EXPERT, None, None, str(out / "expert" / name), o, as_stored(asdict(o))))
+                        for name, o in expert.items()]}
+    pilots = {}
+    for minutes in MINUTES_LIST.of(a.minutes):
+        tub = record(out / "tubs", a.track, a.style, minutes)
+        racing = [(STEERLAB, f"seed{s}", train(tub, s, out / f"{minutes:g}min" / f"seed{s}"), None, a.throttle_scale)
+                  for s in SEEDS.of(a.seeds)]
+        if a.donkeycar:
+            car, models = donkey_models(out, tub.parent, a.donkeycar_runs, (tub.name,), f"donkey-{minutes:g}min")
+            racing += [(DONKEYCAR, f"run{k}", m, car, a.donkeycar_throttle_scale) for k, m in enumerate(models)]
+        for who, name, model, car, scale in racing:
+            for light_name, light in lights.items():
+                o = TrackDriveOptions(**{**asdict(base), "light": light, "throttle_scale": scale})
+                key = as_stored({"model_sha256": file_sha256(Path(model)), **asdict(o)})
+                where = (who, minutes, light_name, name)
+                folder = out / f"{minutes:g}min" / f"{who}-{name}" / light_name
+                planned.setdefault(who, []).append(Planned(where, folder, key, (who, str(model), car and str(car),
+                                                                                  str(folder), o, key)))
+                pilots.setdefault((who, minutes, light_name), []).append(where)
+    results = {}
+    ticks = int(a.race_minutes * 60 * base.fps)
+    for who, workers in ((EXPERT, a.workers), (STEERLAB, a.workers), (DONKEYCAR, 1)):
+        if planned.get(who):
+            results.update(run_drives(drive, run.TrackDrive, planned[who], workers, ticks, True, who))
+    rows = rows_of(results, {name: results[name] for name in lights}, pilots)
+    (out / "own-track.md").write_text(markdown(rows, a))
+    (out / "own-track.json").write_text(json.dumps(rows, indent=1))
+    write_table(out / "own-track.csv", [{k: (json.dumps(v) if isinstance(v, list) else v) for k, v in r.items()}
+                                        for r in rows])
+    plot(rows, out / "own-track.png")
+    print((out / "own-track.md").read_text())
+
+
+if __name__ == "__main__":
+    run_script(parser(), main)
