@@ -27,6 +27,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import shutil
 import subprocess
 import sys
 from dataclasses import asdict, dataclass, field, replace
@@ -66,7 +67,8 @@ class Recipe:
     """What differs from donkeycar's recipe (`what`): config overrides (`{init}` in one stands for the checkpoint of
     the recipe `starts` with the same seed), options of the suite it races with (`race`: a steering step, a
     latency), more tubs to train on (`tubs`: names of `AUGMENT`; with `only`, these tubs instead of `TUBS`, the
-    first validating on its last `only` records), and `starts`: the recipe it builds on (with no overrides it races
+    first validating on its last `only` records; with `merged`, these tubs as one, `merged_tub`, split as the
+    overrides say), and `starts`: the recipe it builds on (with no overrides it races
     that recipe's checkpoint as it is)."""
 
     what: str
@@ -75,6 +77,7 @@ class Recipe:
     tubs: tuple[str, ...] = ()
     only: int = 0
     starts: str | None = None
+    merged: bool = False
 
 
 # the same tracks 1-4 in other rooms (floor, light, clutter) and seen from other camera mounts
@@ -169,6 +172,11 @@ RECIPES = {
     "rooms-32": Recipe("rooms-colour-15 on 32 tracks in 32 rooms, 30 s each (24 taped, 8 centre-line; as many "
                        "records), instead of 16 in 16, a minute each",
                        (*COLOUR, "train.keep=last"), tubs=ROOMS_32, only=240),
+    "mae-donkey-split": Recipe("flip-mae on donkeycar's split: the sixteen tubs as one, a random 20 % of all its "
+                               "records validating (donkeycar's trainer: a random 80/20 split of every record), "
+                               "driven as track_best (--throttle-scale 1.2)",
+                               (*COLOUR, "train.flip=true", "train.loss=mae", "split={random: 0.2}"),
+                               race={"throttle_scale": 1.2}, tubs=ROOMS, merged=True),
     "rooms-dagger": Recipe("rooms + DAgger in the track world: 3 rounds of 4 minutes of rollouts on fresh tracks, "
                            "uncapped, the expert's labels at the car's speed, 2 epochs a round",
                            dagger_rounds(2), tubs=ROOMS, only=240, starts="rooms"),
@@ -186,10 +194,48 @@ def record_tubs(tubs: Path, names) -> None:
 
 
 def recipe_base(name: str, tubs: Path) -> dict:
-    """`base` on the tubs the recipe trains on (`recipe_tubs`); with `only`, the split is set where they are
-    recorded."""
+    """`base` on the tubs the recipe trains on (`recipe_tubs`), or on them merged into one; with `only`, the split is
+    set where they are recorded."""
+    if RECIPES[name].merged:
+        merged = merged_tub(tubs, RECIPES[name].tubs, tubs / f"{name}-merged")
+        return base(tubs) | {"data": str(merged), "extra_data": []}
     first, *rest = recipe_tubs(name)
     return base(tubs) | {"data": str(tubs / first), "extra_data": [str(tubs / t) for t in rest]}
+
+
+def merged_tub(tubs: Path, names, out: Path) -> Path:
+    """The tubs `names` as one tub (made once): their records one after another, each tub's sessions its own and its
+    timestamps an hour after the tub before, its deleted records deleted, its images linked, not copied. A random
+    split of it draws from every tub's records, as donkeycar's trainer splits the tubs it is given."""
+    if (out / "manifest.json").exists():
+        return out
+    part = out.with_name(out.name + ".part")
+    shutil.rmtree(part, ignore_errors=True)
+    (part / "images").mkdir(parents=True)
+    records, deleted, sessions = [], [], []
+    for k, name in enumerate(names):
+        lines = (tubs / name / "manifest.json").read_text().splitlines()
+        catalogs = json.loads(lines[4])
+        gone = set(catalogs["deleted_indexes"])
+        for rec in (json.loads(line) for c in catalogs["paths"] for line in (tubs / name / c).read_text().splitlines()
+                    if line.strip()):
+            image = f"{k}_{rec['cam/image_array']}"
+            (part / "images" / image).symlink_to((tubs / name / "images" / rec["cam/image_array"]).resolve())
+            if rec["_index"] in gone:
+                deleted.append(len(records))
+            session = f"{k}-{rec['_session_id']}"
+            sessions += [] if session in sessions else [session]
+            records.append({**rec, "_index": len(records), "_session_id": session, "cam/image_array": image,
+                            "_timestamp_ms": rec["_timestamp_ms"] + k * 3_600_000})
+    (part / "catalog_0.catalog").write_text("".join(json.dumps(r) + "\n" for r in records))
+    first = (tubs / names[0] / "manifest.json").read_text().splitlines()
+    header = json.loads(first[3]) | {"sessions": {"all_full_ids": sessions, "last_id": len(sessions) - 1,
+                                                  "last_full_id": sessions[-1]}}
+    lines = first[:3] + [json.dumps(header), json.dumps({"paths": ["catalog_0.catalog"], "current_index": len(records),
+                                                         "max_len": len(records), "deleted_indexes": deleted})]
+    (part / "manifest.json").write_text("\n".join(lines) + "\n")
+    part.rename(out)
+    return out
 
 
 def train_recipe(name: str, seed: int, out: Path, tubs: Path) -> Path:
@@ -221,7 +267,7 @@ def train_recipe(name: str, seed: int, out: Path, tubs: Path) -> Path:
 def recipe_tubs(name: str) -> tuple[str, ...]:
     """The tubs a recipe trains on."""
     recipe = RECIPES[name]
-    return recipe.tubs if recipe.only else (*TUBS, *recipe.tubs)
+    return recipe.tubs if recipe.only or recipe.merged else (*TUBS, *recipe.tubs)
 
 
 def race_donkeycar(car: Path, models: list[Path], out: Path, o: TrackSuiteOptions, label: str = DONKEYCAR) -> list:

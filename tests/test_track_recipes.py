@@ -1,0 +1,26 @@
+"""studies/track_recipes.py's merged tub: the sixteen tubs as one, so that a random split draws from all of their
+records as donkeycar's trainer does (the recipe `mae-donkey-split`)."""
+
+import json
+
+import numpy as np
+
+from steerlab.data.readers import open_recording
+from studies.common import tub
+from studies.track_recipes import merged_tub
+
+
+def test_a_merged_tub_reads_as_its_tubs_one_after_another(tmp_path):
+    """Two tubs of 8 records, the second's record 3 deleted: the merged tub reads 15 records, the first tub's then
+    the second's (steering, frames), each tub a session of its own (the same session id "s" in both), time going on."""
+    a, b = tub(tmp_path / "a"), tub(tmp_path / "b", {i: {"user/angle": -0.05 * i} for i in range(8)})
+    lines = (b / "manifest.json").read_text().splitlines()
+    lines[4] = json.dumps({**json.loads(lines[4]), "deleted_indexes": [3]})
+    (b / "manifest.json").write_text("\n".join(lines) + "\n")
+    merged = merged_tub(tmp_path, ["a", "b"], tmp_path / "m")
+    m, ra, rb = (open_recording(str(p), options={"full_lock_deg": 25}) for p in (merged, a, b))
+    assert len(ra) == 8 and len(rb) == 7 and len(m) == 15
+    assert np.array_equal(m.steering, np.concatenate([ra.steering, rb.steering]))
+    assert np.array_equal(m.load_frame(12), rb.load_frame(4)) and np.array_equal(m.load_frame(2), ra.load_frame(2))
+    assert list(dict.fromkeys(m.extra["session"])) == ["0-s", "1-s"] and np.all(np.diff(m.timestamps_ns) > 0)
+    assert merged_tub(tmp_path, ["a"], tmp_path / "m") == merged  # made once
