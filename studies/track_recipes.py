@@ -42,7 +42,7 @@ from steerlab.data.readers import open_recording
 from steerlab.options import AT_LEAST_1, SEED, WORKERS, Options, Range, names_from, names_held, option
 from steerlab.sim.track.suite import TRACK_SUITES, TrackSuiteOptions, part_entrant, race, report, summarize
 from steerlab.sim.track.world import throttle_scale_option
-from studies.common import ROOT, DonkeycarPart, NumberList, donkey_models, donkey_python, machine
+from studies.common import ROOT, DonkeycarPart, NumberList, donkey_models, donkey_python, machine, training_tub
 
 TUBS = [f"{style}-{seed}" for style in ("taped", "centre") for seed in (1, 2, 3, 4)]
 TUB_MINUTES = 2.0
@@ -203,6 +203,18 @@ def recipe_base(name: str, tubs: Path) -> dict:
     return base(tubs) | {"data": str(tubs / first), "extra_data": [str(tubs / t) for t in rest]}
 
 
+def without_validation(tubs: Path, name: str, only: int) -> Path:
+    """The tub `name` as steerlab's recipe trains on it: its last `only` usable records (the recipe's validation)
+    deleted (`training_tub`: the images linked), so that donkeycar's trainer gets the records steerlab's does."""
+    lines = (tubs / name / "manifest.json").read_text().splitlines()
+    catalogs = json.loads(lines[4])
+    gone = set(catalogs["deleted_indexes"])
+    usable = [json.loads(line)["_index"] for c in catalogs["paths"] for line in (tubs / name / c).read_text().splitlines()
+              if line.strip() and json.loads(line)["_index"] not in gone]
+    out = tubs / f"{name}-train"
+    return out if (out / "manifest.json").exists() else training_tub(tubs / name, set(usable[:-only]), out)
+
+
 def merged_tub(tubs: Path, names, out: Path) -> Path:
     """The tubs `names` as one tub (made once): their records one after another, each tub's sessions its own and its
     timestamps an hour after the tub before, its deleted records deleted, its images linked, not copied. A random
@@ -346,6 +358,8 @@ class Races(Options):
     donkeycar_tubs: str = option("donkey", lambda v: v in RECIPES, "a recipe", help="the recipe whose tubs donkeycar's "
                                  "trainer trains on (default: the 8 tubs of donkeycar's recipe)")
     donkeycar_throttle_scale: float = throttle_scale_option()
+    donkeycar_ours: bool = option(False, help="donkeycar's trainer on the records steerlab's recipe trains on: the "
+                                  "first tub's validation records (--donkeycar-tubs' recipe's `only`) deleted")
     workers: int = option(2, WORKERS, help="tracks driven in parallel")
     out: str = option(str(ROOT / "runs" / "race"), path="folder", help="the study's folder")
     table: str = option("table", lambda v: v and "/" not in v, "a file name without a folder",
@@ -355,6 +369,9 @@ class Races(Options):
     def related(cls, v):
         if v.recipes.strip() or not v.donkeycar:
             yield from names_held(v, "recipes", RECIPES, "recipes")
+        if v.donkeycar_ours and not (v.donkeycar_tubs in RECIPES and RECIPES[v.donkeycar_tubs].only):
+            yield "donkeycar_ours", ("given with --donkeycar-tubs of a recipe that validates on a block of its first "
+                                     f"tub ({', '.join(n for n, r in RECIPES.items() if r.only)})")
 
 
 def parser():
@@ -372,11 +389,15 @@ def main(_, a: Races) -> None:
         for cap in caps:
             race(ckpts, out / f"{a.suite}-max{cap:g}" / name, suite_options(name, a.suite, cap, a.workers))
     suffix = "" if a.donkeycar_tubs == "donkey" else f"-{a.donkeycar_tubs}"  # donkeycar on another recipe's tubs
+    suffix += "-ours" if a.donkeycar_ours else ""
     scaled = "" if a.donkeycar_throttle_scale == 1 else f"-throttle-{a.donkeycar_throttle_scale:g}"
     folder, donkey = f"{DONKEYCAR}{suffix}{scaled}", None
     if a.donkeycar:
         record_tubs(tubs, recipe_tubs(a.donkeycar_tubs))
-        donkey = donkey_models(out, tubs, a.donkeycar_runs, recipe_tubs(a.donkeycar_tubs), f"donkey{suffix}")
+        names = recipe_tubs(a.donkeycar_tubs)
+        if a.donkeycar_ours:
+            names = (without_validation(tubs, names[0], RECIPES[a.donkeycar_tubs].only).name, *names[1:])
+        donkey = donkey_models(out, tubs, a.donkeycar_runs, names, f"donkey{suffix}")
     results = []
     for cap in caps:
         o = TrackSuiteOptions(suite=a.suite, max_throttle=cap, workers=a.workers)

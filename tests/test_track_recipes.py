@@ -24,3 +24,24 @@ def test_a_merged_tub_reads_as_its_tubs_one_after_another(tmp_path):
     assert np.array_equal(m.load_frame(12), rb.load_frame(4)) and np.array_equal(m.load_frame(2), ra.load_frame(2))
     assert list(dict.fromkeys(m.extra["session"])) == ["0-s", "1-s"] and np.all(np.diff(m.timestamps_ns) > 0)
     assert merged_tub(tmp_path, ["a"], tmp_path / "m") == merged  # made once
+
+
+def test_donkeycar_gets_the_records_steerlabs_recipe_trains_on(tmp_path, capsys):
+    """`without_validation`: the first tub without its last `only` usable records (a deleted one among them is
+    skipped, not counted); --donkeycar-ours only beside the tubs of a recipe that validates on such a block."""
+    import pytest
+
+    from steerlab.cli import script_args
+    from studies.track_recipes import parser, without_validation
+
+    t = tub(tmp_path / "t")
+    lines = (t / "manifest.json").read_text().splitlines()
+    lines[4] = json.dumps({**json.loads(lines[4]), "deleted_indexes": [6]})
+    (t / "manifest.json").write_text("\n".join(lines) + "\n")
+    kept = open_recording(str(without_validation(tmp_path, "t", 2)), options={"full_lock_deg": 25})
+    whole = open_recording(str(t), options={"full_lock_deg": 25})  # records 0-5 and 7
+    assert len(whole) == 7 and len(kept) == 5 and np.array_equal(kept.steering, whole.steering[:5])
+    assert script_args(parser(), ["--donkeycar", "--donkeycar-tubs", "rooms", "--donkeycar-ours"])[1][0].donkeycar_ours
+    with pytest.raises(SystemExit):
+        script_args(parser(), ["--donkeycar", "--donkeycar-ours"])  # donkeycar's recipe: no validation block
+    assert "--donkeycar-ours must be given with --donkeycar-tubs of a recipe" in capsys.readouterr().err
