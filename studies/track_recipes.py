@@ -10,7 +10,10 @@ small-car racing. Each trains with every `--seeds` seed (`train.seed`) and races
 s1, the selection tracks; t1 scores) at every `--caps` throttle cap, through the donkeycar part. donkeycar's linear
 model, trained by donkeycar's own trainer on the same tubs in its own environment (`donkey train --type linear`, its
 default config: a random 80/20 split, early stopping; `--donkeycar-runs` runs, three by default: they are not
-seeded), races the same tracks behind a pipe (`_donkey_part.py`).
+seeded), races the same tracks behind a pipe (`_donkey_part.py`). Like with like on the same records both ways:
+`--donkeycar-ours` trains donkeycar's model on the records steerlab's recipe trains on (the first tub's validation
+block deleted), and the recipe `mae-donkey-split` trains steerlab's on donkeycar's split (the tubs merged into one,
+a random 20 % of all records validating).
 
 Per cap, every checkpoint is summarised over the same tracks (`track.suite.summarize`): laps, clean laps and their
 share, tracks finished, off-track events per lap and the pace over the tracks that every checkpoint compared
@@ -19,7 +22,8 @@ seed's values; `OUT/<suite>-max<cap>/`: the suite's own tables and every drive. 
 rerun trains and drives only what is missing.
 
 python -m studies.track_recipes [--recipes donkey,gray,...] [--seeds 0,1] [--suite s1] [--caps 1,0.5]
-    [--donkeycar [--donkeycar-runs 3] [--donkeycar-tubs donkey]] [--workers 2] [--out runs/race] [--table table]
+    [--donkeycar [--donkeycar-runs 3] [--donkeycar-tubs donkey] [--donkeycar-throttle-scale 1] [--donkeycar-ours]]
+    [--workers 2] [--out runs/race] [--table table]
 """
 
 from __future__ import annotations
