@@ -96,7 +96,13 @@ ROOMS = tuple(name for name in AUGMENT if name.endswith("-1min"))
 AUGMENT |= {f"{style}-{seed}-30s": [style, str(seed), "--minutes", "0.5"]
             for style, seeds in (("taped", range(21, 45)), ("centre", range(45, 53))) for seed in seeds}
 ROOMS_32 = tuple(name for name in AUGMENT if name.endswith("-30s"))
+# the sixteen rooms' tracks driven without drift-and-recover episodes: no recovery shown
+AUGMENT |= {f"{style}-{seed}-1min-no-drift": [style, str(seed), "--minutes", "1", "--no-drift"]
+            for style, seeds in (("taped", range(5, 17)), ("centre", range(17, 21))) for seed in seeds}
+ROOMS_NO_DRIFT = tuple(name for name in AUGMENT if name.endswith("-no-drift"))
 COLOUR = ("train.hue_deg=180", "train.brightness=0.25")  # the colours and light of other rooms
+BEST = (*COLOUR, "train.flip=true", "train.loss=mae")  # configs/track_best.yaml: flip-mae
+RACE_BEST = {"throttle_scale": 1.2}  # and how it races uncapped
 
 
 def dagger_rounds(epochs: int) -> tuple[str, ...]:
@@ -181,6 +187,19 @@ RECIPES = {
                                "driven as track_best (--throttle-scale 1.2)",
                                (*COLOUR, "train.flip=true", "train.loss=mae", "split={random: 0.2}"),
                                race={"throttle_scale": 1.2}, tubs=ROOMS, merged=True),
+    # the levers of recovery and racing on track_best (flip-mae, x 1.2 uncapped)
+    "best-no-drift": Recipe("track_best on the same tracks driven without drift-and-recover episodes (the "
+                            "recovery the expert shows left out)", BEST, RACE_BEST, ROOMS_NO_DRIFT, only=240),
+    "best-dagger": Recipe("track_best + DAgger in the track world: 3 rounds of 4 minutes of rollouts on fresh tracks, "
+                          "uncapped, the expert's labels at the car's speed, 2 epochs a round",
+                          dagger_rounds(2), RACE_BEST, ROOMS, only=240, starts="flip-mae"),
+    "best-latency-matched": Recipe("track_best on a frame one tick old (a real part's latency), trained on the "
+                                   "steering one tick later", (*BEST, "train.target_shift_s=0.05"),
+                                   {**RACE_BEST, "latency": 1}, ROOMS, only=240),
+    "best-stack-3": Recipe("track_best on three stacked frames (the motion: whether the car moves at all)",
+                           (*BEST, "preprocess.stack=3"), RACE_BEST, ROOMS, only=240),
+    "best-floor-0.2": Recipe("track_best driven with a throttle of at least 0.2 while the car stands "
+                             "(--throttle-floor 0.2)", race={**RACE_BEST, "throttle_floor": 0.2}, starts="flip-mae"),
     "rooms-dagger": Recipe("rooms + DAgger in the track world: 3 rounds of 4 minutes of rollouts on fresh tracks, "
                            "uncapped, the expert's labels at the car's speed, 2 epochs a round",
                            dagger_rounds(2), tubs=ROOMS, only=240, starts="rooms"),
