@@ -3,6 +3,8 @@ their clean laps, pace against the expert's lap, and the fewest minutes to >= 95
 
 from types import SimpleNamespace as Drive
 
+import numpy as np
+
 from studies.own_track import fewest_minutes, rows_of, spread
 
 
@@ -23,3 +25,35 @@ def test_the_runs_are_summed_up_per_pilot_minutes_and_light():
     assert fewest_minutes([one, two], "a", "own") is None
     one["clean_pct"] = [100.0, 95.0]
     assert fewest_minutes([one, two], "a", "own") == 1.0 and fewest_minutes([one, two], "a", "other") is None
+
+
+def test_donkeycars_drive_is_its_part_under_the_drives_throttle_scale(tmp_path, monkeypatch):
+    """A donkeycar drive of the study: donkeycar's part (here a stand-in answering a throttle of 0.3) behind
+    `PartPilot`, its throttle times the drive's scale (0.3 x 1.5 = 0.45: the car's speed tends to 0.45 x its top
+    speed), the part closed after the drive."""
+    import studies.own_track as own
+    from steerlab.data.car import CARS
+    from steerlab.sim.track.smallcar import steady_speed
+    from steerlab.sim.track.world import TrackDriveOptions
+
+    closed = []
+
+    class Part:
+        def __init__(self, python, car, model, log, cap):
+            assert log.parent.exists() and cap == float("inf")
+
+        def run(self, img_arr):
+            return 0.0, 0.3
+
+        def close(self):
+            closed.append(True)
+
+    monkeypatch.setattr(own, "DonkeycarPart", Part)
+    monkeypatch.setattr(own, "donkey_python", lambda: tmp_path / "python")
+    o = TrackDriveOptions(seed=77, minutes=0.1, max_throttle=1.0, throttle_scale=1.5)
+    d = own.drive(own.DONKEYCAR, str(tmp_path / "m.h5"), str(tmp_path), str(tmp_path / "drive"), o, {"k": 1})
+    assert closed == [True] and d.label == own.DONKEYCAR
+    import json
+    assert json.loads((tmp_path / "drive" / "drive.json").read_text())["cache_key"] == {"k": 1}
+    speed = np.loadtxt(tmp_path / "drive" / "trajectory.csv", delimiter=",", skiprows=1, usecols=6)
+    assert abs(speed[-1] - steady_speed(0.45, 0.05, CARS["donkey"])) < 0.05  # 2.19 m/s (at 0.3: 1.44)
