@@ -155,6 +155,10 @@ def test_marks_lie_outside_the_lane_and_people_stand_beside_it():
         assert 1.5 <= top <= 1.9
         _, d, _ = tr.project(p["x"], p["y"])
         assert 0.45 - 0.01 <= abs(d) - 0.45 <= 0.9 + 0.01
+    rng = np.random.default_rng(0)
+    tops = [max(face[:, 2].max() for face, _ in marked._solid("person", 0.0, 0.0, 0.0, 1.0, rng)["faces"])
+            for _ in range(200)]
+    assert 1.5 <= min(tops) < 1.52 and 1.88 < max(tops) <= 1.9
     kinds = [o["kind"] for o in own.objects]
     assert [o["kind"] for o in marked.objects[: len(kinds)]] == kinds
     assert len(marked.objects) - len(people) > len(own.objects)
