@@ -10,6 +10,8 @@ python docs/figures.py track-race runs/readme/drive
                                            # README: a track drive's plot beside what its camera saw, from
                                            # steerlab sim drive CKPT --world track --seed 9503 --minutes 1
                                            #   --max-throttle 1 --throttle-scale 1.2 --out runs/readme/drive
+python docs/figures.py varied-rooms        # docs/results/racing.md: what the camera of `sim record --world track
+                                           # --vary` sees on tracks 1-12, a third of the way round each
 """
 
 import csv
@@ -97,10 +99,29 @@ def track_race(drive: str) -> None:
                 [cv2.IMWRITE_JPEG_QUALITY, 88])
 
 
+def varied_rooms() -> None:
+    """The frame of a varied recording's camera (its jittered mount, at its JPEG quality) on the lane centre a
+    third of the way round tracks 1-12, in two rows of six."""
+    from steerlab.sim.track.world import TrackRecordOptions, TrackWorld
+
+    frames = []
+    for seed in range(1, 13):
+        o = TrackRecordOptions(seed=seed, vary=True)
+        world = TrackWorld(seed, camera=o.camera(), look=o.look())
+        s = world.track.length / 3
+        frame = world.renderer.render(*(float(v) for v in world.track.pose(s)), s)
+        jpeg = cv2.imencode(".jpg", frame, [cv2.IMWRITE_JPEG_QUALITY, o.look().jpeg_quality])[1]
+        frames.append(cv2.imdecode(jpeg, cv2.IMREAD_COLOR))
+    cv2.imwrite(str(HERE / "img" / "varied_rooms.jpg"), np.vstack([np.hstack(frames[:6]), np.hstack(frames[6:])]),
+                [cv2.IMWRITE_JPEG_QUALITY, 90])
+
+
 if __name__ == "__main__":
     if sys.argv[1:2] == ["open-vs-closed"]:
         open_vs_closed(*sys.argv[2:4])
     elif sys.argv[1:2] == ["track-race"]:
         track_race(sys.argv[2])
+    elif sys.argv[1:2] == ["varied-rooms"]:
+        varied_rooms()
     else:
         main()

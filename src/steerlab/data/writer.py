@@ -29,14 +29,15 @@ class RecordingWriter:
     """Writes frames and per-frame rows as a steerlab recording (`recording.json`, `log.csv`, one folder of
     JPEGs per camera) or in the Udacity simulator's `driving_log.csv` layout. Steering is written in
     `convention` (the road world's own by default); `geometry` is the camera geometry of the frames, which
-    also names the car (`data.car`)."""
+    also names the car (`data.car`). `quality`: the JPEG quality of the frames (None: 92)."""
 
     def __init__(self, out: str | Path, cameras: list[str], layout: str = "steerlab",
-                 convention: SteeringConvention = CONVENTION, geometry: str = "sim"):
+                 convention: SteeringConvention = CONVENTION, geometry: str = "sim",
+                 quality: int | None = None):
         if layout not in ("steerlab", "udacity-sim"):
             raise SteerlabError(f"unknown layout {layout!r}; choose steerlab or udacity-sim")
         self.out, self.cameras, self.layout, self.convention = Path(out), cameras, layout, convention
-        self.geometry = geometry
+        self.geometry, self.jpeg = geometry, JPEG if quality is None else [cv2.IMWRITE_JPEG_QUALITY, quality]
         if self.out.exists() and any(self.out.iterdir()):
             raise SteerlabError(f"{self.out} exists and is not empty; choose a new output folder")
         for cam in cameras:
@@ -53,7 +54,7 @@ class RecordingWriter:
                 names[cam] = f"IMG/{image_name(cam, EPOCH_NS + ts)}"
             else:
                 names[cam] = f"{cam}/{i:06d}.jpg"
-            cv2.imwrite(str(self.out / names[cam]), frames[cam], JPEG)
+            cv2.imwrite(str(self.out / names[cam]), frames[cam], self.jpeg)
         self.rows.append({"frame": i, **{c: names.get(c, "") for c in ("center", "left", "right")}, **row})
 
     def close(self, meta: dict) -> Path:
@@ -96,16 +97,18 @@ class TubWriter:
     donkeycar's tub editor marks the stretches its owner cut out of a drive (neither donkeycar's training nor
     steerlab's reader uses them); the first record kept after a cut starts a new session, so that no frame
     history or motion spans the cut. `metadata` is the manifest's user metadata (the track world writes its
-    camera there: `fisheye`, read back as `Recording.fisheye`)."""
+    camera there: `fisheye`, read back as `Recording.fisheye`). `quality`: the JPEG quality of the frames (None:
+    75, donkeycar's)."""
 
     def __init__(self, out: str | Path, full_lock_deg: float, max_len: int = 1000, start_ns: int = EPOCH_NS,
-                 metadata: dict | None = None):
+                 metadata: dict | None = None, quality: int | None = None):
         if not 0 < full_lock_deg < 90:
             raise SteerlabError(f"full_lock_deg must lie in (0, 90) degrees, got {full_lock_deg}")
         if max_len < 1:
             raise SteerlabError(f"max_len (records per catalog) must be at least 1, got {max_len}")
         self.out, self.full_lock = Path(out), math.radians(full_lock_deg)
         self.max_len, self.start_ns, self.metadata = max_len, start_ns, metadata or {}
+        self.jpeg = TUB_JPEG if quality is None else [cv2.IMWRITE_JPEG_QUALITY, quality]
         if self.out.exists() and any(self.out.iterdir()):
             raise SteerlabError(f"{self.out} exists and is not empty; choose a new output folder")
         (self.out / "images").mkdir(parents=True, exist_ok=True)
@@ -128,7 +131,7 @@ class TubWriter:
         elif self.deleted and self.deleted[-1] == i - 1:  # the first record kept after a cut
             self.sessions.append(f"{self.day}_{len(self.sessions)}")
         name = f"{i}_cam_image_array_.jpg"
-        if not cv2.imwrite(str(self.out / "images" / name), frame, TUB_JPEG):
+        if not cv2.imwrite(str(self.out / "images" / name), frame, self.jpeg):
             raise SteerlabError(f"cannot write {self.out / 'images' / name}: free disk space, or choose "
                                 "another output folder")
         self.records.append({"_index": i, "_session_id": self.sessions[-1],

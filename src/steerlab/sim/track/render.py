@@ -15,7 +15,9 @@ sensor adds noise. Clutter beside the track (boxes, cones, bins, chairs, people'
 as flat-shaded solids whose faces are projected through the fisheye with curved edges and filled far to near.
 
 Everything that does not move is drawn from the track's seed: floor kind (concrete, epoxy, wood, carpet,
-tarp), tape or paint colour and width, walls, ceiling lights, clutter, light. Same pose, same bytes.
+tarp), tape or paint colour and width, walls, ceiling lights, clutter, light. Same pose, same bytes. A look
+(`look.Look`, for the varied rooms of training recordings) changes the room's draws as `room.Room` says, scales
+the lamps' glare on a glossy floor, sets the sensor's noise and blurs the frame.
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ import cv2
 import numpy as np
 
 from steerlab.data.fisheye import DONKEY_FISHEYE, FisheyeCamera
+from steerlab.sim.track.look import LOOK, Look
 from steerlab.sim.track.room import CEIL_RES, LEVELS, MIRROR_LEVEL, RES, WALL_RES, Room
 from steerlab.sim.track.track import Track
 
@@ -38,12 +41,12 @@ def _subdivide(poly: np.ndarray, k: int = 2) -> np.ndarray:
 
 class TrackRenderer:
     """Renders `track` through `cam` (by default the donkeycar fisheye at 160x120). The room's look is drawn
-    from the track's seed, or from `seed` to put one track into several rooms."""
+    from the track's seed, or from `seed` to put one track into several rooms; `light` and `look` as `Room`'s."""
 
     def __init__(self, track: Track, cam: FisheyeCamera = DONKEY_FISHEYE, seed: int | None = None,
-                 light: float | None = None):
+                 light: float | None = None, look: Look = LOOK):
         self.track, self.cam = track, cam
-        self.room = room = Room(track, seed, light)
+        self.room = room = Room(track, seed, light, look)
         fwd, left, up = (a.astype(np.float32).ravel() for a in cam.vehicle_rays())
         h = cam.mount_height
         below = up < -1e-6
@@ -80,7 +83,7 @@ class TrackRenderer:
         # the vignette of every value of the frame (pixel by pixel, B, G, R), so that it meets the light in one
         # flat product: a (N, 1) x (3,) broadcast is twice as slow as the product it makes
         self.vignette = np.repeat((1 - rng.uniform(0.3, 0.6) * r2).astype(np.float32), 3)
-        self.noise = rng.normal(0, 3.0, (4, cam.height * cam.width, 3)).astype(np.float32)
+        self.noise = rng.normal(0, look.noise, (4, cam.height * cam.width, 3)).astype(np.float32)
         # clutter: every face outline, subdivided, in one array
         faces = [(poly, colour) for obj in room.objects for poly, colour in obj["faces"]]
         outlines = [_subdivide(poly) for poly, _ in faces]
@@ -149,7 +152,7 @@ class TrackRenderer:
             frame[b] += k * (mirror - frame[b])
             # the lamps, far brighter than anything the atlas holds, add their light
             spec = cv2.remap(room.lights, lx[:, None], ly[:, None], cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT)
-            frame[b] += spec * (np.float32(255 * room.gloss) * floor[b])[:, None]
+            frame[b] += spec * (np.float32(255 * room.gloss * room.look.glare) * floor[b])[:, None]
         i = self.track.index(s)
         light = room.brightness[i] * room.tint[i]
         frame *= (self.vignette * np.tile(light, len(frame))).reshape(-1, 3)
@@ -158,6 +161,8 @@ class TrackRenderer:
         out = np.take(frame.astype(np.uint8).ravel(), self.unsort).reshape(cam.height, cam.width, 3)
         if len(self.face_start):
             self._draw_clutter(out, x, y, psi, light)
+        if room.look.blur:
+            cv2.GaussianBlur(out, (0, 0), room.look.blur, dst=out)
         return out
 
     def _draw_clutter(self, img: np.ndarray, x: float, y: float, psi: float, light: np.ndarray) -> None:

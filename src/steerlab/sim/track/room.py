@@ -10,6 +10,7 @@ import math
 import cv2
 import numpy as np
 
+from steerlab.sim.track.look import LOOK, Look, stands_out
 from steerlab.sim.track.track import Track
 
 RES = 0.01        # m per floor texel
@@ -18,6 +19,8 @@ CEIL_RES = 0.05   # m per ceiling texel
 LEVELS = 4        # levels of detail of the atlas (each half the resolution of the one before)
 PAD = 16          # texels between the atlas regions
 MIRROR_LEVEL = 2  # the level of detail a glossy floor mirrors the room with (a blurred reflection)
+CLEAR_RES = 0.05  # m per cell of the map of the floor's distance from the lane
+SHIFT = 3         # bits of sub-texel precision of the lines painted on the floor
 
 # (B, G, R)
 FLOORS = {
@@ -58,31 +61,36 @@ def _tile(rng: np.random.Generator, shape: tuple[int, int], amplitude: float, bl
 class Room:
     """Everything about a track's room that does not move: its size, the atlas of its surfaces, the ceiling's
     lights, the clutter, and the light along the lap. `light`: the room's light level instead of its own (drawn in
-    0.75-1.2; everything else as drawn), the same room at another time of day."""
+    0.75-1.2; everything else as drawn), the same room at another time of day. `look`: its look beyond its own draws
+    (`look.Look`), whose floor marks, clutter and people are placed from a stream of their own (the seed with 32)."""
 
-    def __init__(self, track: Track, seed: int | None = None, light: float | None = None):
-        self.track = track
-        rng = np.random.default_rng([track.seed if seed is None else seed, 21])
+    def __init__(self, track: Track, seed: int | None = None, light: float | None = None, look: Look = LOOK):
+        self.track, self.look = track, look
+        seed = track.seed if seed is None else seed
+        rng, placed = np.random.default_rng([seed, 21]), np.random.default_rng([seed, 32])
         self.floor_kind = str(rng.choice(list(FLOORS), p=[0.25, 0.25, 0.15, 0.15, 0.2]))
         self.gloss = GLOSS[self.floor_kind] * rng.uniform(0.6, 1.2)
         palette = FLOORS[self.floor_kind]
         self.floor_bgr = np.array(palette[int(rng.integers(len(palette)))], np.float32) * rng.uniform(0.85, 1.1)
         # people tape a track in a colour that stands out from their floor
-        self.tape_name = next(str(t) for t in rng.permutation(list(TAPES))
-                              if np.linalg.norm(np.array(TAPES[str(t)]) - self.floor_bgr) > 120)
+        self.tape_name = next(str(t) for t in rng.permutation(list(TAPES)) if stands_out(TAPES[str(t)], self.floor_bgr))
         self.tape_bgr = np.array(TAPES[self.tape_name], np.float32) * rng.uniform(0.9, 1.0)
         self.tape_width = float(rng.uniform(0.04, 0.06))
+        self.floor_bgr = self.floor_bgr if look.floor is None else np.array(look.floor, np.float32)
+        if look.tape is not None:
+            self.tape_name, self.tape_bgr = "varied", np.array(look.tape, np.float32)
+        self.tape_width = self.tape_width if look.tape_width is None else look.tape_width
         outline = np.concatenate([np.stack(track.offset(d), 1) for d in (-track.lane_width / 2, track.lane_width / 2)])
         margin = rng.uniform(1.2, 3.0, 4)
         self.x0, self.y0 = (float(v) for v in outline.min(0) - margin[:2])  # Python floats keep the per-pixel
         self.x1, self.y1 = (float(v) for v in outline.max(0) + margin[2:])  # arithmetic in float32
         self.height = float(rng.uniform(2.6, 5.0))
         self.light = float(rng.uniform(0.75, 1.2))  # drawn also where `light` replaces it: the rest stays as drawn
-        if light is not None:
-            self.light = float(light)
+        self.light = float(next(v for v in (light, look.light, self.light) if v is not None))
         self.warmth = rng.uniform(0.92, 1.08, 3).astype(np.float32)
         self.lamps, self.tubes_along_x = self._lamps(rng)
-        floor = self._floor(rng)
+        self.clear = self._clearance()
+        floor = self._floor(rng, placed)
         walls = self._walls(rng)
         ceiling, self.lights = self._ceiling(rng)
         width = max(floor.shape[1], walls.shape[1], ceiling.shape[1])
@@ -96,7 +104,7 @@ class Room:
         self.atlas = [atlas]
         for _ in range(1, LEVELS):
             self.atlas.append(cv2.pyrDown(self.atlas[-1]))
-        self.objects = self._clutter(rng)
+        self.objects = self._clutter(rng, placed)
         # the light of the place drifts along the lap: brightness and tint every ~4 m
         knots = max(3, int(track.length / 4))
         ks = np.linspace(0, track.length, knots + 1)
@@ -110,10 +118,10 @@ class Room:
 
     # --- surfaces ----------------------------------------------------------------------------------------------
 
-    def _floor(self, rng: np.random.Generator) -> np.ndarray:
+    def _floor(self, rng: np.random.Generator, placed: np.random.Generator) -> np.ndarray:
         tr, kind = self.track, self.floor_kind
         w, h = int(math.ceil((self.x1 - self.x0) / RES)), int(math.ceil((self.y1 - self.y0) / RES))
-        base = self.floor_bgr
+        base = self.floor_bgr if self.look.pattern == "plain" else self.look.floor_colours(h, w, RES)
         shade = _noise(rng, (h, w), 60, 0.05) * _noise(rng, (h, w), 12, 0.02)
         if kind == "concrete":
             shade *= _tile(rng, (h, w), 0.03)
@@ -156,6 +164,9 @@ class Room:
         img *= cv2.resize(np.float32(0.85) + 0.3 * self._lamp_field((h // 20 + 1, w // 20 + 1), 20 * RES),
                           (w, h), interpolation=cv2.INTER_LINEAR)[..., None]
         self._paint_lines(img, rng)
+        self._paint_marks(img, placed)
+        if self.look.gradient:
+            img *= self.look.light_across(h, w)[..., None]
         return np.clip(img, 0, 255).astype(np.uint8)
 
     def _lamps(self, rng: np.random.Generator) -> tuple[np.ndarray, bool]:
@@ -175,22 +186,33 @@ class Room:
             field += np.exp(-((xx - lx) ** 2 + (yy - ly) ** 2) / (2 * (0.35 * self.height) ** 2))
         return field / max(float(field.max()), 1e-6)
 
+    def _texels(self, x, y) -> np.ndarray:
+        """Floor points (m) as texels with SHIFT bits of sub-texel precision, (n, 2) int32."""
+        return np.stack([(x - self.x0) / RES * 2 ** SHIFT, (y - self.y0) / RES * 2 ** SHIFT], 1).astype(np.int32)
+
     def _paint_lines(self, img: np.ndarray, rng: np.random.Generator) -> None:
         tr = self.track
         thick = max(1, int(round(self.tape_width / RES)))
-        shift = 3  # sub-texel precision of the polylines
-
-        def texel(x, y):
-            return np.stack([(x - self.x0) / RES * 2 ** shift, (y - self.y0) / RES * 2 ** shift], 1).astype(np.int32)
-
         colour = tuple(float(c) for c in self.tape_bgr)
         for d in tr.lines:
-            cv2.polylines(img, [texel(*tr.offset(d))], True, colour, thick, cv2.LINE_AA, shift)
+            cv2.polylines(img, [self._texels(*tr.offset(d))], True, colour, thick, cv2.LINE_AA, SHIFT)
         self.start_line = bool(rng.random() < 0.6)
         if self.start_line:  # a start line across the lane
             a, b = (np.array(tr.pose(0.0, d)[:2], float)[None] for d in (-tr.lane_width / 2, tr.lane_width / 2))
-            pts = texel(*np.concatenate([a, b]).T)
-            cv2.line(img, tuple(pts[0]), tuple(pts[1]), colour, thick, cv2.LINE_AA, shift)
+            pts = self._texels(*np.concatenate([a, b]).T)
+            cv2.line(img, tuple(pts[0]), tuple(pts[1]), colour, thick, cv2.LINE_AA, SHIFT)
+
+    def _paint_marks(self, img: np.ndarray, rng: np.random.Generator) -> None:
+        """A varied look's stray tape pieces and painted marks: strips 0.1-1.5 m long and 0.02-0.10 m wide, half in
+        the tape's colour, each where it lies wholly at least 0.1 m beside the lane's margin (`_clearance`)."""
+        lo, hi = (self.x0, self.y0), (self.x1 - CLEAR_RES, self.y1 - CLEAR_RES)
+        for _ in range(self.look.marks):
+            p, a = rng.uniform(lo, hi), rng.uniform(0, math.pi)
+            strip = np.clip(p + np.linspace(0, rng.uniform(0.1, 1.5), 16)[:, None] * (math.cos(a), math.sin(a)), lo, hi)
+            width, colour = rng.uniform(0.02, 0.10), self.tape_bgr if rng.random() < 0.5 else rng.uniform(20, 240, 3)
+            if self._clear_at(*strip.T).min() >= 0.1:
+                a, b = (tuple(pt) for pt in self._texels(*strip[[0, -1]].T))
+                cv2.line(img, a, b, tuple(map(float, colour)), max(1, round(width / RES)), cv2.LINE_AA, SHIFT)
 
     def _walls(self, rng: np.random.Generator) -> np.ndarray:
         """The four walls unrolled side by side along the perimeter (south, east, north, west), the top row
@@ -252,19 +274,40 @@ class Room:
 
     # --- clutter -----------------------------------------------------------------------------------------------
 
-    def _clutter(self, rng: np.random.Generator) -> list[dict]:
-        """Solids on the floor away from the lane: boxes, cones, bins, chairs and people's legs, each a list of
-        faces (polygons of world points) with a colour."""
-        tr = self.track
-        res = 0.05
+    def _clearance(self) -> np.ndarray:
+        """The floor's distance (m) from the lane and a margin of 0.1 m around it, every CLEAR_RES m."""
+        tr, res = self.track, CLEAR_RES
         w, h = int((self.x1 - self.x0) / res) + 1, int((self.y1 - self.y0) / res) + 1
         lane = np.full((h, w), 255, np.uint8)
         pts = np.stack([(tr.x - self.x0) / res, (tr.y - self.y0) / res], 1).astype(np.int32)
         cv2.polylines(lane, [pts], True, 0, max(1, int((tr.lane_width + 0.2) / res)))
-        clear = cv2.distanceTransform(lane, cv2.DIST_L2, 5) * res  # m from the lane and its margin
-        objects = []
+        return cv2.distanceTransform(lane, cv2.DIST_L2, 5) * res
+
+    def _clear_at(self, x, y) -> np.ndarray:
+        """`_clearance` at floor points (m)."""
+        row, col = ((np.asarray(v) - v0) / CLEAR_RES for v, v0 in ((y, self.y0), (x, self.x0)))
+        return self.clear[row.astype(int), col.astype(int)]
+
+    def _clutter(self, rng: np.random.Generator, placed: np.random.Generator) -> list[dict]:
+        """Solids on the floor away from the lane: boxes, cones, bins, chairs and people's legs, each a list of
+        faces (polygons of world points) with a colour; a varied look's more of them (from `placed`) and people
+        standing 0.45-0.9 m beside the lane's edge (where that is as far from any other part of the lane)."""
         area = (self.x1 - self.x0) * (self.y1 - self.y0)
-        for _ in range(int(area / rng.uniform(5, 12))):
+        objects = self._scatter(rng, int(area / rng.uniform(5, 12)))
+        objects += self._scatter(placed, int(area * self.look.clutter))
+        tr = self.track
+        for _ in range(self.look.people):
+            side, s, gap = placed.choice([-1, 1]), placed.uniform(0, tr.length), placed.uniform(0.45, 0.9)
+            x, y, yaw = (float(v) for v in tr.pose(s, side * (tr.lane_width / 2 + gap)))
+            if self._clear_at(x, y) >= gap - 0.15:
+                objects.append(self._solid("person", x, y, yaw, 1.0, placed))
+        return [o for o in objects if o["faces"]]
+
+    def _scatter(self, rng: np.random.Generator, n: int) -> list[dict]:
+        """n solids of the clutter's kinds tried at random places of the room: those at least 0.5 m from the lane
+        (`_clearance`) are placed."""
+        objects = []
+        for _ in range(n):
             kind = str(rng.choice(CLUTTER, p=[0.3, 0.2, 0.15, 0.12, 0.08, 0.15]))
             x, y = rng.uniform([self.x0 + 0.3, self.y0 + 0.3], [self.x1 - 0.3, self.y1 - 0.3])
             yaw = rng.uniform(0, math.pi)
@@ -273,11 +316,11 @@ class Room:
                 x = [x, self.x1 - 0.3, x, self.x0 + 0.3][side]
                 y = [self.y0 + 0.3, y, self.y1 - 0.3, y][side]
                 yaw = 0.0
-            c = clear[int((y - self.y0) / res), int((x - self.x0) / res)]
+            c = self._clear_at(x, y)
             if c < 0.5:
                 continue
             objects.append(self._solid(kind, x, y, yaw, min(c - 0.2, 1.5), rng))
-        return [o for o in objects if o["faces"]]
+        return objects
 
     def _solid(self, kind: str, x: float, y: float, yaw: float, room: float, rng: np.random.Generator) -> dict:
         faces: list[tuple[np.ndarray, np.ndarray]] = []
@@ -341,7 +384,14 @@ class Room:
                 box(px + 0.05 * c, py + 0.05 * s, 0.14, 0.05, 0.0, 0.08, shoe)
                 prism(px, py, 0.065, 0.08, 0.08, 0.9, jeans)
             box(x, y, 0.13, 0.22, 0.85, 1.5, _pick(rng, [(40, 40, 160), (200, 200, 200), (60, 60, 60), (140, 90, 40)]))
+        elif kind == "person":  # standing, 1.5-1.9 m tall, in clothes of any colour
+            tall, trousers, top = rng.uniform(1.5, 1.9), rng.uniform(20, 230, 3), rng.uniform(20, 230, 3)
+            c, s = math.cos(yaw), math.sin(yaw)
+            for side in (-1, 1):
+                prism(x - 0.1 * side * s, y + 0.1 * side * c, 0.07, 0.08, 0.0, 0.47 * tall, trousers)
+            box(x, y, 0.12, 0.22, 0.47 * tall, 0.83 * tall, top)
+            prism(x, y, 0.09, 0.09, 0.85 * tall, tall, _pick(rng, [(80, 110, 160), (60, 90, 140), (45, 60, 90)]), 8)
         else:  # cabinet or table against the wall
             colour = _pick(rng, [(110, 110, 115), (70, 90, 130), (160, 160, 160), (50, 60, 80)])
             box(x, y, rng.uniform(0.3, 1.0), 0.25, 0.0, rng.uniform(0.7, 2.0), colour)
-        return {"x": x, "y": y, "faces": faces}
+        return {"kind": kind, "x": x, "y": y, "faces": faces}

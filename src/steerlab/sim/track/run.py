@@ -13,7 +13,8 @@ session of its own, so that no model's frame history spans a cut. steerlab's own
 keeps every frame with its episode, lateral offset, heading error and curvature (training leaves drift-outs out
 with `exclude_episodes: [drift-out]`), the steering in the tub's unit (normalized, positive right, with the
 car's full lock) and the throttle split into throttle and brake. Both carry the camera (`fisheye`: its K, D and
-mount, in the tub's manifest metadata or in recording.json), which replay reads.
+mount, in the tub's manifest metadata or in recording.json), which replay reads; a varied room's (`vary`) also
+its look (`look`: what `look.Look.draw` drew, the jittered mount among it), its frames at the look's JPEG quality.
 """
 
 from __future__ import annotations
@@ -79,19 +80,20 @@ def record(out: str | Path, o: TrackRecordOptions = TrackRecordOptions(), progre
     reserved seeds, so that the recording shows the suite's own track."""
     if not suite_ok:
         check_seed(o.seed, "track")
-    camera = o.camera()
-    world = TrackWorld(o.seed, o.lane_width, o.style, o.fps, camera, room=o.room)
+    camera, look = o.camera(), o.look()
+    world = TrackWorld(o.seed, o.lane_width, o.style, o.fps, camera, room=o.room, look=look)
     expert = RacerPilot(world, o.seed, DRIFT_EVERY_S if o.drift else None)
     car = world.car
     if o.layout == "tub":
-        tub = TubWriter(out, car.full_lock_deg, metadata={"fisheye": asdict(camera)})
+        tub = TubWriter(out, car.full_lock_deg, metadata={"fisheye": asdict(camera), **look.metadata()},
+                        quality=look.jpeg_quality)
 
         def write(t):
             tub.add(t.frame, int(round(t.index * 1e9 / o.fps)), t.model, t.throttle,
                     deleted=expert.episode == "drift-out")
     else:
         convention = SteeringConvention("normalized", "right", car.full_lock)
-        writer = RecordingWriter(out, ["center"], convention=convention, geometry="donkey")
+        writer = RecordingWriter(out, ["center"], convention=convention, geometry="donkey", quality=look.jpeg_quality)
 
         def write(t):
             writer.add({"center": t.frame}, {
@@ -105,7 +107,7 @@ def record(out: str | Path, o: TrackRecordOptions = TrackRecordOptions(), progre
         return tub.close()
     return writer.close({"world": "track", "seed": o.seed, "room": o.room, "lane_width": o.lane_width,
                          "style": o.style, "lap_m": world.track.length, "fps": o.fps, "minutes": o.minutes,
-                         "fisheye": asdict(camera)})
+                         "fisheye": asdict(camera), **look.metadata()})
 
 
 def check_camera(pilot) -> None:

@@ -35,6 +35,7 @@ from steerlab.options import AT_LEAST_0, FPS, MINUTES, Options, Range, SEED, UNI
 from steerlab.pilot import Controls
 from steerlab.sim.core.vehicle import VehicleState
 from steerlab.sim.track.expert import Racer, expert_controls, pursuit
+from steerlab.sim.track.look import LOOK, Look
 from steerlab.sim.track.smallcar import SmallCar
 from steerlab.sim.track.track import LANE_WIDTH, Track
 from steerlab.sim.track.render import TrackRenderer
@@ -116,11 +117,20 @@ class TrackRecordOptions(Options):
                                         "m (default: the fisheye's, 0.15)")
     pitch: float | None = option(None, Range(0, 45, unit="degrees"), help="the camera's pitch, degrees down "
                                  "(default: the fisheye's, 20)")
+    vary: bool = option(False, help="a room that cannot be memorised: its floor, tape, light, clutter, people and "
+                        "the camera (noise, blur, JPEG quality, mount +-3 cm, pitch +-4 degrees) drawn from far wider "
+                        "ranges (the look is kept in the recording's metadata)")
+
+    def look(self) -> Look:
+        """The room's look: its own, or with `vary` one drawn from the room's seed (`look.Look.draw`)."""
+        return Look.draw(self.seed if self.room is None else self.room) if self.vary else LOOK
 
     def camera(self) -> FisheyeCamera:
-        """The fisheye the recording is rendered through: the calibration's (or the default), at the mount given."""
+        """The fisheye the recording is rendered through: the calibration's (or the default), at the mount given
+        (jittered by a varied look)."""
         mount = {"mount_height": self.mount_height, "pitch_deg": self.pitch}
-        return replace(camera_of(self.calibration), **{k: v for k, v in mount.items() if v is not None})
+        given = replace(camera_of(self.calibration), **{k: v for k, v in mount.items() if v is not None})
+        return self.look().mount(given)
 
     related = holds_frames("minutes")
 
@@ -186,24 +196,24 @@ class Laps:
 
 @lru_cache(maxsize=4)
 def renderer_of(seed: int, lane_width: float, style: str, camera: FisheyeCamera,
-                room: int | None = None, light: float | None = None) -> TrackRenderer:
+                room: int | None = None, light: float | None = None, look: Look = LOOK) -> TrackRenderer:
     """The renderer of a track (in the room drawn from `room`, default the track's seed, at its light level or
     `light`), built once per process for
     the last few tracks (0.2-0.5 s and up to 22 MB each): the track suite, DAgger and replay drive a track many
     times. A renderer does not change as it renders."""
-    return TrackRenderer(Track(seed, lane_width, style), camera, room, light)
+    return TrackRenderer(Track(seed, lane_width, style), camera, room, light, look)
 
 
 class TrackWorld:
     """A small car at standstill on the start line of the track made from `seed` (see the module's docstring).
     `camera`: the fisheye the frames are rendered through (None: none are rendered, for a driver that reads the
-    state, as the racing expert does; `render` gives a black frame). `throttle`: for pilots that give none. `room`
-    and `light`: the room (default: the track's) and its light level (default: its own)."""
+    state, as the racing expert does; `render` gives a black frame). `throttle`: for pilots that give none. `room`,
+    `light` and `look`: the room (default: the track's), its light level (default: its own) and look."""
 
     def __init__(self, seed: int, lane_width: float = LANE_WIDTH, style: str = "taped", fps: float = 20.0,
                  camera: FisheyeCamera | None = DONKEY_FISHEYE, throttle: float = THROTTLE,
-                 car: Car = CARS["donkey"], room: int | None = None, light: float | None = None):
-        self.renderer = None if camera is None else renderer_of(seed, lane_width, style, camera, room, light)
+                 car: Car = CARS["donkey"], room: int | None = None, light: float | None = None, look: Look = LOOK):
+        self.renderer = None if camera is None else renderer_of(seed, lane_width, style, camera, room, light, look)
         self.track = Track(seed, lane_width, style) if camera is None else self.renderer.track
         self.blank = np.zeros((DONKEY_FISHEYE.height, DONKEY_FISHEYE.width, 3), np.uint8)
         self.car, self.fps, self.throttle = car, fps, throttle
