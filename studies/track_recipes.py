@@ -100,6 +100,16 @@ ROOMS_32 = tuple(name for name in AUGMENT if name.endswith("-30s"))
 AUGMENT |= {f"{style}-{seed}-1min-no-drift": [style, str(seed), "--minutes", "1", "--no-drift"]
             for style, seeds in (("taped", range(5, 17)), ("centre", range(17, 21))) for seed in seeds}
 ROOMS_NO_DRIFT = tuple(name for name in AUGMENT if name.endswith("-no-drift"))
+# up to 64 more tracks, a minute each, each in a varied room (`sim record --vary`): three taped to one centre-line,
+# the first 16 and 32 of them the smaller sets of the data-scale curve
+AUGMENT |= {f"{style}-{seed}-vary": [style, str(seed), "--minutes", "1", "--vary"]
+            for style, seeds in (("taped", range(200, 248)), ("centre", range(248, 264))) for seed in seeds}
+
+
+def varied(n: int) -> tuple[str, ...]:
+    """The first n varied tubs, three of every four taped (the first validates)."""
+    taped, centre = [f"taped-{s}-vary" for s in range(200, 248)], [f"centre-{s}-vary" for s in range(248, 264)]
+    return (*taped[: n * 3 // 4], *centre[: n // 4])
 COLOUR = ("train.hue_deg=180", "train.brightness=0.25")  # the colours and light of other rooms
 BEST = (*COLOUR, "train.flip=true", "train.loss=mae")  # configs/track_best.yaml: flip-mae
 RACE_BEST = {"throttle_scale": 1.2}  # and how it races uncapped
@@ -200,6 +210,9 @@ RECIPES = {
                            (*BEST, "preprocess.stack=3"), RACE_BEST, ROOMS, only=240),
     "best-floor-0.2": Recipe("track_best driven with a throttle of at least 0.2 while the car stands "
                              "(--throttle-floor 0.2)", race={**RACE_BEST, "throttle_floor": 0.2}, starts="flip-mae"),
+    # the data-scale curve of varied rooms (docs/results/racing.md, "Rooms that cannot be memorised")
+    **{f"vary-{n}": Recipe(f"track_best on {n} tracks in {n} varied rooms (sim record --vary), a minute each",
+                           BEST, RACE_BEST, varied(n), only=240) for n in (16, 32, 64)},
     "rooms-dagger": Recipe("rooms + DAgger in the track world: 3 rounds of 4 minutes of rollouts on fresh tracks, "
                            "uncapped, the expert's labels at the car's speed, 2 epochs a round",
                            dagger_rounds(2), tubs=ROOMS, only=240, starts="rooms"),
