@@ -22,7 +22,8 @@ seed's values; `OUT/<suite>-max<cap>/`: the suite's own tables and every drive. 
 rerun trains and drives only what is missing.
 
 python -m studies.track_recipes [--recipes donkey,gray,...] [--seeds 0,1] [--suite s1] [--caps 1,0.5]
-    [--donkeycar [--donkeycar-runs 3] [--donkeycar-tubs donkey] [--donkeycar-throttle-scale 1] [--donkeycar-ours]]
+    [--donkeycar [--donkeycar-runs 3] [--donkeycar-tubs donkey] [--donkeycar-throttle-scale 1]
+    [--donkeycar-throttle-floor 0] [--donkeycar-ours]]
     [--workers 2] [--out runs/race] [--table table]
 """
 
@@ -45,7 +46,7 @@ from steerlab.data.car import CARS
 from steerlab.data.readers import open_recording
 from steerlab.options import AT_LEAST_1, SEED, WORKERS, Options, Range, names_from, names_held, option
 from steerlab.sim.track.suite import TRACK_SUITES, TrackSuiteOptions, part_entrant, race, report, summarize
-from steerlab.sim.track.world import throttle_scale_option
+from steerlab.sim.track.world import throttle_floor_option, throttle_scale_option
 from studies.common import ROOT, DonkeycarPart, NumberList, donkey_models, donkey_python, machine, training_tub
 
 TUBS = [f"{style}-{seed}" for style in ("taped", "centre") for seed in (1, 2, 3, 4)]
@@ -362,9 +363,15 @@ def markdown(rows: list[dict], suite: str) -> str:
              "| recipe | what differs from donkeycar's recipe | cap | runs | laps | clean laps [%] | finished | "
              "off track / lap | off track | pace (tracks) |", "|---" * 10 + "|"]
 
-    def describe(recipe):  # donkeycar's runs with --donkeycar-throttle-scale K are labelled ...-throttle-K
-        base, _, scale = recipe.partition("-throttle-") if recipe.startswith(DONKEYCAR) else (recipe, "", "")
-        return what.get(base, "") + (f", its throttle times {scale} before the cap" if scale else "")
+    def describe(recipe):  # donkeycar's runs: ...[-ours][-throttle-K][-floor-F] (--donkeycar-ours, its scale, floor)
+        if not recipe.startswith(DONKEYCAR):
+            return what.get(recipe, "")
+        recipe, _, floor = recipe.partition("-floor-")
+        base, _, scale = recipe.partition("-throttle-")
+        ours = base.endswith("-ours")
+        return (what.get(base.removesuffix("-ours"), "") + (", on steerlab's training records" if ours else "") +
+                (f", its throttle times {scale} before the cap" if scale else "") +
+                (f", at least {floor} while the car stands" if floor else ""))
 
     for r in rows:
         def f(v, fmt):
@@ -394,6 +401,7 @@ class Races(Options):
     donkeycar_tubs: str = option("donkey", lambda v: v in RECIPES, "a recipe", help="the recipe whose tubs donkeycar's "
                                  "trainer trains on (default: the 8 tubs of donkeycar's recipe)")
     donkeycar_throttle_scale: float = throttle_scale_option()
+    donkeycar_throttle_floor: float = throttle_floor_option()
     donkeycar_ours: bool = option(False, help="donkeycar's trainer on the records steerlab's recipe trains on: the "
                                   "first tub's validation records (--donkeycar-tubs' recipe's `only`) deleted")
     workers: int = option(2, WORKERS, help="tracks driven in parallel")
@@ -427,6 +435,7 @@ def main(_, a: Races) -> None:
     suffix = "" if a.donkeycar_tubs == "donkey" else f"-{a.donkeycar_tubs}"  # donkeycar on another recipe's tubs
     suffix += "-ours" if a.donkeycar_ours else ""
     scaled = "" if a.donkeycar_throttle_scale == 1 else f"-throttle-{a.donkeycar_throttle_scale:g}"
+    scaled += f"-floor-{a.donkeycar_throttle_floor:g}" if a.donkeycar_throttle_floor else ""
     folder, donkey = f"{DONKEYCAR}{suffix}{scaled}", None
     if a.donkeycar:
         record_tubs(tubs, recipe_tubs(a.donkeycar_tubs))
@@ -442,7 +451,8 @@ def main(_, a: Races) -> None:
                 for r in race([train_recipe(name, seed, out, tubs) for seed in seeds],
                               suite / name, suite_options(name, a.suite, cap, a.workers))]
         if donkey:
-            rows += race_donkeycar(*donkey, suite / folder, replace(o, throttle_scale=a.donkeycar_throttle_scale),
+            rows += race_donkeycar(*donkey, suite / folder, replace(o, throttle_scale=a.donkeycar_throttle_scale,
+                                                                  throttle_floor=a.donkeycar_throttle_floor),
                                    folder)
         report(rows, suite, o, plots=False)
         results += table(rows, cap)
