@@ -359,7 +359,7 @@ def markdown(rows: list[dict], suite: str) -> str:
     what = {**{n: r.what for n, r in RECIPES.items()}, DONKEYCAR: "donkeycar's own trainer and part",
             **{f"{DONKEYCAR}-{n}": f"donkeycar's own trainer and part, on the tubs of {n}" for n in RECIPES}}
     lines = [f"Track suite {suite}, every checkpoint over the same tracks (pace: over the tracks every checkpoint of "
-             "the same cap finished, their number beside it). Means over the runs (seeds).", "",
+             "the same cap finished, their number beside it). Means over the runs (seeds), their min-max beside.", "",
              "| recipe | what differs from donkeycar's recipe | cap | runs | laps | clean laps [%] | finished | "
              "off track / lap | off track | pace (tracks) |", "|---" * 10 + "|"]
 
@@ -374,13 +374,17 @@ def markdown(rows: list[dict], suite: str) -> str:
                 (f", at least {floor} while the car stands" if floor else ""))
 
     for r in rows:
-        def f(v, fmt):
-            return "-" if v is None else format(v, fmt)
+        def f(key, fmt):  # the mean, and the runs' min-max beside it
+            if r[key] is None:
+                return "-"
+            each = [e[key] for e in r["each"] if e[key] is not None]
+            spread = f" ({min(each):{fmt}}-{max(each):{fmt}})" if len(each) > 1 else ""
+            return f"{r[key]:{fmt}}{spread}"
 
         lines.append(f"| {r['recipe']} | {describe(r['recipe'])} | {r['cap']:g} | {r['runs']} | "
-                     f"{f(r['laps'], '.1f')} | {f(r['clean_pct'], '.1f')} | {f(r['finished'], '.1f')} of "
-                     f"{r['tracks']} | {f(r['off_track_per_lap'], '.2f')} | {f(r['off_track'], '.1f')} | "
-                     f"{f(r['pace'], '.3f')} ({r['pace_tracks']}) |")
+                     f"{f('laps', '.1f')} | {f('clean_pct', '.1f')} | {f('finished', '.1f')} of "
+                     f"{r['tracks']} | {f('off_track_per_lap', '.2f')} | {f('off_track', '.1f')} | "
+                     f"{f('pace', '.3f')} ({r['pace_tracks']}) |")
     return "\n".join(lines) + "\n"
 
 

@@ -45,3 +45,15 @@ def test_donkeycar_gets_the_records_steerlabs_recipe_trains_on(tmp_path, capsys)
     with pytest.raises(SystemExit):
         script_args(parser(), ["--donkeycar", "--donkeycar-ours"])  # donkeycar's recipe: no validation block
     assert "--donkeycar-ours must be given with --donkeycar-tubs of a recipe" in capsys.readouterr().err
+
+
+def test_the_table_gives_the_runs_min_max_beside_every_mean():
+    from studies.track_recipes import markdown
+
+    each = [{"laps": 70, "clean_pct": 80.0, "finished": 7, "off_track_per_lap": 0.1, "off_track": 9, "pace": 0.9},
+            {"laps": 64, "clean_pct": 76.6, "finished": 6, "off_track_per_lap": 0.2, "off_track": 16, "pace": None}]
+    row = {"recipe": "flip-mae", "cap": 1, "runs": 2, "laps": 67, "clean_pct": 78.3, "finished": 6.5, "tracks": 8,
+           "off_track_per_lap": 0.15, "off_track": 12.5, "pace": 0.9, "pace_tracks": 6, "each": each}
+    cells = markdown([row], "s1").splitlines()[-1].split(" | ")
+    assert cells[4:] == ["67.0 (64.0-70.0)", "78.3 (76.6-80.0)", "6.5 (6.0-7.0) of 8", "0.15 (0.10-0.20)",
+                         "12.5 (9.0-16.0)", "0.900 (6) |"]  # one run's pace: no spread
