@@ -113,7 +113,6 @@ def test_a_room_takes_the_looks_floor_tape_and_light_and_keeps_its_own_draws():
     np.testing.assert_array_equal(room.floor_bgr, [40, 50, 60])
     np.testing.assert_array_equal(room.tape_bgr, [250, 250, 10])
     assert room.tape_width == 0.08 and room.light == 1.5 and room.tape_name == "varied"
-    assert Room(tr, light=0.5, look=look).light == 0.5  # a light given outright wins
     assert (room.floor_kind, room.height, room.x0, room.gloss) == (own.floor_kind, own.height, own.x0, own.gloss)
     np.testing.assert_allclose(room.brightness / 1.5, own.brightness / own.light, rtol=1e-6)
 

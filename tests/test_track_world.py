@@ -18,6 +18,7 @@ from steerlab.errors import SteerlabError
 from steerlab.pilot import Controls
 from steerlab.sim.core.driving import Trajectory, drive_loop
 from steerlab.sim.core.part import PartPilot, donkey_pilot
+from steerlab.sim.track.look import Look
 from steerlab.sim.track.smallcar import speed_after, steady_speed
 from steerlab.sim.track.world import Laps, RacerPilot, TrackWorld
 from steerlab.sim.core.vehicle import VehicleState
@@ -571,12 +572,12 @@ def test_the_experts_reference_laps_are_driven_under_the_models_cap(tmp_path):
 
 
 def test_another_light_scales_the_rooms_frames_and_leaves_the_room_as_drawn():
-    """`light` replaces the room's drawn light level and nothing else: at its own level the frame is the same bytes;
+    """A look's light level replaces the room's drawn one and nothing else: at its own level the frame is the same bytes;
     at half of it the frame's mean is half (within the rounding to 8 bits); the floor, the tape and the track are
     the ones drawn."""
     own = TrackWorld(9506, 0.9, "taped", 20.0)
     level = own.renderer.room.light
-    same, half = (TrackWorld(9506, 0.9, "taped", 20.0, light=v) for v in (level, level / 2))
+    same, half = (TrackWorld(9506, 0.9, "taped", 20.0, look=Look(light=v)) for v in (level, level / 2))
     assert np.array_equal(same.render(), own.render())
     assert half.renderer.room.tape_name == own.renderer.room.tape_name and half.track.length == own.track.length
     assert half.render().mean() / own.render().mean() == pytest.approx(0.5, abs=0.01)

@@ -41,12 +41,12 @@ def _subdivide(poly: np.ndarray, k: int = 2) -> np.ndarray:
 
 class TrackRenderer:
     """Renders `track` through `cam` (by default the donkeycar fisheye at 160x120). The room's look is drawn
-    from the track's seed, or from `seed` to put one track into several rooms; `light` and `look` as `Room`'s."""
+    from the track's seed, or from `seed` to put one track into several rooms; `look` as `Room`'s."""
 
     def __init__(self, track: Track, cam: FisheyeCamera = DONKEY_FISHEYE, seed: int | None = None,
-                 light: float | None = None, look: Look = LOOK):
+                 look: Look = LOOK):
         self.track, self.cam = track, cam
-        self.room = room = Room(track, seed, light, look)
+        self.room = room = Room(track, seed, look)
         fwd, left, up = (a.astype(np.float32).ravel() for a in cam.vehicle_rays())
         h = cam.mount_height
         below = up < -1e-6

@@ -60,11 +60,11 @@ def _tile(rng: np.random.Generator, shape: tuple[int, int], amplitude: float, bl
 
 class Room:
     """Everything about a track's room that does not move: its size, the atlas of its surfaces, the ceiling's
-    lights, the clutter, and the light along the lap. `light`: the room's light level instead of its own (drawn in
-    0.75-1.2; everything else as drawn), the same room at another time of day. `look`: its look beyond its own draws
-    (`look.Look`), whose floor marks, clutter and people are placed from a stream of their own (the seed with 32)."""
+    lights, the clutter, and the light along the lap. `look`: its look beyond its own draws (`look.Look`: a light
+    level of its own is the same room at another time of day), whose floor marks, clutter and people are placed from
+    a stream of their own (the seed with 32)."""
 
-    def __init__(self, track: Track, seed: int | None = None, light: float | None = None, look: Look = LOOK):
+    def __init__(self, track: Track, seed: int | None = None, look: Look = LOOK):
         self.track, self.look = track, look
         seed = track.seed if seed is None else seed
         rng, placed = np.random.default_rng([seed, 21]), np.random.default_rng([seed, 32])
@@ -85,8 +85,8 @@ class Room:
         self.x0, self.y0 = (float(v) for v in outline.min(0) - margin[:2])  # Python floats keep the per-pixel
         self.x1, self.y1 = (float(v) for v in outline.max(0) + margin[2:])  # arithmetic in float32
         self.height = float(rng.uniform(2.6, 5.0))
-        self.light = float(rng.uniform(0.75, 1.2))  # drawn also where `light` replaces it: the rest stays as drawn
-        self.light = float(next(v for v in (light, look.light, self.light) if v is not None))
+        self.light = float(rng.uniform(0.75, 1.2))  # drawn also where the look's replaces it: the rest stays as drawn
+        self.light = self.light if look.light is None else float(look.light)
         self.warmth = rng.uniform(0.92, 1.08, 3).astype(np.float32)
         self.lamps, self.tubes_along_x = self._lamps(rng)
         self.clear = self._clearance()

@@ -34,6 +34,7 @@ from steerlab.sim.core.driving import Trajectory, check_steers, drive_loop
 from steerlab.sim.core.parallel import tick_reporter
 from steerlab.sim.core.plots import write_strip
 from steerlab.sim.core.suite import check_seed, write_json
+from steerlab.sim.track.look import LOOK, Look
 from steerlab.sim.track.world import (DRIFT_EVERY_S, RacerPilot, TrackDriveOptions, TrackRecordOptions, TrackWorld,
                                       camera_of, constant_throttle)
 from steerlab.video import DriveVideo
@@ -141,7 +142,7 @@ def drive(pilot, out: str | Path | None, o: TrackDriveOptions = TrackDriveOption
     `plot`, track.png (the driven line on the track)."""
     check_camera(pilot)
     world = TrackWorld(o.seed, o.lane_width, o.style, o.fps, camera_of(o.calibration), constant_throttle(o.throttle),
-                       light=o.light)
+                       look=LOOK if o.light is None else Look(light=o.light))
     check_steers(pilot, world.car)
     strip = []
     movie = DriveVideo(video, o.fps) if video else None

@@ -196,24 +196,23 @@ class Laps:
 
 @lru_cache(maxsize=4)
 def renderer_of(seed: int, lane_width: float, style: str, camera: FisheyeCamera,
-                room: int | None = None, light: float | None = None, look: Look = LOOK) -> TrackRenderer:
-    """The renderer of a track (in the room drawn from `room`, default the track's seed, at its light level or
-    `light`), built once per process for
-    the last few tracks (0.2-0.5 s and up to 22 MB each): the track suite, DAgger and replay drive a track many
-    times. A renderer does not change as it renders."""
-    return TrackRenderer(Track(seed, lane_width, style), camera, room, light, look)
+                room: int | None = None, look: Look = LOOK) -> TrackRenderer:
+    """The renderer of a track (in the room drawn from `room`, default the track's seed, with the look `look`), built
+    once per process for the last few tracks (0.2-0.5 s and up to 22 MB each): the track suite, DAgger and replay
+    drive a track many times. A renderer does not change as it renders."""
+    return TrackRenderer(Track(seed, lane_width, style), camera, room, look)
 
 
 class TrackWorld:
     """A small car at standstill on the start line of the track made from `seed` (see the module's docstring).
     `camera`: the fisheye the frames are rendered through (None: none are rendered, for a driver that reads the
-    state, as the racing expert does; `render` gives a black frame). `throttle`: for pilots that give none. `room`,
-    `light` and `look`: the room (default: the track's), its light level (default: its own) and look."""
+    state, as the racing expert does; `render` gives a black frame). `throttle`: for pilots that give none. `room`
+    and `look`: the room (default: the track's) and its look (default: its own)."""
 
     def __init__(self, seed: int, lane_width: float = LANE_WIDTH, style: str = "taped", fps: float = 20.0,
                  camera: FisheyeCamera | None = DONKEY_FISHEYE, throttle: float = THROTTLE,
-                 car: Car = CARS["donkey"], room: int | None = None, light: float | None = None, look: Look = LOOK):
-        self.renderer = None if camera is None else renderer_of(seed, lane_width, style, camera, room, light, look)
+                 car: Car = CARS["donkey"], room: int | None = None, look: Look = LOOK):
+        self.renderer = None if camera is None else renderer_of(seed, lane_width, style, camera, room, look)
         self.track = Track(seed, lane_width, style) if camera is None else self.renderer.track
         self.blank = np.zeros((DONKEY_FISHEYE.height, DONKEY_FISHEYE.width, 3), np.uint8)
         self.car, self.fps, self.throttle = car, fps, throttle
