@@ -85,6 +85,12 @@ def throttle_scale_option():
                   "where the model slows (as donkeycar's AI_THROTTLE_MULT, which scales after the cap)")
 
 
+def steer_by_option():
+    """The option of every track command that drives a model: what it steers by."""
+    return option("steering", help="steering: the model's steering head; lane: a Stanley controller on the lane its "
+                  "lane head sees (train.lane_weight; sim/track/lane.py), with its learned throttle as usual")
+
+
 def latency_option():
     """The option of every track command that drives a model: the age of the frame it steers on."""
     return option(0, Range(0, 20), help="ticks the frame the model steers on is late (a real part's camera and "
@@ -135,6 +141,7 @@ class TrackDriveOptions(Options):
     max_throttle: float = max_throttle_option()
     latency: int = latency_option()
     throttle_scale: float = throttle_scale_option()
+    steer_by: Literal["steering", "lane"] = steer_by_option()
 
     related = holds_frames("minutes")
 
@@ -261,12 +268,16 @@ class TrackWorld:
         self.laps.advance(float(self.track.delta(self.s, s)), self.time_s)
         self.s = s
 
+    def lane_curvature(self) -> float:
+        """The lane's curvature where the car is (1/m, positive where it turns left)."""
+        return float(self.track.curvature(self.s))
+
     def record_row(self, tick: int) -> dict:
         """What a recording holds of this tick besides the frames, the steering and the episode: the throttle
-        last applied as throttle and brake (the ESC's negative throttle brakes)."""
+        last applied as throttle and brake (the ESC's negative throttle brakes), and the lane's curvature."""
         return {"timestamp_ns": int(round(tick * 1e9 / self.fps)), "speed": self.state.v,
                 "throttle": max(self.applied, 0.0), "brake": max(-self.applied, 0.0),
-                "curvature": float(self.track.curvature(self.s))}
+                "curvature": self.lane_curvature()}
 
 
 class RacerPilot:
