@@ -63,7 +63,7 @@ def test_a_tub_with_lane_values_declares_and_reads_them(tmp_path):
                                         r"declares it, so a finite number is expected"):
         open_recording(tub)
     w = TubWriter(tmp_path / "mixed", full_lock_deg=25)
-    with pytest.raises(SteerlabError, match="lane values are given with every record of a tub made with lane=True"):
+    with pytest.raises(SteerlabError, match="lane values belong to every record of a tub made with lane=True"):
         w.add(np.zeros((120, 160, 3), np.uint8), 0, 0.0, 0.3, lane=(0.0, 0.0, 0.0))
 
 
@@ -78,7 +78,8 @@ def test_lane_targets_are_scaled_and_come_back_in_si_units():
 
 
 def test_models_with_a_lane_head():
-    assert {m for m in list_models() if learns_lane(m)} == {"donkey-linear", "pilotnet", "pilotnet-diff", "pilotnet-flow"}
+    assert {m for m in list_models() if learns_lane(m)} == {"donkey-linear", "pilotnet", "pilotnet-diff",
+                                                           "pilotnet-flow"}
     for name, hidden in (("donkey-linear", 50), ("pilotnet", 10)):
         plain = create_model(name, in_channels=3, height=120, width=160)
         model = create_model(name, in_channels=3, height=120, width=160, throttle=True, lane=True)
@@ -187,7 +188,7 @@ def test_steering_by_the_lane_is_refused_for_a_model_without_the_head(tmp_path, 
     assert main(["sim", "drive", str(ckpt), "--world", "track", "--minutes", "0.01", "--steer-by", "lane",
                  "--out", str(tmp_path / "drive")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and f"{ckpt}: --steer-by lane steers by the lane a model's lane head sees; model " \
+    assert len(err) == 1 and f"{ckpt}: steer_by lane steers by the lane a model's lane head sees; model " \
         "'pilotnet' has none" in err[0]
 
 
@@ -222,3 +223,11 @@ def test_the_lane_controller_on_the_true_lane_laps_a_track_cleanly(style):
     laps = world.laps.result()
     assert laps["laps"] >= 2 and laps["clean_laps"] == laps["laps"] and not t.intervention.any()
     assert np.max(np.abs(t.offset)) < 0.1  # within 10 cm of the centre line, 0.45 m from the lane's edge
+
+
+def test_a_donkeycar_part_in_the_suite_cannot_steer_by_the_lane():
+    from steerlab.sim.track.suite import TrackSuiteOptions, race_part
+
+    with pytest.raises(SteerlabError, match=r"^model.h5: steer_by lane steers by a steerlab checkpoint's lane head; "
+                                            r"a donkeycar part steers by its own angle: set steer_by to steering$"):
+        race_part(Throttle, "theirs", "model.h5", TrackSuiteOptions(steer_by="lane"))

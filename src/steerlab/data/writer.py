@@ -127,8 +127,9 @@ class TubWriter:
         the throttle in [-1, 1]; `deleted`: cut out of the drive (see the class's docstring); `lane`: (offset,
         heading, curvature), given exactly when the writer was made with `lane`."""
         if (lane is not None) != self.lane:
-            raise SteerlabError(f"TubWriter {self.out}: lane values are given with every record of a tub made with "
-                                "lane=True, and with none of another")
+            raise SteerlabError(f"TubWriter {self.out}: lane values belong to every record of a tub made with "
+                                "lane=True and to none of another: give add(lane=...) exactly when the writer has "
+                                "lane=True")
         i = len(self.records)
         if deleted:
             self.deleted.append(i)
@@ -162,6 +163,7 @@ class TubWriter:
         catalogs = {"paths": paths, "current_index": len(self.records), "max_len": self.max_len,
                     "deleted_indexes": self.deleted}
         lane = list(LANE_FIELDS) if self.lane else []
-        lines = [TUB_KEYS + lane, TUB_TYPES + ["float"] * len(lane), self.metadata, {"created_at": created, "sessions": sessions}, catalogs]
+        lines = [TUB_KEYS + lane, TUB_TYPES + ["float"] * len(lane), self.metadata,
+                 {"created_at": created, "sessions": sessions}, catalogs]
         (self.out / "manifest.json").write_text("".join(json.dumps(line) + "\n" for line in lines))
         return self.out

@@ -51,7 +51,8 @@ class FrameBatches(Dataset):
     inputs: "x" (B, C, H, W), and "speeds" (B, K) for models with a speed history; targets: "steering", and
     where the recordings have speed, "speed" (the next frame's) and "command" (paper 002 IV-B2), and with
     `throttle` the recorded "throttle", with `lane` the recorded "lane" (B, 3) over its scales (`labels.LANE`; a
-    mirrored sample's offset, heading and curvature change sign with its steering). Windows (B, T) come back with a time axis: (B, T, ...)."""
+    mirrored sample's offset, heading and curvature change sign with its steering). Windows (B, T) come back with
+    a time axis: (B, T, ...)."""
 
     def __init__(self, sources: list[tuple[CompiledDataset, np.ndarray]], stats: dict, speed_history: int = 0,
                  rotation_deg: float = 0.0, brightness: float = 0.0, throttle: bool = False, hue_deg: float = 0.0,

@@ -71,7 +71,7 @@ def lane_pilot(part_pilot, checkpoint) -> LanePilot:
     model sees; a model without a lane head is refused."""
     part = part_pilot.part
     if "lane" not in part.pilot.targets:
-        raise SteerlabError(f"{checkpoint}: --steer-by lane steers by the lane a model's lane head sees; model "
+        raise SteerlabError(f"{checkpoint}: steer_by lane steers by the lane a model's lane head sees; model "
                             f"{part.pilot.name!r} has none: train it with train.lane_weight > 0 on tubs with lane "
-                            "values (steerlab sim record --world track), or steer by its steering")
+                            "values (steerlab sim record --world track), or set steer_by to steering")
     return LanePilot(part_pilot, lambda: part.controls.lane)

@@ -6,8 +6,9 @@ with the expert labelling every visited frame (DAgger's rollouts, `dagger: {worl
 A recording is a donkeycar tub v2 by default, what a donkeycar owner's own driving gives: `user/angle` (the
 servo command: the expert's road-wheel angle over the car's full lock, positive right) and `user/throttle` (the
 expert's throttle) of every frame, and the lane the car is in (`lane/offset`, `lane/heading`,
-`lane/curvature`: the values steerlab's layout records as lateral offset, heading error and curvature). A tub has no episode column, so the expert's drift-out stretches (it lets the
-car drift towards a lane line, to show the recovery that follows) are written and marked deleted
+`lane/curvature`: the values steerlab's layout records as lateral offset, heading error and curvature). A tub
+has no episode column, so the expert's drift-out stretches (it lets the car drift towards a lane line, to show
+the recovery that follows) are written and marked deleted
 (`deleted_indexes`), as an owner cuts their mistakes out with donkeycar's tub editor: neither donkeycar's training
 nor steerlab's reader uses them, the recover frames that follow are kept, and each kept stretch after a cut is a
 session of its own, so that no model's frame history spans a cut. steerlab's own layout (`layout="steerlab"`)

@@ -194,8 +194,8 @@ def part_entrant(label: str, model: str | Path, make_part: Callable) -> Entrant:
 def race_part(make_part: Callable, name: str, source: str, o: TrackSuiteOptions) -> PartPilot:
     """The part of `make_part()` driving the track world's car under the suite's throttle scale and cap."""
     if o.steer_by != "steering":
-        raise SteerlabError(f"{source}: --steer-by {o.steer_by} steers by a steerlab checkpoint's lane head; a "
-                            "donkeycar part steers by its own angle: leave --steer-by out")
+        raise SteerlabError(f"{source}: steer_by {o.steer_by} steers by a steerlab checkpoint's lane head; a "
+                            "donkeycar part steers by its own angle: set steer_by to steering")
     return PartPilot(make_part(), CARS["donkey"].full_lock_deg, name=name, source=source,
                      throttle_scale=o.throttle_scale, max_throttle=o.max_throttle)
 
