@@ -22,15 +22,23 @@ from steerlab.sim.track.world import TrackRecordOptions, TrackWorld
 
 # sha256 of frames and of a tub as rendered and written before looks existed (see the test below)
 FRAMES_SHA256 = "2b015d39621fdc010e38654523711a2139d33b1ef8de226e34d4ae672f92656f"
-TUB_SHA256 = "46455dc60bece7db47f76f632ac11905273ff8d1a23312e815bc53076e8ad361"
+TUB_SHA256 = "d58300b496ed3dae7b96001c6e2603643bdbd3d73736a58764ef8e57904f4492"
+DONKEYCAR_KEYS = ("_index", "_session_id", "_timestamp_ms", "cam/image_array", "user/angle", "user/mode",
+                  "user/throttle")
 
 
 def tub_sha256(folder) -> str:
+    """Of a tub's images, the fields of its records that donkeycar's tubs have, and its manifest's metadata, sessions
+    and catalogs (the lane values a track-world tub holds since are left out)."""
     h = hashlib.sha256()
-    for p in sorted(folder.rglob("*")):
-        if p.is_file():
-            h.update(p.name.encode())
-            h.update(p.read_bytes())
+    for p in sorted((folder / "images").iterdir()):
+        h.update(p.name.encode())
+        h.update(p.read_bytes())
+    for catalog in sorted(folder.glob("catalog_*.catalog")):
+        for line in catalog.read_text().splitlines():
+            rec = json.loads(line)
+            h.update(json.dumps({k: rec[k] for k in DONKEYCAR_KEYS}, sort_keys=True).encode())
+    h.update("\n".join((folder / "manifest.json").read_text().splitlines()[2:]).encode())
     return h.hexdigest()
 
 

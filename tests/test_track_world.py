@@ -2,6 +2,7 @@
 donkeycar part as the pilot, `sim record/drive/bench --world track`."""
 
 import csv
+import hashlib
 import json
 import math
 from dataclasses import replace
@@ -250,9 +251,19 @@ def test_sim_record_world_track_writes_a_tub_both_readers_read(tmp_path, donkeyc
     assert list(np.flatnonzero(episodes == "drift-out")) == deleted
     np.testing.assert_allclose(full.steering[episodes != "drift-out"], rec.steering, atol=1e-6)
     assert full.convention.full_lock == pytest.approx(math.radians(25))
+    # the tub's lane values are those of steerlab's layout (which writes 6 decimals), under the same names
+    for name in ("lateral_offset", "heading_error", "curvature"):
+        np.testing.assert_allclose(rec.extra[name], full.extra[name][episodes != "drift-out"], atol=1e-6)
+    assert np.ptp(rec.extra["curvature"]) > 0.1 and np.abs(rec.extra["lateral_offset"]).max() > 0.01
+    # the frames and the steering and throttle are those the build before the lane values wrote, byte for byte
+    images = hashlib.sha256(b"".join((tub / "images" / r["cam/image_array"]).read_bytes() for r in records))
+    controls = json.dumps([(r["user/angle"], r["user/throttle"]) for r in records]).encode()
+    assert images.hexdigest() == "da2ae42dd854386e683487ab969bde4aca7a2cebd43d1f73b745952186c722d6"
+    assert hashlib.sha256(controls).hexdigest() == "2da93b67a12e9d6abecedaf0727e9e3a6b951b8a24122fa4e52a8c88ab3b8817"
     if donkeycar_tub_or_none is not None:
         theirs = donkeycar_tub_or_none.Tub(str(tub), read_only=True)
-        assert [r["user/angle"] for r in theirs] == [r["user/angle"] for r in kept]
+        assert [(r["user/angle"], r["lane/offset"]) for r in theirs] == [(r["user/angle"], r["lane/offset"])
+                                                                         for r in kept]
         theirs.close()
 
 

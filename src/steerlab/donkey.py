@@ -145,6 +145,7 @@ class SteerlabPilot:
         cam = CAMERAS.get(self.pilot.geometry)
         self.shape = None if cam is None else (cam.height, cam.width, 3)  # the frames the model was trained on
         self.frames = 0
+        self.controls = None  # the model's last answer (`pilot.Controls`: the lane of a model with a lane head too)
         self._last = None
         self._commanded = self.throttle
         self._closed = self._warned = False
@@ -189,7 +190,7 @@ class SteerlabPilot:
         if gap:
             self.reset()
         self.frames += 1
-        out = self.pilot.step(np.ascontiguousarray(img[..., ::-1]), speed)
+        out = self.controls = self.pilot.step(np.ascontiguousarray(img[..., ::-1]), speed)
         angle = servo_angle(out.steering, self.pilot.convention, self.full_lock, self.steering_ratio)
         return angle, self._throttle(out, speed)
 

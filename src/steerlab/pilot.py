@@ -25,6 +25,7 @@ import numpy as np
 
 from steerlab.data.car import CARS, car_of
 from steerlab.data.geometry import CAMERAS
+from steerlab.data.labels import lane_values
 from steerlab.data.modalities import frame_difference, optical_flow
 from steerlab.data.preprocess import preprocess
 from steerlab.errors import DataError, SteerlabError, warn
@@ -63,12 +64,14 @@ class Controls:
     """One frame's output: steering in the checkpoint's convention (radians, or servo units in [-1, 1] for models
     of donkeycar tubs); for speed models also the next frame's speed (m/s) or the speed command (0 decelerate, 1
     maintain, 2 accelerate); for models that learned the throttle (donkeycar tubs' `user/throttle`) the throttle in
-    [-1, 1]."""
+    [-1, 1]; for models with a lane head (`train.lane_weight`) the lane they see, (offset m positive left, heading
+    rad positive turned left, curvature 1/m positive turning left), as `data.labels.LANE` describes it."""
 
     steering: float
     speed: float | None = None
     command: int | None = None
     throttle: float | None = None
+    lane: tuple[float, float, float] | None = None
 
 
 def _check_speed(speed):
@@ -268,4 +271,5 @@ class Pilot:
             self._steered = y
         return Controls(y, float(out["speed"]) if "speed" in out else None,
                         int(out["command"].argmax()) if "command" in out else None,
-                        float(out["throttle"]) if "throttle" in out else None)
+                        float(out["throttle"]) if "throttle" in out else None,
+                        lane_values(out["lane"]) if "lane" in out else None)

@@ -3,7 +3,12 @@
 The manifest's five JSON lines are: the record keys, their types, the user's metadata, the creation time with
 the session ids, and the catalog files in order with `deleted_indexes` (records the user deleted; never used).
 Each record holds `_index`, `_session_id`, `_timestamp_ms`, `cam/image_array` (a file in `images/`),
-`user/angle` (servo command in [-1, 1], positive right) and `user/throttle` ([-1, 1]).
+`user/angle` (servo command in [-1, 1], positive right) and `user/throttle` ([-1, 1]). The track world's
+recordings add the lane the car is in (`LANE_FIELDS`, floats): `lane/offset`, the rear axle's lateral offset from
+the lane centre in metres, positive left; `lane/heading`, the car's heading to the lane in radians, positive
+turned left (counter-clockwise); `lane/curvature`, the lane's curvature at the car in 1/m, positive where it
+turns left. They are read into `Recording.extra` under steerlab's own names (`lateral_offset`, `heading_error`,
+`curvature`), only when the manifest declares all three.
 
 `user/angle` keeps its own unit: the recording's convention is "normalized", positive right, with the car's
 full-lock angle when the user gives it (reader option `full_lock_deg`); only then do degree metrics, viewpoint
@@ -46,6 +51,7 @@ class TubOptions(Options):
 OPTIONS = TubOptions
 MANIFEST_LINES = ("record keys", "record types", "metadata", "sessions", "catalog list")
 REQUIRED = ("_index", "_timestamp_ms", "cam/image_array", "user/angle")
+LANE_FIELDS = {"lane/offset": "lateral_offset", "lane/heading": "heading_error", "lane/curvature": "curvature"}
 
 
 def is_tub(folder: Path) -> bool:
@@ -100,6 +106,20 @@ def _ranges(numbers: list[int]) -> str:
     return ", ".join(parts)
 
 
+def _lane(recs: list[tuple[Path, int, dict]]) -> dict[str, np.ndarray]:
+    """The lane values of the records (path, line, record) under steerlab's names; a record without one, or with
+    one that is not a finite number, is an error naming it."""
+    out = {name: np.empty(len(recs)) for name in LANE_FIELDS.values()}
+    for i, (path, line, rec) in enumerate(recs):
+        for key, name in LANE_FIELDS.items():
+            value = rec.get(key)
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise DataError(path, f"record {rec['_index']}: {key} is {value!r}; the manifest declares it, so a "
+                                      "finite number is expected", line)
+            out[name][i] = value
+    return out
+
+
 def _manifest(folder: Path) -> tuple[list[str], list[str], set[int], dict]:
     path = folder / "manifest.json"
     lines = _json_lines(path)
@@ -147,7 +167,7 @@ def read_tub(folder: str | Path, frame_range=None, full_lock_deg: float | None =
              skip_missing: bool = False, strict: bool = False) -> Recording:
     """Read a tub. `frame_range` ("a:b" as a tuple) counts the records that remain after deletion."""
     folder = Path(folder)
-    _, catalogs, deleted, metadata = _manifest(folder)
+    keys, catalogs, deleted, metadata = _manifest(folder)
     records = []  # (catalog, line, record)
     torn_at, cut_at, lost = {}, {}, 0  # torn lines and lines cut off at the end by catalog, records lost
     for name in catalogs:
@@ -203,7 +223,7 @@ def read_tub(folder: str | Path, frame_range=None, full_lock_deg: float | None =
                                       "skip_missing", line)
             missing.append(rec["_index"])
             continue
-        kept.append((image, rec))
+        kept.append((image, (path, line, rec)))
     if missing:
         warn(f"{folder}: skipped {len(missing)} record(s) whose image is missing (indexes "
              f"{', '.join(map(str, missing[:10]))}{' ...' if len(missing) > 10 else ''})")
@@ -216,7 +236,8 @@ def read_tub(folder: str | Path, frame_range=None, full_lock_deg: float | None =
         raise SteerlabError(f"{folder}: reader option full_lock_deg: {e}; give the full-lock angle in degrees, "
                             "e.g. full_lock_deg=25") from None
     said_full_lock(full_lock_deg, f"{folder}: reader option")
-    recs = [r for _, r in kept]
+    lane = _lane([r for _, r in kept]) if all(k in keys for k in LANE_FIELDS) else {}
+    recs = [r for _, (_, _, r) in kept]
     throttle = np.array([math.nan if r.get("user/throttle") is None else float(r["user/throttle"]) for r in recs])
     return Recording(
         name=folder.name, source=folder, frames={"center": [p for p, _ in kept]},
@@ -224,6 +245,6 @@ def read_tub(folder: str | Path, frame_range=None, full_lock_deg: float | None =
         steering=np.array([float(r["user/angle"]) for r in recs]), convention=convention,
         frame_ids=np.array([int(r["_index"]) for r in recs], dtype=np.int64),
         throttle=throttle if np.all(np.isfinite(throttle)) else None,
-        extra={"session": np.array([str(r.get("_session_id", "")) for r in recs])}, geometry="donkey",
+        extra={"session": np.array([str(r.get("_session_id", "")) for r in recs]), **lane}, geometry="donkey",
         fisheye=fisheye_from(folder / "manifest.json", metadata["fisheye"]) if "fisheye" in metadata else None,
     )

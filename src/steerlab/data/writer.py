@@ -18,6 +18,7 @@ from steerlab.data.car import car_of
 from steerlab.data.native import EPISODES, NATIVE_COLUMNS
 from steerlab.data.recording import SteeringConvention
 from steerlab.data.simlog import image_name, log_row, to_sim_steering
+from steerlab.data.tub import LANE_FIELDS
 from steerlab.errors import SteerlabError
 
 CONVENTION = SteeringConvention("steering_wheel", "left")  # the road world's, like CH2: steering wheel, left
@@ -98,16 +99,18 @@ class TubWriter:
     steerlab's reader uses them); the first record kept after a cut starts a new session, so that no frame
     history or motion spans the cut. `metadata` is the manifest's user metadata (the track world writes its
     camera there: `fisheye`, read back as `Recording.fisheye`). `quality`: the JPEG quality of the frames (None:
-    75, donkeycar's)."""
+    75, donkeycar's). With `lane`, every record also holds the lane the car is in (`tub.LANE_FIELDS`: offset in m,
+    positive left; heading in rad, positive turned left; curvature in 1/m, positive turning left), declared as
+    floats in the manifest."""
 
     def __init__(self, out: str | Path, full_lock_deg: float, max_len: int = 1000, start_ns: int = EPOCH_NS,
-                 metadata: dict | None = None, quality: int | None = None):
+                 metadata: dict | None = None, quality: int | None = None, lane: bool = False):
         if not 0 < full_lock_deg < 90:
             raise SteerlabError(f"full_lock_deg must lie in (0, 90) degrees, got {full_lock_deg}")
         if max_len < 1:
             raise SteerlabError(f"max_len (records per catalog) must be at least 1, got {max_len}")
         self.out, self.full_lock = Path(out), math.radians(full_lock_deg)
-        self.max_len, self.start_ns, self.metadata = max_len, start_ns, metadata or {}
+        self.max_len, self.start_ns, self.metadata, self.lane = max_len, start_ns, metadata or {}, lane
         self.jpeg = TUB_JPEG if quality is None else [cv2.IMWRITE_JPEG_QUALITY, quality]
         if self.out.exists() and any(self.out.iterdir()):
             raise SteerlabError(f"{self.out} exists and is not empty; choose a new output folder")
@@ -122,9 +125,14 @@ class TubWriter:
         return float(np.clip(-road_wheel / self.full_lock, -1.0, 1.0))
 
     def add(self, frame: np.ndarray, timestamp_ns: int, road_wheel: float, throttle: float,
-            deleted: bool = False) -> None:
+            deleted: bool = False, lane: tuple[float, float, float] | None = None) -> None:
         """One record: a BGR frame, its time (ns from the start), the road-wheel angle (rad, positive left) and
-        the throttle in [-1, 1]; `deleted`: cut out of the drive (see the class's docstring)."""
+        the throttle in [-1, 1]; `deleted`: cut out of the drive (see the class's docstring); `lane`: (offset,
+        heading, curvature), given exactly when the writer was made with `lane`."""
+        if (lane is not None) != self.lane:
+            raise SteerlabError(f"TubWriter {self.out}: lane values belong to every record of a tub made with "
+                                "lane=True and to none of another: give add(lane=...) exactly when the writer has "
+                                "lane=True")
         i = len(self.records)
         if deleted:
             self.deleted.append(i)
@@ -137,7 +145,8 @@ class TubWriter:
         self.records.append({"_index": i, "_session_id": self.sessions[-1],
                              "_timestamp_ms": (self.start_ns + int(timestamp_ns)) // 1_000_000,
                              "cam/image_array": name, "user/angle": self.servo(road_wheel),
-                             "user/mode": "user", "user/throttle": float(np.clip(throttle, -1.0, 1.0))})
+                             "user/mode": "user", "user/throttle": float(np.clip(throttle, -1.0, 1.0)),
+                             **dict(zip(LANE_FIELDS, map(float, lane or ())))})
 
     def close(self) -> Path:
         created = self.start_ns / 1e9
@@ -156,6 +165,8 @@ class TubWriter:
                     "last_full_id": self.sessions[-1]}
         catalogs = {"paths": paths, "current_index": len(self.records), "max_len": self.max_len,
                     "deleted_indexes": self.deleted}
-        lines = [TUB_KEYS, TUB_TYPES, self.metadata, {"created_at": created, "sessions": sessions}, catalogs]
+        lane = list(LANE_FIELDS) if self.lane else []
+        lines = [TUB_KEYS + lane, TUB_TYPES + ["float"] * len(lane), self.metadata,
+                 {"created_at": created, "sessions": sessions}, catalogs]
         (self.out / "manifest.json").write_text("".join(json.dumps(line) + "\n" for line in lines))
         return self.out

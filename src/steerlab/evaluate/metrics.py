@@ -113,7 +113,8 @@ def accuracy(pred, target) -> float:
 def all_metrics(pred: dict, truth: dict, deg_per_unit: float = DEG) -> dict[str, float]:
     """Steering metrics, the speed-weighted MAE where the recording has speed (weighted by truth["speed"], the
     next frame's speed: one frame's change does not matter to a weight), and speed MAE, speed-command accuracy
-    and the throttle's MAE and RMSE (in the recording's throttle unit) for models that predict them."""
+    and the throttle's MAE and RMSE (in the recording's throttle unit) and the lane's MAE (of its three values over
+    their scales, `data.labels.LANE`) for models that predict them."""
     m = steering_metrics(pred["steering"], truth["steering"], deg_per_unit)
     if "speed" in truth and np.any(truth["speed"]):
         m["speed_weighted_mae"] = speed_weighted_mae(pred["steering"], truth["steering"], truth["speed"])
@@ -124,4 +125,6 @@ def all_metrics(pred: dict, truth: dict, deg_per_unit: float = DEG) -> dict[str,
     if "throttle" in pred and "throttle" in truth:
         m["throttle_mae"] = mae(pred["throttle"], truth["throttle"])
         m["throttle_rmse"] = rmse(pred["throttle"], truth["throttle"])
+    if "lane" in pred and "lane" in truth:
+        m["lane_mae"] = mae(pred["lane"], truth["lane"])
     return m

@@ -9,7 +9,9 @@ outputs:
   add "speed" (B,), the next frame's speed in m/s, or "command" (B, 3), logits of the speed command
   (decelerate, maintain, accelerate). A model built with `throttle=True` (training sets it when
   `train.throttle_weight` > 0 and the recording's throttle varies, a donkeycar tub's `user/throttle`) adds
-  "throttle" (B,) from a second value of its last layer: the models with a `throttle` option can.
+  "throttle" (B,) from a second value of its last layer: the models with a `throttle` option can. A model built
+  with `lane=True` (training sets it when `train.lane_weight` > 0) adds "lane" (B, 3), the lane the car is in
+  over `data.labels.LANE`'s scales, from a linear head on its last hidden features (`heads`).
 - `loss(out, targets)` is the model's training objective (targets: "steering", and "speed"/"command" where the
   recording has speed); without one, training minimises the MSE of the steering.
 """
@@ -44,6 +46,8 @@ class SteeringModel(nn.Module):
     """Preprocessing options the model needs (modalities, colour, size, stacked frames)."""
     learns_throttle: bool = False
     """True when built with `throttle=True`: the last layer has a second value, the throttle."""
+    learns_lane: bool = False
+    """True when built with `lane=True`: a linear head `lane` on the last hidden features gives the lane (3)."""
 
     def named(self, y: torch.Tensor) -> dict[str, torch.Tensor]:
         """The last layer's values (..., 1 or 2) as the model's outputs: the steering, and the throttle."""
@@ -52,15 +56,31 @@ class SteeringModel(nn.Module):
             out["throttle"] = y[..., 1]
         return out
 
+    def heads(self, head: nn.Sequential, features: torch.Tensor) -> dict[str, torch.Tensor]:
+        """The outputs of `head` (hidden layers, then the last linear layer) on `features` (`named`), and the lane
+        head's on the last hidden features."""
+        hidden = head[:-1](features)
+        out = self.named(head[-1](hidden))
+        if self.learns_lane:
+            out["lane"] = self.lane(hidden)
+        return out
+
 
 def predicted(model) -> tuple[str, ...]:
-    """What a model (or a Pilot's runtime model) predicts besides the steering: its `targets` and the throttle."""
-    return tuple(model.targets) + (("throttle",) if model.learns_throttle else ())
+    """What a model (or a Pilot's runtime model) predicts besides the steering: its `targets`, the throttle and
+    the lane."""
+    return (tuple(model.targets) + (("throttle",) if model.learns_throttle else ())
+            + (("lane",) if getattr(model, "learns_lane", False) else ()))
 
 
 def learns_throttle(name: str) -> bool:
     """Whether the model `name` can learn the throttle (its constructor has a `throttle` option)."""
     return "throttle" in model_option_types(name)
+
+
+def learns_lane(name: str) -> bool:
+    """Whether the model `name` has a lane head to learn the lane with (its constructor has a `lane` option)."""
+    return "lane" in model_option_types(name)
 
 
 _REGISTRY: dict[str, Callable[..., SteeringModel]] = {}
@@ -152,6 +172,9 @@ class ModelSpec:
         if "throttle" in options:
             raise SteerlabError(f"{where}.throttle is not set by hand: training adds the throttle output when "
                                 "train.throttle_weight > 0 and the recording's throttle varies: remove it")
+        if "lane" in options:
+            raise SteerlabError(f"{where}.lane is not set by hand: training adds the lane head when "
+                                "train.lane_weight > 0: remove it")
         unknown = sorted(set(options) - set(types))
         if unknown:
             raise SteerlabError(f"unknown {where} options {unknown} for model {name!r}; it takes {sorted(types)}")

@@ -19,7 +19,7 @@ from torch.utils.data import DataLoader, Dataset, RandomSampler, Sampler
 
 from steerlab.data.dataset import CompiledDataset
 from steerlab.data.inputs import Standardizer, gather, history, segment_starts, stack_modalities
-from steerlab.data.labels import speed_targets
+from steerlab.data.labels import lane_targets, speed_targets
 from steerlab.errors import SteerlabError
 from steerlab.processes import worker_context
 from steerlab.train.augment import augment, mirror, no_motion
@@ -50,10 +50,13 @@ class FrameBatches(Dataset):
     that the memory-mapped reads run forward.
     inputs: "x" (B, C, H, W), and "speeds" (B, K) for models with a speed history; targets: "steering", and
     where the recordings have speed, "speed" (the next frame's) and "command" (paper 002 IV-B2), and with
-    `throttle` the recorded "throttle". Windows (B, T) come back with a time axis: (B, T, ...)."""
+    `throttle` the recorded "throttle", with `lane` the recorded "lane" (B, 3) over its scales (`labels.LANE`; a
+    mirrored sample's offset, heading and curvature change sign with its steering). Windows (B, T) come back with
+    a time axis: (B, T, ...)."""
 
     def __init__(self, sources: list[tuple[CompiledDataset, np.ndarray]], stats: dict, speed_history: int = 0,
-                 rotation_deg: float = 0.0, brightness: float = 0.0, throttle: bool = False, hue_deg: float = 0.0):
+                 rotation_deg: float = 0.0, brightness: float = 0.0, throttle: bool = False, hue_deg: float = 0.0,
+                 lane: bool = False):
         self.sources, self.cfg, self.standardize = sources, sources[0][0].config, Standardizer(stats)
         self.offsets = np.cumsum([0] + [len(ds) for ds, _ in sources])
         self.local_starts = [segment_starts(ds.labels["segment"]) for ds, _ in sources]
@@ -73,6 +76,14 @@ class FrameBatches(Dataset):
                                     "give recordings that record it, or set train.throttle_weight to 0 to learn the "
                                     "steering alone")
             self.targets["throttle"] = np.concatenate([ds.labels["throttle"] for ds, _ in sources])
+        if lane:
+            lanes = [lane_targets(ds.labels) for ds, _ in sources]
+            missing = [ds.meta["source"] for (ds, _), y in zip(sources, lanes) if y is None]
+            if missing:
+                raise SteerlabError(f"{missing[0]} has no lane values (lateral offset, heading error, curvature) for "
+                                    "train.lane_weight to learn: record it with steerlab sim record --world track, "
+                                    "or set train.lane_weight to 0")
+            self.targets["lane"] = np.concatenate(lanes)
         self.speed_history, self.rotation_deg, self.brightness, self.hue_deg = (speed_history, rotation_deg,
                                                                                brightness, hue_deg)
 
@@ -113,6 +124,8 @@ class FrameBatches(Dataset):
         targets = {"steering": torch.from_numpy(y)}
         targets.update({k: torch.from_numpy(v[codes].astype(np.int64 if k == "command" else np.float32))
                         for k, v in self.targets.items()})
+        if "lane" in targets and batch.flip is not None:
+            targets["lane"][torch.from_numpy(batch.flip)] *= -1  # mirrored: the lane turns the other way
         if len(shape) == 2:  # windows: (B*T, ...) -> (B, T, ...)
             inputs, targets = ({k: v.view(*shape, *v.shape[1:]) for k, v in d.items()} for d in (inputs, targets))
         return inputs, targets, batch.weight

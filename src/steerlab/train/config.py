@@ -20,7 +20,7 @@ from steerlab.data.preprocess import PreprocessConfig, PreprocessOptions
 from steerlab.data.splits import Split
 from steerlab.data.tub import is_tub
 from steerlab.errors import SteerlabError
-from steerlab.models.registry import ModelSpec, learns_throttle, list_models
+from steerlab.models.registry import ModelSpec, learns_lane, learns_throttle, list_models
 from steerlab import files
 from steerlab.paths import a_path, distinct, same_path
 from steerlab.files import UniqueKeys
@@ -82,6 +82,9 @@ class TrainOptions(Options):
     throttle_weight: float = option(0.0, AT_LEAST_0, help="also learn the throttle where the recording varies it "
                                     "(a donkeycar tub's user/throttle): the loss plus this weight times the MAE of "
                                     "the throttle, as paper 002 weights steering and speed")
+    lane_weight: float = option(0.0, AT_LEAST_0, help="also learn the lane the car is in (a track world recording's "
+                                "lateral offset, heading error and curvature) with an auxiliary head: the loss plus "
+                                "this weight times the MAE of the three over their scales (data.labels.LANE)")
     workers: int = option(0, Range(0, WORKERS.hi), help="data-loading worker processes (0: in this one; the results do not "
                                                  "depend on it)")
     precision: Literal["fp32", "bf16"] = option("fp32", help="bf16: the forward pass in bfloat16 (torch.autocast; "
@@ -138,6 +141,14 @@ class TrainConfig(Options):
             able = ", ".join(m for m in list_models() if learns_throttle(m))
             raise SteerlabError(f"train.throttle_weight: model {self.model.name!r} does not learn a throttle; "
                                 f"these do: {able}; choose one of them, or set train.throttle_weight to 0")
+        if t.lane_weight > 0 and not learns_lane(self.model.name):
+            able = ", ".join(m for m in list_models() if learns_lane(m))
+            raise SteerlabError(f"train.lane_weight: model {self.model.name!r} has no lane head; these do: {able}; "
+                                "choose one of them, or set train.lane_weight to 0")
+        if t.lane_weight > 0 and (t.side_cameras or t.views):
+            raise SteerlabError("train.lane_weight: the lane values are the centre camera's, not those of side "
+                                "cameras or virtual views: set train.side_cameras and train.views off, or "
+                                "train.lane_weight to 0")
         inputs = self.preprocessing()
         if t.hue_deg and inputs.color != "rgb":
             raise SteerlabError(f"train.hue_deg turns the hue of RGB inputs; preprocess.color is {inputs.color}: "
@@ -174,8 +185,9 @@ class TrainConfig(Options):
             del t["side_offset_m"]
         if not (t["side_cameras"] or t["views"]):
             del t["steering_ratio"]
-        if not t["throttle_weight"]:  # runs from before the throttle could be learned
-            del t["throttle_weight"]
+        for key in ("throttle_weight", "lane_weight"):  # runs from before these could be learned
+            if not t[key]:
+                del t[key]
         return d
 
 

@@ -7,7 +7,8 @@ from pathlib import Path
 
 from steerlab.errors import SteerlabError
 
-METRIC = {"speed": "speed_mae", "command": "command_accuracy", "throttle": "throttle_mae"}  # of each extra output
+METRIC = {"speed": "speed_mae", "command": "command_accuracy", "throttle": "throttle_mae",  # of each extra output
+          "lane": "lane_mae"}
 
 
 class EpochLog:

@@ -40,9 +40,9 @@ from steerlab.train.batches import (Batch, EpochSampler, FrameBatches, balance_w
 from steerlab.train.config import LOSSES, TrainConfig, another_config, differences, parse_config, unreadable
 from steerlab.train.distributed import Ranks, setup, wrap
 from steerlab.train.host import bf16_instructions, keep_freed_memory
-from steerlab.train.log import EpochLog
+from steerlab.train.log import METRIC, EpochLog
 from steerlab.train.sources import (check_camera, check_extra_data, main_recording, prepare_dataset, steering_ahead,
-                                    training_sources, usable_frames)
+                                    throttle_learned, training_sources, usable_frames)
 
 
 def _mean_error(error: torch.Tensor, loss: str) -> torch.Tensor:
@@ -50,11 +50,12 @@ def _mean_error(error: torch.Tensor, loss: str) -> torch.Tensor:
 
 
 def objective(model, out: dict, targets: dict, loss: str = "mse", smoothness: float = 0.0,
-              throttle_weight: float = 0.0) -> torch.Tensor:
+              throttle_weight: float = 0.0, lane_weight: float = 0.0) -> torch.Tensor:
     """The model's own loss when it has one, otherwise the MSE or the MAE of its steering; with `smoothness`,
     plus that weight times the same error of the steering's change from frame to frame within each window
     (recurrent outputs (B, T): the predicted change against the recorded one); for a model that learns the
-    throttle, plus `throttle_weight` times the MAE of the throttle (paper 002 weights its speed MAE so)."""
+    throttle, plus `throttle_weight` times the MAE of the throttle (paper 002 weights its speed MAE so); for one
+    with a lane head, plus `lane_weight` times the MAE of the lane's three values over their scales."""
     value = (model.loss(out, targets) if hasattr(model, "loss")
              else _mean_error(out["steering"] - targets["steering"], loss))
     if smoothness:
@@ -62,14 +63,17 @@ def objective(model, out: dict, targets: dict, loss: str = "mse", smoothness: fl
         value = value + smoothness * _mean_error(change, loss)
     if "throttle" in out:
         value = value + throttle_weight * torch.mean((out["throttle"] - targets["throttle"]).abs())
+    if "lane" in out:
+        value = value + lane_weight * torch.mean((out["lane"] - targets["lane"]).abs())
     return value
 
 
 def train_one_epoch(model, opt, batches, ranks: Ranks = Ranks(), loss_name: str = "mse", smoothness: float = 0.0,
-                    throttle_weight: float = 0.0, progress: bool = True, desc: str = "",
+                    weights: tuple[float, float] = (0.0, 0.0), progress: bool = True, desc: str = "",
                     precision: str = "fp32") -> float:
     """One pass over `batches` (a DataLoader of this rank's share of each global batch), returning the mean
-    training loss over all ranks; with `precision` bf16 the forward pass runs in bfloat16."""
+    training loss over all ranks (`weights`: the throttle's and the lane's in `objective`); with `precision` bf16
+    the forward pass runs in bfloat16."""
     net = getattr(model, "module", model)  # the model itself, also inside DDP
     model.train()
     total, count = 0.0, 0
@@ -80,7 +84,7 @@ def train_one_epoch(model, opt, batches, ranks: Ranks = Ranks(), loss_name: str 
         with torch.autocast(ranks.device.type, torch.bfloat16, enabled=precision == "bf16"):
             out = model(**inputs)
         loss = objective(net, out[0] if net.recurrent else out, targets, loss_name, smoothness,  # (out, state)
-                         throttle_weight)
+                         *weights)
         opt.zero_grad(set_to_none=True)
         (loss * weight if ranks.world > 1 else loss).backward()
         opt.step()
@@ -91,8 +95,8 @@ def train_one_epoch(model, opt, batches, ranks: Ranks = Ranks(), loss_name: str 
 
 
 def _numpy(out: dict) -> dict[str, np.ndarray]:
-    """Model outputs as predictions: steering, speed, throttle, and the most likely speed command."""
-    pred = {k: out[k].cpu().numpy().astype(np.float64) for k in ("steering", "speed", "throttle") if k in out}
+    """Model outputs as predictions: steering, speed, throttle, lane, and the most likely speed command."""
+    pred = {k: out[k].cpu().numpy().astype(np.float64) for k in ("steering", "speed", "throttle", "lane") if k in out}
     if "command" in out:
         pred["command"] = out["command"].argmax(-1).cpu().numpy()
     return pred
@@ -216,20 +220,6 @@ def _claim(out: Path, cfg: TrainConfig, car) -> None:
     write_json(out / "config.json", as_dict(cfg))
 
 
-def throttle_learned(cfg: TrainConfig, ds: CompiledDataset, say: bool) -> bool:
-    """Whether the model learns the throttle: `train.throttle_weight` > 0 and the recording's throttle varies
-    (said once when it does not)."""
-    if not cfg.train.throttle_weight:
-        return False
-    throttle = ds.labels.get("throttle")
-    if throttle is not None and np.ptp(throttle) > 0:
-        return True
-    if say:
-        why = "has no throttle" if throttle is None else f"has a constant throttle ({throttle[0]:g})"
-        print(f"{ds.meta['source']} {why}: the model learns the steering alone (train.throttle_weight ignored)")
-    return False
-
-
 def _but_throttle(model_cfg: dict) -> dict:
     return {k: v for k, v in model_cfg.items() if k != "throttle"}
 
@@ -265,6 +255,8 @@ def build(cfg: TrainConfig, ranks: Ranks, progress: bool, init: dict | None, tea
     model_cfg = cfg.model.arguments(ds.config)
     if throttle_learned(cfg, ds, ranks.main):
         model_cfg["throttle"] = True
+    if t.lane_weight:
+        model_cfg["lane"] = True
     if init:  # before the other streams compile
         if init.get("geometry", ds.meta["geometry"]) != ds.meta["geometry"]:  # older checkpoints record none
             raise SteerlabError(f"{t.init}: train.init was trained on the {init['geometry']!r} camera geometry "
@@ -285,7 +277,7 @@ def build(cfg: TrainConfig, ranks: Ranks, progress: bool, init: dict | None, tea
     if (model.targets or model.speed_history) and "speed" not in ds.labels:
         raise SteerlabError(f"model {cfg.model.name!r} needs a recording with speed; {ds.meta['source']} has none")
     data = FrameBatches(sources, stats, model.speed_history, t.rotation_deg, t.brightness, model.learns_throttle,
-                        t.hue_deg)
+                        t.hue_deg, model.learns_lane)
     samples = train_codes
     if model.recurrent:
         samples = sequence_windows(train_codes, data.starts, model.seq_len)
@@ -325,7 +317,7 @@ def fit(run: Run, ranks: Ranks, progress: bool, on_epoch=None) -> dict:
     def keep_predictions(pred):
         if ranks.main:
             write_predictions(out / "val_predictions.csv", run.ds.labels["frame_ids"][run.val_idx], pred["steering"],
-                              {k: v for k, v in pred.items() if k != "steering"})
+                              {k: v for k, v in pred.items() if k not in ("steering", "lane")})
 
     if not model.trainable:
         model.fit(run.data.steering(run.train_codes))
@@ -364,8 +356,8 @@ def fit(run: Run, ranks: Ranks, progress: bool, on_epoch=None) -> dict:
             break
         t0 = time.time()
         run.sampler.set_epoch(epoch)
-        loss = train_one_epoch(step_model, opt, batches, ranks, t.loss, t.smoothness, t.throttle_weight, progress,
-                               f"epoch {epoch}", t.precision)
+        loss = train_one_epoch(step_model, opt, batches, ranks, t.loss, t.smoothness, (t.throttle_weight,
+                               t.lane_weight), progress, f"epoch {epoch}", t.precision)
         pred = predict(model, run.data, run.val_idx)
         m = all_metrics(pred, run.truth, deg)
         for what, value in (("training loss", loss), (f"validation {score}", m[score])):
@@ -376,7 +368,7 @@ def fit(run: Run, ranks: Ranks, progress: bool, on_epoch=None) -> dict:
         if log is not None:
             history.append(log.write(epoch, loss, m, time.time() - t0))
         if progress:
-            extra = "".join(f"  {k} {m[k]:.3f}" for k in ("speed_mae", "command_accuracy", "throttle_mae") if k in m)
+            extra = "".join(f"  {k} {m[k]:.3f}" for k in METRIC.values() if k in m)
             angles = (f"mae {m['mae_deg']:.2f} deg  gamma {m['gamma_deg']:.3f} (target {m['target_gamma_deg']:.3f})"
                       if np.isfinite(m["mae_deg"]) else
                       f"mae {m['mae']:.4f} ({run.convention.unit}; degrees n/a: no full-lock angle)")

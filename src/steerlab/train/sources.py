@@ -172,3 +172,17 @@ def training_sources(cfg: TrainConfig, ds: CompiledDataset, train_idx: np.ndarra
             codes.append(idx + offset)
             offset += len(main)
     return sources, np.concatenate(codes)
+
+
+def throttle_learned(cfg: TrainConfig, ds: CompiledDataset, say: bool) -> bool:
+    """Whether the model learns the throttle: `train.throttle_weight` > 0 and the recording's throttle varies
+    (said once when it does not)."""
+    if not cfg.train.throttle_weight:
+        return False
+    throttle = ds.labels.get("throttle")
+    if throttle is not None and np.ptp(throttle) > 0:
+        return True
+    if say:
+        why = "has no throttle" if throttle is None else f"has a constant throttle ({throttle[0]:g})"
+        print(f"{ds.meta['source']} {why}: the model learns the steering alone (train.throttle_weight ignored)")
+    return False

@@ -5,8 +5,10 @@ with the expert labelling every visited frame (DAgger's rollouts, `dagger: {worl
 
 A recording is a donkeycar tub v2 by default, what a donkeycar owner's own driving gives: `user/angle` (the
 servo command: the expert's road-wheel angle over the car's full lock, positive right) and `user/throttle` (the
-expert's throttle) of every frame. A tub has no episode column, so the expert's drift-out stretches (it lets the
-car drift towards a lane line, to show the recovery that follows) are written and marked deleted
+expert's throttle) of every frame, and the lane the car is in (`lane/offset`, `lane/heading`,
+`lane/curvature`: the values steerlab's layout records as lateral offset, heading error and curvature). A tub
+has no episode column, so the expert's drift-out stretches (it lets the car drift towards a lane line, to show
+the recovery that follows) are written and marked deleted
 (`deleted_indexes`), as an owner cuts their mistakes out with donkeycar's tub editor: neither donkeycar's training
 nor steerlab's reader uses them, the recover frames that follow are kept, and each kept stretch after a cut is a
 session of its own, so that no model's frame history spans a cut. steerlab's own layout (`layout="steerlab"`)
@@ -87,11 +89,11 @@ def record(out: str | Path, o: TrackRecordOptions = TrackRecordOptions(), progre
     car = world.car
     if o.layout == "tub":
         tub = TubWriter(out, car.full_lock_deg, metadata={"fisheye": asdict(camera), **look.metadata()},
-                        quality=look.jpeg_quality)
+                        quality=look.jpeg_quality, lane=True)
 
         def write(t):
             tub.add(t.frame, int(round(t.index * 1e9 / o.fps)), t.model, t.throttle,
-                    deleted=expert.episode == "drift-out")
+                    deleted=expert.episode == "drift-out", lane=(t.offset, t.heading, world.lane_curvature()))
     else:
         convention = SteeringConvention("normalized", "right", car.full_lock)
         writer = RecordingWriter(out, ["center"], convention=convention, geometry="donkey", quality=look.jpeg_quality)
@@ -180,8 +182,10 @@ def checkpoint_pilot(checkpoint: str | Path, o, w: DriveWith = DriveWith()):
     """steerlab's donkeycar part on `checkpoint` (`core.part.donkey_pilot`) as the options `o` of a drive or a suite
     race it: the constant throttle `o.throttle` for a model that predicts none (refused for one that learned the
     throttle), its learned throttle times `o.throttle_scale` capped at `o.max_throttle` (at least `o.throttle_floor`
-    while the car stands), its steering shaped as `w` says."""
+    while the car stands), its steering shaped as `w` says; with `o.steer_by` lane, steering by the lane its model's
+    lane head sees (`lane.lane_pilot`)."""
     from steerlab.sim.core.part import donkey_pilot
+    from steerlab.sim.track.lane import lane_pilot
 
     pilot = donkey_pilot(checkpoint, constant_throttle(o.throttle), w.smoothing, o.max_throttle,
                          steering_step=w.steering_step, throttle_scale=o.throttle_scale,
@@ -190,7 +194,7 @@ def checkpoint_pilot(checkpoint: str | Path, o, w: DriveWith = DriveWith()):
         raise SteerlabError(f"{checkpoint} learned the throttle; the throttle {o.throttle:g} (steerlab sim drive "
                             "--throttle) is the constant throttle of a model that predicts none: leave it out "
                             "(throttle_scale and max_throttle shape a learned throttle)")
-    return pilot
+    return lane_pilot(pilot, checkpoint) if o.steer_by == "lane" else pilot
 
 
 def drive_checkpoint(checkpoint: str | Path, out: str | Path | None, o: TrackDriveOptions, w: DriveWith = DriveWith(),

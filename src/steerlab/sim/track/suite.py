@@ -7,8 +7,8 @@ expert (no drift episodes, from the car's state, without a camera): its lap time
 are put against, driven under the same throttle cap as the models (`--max-throttle`; its drives are kept per cap,
 in `expert-max<cap>/`). Drives run in parallel worker processes; a finished drive is reused when the suite runs
 again with the same cache key (`core.suite`): the checkpoint's content hash, suite version, minutes, smoothing,
-the constant throttle, the learned throttle's cap, the steering step, the latency and the camera
-(`TrackSuiteOptions.key`); the expert's drives
+the constant throttle, the learned throttle's cap, the steering step, the latency, the camera and what it steers
+by (`TrackSuiteOptions.key`); the expert's drives
 with the same suite version, minutes and cap.
 
 Per drive (`suite.csv`): laps completed, clean laps (no off-track event), best and mean clean lap time, the
@@ -27,6 +27,7 @@ from collections.abc import Callable
 from dataclasses import astuple, dataclass
 from functools import partial
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 
@@ -43,8 +44,8 @@ from steerlab.sim.core.suite import (Entrant, Planned, as_stored, check_world_of
 from steerlab.sim.track import run
 from steerlab.sim.track.run import TrackDrive, drive_expert
 from steerlab.sim.track.world import (TrackDriveOptions, TrackRecordOptions, calibration_option, camera_of,
-                                      constant_throttle, latency_option, max_throttle_option, throttle_option,
-                                      throttle_floor_option, throttle_scale_option)
+                                      constant_throttle, latency_option, max_throttle_option, steer_by_option,
+                                      throttle_floor_option, throttle_option, throttle_scale_option)
 
 TRACK_SUITES = {
     # 8 tracks of 2 minutes, 0.9 m lanes: six taped, two with a painted centre line (28-54 m laps; the expert
@@ -79,6 +80,7 @@ class TrackSuiteOptions(Options):
     throttle_floor: float = throttle_floor_option()
     latency: int = latency_option()
     calibration: str | None = calibration_option()
+    steer_by: Literal["steering", "lane"] = steer_by_option()
 
     @classmethod
     def related(cls, v):
@@ -101,7 +103,7 @@ class TrackSuiteOptions(Options):
                                  lane_width=TRACK_SUITES[self.suite]["lane_width"], style=style,
                                  calibration=self.calibration, throttle=self.throttle, max_throttle=self.max_throttle,
                                  latency=self.latency, throttle_scale=self.throttle_scale,
-                                 throttle_floor=self.throttle_floor)
+                                 throttle_floor=self.throttle_floor, steer_by=self.steer_by)
 
     def expert_folder(self) -> str:
         """The folder of the expert's drives under this cap."""
@@ -118,14 +120,14 @@ class TrackSuiteOptions(Options):
     def key(self, entrant: Entrant) -> dict:
         """Everything that changes a drive's result besides its track: the pilot's identity, the suite
         version, minutes, smoothing, the constant throttle, the learned throttle's cap, the camera's calibration
-        (its K and D), and where set the steering step, the latency, the throttle's scale and floor (drives made
-        before they existed stay reusable)."""
+        (its K and D), and where set the steering step, the latency, the throttle's scale and floor and what it
+        steers by (drives made before they existed stay reusable)."""
         camera = None if self.calibration is None else list(astuple(camera_of(self.calibration)))
         return as_stored({**entrant.identity, "suite": self.suite,
                           "minutes": self.place_minutes, "smoothing": self.smoothing,
                           "throttle": constant_throttle(self.throttle),
                           "max_throttle": self.max_throttle, "camera": camera,
-                          **when_set(self, "steering_step", "latency", "throttle_scale", "throttle_floor")})
+                          **when_set(self, "steering_step", "latency", "throttle_scale", "throttle_floor", "steer_by")})
 
 
 @dataclass(frozen=True)
@@ -181,7 +183,7 @@ class SuiteSummary:
     command_gamma_deg: float
 
 
-def checkpoint_pilot(checkpoint: str, o: TrackSuiteOptions) -> PartPilot:
+def checkpoint_pilot(checkpoint: str, o: TrackSuiteOptions):
     """steerlab's donkeycar part on `checkpoint`, as the suite races it (`run.checkpoint_pilot`)."""
     return run.checkpoint_pilot(checkpoint, o, DriveWith(o.smoothing, o.steering_step))
 
@@ -197,6 +199,9 @@ def part_entrant(label: str, model: str | Path, make_part: Callable) -> Entrant:
 
 def race_part(make_part: Callable, name: str, source: str, o: TrackSuiteOptions) -> PartPilot:
     """The part of `make_part()` driving the track world's car under the suite's throttle scale, cap and floor."""
+    if o.steer_by != "steering":
+        raise SteerlabError(f"{source}: steer_by {o.steer_by} steers by a steerlab checkpoint's lane head; a "
+                            "donkeycar part steers by its own angle: set steer_by to steering")
     return PartPilot(make_part(), CARS["donkey"].full_lock_deg, name=name, source=source,
                      throttle_scale=o.throttle_scale, max_throttle=o.max_throttle, throttle_floor=o.throttle_floor)
 

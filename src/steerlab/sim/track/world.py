@@ -90,6 +90,10 @@ def throttle_floor_option():
     """The option of every track command that drives a model: the least throttle while the car is at rest."""
     return option(0.0, UNIT, help="the least throttle while the car stands (below 0.1 m/s), within the cap: a "
                   "throttle learned from the image alone can brake at rest where the expert braked at speed (0: none)")
+def steer_by_option():
+    """The option of every track command that drives a model: what it steers by."""
+    return option("steering", help="steering: the model's steering head; lane: a Stanley controller on the lane its "
+                  "lane head sees (train.lane_weight; sim/track/lane.py), with its learned throttle as usual")
 
 
 def latency_option():
@@ -154,6 +158,7 @@ class TrackDriveOptions(Options):
     throttle_floor: float = throttle_floor_option()
     light: float | None = option(None, Range(0.2, 2), help="the room's light level (default: its own, drawn in "
                                  "0.75-1.2): the same track at another time of day")
+    steer_by: Literal["steering", "lane"] = steer_by_option()
 
     related = holds_frames("minutes")
 
@@ -281,12 +286,16 @@ class TrackWorld:
         self.laps.advance(float(self.track.delta(self.s, s)), self.time_s)
         self.s = s
 
+    def lane_curvature(self) -> float:
+        """The lane's curvature where the car is (1/m, positive where it turns left)."""
+        return float(self.track.curvature(self.s))
+
     def record_row(self, tick: int) -> dict:
         """What a recording holds of this tick besides the frames, the steering and the episode: the throttle
-        last applied as throttle and brake (the ESC's negative throttle brakes)."""
+        last applied as throttle and brake (the ESC's negative throttle brakes), and the lane's curvature."""
         return {"timestamp_ns": int(round(tick * 1e9 / self.fps)), "speed": self.state.v,
                 "throttle": max(self.applied, 0.0), "brake": max(-self.applied, 0.0),
-                "curvature": float(self.track.curvature(self.s))}
+                "curvature": self.lane_curvature()}
 
 
 class RacerPilot:

@@ -1,0 +1,233 @@
+"""Models that read the lane: the lane values of the track world's tubs, the auxiliary lane head (its targets, loss,
+mirroring and errors), the Pilot's lane, and steering by the lane (`--steer-by lane`) with a Stanley controller."""
+
+import json
+import math
+
+import cv2
+import numpy as np
+import pytest
+import torch
+
+from steerlab.cli import main
+from steerlab.data.car import CARS
+from steerlab.data.labels import LANE, lane_targets, lane_values
+from steerlab.data.readers import open_recording
+from steerlab.data.writer import TubWriter
+from steerlab.errors import DataError, SteerlabError
+from steerlab.models import create_model, list_models
+from steerlab.models.registry import learns_lane
+from steerlab.pilot import Controls
+from steerlab.sim.core.driving import drive_loop
+from steerlab.sim.track.lane import K_OFFSET, V0, LanePilot, lane_steering
+from steerlab.sim.track.world import TrackDriveOptions, TrackWorld
+from steerlab.train import loop
+from steerlab.train.config import load_config
+
+CAR = CARS["donkey"]
+
+
+def lane_of(i: int) -> tuple[float, float, float]:
+    """A frame's lane in the tubs below: offset (m), heading (rad), curvature (1/m)."""
+    return 0.12 * math.sin(i / 5), 0.08 * math.cos(i / 7), 0.9 * math.sin(i / 11)
+
+
+def write_tub(folder, n=80, lane=True):
+    """A 160x120 tub whose frames show the lane offset (a bar's position) and the steering (its width)."""
+    w = TubWriter(folder, full_lock_deg=25, lane=lane)
+    for i in range(n):
+        offset, heading, curvature = lane_of(i)
+        frame = np.full((120, 160, 3), 90, np.uint8)
+        x = int(80 + 400 * offset)
+        cv2.rectangle(frame, (x - 6, 40), (x + 6, 119), (20, 20, 230), -1)
+        w.add(frame, i * 50_000_000, -0.2 * math.sin(i / 5), 0.4, lane=(offset, heading, curvature) if lane else None)
+    return w.close()
+
+
+def test_a_tub_with_lane_values_declares_and_reads_them(tmp_path):
+    tub = write_tub(tmp_path / "tub", n=5)
+    keys, types = (json.loads(line) for line in (tub / "manifest.json").read_text().splitlines()[:2])
+    assert keys[-3:] == ["lane/offset", "lane/heading", "lane/curvature"] and types[-3:] == ["float"] * 3
+    rec = open_recording(tub)
+    expected = np.array([lane_of(i) for i in range(5)])
+    for k, name in enumerate(("lateral_offset", "heading_error", "curvature")):
+        np.testing.assert_array_equal(rec.extra[name], expected[:, k])
+    assert set(open_recording(write_tub(tmp_path / "plain", n=5, lane=False)).extra) == {"session"}
+    # a record that lacks a declared value is named
+    lines = (tub / "catalog_0.catalog").read_text().splitlines()
+    rec3 = json.loads(lines[3])
+    del rec3["lane/heading"]
+    lines[3] = json.dumps(rec3)
+    (tub / "catalog_0.catalog").write_text("\n".join(lines) + "\n")
+    with pytest.raises(DataError, match=r"catalog_0.catalog, row 4: record 3: lane/heading is None; the manifest "
+                                        r"declares it, so a finite number is expected"):
+        open_recording(tub)
+    w = TubWriter(tmp_path / "mixed", full_lock_deg=25)
+    with pytest.raises(SteerlabError, match="lane values belong to every record of a tub made with lane=True"):
+        w.add(np.zeros((120, 160, 3), np.uint8), 0, 0.0, 0.3, lane=(0.0, 0.0, 0.0))
+
+
+def test_lane_targets_are_scaled_and_come_back_in_si_units():
+    labels = {"lateral_offset": np.array([0.05, -0.2]), "heading_error": np.array([0.1, 0.0]),
+              "curvature": np.array([-0.5, 1.0])}
+    # over 0.1 m, 0.1 rad, 1 /m
+    np.testing.assert_allclose(lane_targets(labels), [[0.5, 1.0, -0.5], [-2.0, 0.0, 1.0]], rtol=1e-6)
+    assert lane_targets({"lateral_offset": labels["lateral_offset"]}) is None
+    assert lane_values([0.5, 1.0, -0.5]) == pytest.approx((0.05, 0.1, -0.5))
+    assert list(LANE) == ["lateral_offset", "heading_error", "curvature"]
+
+
+def test_models_with_a_lane_head():
+    assert {m for m in list_models() if learns_lane(m)} == {"donkey-linear", "pilotnet", "pilotnet-diff",
+                                                           "pilotnet-flow"}
+    for name, hidden in (("donkey-linear", 50), ("pilotnet", 10)):
+        plain = create_model(name, in_channels=3, height=120, width=160)
+        model = create_model(name, in_channels=3, height=120, width=160, throttle=True, lane=True)
+        # the other weights keep their names: checkpoints of models without the head still load
+        assert set(model.state_dict()) - set(plain.state_dict()) >= {"lane.weight", "lane.bias"}
+        assert model.lane.in_features == hidden
+        out = model.eval()(torch.randn(2, 3, 120, 160))
+        assert set(out) == {"steering", "throttle", "lane"} and out["lane"].shape == (2, 3)
+        # the head reads the last hidden features, the same ones the steering's layer reads
+        hidden_x = model.head[:-1](model.features(torch.ones(1, 3, 120, 160)).flatten(1))
+        assert torch.allclose(model(torch.ones(1, 3, 120, 160))["lane"], model.lane(hidden_x))
+
+
+def test_lane_weight_needs_a_model_with_the_head_and_is_not_set_by_hand(tmp_path):
+    tub = write_tub(tmp_path / "tub", n=5)
+    with pytest.raises(SteerlabError, match=r"^train.lane_weight: model 'cg23' has no lane head; these do: "
+                                            r"donkey-linear, pilotnet, pilotnet-diff, pilotnet-flow; choose one"):
+        load_config(None, base={"data": str(tub), "model": {"name": "cg23"}, "train": {"lane_weight": 0.5}})
+    with pytest.raises(SteerlabError, match=r"model.lane is not set by hand"):
+        load_config(None, base={"data": str(tub), "model": {"name": "pilotnet", "lane": True}})
+    with pytest.raises(SteerlabError, match="train.lane_weight must be"):
+        load_config(None, base={"data": str(tub), "train": {"lane_weight": -1}})
+
+
+def test_objective_adds_the_weighted_mae_of_the_lane():
+    net = create_model("pilotnet", lane=True)
+    out = {"steering": torch.tensor([0.0, 1.0]), "lane": torch.tensor([[0.5, 0.0, 1.0], [0.0, 0.0, 0.0]])}
+    y = {"steering": torch.tensor([1.0, 1.0]), "lane": torch.tensor([[0.0, 0.0, 1.0], [0.0, 1.5, 0.0]])}
+    # MSE of the steering (1 + 0) / 2, plus 2 x MAE of the lane's six values (0.5 + 1.5) / 6
+    assert float(loop.objective(net, out, y, "mse", 0.0, 0.0, 2.0)) == pytest.approx(0.5 + 2 * 2 / 6)
+    assert float(loop.objective(net, out, y, "mse")) == pytest.approx(0.5)
+
+
+def test_mirrored_samples_negate_the_lane_with_the_steering(tmp_path):
+    from steerlab.data.inputs import channel_stats, segment_starts
+    from steerlab.train.batches import Batch, FrameBatches
+    from steerlab.train.sources import prepare_dataset
+
+    tub = write_tub(tmp_path / "tub", n=10)
+    cfg = load_config(None, base={"data": str(tub), "cache": str(tmp_path / "cache"), "model": {"name": "pilotnet"},
+                                  "train": {"lane_weight": 1.0}})
+    ds = prepare_dataset(cfg, progress=False)
+    stats = channel_stats(ds.arrays, ds.config, np.arange(10), segment_starts(ds.labels["segment"]))
+    data = FrameBatches([(ds, ds.steering)], stats, lane=True)
+    _, targets, _ = data[Batch(np.array([3, 4]), flip=np.array([True, False]))]
+    scaled = np.array([np.array(lane_of(i)) / list(LANE.values()) for i in (3, 4)])
+    np.testing.assert_allclose(targets["lane"].numpy(), [-scaled[0], scaled[1]], rtol=1e-5)
+    np.testing.assert_allclose(targets["steering"].numpy(), [-ds.steering[3], ds.steering[4]], rtol=1e-6)
+    assert "lane" not in FrameBatches([(ds, ds.steering)], stats)[Batch(np.array([3]))][1]
+
+
+def train_on(tub, tmp_path, **train):
+    cfg = load_config(None, base={"data": str(tub), "cache": str(tmp_path / "cache"), "out": str(tmp_path / "run"),
+                                  "model": {"name": "donkey-linear"}, "split": {"train": "0:60", "val": "60:80"},
+                                  "reader": {"full_lock_deg": 25},
+                                  "preprocess": {"crop": [0, 0, 0, 0], "width": 160, "height": 120, "color": "rgb"},
+                                  "train": {"epochs": 3, "batch_size": 16, "lr": 1e-3, "loss": "mae", **train}})
+    return loop.train(cfg, progress=False), tmp_path / "run"
+
+
+def test_training_data_without_lane_values_is_refused(tmp_path):
+    tub = write_tub(tmp_path / "tub", lane=False)
+    with pytest.raises(SteerlabError, match=rf"^{tub} has no lane values \(lateral offset, heading error, curvature\) "
+                                            r"for train.lane_weight to learn: record it with steerlab sim record "
+                                            r"--world track, or set train.lane_weight to 0$"):
+        train_on(tub, tmp_path, lane_weight=0.5)
+
+
+def test_a_lane_model_trains_and_its_pilot_sees_the_lane_but_drives_by_steering(tmp_path):
+    from steerlab.checkpoint import load_checkpoint
+    from steerlab.export import export_onnx
+    from steerlab.pilot import Pilot
+
+    tub = write_tub(tmp_path / "tub")
+    best, run = train_on(tub, tmp_path, lane_weight=0.5)
+    assert load_checkpoint(run / "best.pt")["model_cfg"]["lane"] is True
+    header = (run / "log.csv").read_text().splitlines()[0].split(",")
+    assert "val_lane_mae" in header and best["lane_mae"] > 0
+    frame = cv2.imread(str(tub / "images" / "70_cam_image_array_.jpg"))
+    pilot = Pilot(run / "best.pt")
+    controls = pilot.step(frame)
+    assert "lane" in pilot.targets and len(controls.lane) == 3 and all(math.isfinite(v) for v in controls.lane)
+    onnx = export_onnx(run / "best.pt", tmp_path / "model.onnx")  # steering alone: the lane head is not exported
+    exported = Pilot(onnx)
+    assert "lane" not in exported.targets and exported.step(frame).lane is None
+    assert exported.step(frame).steering == pytest.approx(controls.steering, abs=1e-4)
+
+    # steering by the lane: the controller's angle on the lane the model sees, the model's throttle
+    from steerlab.sim.track.run import checkpoint_pilot
+
+    world = TrackWorld(1)
+    lane = checkpoint_pilot(run / "best.pt", TrackDriveOptions(steer_by="lane"))
+    plain = checkpoint_pilot(run / "best.pt", TrackDriveOptions())
+    frame = world.render()
+    got, head = lane.step(frame, 1.5), plain.step(frame, 1.5)
+    seen = lane.inner.part.controls.lane
+    expected = np.clip(lane_steering(*seen, 1.5, CAR.wheelbase), -CAR.full_lock, CAR.full_lock)
+    assert got.steering == pytest.approx(expected) and got.throttle == head.throttle
+    assert lane.convention.kind == "road_wheel" and lane.name == plain.name
+
+
+def test_steering_by_the_lane_is_refused_for_a_model_without_the_head(tmp_path, capsys):
+    from conftest import made
+
+    ckpt = made(tmp_path, "normalized", "right", "donkey", full_lock_deg=25)
+    assert main(["sim", "drive", str(ckpt), "--world", "track", "--minutes", "0.01", "--steer-by", "lane",
+                 "--out", str(tmp_path / "drive")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and f"{ckpt}: steer_by lane steers by the lane a model's lane head sees; model " \
+        "'pilotnet' has none" in err[0]
+
+
+def test_the_lane_controller_against_hand_computed_angles():
+    L = CAR.wheelbase  # 0.26 m
+    assert lane_steering(0.0, 0.0, 0.0, 2.0, L) == 0.0
+    assert lane_steering(0.0, 0.0, 0.5, 2.0, L) == pytest.approx(math.atan(0.13))  # follows the curve, to the left
+    assert lane_steering(0.0, 0.2, 0.0, 2.0, L) == pytest.approx(-0.2)  # turned left: back to the right
+    # 0.1 m left of the centre at 1.5 m/s: atan(2 x 0.1 / (1.5 + 0.5)) to the right
+    assert (K_OFFSET, V0) == (2.0, 0.5)
+    assert lane_steering(0.1, 0.0, 0.0, 1.5, L) == pytest.approx(-math.atan(0.1))
+    assert lane_steering(-0.1, -0.05, -1.0, 0.0, L) == pytest.approx(-math.atan(0.26) + 0.05 + math.atan(0.4))
+
+
+class Throttle:
+    """A pilot that gives a constant throttle (and steers straight): the throttle of a lane pilot."""
+
+    name, geometry, source, convention = "throttle", None, "a constant throttle", None
+
+    def step(self, frame, speed=None):
+        return Controls(0.0, throttle=0.5)
+
+    def reset(self):
+        pass
+
+
+@pytest.mark.parametrize("style", ["taped", "centre"])
+def test_the_lane_controller_on_the_true_lane_laps_a_track_cleanly(style):
+    world = TrackWorld(3, style=style, camera=None)
+    pilot = LanePilot(Throttle(), lambda: (*world.observe(), world.lane_curvature()))
+    t = drive_loop(world, pilot, 900, 0.0, 20.0, progress=False)  # 45 s at about 2.4 m/s
+    laps = world.laps.result()
+    assert laps["laps"] >= 2 and laps["clean_laps"] == laps["laps"] and not t.intervention.any()
+    assert np.max(np.abs(t.offset)) < 0.1  # within 10 cm of the centre line, 0.45 m from the lane's edge
+
+
+def test_a_donkeycar_part_in_the_suite_cannot_steer_by_the_lane():
+    from steerlab.sim.track.suite import TrackSuiteOptions, race_part
+
+    with pytest.raises(SteerlabError, match=r"^model.h5: steer_by lane steers by a steerlab checkpoint's lane head; "
+                                            r"a donkeycar part steers by its own angle: set steer_by to steering$"):
+        race_part(Throttle, "theirs", "model.h5", TrackSuiteOptions(steer_by="lane"))
