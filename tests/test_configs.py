@@ -551,7 +551,7 @@ def test_the_recipe_table_says_what_each_row_raced():
     from studies import track_recipes as recipes
 
     row = dict(cap=0.5, runs=3, laps=55.0, clean_pct=61.0, finished=4.7, tracks=8, off_track_per_lap=2.45,
-               off_track=139.3, pace=0.997, pace_tracks=3)
+               off_track=139.3, pace=0.997, pace_tracks=3, each=[])
     names = ("mae-throttle-2", "donkeycar-rooms", "donkeycar-rooms-throttle-2")
     lines = recipes.markdown([dict(row, recipe=name) for name in names], "t1").splitlines()[-3:]
     assert [line.split(" | ")[1] for line in lines] == [
