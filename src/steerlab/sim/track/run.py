@@ -8,10 +8,10 @@ servo command: the expert's road-wheel angle over the car's full lock, positive 
 expert's throttle) of every frame, and the lane the car is in (`lane/offset`, `lane/heading`,
 `lane/curvature`: the values steerlab's layout records as lateral offset, heading error and curvature). A tub
 has no episode column, so the expert's drift-out stretches (it lets the car drift towards a lane line, to show
-the recovery that follows) are written and marked deleted
-(`deleted_indexes`), as an owner cuts their mistakes out with donkeycar's tub editor: neither donkeycar's training
-nor steerlab's reader uses them, the recover frames that follow are kept, and each kept stretch after a cut is a
-session of its own, so that no model's frame history spans a cut. steerlab's own layout (`layout="steerlab"`)
+the recovery that follows) are written and marked deleted (`deleted_indexes`), as an owner cuts their mistakes
+out with donkeycar's tub editor: neither donkeycar's training nor steerlab's reader uses them, the recover
+frames that follow are kept, and each kept stretch after a cut is a session of its own, so that no model's frame
+history spans a cut. steerlab's own layout (`layout="steerlab"`)
 keeps every frame with its episode, lateral offset, heading error and curvature (training leaves drift-outs out
 with `exclude_episodes: [drift-out]`), the steering in the tub's unit (normalized, positive right, with the
 car's full lock) and the throttle split into throttle and brake. Both carry the camera (`fisheye`: its K, D and
