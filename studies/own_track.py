@@ -2,7 +2,8 @@
 
 For every K of `--minutes`, the racing expert drives K minutes on track `--track` (`steerlab sim record --world
 track --seed TRACK --minutes K`: a tub, its drift-outs cut as an owner cuts them), and on that tub are trained
-`configs/track_best.yaml`'s recipe (every `--seeds` seed; validation on the tub's last fifth) and, with
+`--recipe` (a config, by default `configs/track_best.yaml`, its data replaced by the tub; every `--seeds` seed;
+validation on the tub's last fifth) and, with
 `--donkeycar`, donkeycar's linear model by its own trainer (`donkey train`, its default config: a random 80/20
 split; `--donkeycar-runs` runs). Each races the same track for `--race-minutes` minutes uncapped, in the room's
 own light and in another (`--light`: the room's light level instead of its own, drawn in 0.75-1.2), steerlab's
@@ -15,6 +16,7 @@ min-max; and the fewest minutes of driving to >= 95 % clean laps. OUT/own-track.
 tub, model and drive is kept and reused (a drive while its key, the model's sha256 and the options, holds).
 
 python -m studies.own_track [--track 77] [--style taped] [--minutes 0.5,1,2,4] [--seeds 0,1] [--light 0.55]
+    [--recipe configs/track_best.yaml]
     [--donkeycar [--donkeycar-runs 3] [--donkeycar-throttle-scale 1]] [--workers 2] [--out runs/own-track]
 """
 
@@ -51,14 +53,14 @@ def record(tubs: Path, track: int, style: str, minutes: float) -> Path:
     return tub
 
 
-def train(tub: Path, seed: int, out: Path) -> Path:
-    """configs/track_best.yaml's recipe on the tub alone, validated on its last fifth (trained once; an interrupted
-    training resumes)."""
+def train(recipe: Path, tub: Path, seed: int, out: Path) -> Path:
+    """The config `recipe` on the tub alone, validated on its last fifth (trained once; an interrupted training
+    resumes)."""
     from steerlab.train.config import load_config
     from steerlab.train.loop import train as train_config
 
     if not (out / "done.json").exists():
-        cfg = yaml.safe_load(RECIPE.read_text())
+        cfg = yaml.safe_load(recipe.read_text())
         usable = len(open_recording(str(tub), options=cfg["reader"]))
         cut = int(round(0.8 * usable))
         cfg.update(data=str(tub), split={"train": f"0:{cut}", "val": f"{cut}:{usable}"})
@@ -180,6 +182,7 @@ class OwnTrack(Options):
     donkeycar_runs: int = option(3, AT_LEAST_1, help="how many runs of donkeycar's trainer race")
     donkeycar_throttle_scale: float = throttle_scale_option()
     workers: int = option(2, WORKERS, help="steerlab's drives in parallel (donkeycar's run one at a time)")
+    recipe: str = option(str(RECIPE), path="file", help="the config trained on each tub (its data replaced)")
     out: str = option(str(ROOT / "runs" / "own-track"), path="folder", help="the study's folder")
 
 
@@ -198,7 +201,8 @@ def main(_, a: OwnTrack) -> None:
     pilots = {}
     for minutes in MINUTES_LIST.of(a.minutes):
         tub = record(out / "tubs", a.track, a.style, minutes)
-        racing = [(STEERLAB, f"seed{s}", train(tub, s, out / f"{minutes:g}min" / f"seed{s}"), None, a.throttle_scale)
+        racing = [(STEERLAB, f"seed{s}", train(Path(a.recipe), tub, s, out / f"{minutes:g}min" / f"seed{s}"), None,
+                   a.throttle_scale)
                   for s in SEEDS.of(a.seeds)]
         if a.donkeycar:
             car, models = donkey_models(out, tub.parent, a.donkeycar_runs, (tub.name,), f"donkey-{minutes:g}min")
