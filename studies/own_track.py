@@ -38,7 +38,8 @@ from steerlab.sim.core.part import PartPilot
 from steerlab.sim.core.suite import Planned, as_stored, file_sha256, run_drives
 from steerlab.sim.track import run
 from steerlab.sim.track.world import TrackDriveOptions, TrackRecordOptions, throttle_scale_option
-from studies.common import ROOT, DonkeycarPart, NumberList, donkey_models, donkey_python, machine, write_table
+from studies.common import (ROOT, DonkeycarPart, NumberList, donkey_models, donkey_python, machine, mean_min_max,
+                            write_table)
 
 RECIPE = ROOT / "configs" / "track_best.yaml"
 CLEAN = 95.0  # % of laps clean: the target
@@ -91,13 +92,10 @@ def drive(kind: str, model: str | None, car: str | None, folder: str, o: TrackDr
 
 
 def spread(values: list[float | None], fmt: str) -> str:
-    """The mean and the min-max of the runs' values ('-' where a run has none: no clean lap for a pace)."""
-    got = [v for v in values if v is not None]
-    if not got:
-        return "-"
-    text = format(float(np.mean(got)), fmt)
-    text += f" ({format(min(got), fmt)}-{format(max(got), fmt)})" if len(got) > 1 else ""
-    return text + (f", {len(got)} of {len(values)}" if len(got) < len(values) else "")
+    """The mean and the min-max of the runs' values, and how many runs have one where some have none (no clean
+    lap: no pace)."""
+    got = sum(v is not None for v in values)
+    return mean_min_max(values, fmt) + (f", {got} of {len(values)}" if 0 < got < len(values) else "")
 
 
 def rows_of(results: dict, expert: dict, pilots: dict) -> list[dict]:
@@ -158,6 +156,7 @@ def plot(rows: list[dict], path: Path) -> None:
     ax.axhline(CLEAN, color="grey", lw=0.8, ls=":")
     ax.set(xscale="log", xlabel="minutes of driving on the track", ylabel="clean laps [%]", ylim=(-2, 102))
     ax.set_xticks(sorted({r["minutes"] for r in rows}), [f"{m:g}" for m in sorted({r["minutes"] for r in rows})])
+    ax.minorticks_off()  # a log axis's minor labels (6e-1, 3e0) would sit among the minutes
     ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=120)

@@ -47,7 +47,8 @@ from steerlab.data.readers import open_recording
 from steerlab.options import AT_LEAST_1, SEED, WORKERS, Options, Range, names_from, names_held, option
 from steerlab.sim.track.suite import TRACK_SUITES, TrackSuiteOptions, part_entrant, race, report, summarize
 from steerlab.sim.track.world import throttle_floor_option, throttle_scale_option
-from studies.common import ROOT, DonkeycarPart, NumberList, donkey_models, donkey_python, machine, training_tub
+from studies.common import (ROOT, DonkeycarPart, NumberList, donkey_models, donkey_python, machine, mean_min_max,
+                            training_tub)
 
 TUBS = [f"{style}-{seed}" for style in ("taped", "centre") for seed in (1, 2, 3, 4)]
 TUB_MINUTES = 2.0
@@ -375,11 +376,7 @@ def markdown(rows: list[dict], suite: str) -> str:
 
     for r in rows:
         def f(key, fmt):  # the mean, and the runs' min-max beside it
-            if r[key] is None:
-                return "-"
-            each = [e[key] for e in r["each"] if e[key] is not None]
-            spread = f" ({min(each):{fmt}}-{max(each):{fmt}})" if len(each) > 1 else ""
-            return f"{r[key]:{fmt}}{spread}"
+            return "-" if r[key] is None else mean_min_max([e[key] for e in r["each"]] or [r[key]], fmt)
 
         lines.append(f"| {r['recipe']} | {describe(r['recipe'])} | {r['cap']:g} | {r['runs']} | "
                      f"{f('laps', '.1f')} | {f('clean_pct', '.1f')} | {f('finished', '.1f')} of "
