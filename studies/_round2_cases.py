@@ -433,7 +433,9 @@ def main_cases():
             ("smoothing=2", {"smoothing": 2.0}, ["smoothing"]), ("steering_step=0", {"steering_step": 0.0},
                                                                   ["steering_step"]),
             ("command_step=nan", {"command_step": float("nan")}, ["command_step"]),
-            ("throttle_scale=[1]", {"throttle_scale": [1.0]}, ["throttle_scale"])):
+            ("throttle_scale=[1]", {"throttle_scale": [1.0]}, ["throttle_scale"]),
+            ("throttle_floor=-0.1", {"throttle_floor": -0.1}, ["throttle_floor"]),
+            ("throttle_floor='0.2'", {"throttle_floor": "0.2"}, ["throttle_floor"])):
         add(f"SteerlabPilot(donkey.pt, {label})", lambda kw=kw: part(dk, **kw), hint=hint)
     add("SteerlabPilot(a tub folder)", lambda: part(str(tubp)), hint=["tub"])
     add("SteerlabPilot(None)", lambda: part(None), hint=["model"])

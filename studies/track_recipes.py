@@ -199,6 +199,9 @@ RECIPES = {
                                "driven as track_best (--throttle-scale 1.2)",
                                (*COLOUR, "train.flip=true", "train.loss=mae", "split={random: 0.2}"),
                                race={"throttle_scale": 1.2}, tubs=ROOMS, merged=True),
+    "donkey-split-floor-0.2": Recipe("mae-donkey-split driven as track_best is: with a throttle of at least 0.2 while "
+                                     "the car stands (--throttle-floor 0.2)",
+                                     race={**RACE_BEST, "throttle_floor": 0.2}, starts="mae-donkey-split"),
     # the levers of recovery and racing on track_best (flip-mae, x 1.2 uncapped)
     "best-no-drift": Recipe("track_best on the same tracks driven without drift-and-recover episodes (the "
                             "recovery the expert shows left out)", BEST, RACE_BEST, ROOMS_NO_DRIFT, only=240),

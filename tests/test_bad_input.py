@@ -1447,6 +1447,7 @@ def test_the_donkeycar_part_refuses_options_it_cannot_use(tmp_path):
                              ({"threads": 1.5}, r"threads must be an integer in \[1, \d+\] \(this machine's cores\), "
                                                 r"got 1.5"),
                              ({"throttle_scale": 0}, r"throttle_scale must be a number in \(0, 10\], got 0"),
+                             ({"throttle_floor": -0.1}, r"throttle_floor must be a number in \[0, 1\], got -0.1"),
                              ({"max_throttle": 0}, r"max_throttle must be a number in \(0, 1\], got 0"),
                              ({"clock": 5}, r"clock must be a function that returns seconds \(time.monotonic\), "
                                             r"got 5")]:

@@ -523,20 +523,19 @@ def test_a_donkeycar_tub_gets_the_tub_defaults_under_the_users_settings(tmp_path
 def test_track_best_is_the_recipe_the_closed_loop_chose(stand_in_tubs):
     """configs/track_best.yaml trains what `studies/track_recipes.py` raced as its chosen recipe: the same tubs, input,
     network and training options, and each race of its header drives as the recipe raced at that cap (its throttle
-    scale; docs/results/racing.md, "Racing the track world")."""
+    scale and floor at rest; docs/results/racing.md, "Racing the track world"), on the selection suite and on t2."""
     from studies import track_recipes as recipes
 
     best = load_config(ROOT / "configs" / "track_best.yaml")
-    chosen = {"1": recipes.RECIPES["mae-throttle-1.2"], "0.5": recipes.RECIPES["mae-throttle-2"]}  # by the cap
-    trained = chosen["1"].starts
-    for recipe in chosen.values():
-        assert recipe.starts == trained and not recipe.overrides and set(recipe.race) == {"throttle_scale"}
+    chosen = recipes.RECIPES["best-floor-0.2"]
+    trained = chosen.starts
+    assert not chosen.overrides and set(chosen.race) == {"throttle_scale", "throttle_floor"}
     benches = [line for line in (ROOT / "configs" / "track_best.yaml").read_text().split("\n#   .venv/bin/steerlab ")
                if line.startswith("sim bench")]
-    assert len(benches) == 2
+    assert [bench.split("--suite ")[1].split()[0] for bench in benches] == ["s1", "t2"]
     for bench in benches:
-        cap = bench.split("--max-throttle ")[1].split()[0]
-        assert f"--throttle-scale {chosen[cap].race['throttle_scale']:g} " in bench, bench
+        assert "--max-throttle 1 " in bench and f"--throttle-scale {chosen.race['throttle_scale']:g} " in bench
+        assert f"--throttle-floor {chosen.race['throttle_floor']:g} " in bench, bench
     raced = recipes.recipe_base(trained, Path("runs/race/tubs")) | {"split": as_dict(best.split)}
     overrides = recipes.RECIPES[trained].overrides
     raced = load_config(None, base=raced, overrides=[*overrides, "train.seed=0"])

@@ -386,6 +386,32 @@ def test_the_learned_throttle_is_capped_both_ways_and_braking_is_scaled_too(tmp_
             SteerlabPilot(steering, **given)
 
 
+def test_the_parts_throttle_floor_holds_only_while_the_measured_speed_says_the_car_stands(tmp_path):
+    """`SteerlabPilot(throttle_floor=)` on a car, by hand: a learned brake (-0.2, scaled 1.5 to -0.3) becomes the
+    floor 0.25 below 0.1 m/s and stays a brake at 0.1 m/s and above; the floor within the cap; without the measured
+    speed, or on a model of a constant throttle, the part refuses in one line."""
+    from steerlab.donkey import SteerlabPilot
+
+    ckpt = made(tmp_path, "normalized", "right", "donkey", full_lock_deg=25, throttle=True)
+    frame = np.zeros((120, 160, 3), np.uint8)
+    for speed, cap, expected in [(0.0, 1.0, 0.25), (0.09, 1.0, 0.25), (0.1, 1.0, -0.3), (2.0, 1.0, -0.3),
+                                 (0.0, 0.2, 0.2)]:
+        part = SteerlabPilot(ckpt, throttle_scale=1.5, throttle_floor=0.25, max_throttle=cap)
+        part.pilot.step = lambda image, speed=None: Controls(0.1, throttle=-0.2)
+        assert part.run(frame, speed) == pytest.approx((0.1, expected))
+    part.pilot.step = lambda image, speed=None: Controls(0.1, throttle=0.6)  # above the floor: as it is
+    assert part.run(frame, 0.0) == pytest.approx((0.1, 0.2))
+    with pytest.raises(SteerlabError, match=r"^SteerlabPilot: the throttle floor needs the measured speed \(m/s\) "
+                                            r"with every frame: add the car's odometry \(HAVE_ODOM = True\)"):
+        part.run(frame)
+    with pytest.raises(SteerlabError, match=r"^SteerlabPilot: throttle_floor must be a number in \[0, 1\], got 1.5$"):
+        SteerlabPilot(ckpt, throttle_floor=1.5)
+    steering = made(tmp_path, "normalized", "right", "donkey", name="steering.pt", full_lock_deg=25)
+    with pytest.raises(SteerlabError, match=r"^SteerlabPilot: throttle_floor shapes a learned throttle; steering.pt "
+                                            r"drives at a constant throttle"):
+        SteerlabPilot(steering, throttle_floor=0.2)
+
+
 def test_sim_bench_world_track_writes_its_tables_and_reuses_drives(tmp_path, capsys):
     (tmp_path / "a").mkdir()
     ckpt = made(tmp_path / "a", "normalized", "right", "donkey", name="best.pt", full_lock_deg=25)

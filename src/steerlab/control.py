@@ -1,9 +1,20 @@
 """The one speed controller: the throttle that drives a measured speed to a target (the Udacity simulator
-server's set speed, a donkeycar part's predicted speed)."""
+server's set speed, a donkeycar part's predicted speed), and the one throttle floor at rest."""
 
 from __future__ import annotations
 
 import numpy as np
+
+AT_REST = 0.1  # m/s: slower than this, the car stands (or creeps) as far as a throttle floor is concerned
+
+
+def floored(throttle: float, speed: float | None, floor: float, cap: float) -> float:
+    """`throttle`, but at least `floor` (within the cap `cap`) while the car stands (`speed` below AT_REST): a
+    throttle learned from the image alone brakes at rest where the expert braked at speed, and would leave the car
+    standing for good. Without a measured speed, `throttle` as it is."""
+    if floor and speed is not None and speed < AT_REST:
+        return max(throttle, min(floor, cap))
+    return throttle
 
 
 class SpeedControl:

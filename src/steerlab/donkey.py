@@ -15,12 +15,14 @@ deliver) and, optionally, the measured speed (`enc/speed`, m/s, from donkeycar's
   Values beyond full lock are clipped to [-1, 1].
 - **throttle**: for a model that learned the throttle (a tub model trained with `train.throttle_weight`, the
   tub default) the learned throttle times `throttle_scale`, capped to [-`max_throttle`, `max_throttle`]
-  (negative: the brake or reverse, as the tub recorded it); forcing a constant `throttle` on such a model is
-  refused unless `learned_throttle=False` says so. For a steering model the constant `throttle` (0.3 unless
-  given); for a model that predicts the next frame's speed (`multitask-speed`, which also needs the measured speed with every frame) a PI
-  controller drives the measured speed to the predicted one around `throttle` as the cruising throttle; for a
-  speed-command model (`speed-command`: decelerate / maintain / accelerate) the throttle steps down, stays or
-  steps up by `command_step` each frame. donkeycar's `DriveMode` part multiplies it by `AI_THROTTLE_MULT`.
+  (negative: the brake or reverse, as the tub recorded it), and at least `throttle_floor` while the measured speed
+  says the car stands (`control.floored`; the floor needs `enc/speed`); forcing a constant `throttle` on such a
+  model is refused unless `learned_throttle=False` says so. For a steering model the constant `throttle` (0.3
+  unless given); for a model that predicts the next frame's speed (`multitask-speed`, which also needs the
+  measured speed with every frame) a PI controller drives the measured speed to the predicted one around
+  `throttle` as the cruising throttle; for a speed-command model (`speed-command`: decelerate / maintain /
+  accelerate) the throttle steps down, stays or steps up by `command_step` each frame. donkeycar's `DriveMode`
+  part multiplies it by `AI_THROTTLE_MULT`.
 
 The streaming state lives in the steerlab `Pilot` (previous frame for difference and flow, frame stack, speed
 history, recurrent state): the same code `steerlab evaluate` runs, so what was evaluated is what drives. The
@@ -46,7 +48,7 @@ from typing import Callable
 
 import numpy as np
 
-from steerlab.control import SpeedControl
+from steerlab.control import SpeedControl, floored
 from steerlab.data.car import car_of
 from steerlab.data.geometry import CAMERAS
 from steerlab.data.recording import SteeringConvention, said_full_lock
@@ -87,6 +89,8 @@ class SteerlabPilot:
         controllers; for a model that learned the throttle only with `learned_throttle=False`.
     learned_throttle: a model that learned the throttle drives with it (False: with the constant `throttle`).
     throttle_scale: the learned throttle is multiplied by it (donkeycar's AI_THROTTLE_MULT does the same later).
+    throttle_floor: the learned throttle is at least this while the car stands (slower than 0.1 m/s; needs the
+        measured speed with every frame).
     full_lock_deg: the car's road-wheel angle at full lock, in degrees; needed for models trained on angles.
     max_throttle: no throttle but the constant one exceeds it (a learned one is capped to +-max_throttle).
     threads: the model's threads (default: half the cores, at least one).
@@ -100,13 +104,15 @@ class SteerlabPilot:
     """
 
     def __init__(self, model: str | Path, throttle: float | None = None, *, learned_throttle: bool = True,
-                 throttle_scale: float = 1.0, full_lock_deg: float | None = None, max_throttle: float = 0.5,
-                 kp: float = 0.1, ki: float = 0.01, command_step: float = 0.01, smoothing: float | None = None,
+                 throttle_scale: float = 1.0, throttle_floor: float = 0.0, full_lock_deg: float | None = None,
+                 max_throttle: float = 0.5, kp: float = 0.1, ki: float = 0.01, command_step: float = 0.01,
+                 smoothing: float | None = None,
                  steering_step: float | None = None, threads: int | None = None, reset_after_s: float | None = 0.5,
                  clock: Callable[[], float] = time.monotonic):
         forced = throttle is not None
         self.throttle = _check("throttle", DEFAULT_THROTTLE if throttle is None else throttle, 0.0, 1.0)
         self.throttle_scale = _check("throttle_scale", throttle_scale, 0.0, 10.0, low_open=True)
+        self.throttle_floor = _check("throttle_floor", throttle_floor, 0.0, 1.0)
         self.full_lock = None if full_lock_deg is None else math.radians(
             _check("full_lock_deg", full_lock_deg, 0.0, 89.0, low_open=True))
         said_full_lock(full_lock_deg, "SteerlabPilot", once=False)  # each part is made once
@@ -122,6 +128,9 @@ class SteerlabPilot:
             raise SteerlabError(f"SteerlabPilot: {self.source.name} learned the throttle; throttle={throttle!r} "
                                 "would override it: pass learned_throttle=False to drive at a constant throttle, or "
                                 "leave throttle out (throttle_scale and max_throttle shape the learned one)")
+        if self.throttle_floor and not self.learned:
+            raise SteerlabError(f"SteerlabPilot: throttle_floor shapes a learned throttle; {self.source.name} drives "
+                                "at a constant throttle or a speed controller's: leave throttle_floor out")
         conv = self.pilot.convention
         if conv.kind != "normalized" and self.full_lock is None:
             wheel = "steering-wheel" if conv.kind == "steering_wheel" else "road-wheel"
@@ -183,10 +192,10 @@ class SteerlabPilot:
             got = "x".join(map(str, img.shape)) or "a scalar"
             raise SteerlabError(f"SteerlabPilot: the camera frame is {got} {img.dtype}; {self.source.name} "
                                 f"(model {self.pilot.name!r}) expects {self.expected()}")
-        if (self.pilot.speed_history or "speed" in self.pilot.targets) and speed is None:
-            raise SteerlabError(f"SteerlabPilot: model {self.pilot.name!r} needs the measured speed (m/s) with every "
-                                "frame: add the car's odometry (HAVE_ODOM = True) and inputs=['cam/image_array', "
-                                "'enc/speed']")
+        if (self.pilot.speed_history or "speed" in self.pilot.targets or self.throttle_floor) and speed is None:
+            needs = "the throttle floor needs" if self.throttle_floor else f"model {self.pilot.name!r} needs"
+            raise SteerlabError(f"SteerlabPilot: {needs} the measured speed (m/s) with every frame: add the car's "
+                                "odometry (HAVE_ODOM = True) and inputs=['cam/image_array', 'enc/speed']")
         if gap:
             self.reset()
         self.frames += 1
@@ -199,7 +208,8 @@ class SteerlabPilot:
         `throttle_scale` capped to +-`max_throttle`, the speed controller's, the speed command's step, or the
         constant one."""
         if self.learned:
-            return float(np.clip(self.throttle_scale * out.throttle, -self.max_throttle, self.max_throttle))
+            return floored(float(np.clip(self.throttle_scale * out.throttle, -self.max_throttle, self.max_throttle)),
+                           speed, self.throttle_floor, self.max_throttle)
         if out.speed is not None:
             return self.speed_control.update(out.speed, speed)
         if out.command is not None:

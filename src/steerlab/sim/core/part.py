@@ -16,14 +16,12 @@ from pathlib import Path
 
 import numpy as np
 
+from steerlab.control import floored
 from steerlab.data.car import CARS, Car
 from steerlab.data.recording import SteeringConvention
 from steerlab.donkey import SteerlabPilot
 from steerlab.errors import SteerlabError
 from steerlab.pilot import Controls, Pilot
-
-AT_REST = 0.1  # m/s: slower than this, the car stands (or creeps) as far as a throttle floor is concerned
-
 
 class PartPilot:
     """`part`: anything with `run(img_arr) -> (angle, throttle)`, or `run(img_arr, speed)` with `with_speed`
@@ -31,10 +29,9 @@ class PartPilot:
     road-wheel angle of the driven car at angle +-1. The part's throttle reaches the car times `throttle_scale`,
     then limited to +-`max_throttle` (at most 1, the ESC's range): min(max_throttle, throttle_scale x throttle)
     going forward, as steerlab's own part shapes a learned throttle (donkeycar's AI_THROTTLE_MULT scales after its
-    cap instead). While the car is at rest (slower than AT_REST), the throttle is at least `throttle_floor` (within
-    the cap): a throttle learned from the image alone brakes at rest where the expert braked at speed, and would
-    leave the car standing for good. `reset()` calls the part's own `reset` if it has one (after an off-track event the pilot forgets
-    its past), `close()` its `close` (a part behind a pipe). `name`, `geometry` (the camera the part expects;
+    cap instead). While the car is at rest, the throttle is at least `throttle_floor` (within the cap;
+    `control.floored`). `reset()` calls the part's own `reset` if it has one (after an off-track event the pilot
+    forgets its past), `close()` its `close` (a part behind a pipe). `name`, `geometry` (the camera the part expects;
     "donkey" for donkeycar's 160x120 camera) and `source` (what messages name) describe it to the loop."""
 
     def __init__(self, part, full_lock_deg: float, name: str | None = None, geometry: str | None = "donkey",
@@ -71,9 +68,8 @@ class PartPilot:
                 from None
         if not (math.isfinite(angle) and math.isfinite(throttle)):
             raise SteerlabError(f"{self.source}: run() returned ({angle}, {throttle}); finite numbers are expected")
-        throttle = float(np.clip(self.throttle_scale * throttle, -self.max_throttle, self.max_throttle))
-        if self.throttle_floor and speed is not None and speed < AT_REST:
-            throttle = max(throttle, min(self.throttle_floor, self.max_throttle))
+        throttle = floored(float(np.clip(self.throttle_scale * throttle, -self.max_throttle, self.max_throttle)),
+                           speed, self.throttle_floor, self.max_throttle)
         return Controls(float(np.clip(angle, -1.0, 1.0)), throttle=throttle)
 
     def reset(self) -> None:
