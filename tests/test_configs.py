@@ -354,6 +354,7 @@ def run_line(cfg) -> str:
         (t.hue_deg, f"hue +-{t.hue_deg:g} deg"),
         (t.target_shift_s, f"target {t.target_shift_s:g} s ahead"),
         (t.recovery_weight > 1, f"recover episodes drawn {t.recovery_weight} times"),
+        (t.epoch_samples, f"at least {t.epoch_samples} samples an epoch"),
         (t.exclude_episodes, "without " + " and ".join(t.exclude_episodes)),
         (t.views, "views " + " ".join(f"{x:+g} m {y:+g} deg" for x, y in t.views)),
         (t.recovery_distance_m, f"returning within {t.recovery_distance_m or 0:g} m"),

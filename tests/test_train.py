@@ -385,6 +385,22 @@ def test_a_run_of_an_earlier_version_loads_and_resumes(tiny_recording, tmp_path,
         loop.train(load_config(None, base={**user, "train": {**user["train"], "lr": 1e-3}}), progress=False)
 
 
+def test_a_short_recording_draws_every_sample_as_often_as_epoch_samples_asks(tiny_recording, tmp_path):
+    """train.epoch_samples: 40 training frames and at least 100 samples an epoch: every frame drawn ceil(100 / 40) =
+    3 times an epoch, in batches of 32 (120 samples: 3 full batches and 24); at most 40 asked of 40 frames, or the
+    option unset, each once."""
+    def drawn(**options):
+        cfg = _cfg(tiny_recording, tmp_path, split={"train": "0:40", "val": "40:60"}, **options).for_car(CH2_CAR)
+        codes = np.concatenate([batch.codes for batch in loop.build(cfg, Ranks(), False, None, None).sampler])
+        return np.unique(codes, return_counts=True)[1]
+
+    assert drawn(epoch_samples=100).tolist() == [3] * 40
+    assert drawn(epoch_samples=40).tolist() == drawn().tolist() == [1] * 40
+    assert drawn(epoch_samples=41).tolist() == [2] * 40
+    with pytest.raises(SteerlabError, match="train.epoch_samples must be"):
+        _cfg(tiny_recording, tmp_path, epoch_samples=-1)
+
+
 def test_the_batches_do_not_depend_on_the_number_of_workers(tiny_recording, tmp_path):
     """Every random draw (order, flips, motion dropout, augmentation) is made where the batches are drawn, so one
     or two worker processes give the batches that loading in this process gives."""

@@ -24,8 +24,8 @@ from steerlab.models.registry import ModelSpec, learns_lane, learns_throttle, li
 from steerlab import files
 from steerlab.paths import a_path, distinct, same_path
 from steerlab.files import UniqueKeys
-from steerlab.options import (AT_LEAST_0, AT_LEAST_1, Options, POSITIVE, Range, SEED, UNIT, WORKERS, as_dict, option,
-                              parse)
+from steerlab.options import (AT_LEAST_0, AT_LEAST_1, COUNT_MAX, Options, POSITIVE, Range, SEED, UNIT, WORKERS,
+                              as_dict, option, parse)
 
 LOSSES = {"mse": "rmse", "mae": "mae"}  # train.loss -> the validation metric that picks the best epoch
 
@@ -74,6 +74,9 @@ class TrainOptions(Options):
     motion_dropout: float = option(0.0, UNIT, help="fraction of samples shown 'no motion seen'")
     target_shift_s: float = option(0.0, AT_LEAST_0, help="train on the steering this many seconds ahead")
     recovery_weight: int = option(1, AT_LEAST_1, help="samples in recovery episodes are drawn this many times")
+    epoch_samples: int = option(0, Range(0, COUNT_MAX), help="an epoch draws every training sample as many times "
+                                "over as it takes to draw at least this many (0: once each): a short drive gets the "
+                                "batches an epoch of a long one")
     keep: Literal["best", "last"] = option("best", help="best.pt: the best validation epoch, or the last one")
     init: str | None = option(None, expected="a checkpoint path", help="start from this checkpoint's weights")
     teacher: str | None = option(None, expected="a checkpoint path", help="distillation: its predictions")
@@ -185,7 +188,7 @@ class TrainConfig(Options):
             del t["side_offset_m"]
         if not (t["side_cameras"] or t["views"]):
             del t["steering_ratio"]
-        for key in ("throttle_weight", "lane_weight"):  # runs from before these could be learned
+        for key in ("throttle_weight", "lane_weight", "epoch_samples"):  # runs from before these existed
             if not t[key]:
                 del t[key]
         return d

@@ -291,6 +291,10 @@ def build(cfg: TrainConfig, ranks: Ranks, progress: bool, init: dict | None, tea
         if not np.isin(episodes, "recover").any():
             raise SteerlabError("recovery_weight needs recordings with recovery episodes (the road and track worlds')")
         repeats = recovery_repeats(samples, episodes, t.recovery_weight)
+    drawn = len(samples) if repeats is None else int(repeats.sum())
+    if 0 < drawn < t.epoch_samples:  # every sample as many times over as it takes to draw epoch_samples
+        over = -(-t.epoch_samples // drawn)
+        repeats = np.full(len(samples), over) if repeats is None else repeats * over
     weights = balance_weights(data.steering(samples)) if t.balance else None
     sampler = EpochSampler(samples, t.batch_size, t.seed, t.flip, t.motion_dropout, weights, repeats, ranks.rank,
                            ranks.world)
