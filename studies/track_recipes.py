@@ -113,7 +113,7 @@ def varied(n: int) -> tuple[str, ...]:
     taped, centre = [f"taped-{s}-vary" for s in range(200, 248)], [f"centre-{s}-vary" for s in range(248, 264)]
     return (*taped[: n * 3 // 4], *centre[: n // 4])
 COLOUR = ("train.hue_deg=180", "train.brightness=0.25")  # the colours and light of other rooms
-BEST = (*COLOUR, "train.flip=true", "train.loss=mae")  # configs/track_best.yaml: flip-mae
+BEST = (*COLOUR, "train.flip=true", "train.loss=mae", "train.epoch_samples=3700")  # configs/track_best.yaml
 RACE_BEST = {"throttle_scale": 1.2}  # and how it races uncapped
 
 
@@ -175,7 +175,7 @@ RECIPES = {
                         race={"steering_step": 0.1}, starts="rooms-colour-flip"),
     "flip-mae": Recipe("rooms-colour-flip trained on the MAE of the steering (the tub default's loss) instead of "
                        "its MSE (the throttle's error is the MAE in both)",
-                       (*COLOUR, "train.flip=true", "train.loss=mae"), tubs=ROOMS, only=240),
+                       BEST, tubs=ROOMS, only=240),
     "mae-throttle-1.2": Recipe("flip-mae driven with its learned throttle times 1.2 before the cap "
                                "(--throttle-scale 1.2)", race={"throttle_scale": 1.2}, starts="flip-mae"),
     "mae-throttle-1.5": Recipe("flip-mae driven with its learned throttle times 1.5 before the cap "
@@ -197,7 +197,7 @@ RECIPES = {
     "mae-donkey-split": Recipe("flip-mae on donkeycar's split: the sixteen tubs as one, a random 20 % of all its "
                                "records validating (donkeycar's trainer: a random 80/20 split of every record), "
                                "driven as track_best (--throttle-scale 1.2)",
-                               (*COLOUR, "train.flip=true", "train.loss=mae", "split={random: 0.2}"),
+                               (*BEST, "split={random: 0.2}"),
                                race={"throttle_scale": 1.2}, tubs=ROOMS, merged=True),
     "donkey-split-floor-0.2": Recipe("mae-donkey-split driven as track_best is: with a throttle of at least 0.2 while "
                                      "the car stands (--throttle-floor 0.2)",

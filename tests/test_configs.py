@@ -297,7 +297,8 @@ EXPECTED = {
     ],
     "track_best.yaml": [
         "donkey-linear() 3@160x120 rgb, split 0:933/933:1173, epochs 15 with patience 3, batch 128, lr 0.001, "
-        "mae, throttle weight 1, flips, brightness 1 +- 0.25, hue +-180 deg, 15 extra recordings",
+        "mae, throttle weight 1, flips, brightness 1 +- 0.25, hue +-180 deg, at least 3700 samples an epoch, "
+        "15 extra recordings",
     ],
     "track_default.yaml": [
         "multimodal-lstm() 3@200x66 gray farneback flow, split 0:3000/3000:3538, epochs 8 with patience 3, batch 32, "
