@@ -114,7 +114,7 @@ def varied(n: int) -> tuple[str, ...]:
     return (*taped[: n * 3 // 4], *centre[: n // 4])
 COLOUR = ("train.hue_deg=180", "train.brightness=0.25")  # the colours and light of other rooms
 BEST = (*COLOUR, "train.flip=true", "train.loss=mae", "train.epoch_samples=3700")  # configs/track_best.yaml
-RACE_BEST = {"throttle_scale": 1.2}  # and how it races uncapped
+RACE_BEST = {"throttle_scale": 1.2}  # its scale uncapped (and its floor at rest: best-floor-0.2)
 
 
 def dagger_rounds(epochs: int) -> tuple[str, ...]:
@@ -196,13 +196,13 @@ RECIPES = {
                        (*COLOUR, "train.keep=last"), tubs=ROOMS_32, only=240),
     "mae-donkey-split": Recipe("flip-mae on donkeycar's split: the sixteen tubs as one, a random 20 % of all its "
                                "records validating (donkeycar's trainer: a random 80/20 split of every record), "
-                               "driven as track_best (--throttle-scale 1.2)",
+                               "at track_best's scale (--throttle-scale 1.2)",
                                (*BEST, "split={random: 0.2}"),
                                race={"throttle_scale": 1.2}, tubs=ROOMS, merged=True),
     "donkey-split-floor-0.2": Recipe("mae-donkey-split driven as track_best is: with a throttle of at least 0.2 while "
                                      "the car stands (--throttle-floor 0.2)",
                                      race={**RACE_BEST, "throttle_floor": 0.2}, starts="mae-donkey-split"),
-    # the levers of recovery and racing on track_best (flip-mae, x 1.2 uncapped)
+    # the levers of recovery and racing on track_best (flip-mae, x 1.2 uncapped; each alone, without the floor)
     "best-no-drift": Recipe("track_best on the same tracks driven without drift-and-recover episodes (the "
                             "recovery the expert shows left out)", BEST, RACE_BEST, ROOMS_NO_DRIFT, only=240),
     "best-dagger": Recipe("track_best + DAgger in the track world: 3 rounds of 4 minutes of rollouts on fresh tracks, "

@@ -391,6 +391,7 @@ def test_the_parts_throttle_floor_holds_only_while_the_measured_speed_says_the_c
     floor 0.25 below 0.1 m/s and stays a brake at 0.1 m/s and above; the floor within the cap; without the measured
     speed, or on a model of a constant throttle, the part refuses in one line."""
     from steerlab.donkey import SteerlabPilot
+    from steerlab.sim.core.part import donkey_pilot
 
     ckpt = made(tmp_path, "normalized", "right", "donkey", full_lock_deg=25, throttle=True)
     frame = np.zeros((120, 160, 3), np.uint8)
@@ -399,8 +400,13 @@ def test_the_parts_throttle_floor_holds_only_while_the_measured_speed_says_the_c
         part = SteerlabPilot(ckpt, throttle_scale=1.5, throttle_floor=0.25, max_throttle=cap)
         part.pilot.step = lambda image, speed=None: Controls(0.1, throttle=-0.2)
         assert part.run(frame, speed) == pytest.approx((0.1, expected))
+    part = SteerlabPilot(ckpt, throttle_scale=1.5, throttle_floor=0.25, max_throttle=1.0)
     part.pilot.step = lambda image, speed=None: Controls(0.1, throttle=0.6)  # above the floor: as it is
-    assert part.run(frame, 0.0) == pytest.approx((0.1, 0.2))
+    assert part.run(frame, 0.0) == pytest.approx((0.1, 0.9))
+    # in the track world the part's cap bounds the floor too: x 1 at a cap of 0.15, a floor of 0.5 gives 0.15
+    world_part = donkey_pilot(ckpt, 0.3, max_throttle=0.15, throttle_floor=0.5)
+    world_part.part.pilot.step = lambda image, speed=None: Controls(0.1, throttle=-0.2)
+    assert world_part.step(frame, 0.0).throttle == pytest.approx(0.15)
     with pytest.raises(SteerlabError, match=r"^SteerlabPilot: the throttle floor needs the measured speed \(m/s\) "
                                             r"with every frame: add the car's odometry \(HAVE_ODOM = True\)"):
         part.run(frame)

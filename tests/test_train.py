@@ -401,6 +401,20 @@ def test_a_short_recording_draws_every_sample_as_often_as_epoch_samples_asks(tin
         _cfg(tiny_recording, tmp_path, epoch_samples=-1)
 
 
+def test_epoch_samples_multiplies_the_repeats_of_recovery_weighting(tmp_path):
+    """Road-world seed 26 at 5 frames/s (recover frames 33-39), trained on frames 0-49 with recovery_weight 3: 43
+    frames drawn once and 7 three times, 64 an epoch; at least 200 an epoch draws each ceil(200 / 64) = 4 times
+    as often: 4 and 12."""
+    from steerlab.sim.road.run import record
+
+    rec = record(tmp_path / "rec", RecordOptions(seed=26, minutes=0.2, fps=5), progress=False)
+    for options, low, high in [({}, 1, 3), ({"epoch_samples": 200}, 4, 12)]:
+        cfg = _cfg(rec, tmp_path, recovery_weight=3, split={"train": "0:50", "val": "50:60"}, **options)
+        codes = np.concatenate([b.codes for b in loop.build(cfg.for_car(CH2_CAR), Ranks(), False, None, None).sampler])
+        counts = np.bincount(codes, minlength=50)
+        assert counts[33:40].tolist() == [high] * 7 and np.delete(counts, range(33, 40)).tolist() == [low] * 43
+
+
 def test_the_batches_do_not_depend_on_the_number_of_workers(tiny_recording, tmp_path):
     """Every random draw (order, flips, motion dropout, augmentation) is made where the batches are drawn, so one
     or two worker processes give the batches that loading in this process gives."""

@@ -8,13 +8,15 @@ import numpy as np
 AT_REST = 0.1  # m/s: slower than this, the car stands (or creeps) as far as a throttle floor is concerned
 
 
-def floored(throttle: float, speed: float | None, floor: float, cap: float) -> float:
-    """`throttle`, but at least `floor` (within the cap `cap`) while the car stands (`speed` below AT_REST): a
-    throttle learned from the image alone brakes at rest where the expert braked at speed, and would leave the car
-    standing for good. Without a measured speed, `throttle` as it is."""
+def shaped_throttle(throttle: float, scale: float, cap: float, floor: float = 0.0,
+                    speed: float | None = None) -> float:
+    """A part's throttle as it reaches the car: times `scale`, limited to +-`cap`, and at least `floor` (within the
+    cap) while the car stands (`speed` below AT_REST; without a measured speed, no floor): a throttle learned from
+    the image alone brakes at rest where the expert braked at speed, and would leave the car standing for good."""
+    shaped = float(np.clip(scale * throttle, -cap, cap))
     if floor and speed is not None and speed < AT_REST:
-        return max(throttle, min(floor, cap))
-    return throttle
+        return max(shaped, min(floor, cap))
+    return shaped
 
 
 class SpeedControl:

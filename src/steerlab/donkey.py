@@ -16,9 +16,9 @@ deliver) and, optionally, the measured speed (`enc/speed`, m/s, from donkeycar's
 - **throttle**: for a model that learned the throttle (a tub model trained with `train.throttle_weight`, the
   tub default) the learned throttle times `throttle_scale`, capped to [-`max_throttle`, `max_throttle`]
   (negative: the brake or reverse, as the tub recorded it), and at least `throttle_floor` while the measured speed
-  says the car stands (`control.floored`; the floor needs `enc/speed`); forcing a constant `throttle` on such a
-  model is refused unless `learned_throttle=False` says so. For a steering model the constant `throttle` (0.3
-  unless given); for a model that predicts the next frame's speed (`multitask-speed`, which also needs the
+  says the car stands (`control.shaped_throttle`; the floor needs `enc/speed`); forcing a constant `throttle` on
+  such a model is refused unless `learned_throttle=False` says so. For a steering model the constant `throttle`
+  (0.3 unless given); for a model that predicts the next frame's speed (`multitask-speed`, which also needs the
   measured speed with every frame) a PI controller drives the measured speed to the predicted one around
   `throttle` as the cruising throttle; for a speed-command model (`speed-command`: decelerate / maintain /
   accelerate) the throttle steps down, stays or steps up by `command_step` each frame. donkeycar's `DriveMode`
@@ -48,7 +48,7 @@ from typing import Callable
 
 import numpy as np
 
-from steerlab.control import SpeedControl, floored
+from steerlab.control import SpeedControl, shaped_throttle
 from steerlab.data.car import car_of
 from steerlab.data.geometry import CAMERAS
 from steerlab.data.recording import SteeringConvention, said_full_lock
@@ -208,8 +208,7 @@ class SteerlabPilot:
         `throttle_scale` capped to +-`max_throttle`, the speed controller's, the speed command's step, or the
         constant one."""
         if self.learned:
-            return floored(float(np.clip(self.throttle_scale * out.throttle, -self.max_throttle, self.max_throttle)),
-                           speed, self.throttle_floor, self.max_throttle)
+            return shaped_throttle(out.throttle, self.throttle_scale, self.max_throttle, self.throttle_floor, speed)
         if out.speed is not None:
             return self.speed_control.update(out.speed, speed)
         if out.command is not None:

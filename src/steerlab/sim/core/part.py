@@ -16,12 +16,13 @@ from pathlib import Path
 
 import numpy as np
 
-from steerlab.control import floored
+from steerlab.control import shaped_throttle
 from steerlab.data.car import CARS, Car
 from steerlab.data.recording import SteeringConvention
 from steerlab.donkey import SteerlabPilot
 from steerlab.errors import SteerlabError
 from steerlab.pilot import Controls, Pilot
+
 
 class PartPilot:
     """`part`: anything with `run(img_arr) -> (angle, throttle)`, or `run(img_arr, speed)` with `with_speed`
@@ -30,7 +31,7 @@ class PartPilot:
     then limited to +-`max_throttle` (at most 1, the ESC's range): min(max_throttle, throttle_scale x throttle)
     going forward, as steerlab's own part shapes a learned throttle (donkeycar's AI_THROTTLE_MULT scales after its
     cap instead). While the car is at rest, the throttle is at least `throttle_floor` (within the cap;
-    `control.floored`). `reset()` calls the part's own `reset` if it has one (after an off-track event the pilot
+    `control.shaped_throttle`). `reset()` calls the part's own `reset` if it has one (after an off-track event the pilot
     forgets its past), `close()` its `close` (a part behind a pipe). `name`, `geometry` (the camera the part expects;
     "donkey" for donkeycar's 160x120 camera) and `source` (what messages name) describe it to the loop."""
 
@@ -68,8 +69,7 @@ class PartPilot:
                 from None
         if not (math.isfinite(angle) and math.isfinite(throttle)):
             raise SteerlabError(f"{self.source}: run() returned ({angle}, {throttle}); finite numbers are expected")
-        throttle = floored(float(np.clip(self.throttle_scale * throttle, -self.max_throttle, self.max_throttle)),
-                           speed, self.throttle_floor, self.max_throttle)
+        throttle = shaped_throttle(throttle, self.throttle_scale, self.max_throttle, self.throttle_floor, speed)
         return Controls(float(np.clip(angle, -1.0, 1.0)), throttle=throttle)
 
     def reset(self) -> None:
@@ -107,4 +107,4 @@ def donkey_pilot(checkpoint: str | Path, throttle: float, smoothing: float | Non
     if not part.learned:
         part = part_with(throttle)
     return PartPilot(part, car.full_lock_deg, name=part.pilot.name, geometry=part.pilot.geometry,
-                     source=str(checkpoint), with_speed=True, throttle_floor=throttle_floor)
+                     source=str(checkpoint), with_speed=True, max_throttle=max_throttle, throttle_floor=throttle_floor)
