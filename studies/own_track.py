@@ -13,7 +13,8 @@ for it on s1). Synthetic closed loop.
 OUT/own-track.md, .csv, .json: per pilot, K and light the mean over its runs of laps, clean laps (their share),
 off-track events and pace (the mean clean lap over the expert's on the same track, uncapped), each with the runs'
 min-max; and the fewest minutes of driving to >= 95 % clean laps. OUT/own-track.png: clean laps against K. Every
-tub, model and drive is kept and reused (a drive while its key, the model's sha256 and the options, holds).
+tub, model and drive is kept and reused (a model while the recipe is the same, else refused; a drive while its
+key, the model's sha256 and the options, holds).
 
 python -m studies.own_track [--track 77] [--style taped] [--minutes 0.5,1,2,4] [--seeds 0,1] [--light 0.55]
     [--recipe configs/track_best.yaml]
@@ -56,19 +57,22 @@ def record(tubs: Path, track: int, style: str, minutes: float) -> Path:
 
 def train(recipe: Path, tub: Path, seed: int, out: Path) -> Path:
     """The config `recipe` on the tub alone, validated on its last fifth (trained once; an interrupted training
-    resumes)."""
-    from steerlab.train.config import load_config
-    from steerlab.train.loop import train as train_config
+    resumes; a finished run of another config is refused, not reused)."""
+    from steerlab.train.config import another_config, load_config
+    from steerlab.train.loop import run_changes, train as train_config
 
-    if not (out / "done.json").exists():
-        cfg = yaml.safe_load(recipe.read_text())
-        usable = len(open_recording(str(tub), options=cfg["reader"]))
-        cut = int(round(0.8 * usable))
-        cfg.update(data=str(tub), split={"train": f"0:{cut}", "val": f"{cut}:{usable}"})
-        cfg.pop("extra_data", None)
+    raw = yaml.safe_load(recipe.read_text())
+    usable = len(open_recording(str(tub), options=raw["reader"]))
+    cut = int(round(0.8 * usable))
+    raw.update(data=str(tub), split={"train": f"0:{cut}", "val": f"{cut}:{usable}"})
+    raw.pop("extra_data", None)
+    cfg = load_config(None, base=raw, overrides=[f"train.seed={seed}", f"out={out}"])
+    if (out / "done.json").exists():
+        if changes := run_changes(out, cfg):
+            raise another_config(out, changes)
+    else:
         print(f"== training {STEERLAB} on {tub.name}, seed {seed}", flush=True)
-        metrics = train_config(load_config(None, base=cfg, overrides=[f"train.seed={seed}", f"out={out}"]),
-                               progress=False)
+        metrics = train_config(cfg, progress=False)
         (out / "done.json").write_text(json.dumps(metrics, indent=1, default=str))
     return out / "best.pt"
 

@@ -4,8 +4,10 @@ their clean laps, pace against the expert's lap, and the fewest minutes to >= 95
 from types import SimpleNamespace as Drive
 
 import numpy as np
+import pytest
 
-from studies.own_track import fewest_minutes, rows_of, spread
+from steerlab.errors import SteerlabError
+from studies.own_track import fewest_minutes, record, rows_of, spread, train
 
 
 def test_the_runs_are_summed_up_per_pilot_minutes_and_light():
@@ -57,3 +59,19 @@ def test_donkeycars_drive_is_its_part_under_the_drives_throttle_scale(tmp_path, 
     assert json.loads((tmp_path / "drive" / "drive.json").read_text())["cache_key"] == {"k": 1}
     speed = np.loadtxt(tmp_path / "drive" / "trajectory.csv", delimiter=",", skiprows=1, usecols=6)
     assert abs(speed[-1] - steady_speed(0.45, 0.05, CARS["donkey"])) < 0.05  # 2.19 m/s (at 0.3: 1.44)
+
+
+def test_a_finished_training_is_reused_only_for_the_same_recipe(tmp_path):
+    """A run trained on the tub is reused by the same recipe (no training: its checkpoint untouched) and refused,
+    naming what differs, by another (a learning rate of 2e-3 where it had 1e-3)."""
+    tub = record(tmp_path / "tubs", 77, "taped", 0.05)
+    recipe = tmp_path / "recipe.yaml"
+    recipe.write_text("reader: {full_lock_deg: 25}\npreprocess: {width: 160, height: 120, color: rgb}\n"
+                      f"model: {{name: donkey-linear}}\ncache: {tmp_path / 'cache'}\n"
+                      "train: {epochs: 1, batch_size: 16, lr: 1.0e-3}\n")
+    best = train(recipe, tub, 0, tmp_path / "run")
+    made = best.stat().st_mtime_ns
+    assert train(recipe, tub, 0, tmp_path / "run") == best and best.stat().st_mtime_ns == made
+    recipe.write_text(recipe.read_text().replace("lr: 1.0e-3", "lr: 2.0e-3"))
+    with pytest.raises(SteerlabError, match=r"run holds a run of another config \(train.lr: 0.001 -> 0.002\)"):
+        train(recipe, tub, 0, tmp_path / "run")

@@ -106,9 +106,8 @@ class SteerlabPilot:
     def __init__(self, model: str | Path, throttle: float | None = None, *, learned_throttle: bool = True,
                  throttle_scale: float = 1.0, throttle_floor: float = 0.0, full_lock_deg: float | None = None,
                  max_throttle: float = 0.5, kp: float = 0.1, ki: float = 0.01, command_step: float = 0.01,
-                 smoothing: float | None = None,
-                 steering_step: float | None = None, threads: int | None = None, reset_after_s: float | None = 0.5,
-                 clock: Callable[[], float] = time.monotonic):
+                 smoothing: float | None = None, steering_step: float | None = None, threads: int | None = None,
+                 reset_after_s: float | None = 0.5, clock: Callable[[], float] = time.monotonic):
         forced = throttle is not None
         self.throttle = _check("throttle", DEFAULT_THROTTLE if throttle is None else throttle, 0.0, 1.0)
         self.throttle_scale = _check("throttle_scale", throttle_scale, 0.0, 10.0, low_open=True)
