@@ -25,7 +25,6 @@ import functools
 import json
 import math
 import os
-import platform
 import shutil
 import subprocess
 import sys
@@ -80,11 +79,19 @@ class NumberList:
 
 
 def machine() -> str:
-    """The machine a result is measured on: the processor, torch's threads and version."""
-    import torch
+    """The machine a result is measured on: the processor and its instruction sets, the kernels torch dispatches to
+    (with oneDNN's limit where ONEDNN_MAX_CPU_ISA sets one), torch's threads and version (or that torch is not
+    installed, as on a Raspberry Pi that runs ONNX models only)."""
+    from steerlab.cpu import instruction_sets, model_name
 
-    return (f"{platform.processor() or platform.machine()}, {torch.get_num_threads()} torch threads, "
-            f"torch {torch.__version__}")
+    try:
+        import torch
+    except ImportError:
+        return f"{model_name()} ({instruction_sets()}), no torch"
+    limit = os.environ.get("ONEDNN_MAX_CPU_ISA")
+    kernels = torch.backends.cpu.get_cpu_capability() + (f", oneDNN up to {limit}" if limit else "")
+    return (f"{model_name()} ({instruction_sets()}; torch's kernels {kernels}), {torch.get_num_threads()} torch "
+            f"threads, torch {torch.__version__}")
 
 
 # a study's start

@@ -226,14 +226,14 @@ def test_freed_memory_is_kept_for_the_next_step():
     assert _kept_after_free(True) > 60  # kept: the next step's block of this size touches no fresh page
 
 
-def test_bf16_precision_trains_in_bfloat16_and_says_when_the_cpu_emulates_it(tiny_recording, tmp_path,
-                                                                             monkeypatch, capsys):
-    from steerlab.train import host, loop
+@pytest.mark.parametrize("native", [True, False])
+def test_bf16_precision_trains_in_bfloat16_where_the_cpu_has_it_and_in_float32_where_it_would_be_emulated(
+        tiny_recording, tmp_path, monkeypatch, capsys, native):
+    from steerlab.train import loop
     from steerlab.train.config import load_config
 
     seen = []
-    monkeypatch.setattr(host, "bf16_instructions", lambda: False)
-    monkeypatch.setattr(loop, "bf16_instructions", lambda: False)
+    monkeypatch.setattr(loop, "bf16_instructions", lambda: native)
     forward = torch.nn.Conv2d.forward
 
     def spied(self, x):
@@ -247,8 +247,37 @@ def test_bf16_precision_trains_in_bfloat16_and_says_when_the_cpu_emulates_it(tin
                                   "preprocess": {"width": 64, "height": 64}, "model": {"name": "pilotnet"},
                                   "train": {"epochs": 1, "batch_size": 32, "precision": "bf16"}})
     loop.train(cfg, progress=True)
-    assert "bfloat16 is emulated and slower than fp32 here" in capsys.readouterr().out
-    assert torch.bfloat16 in seen  # the forward pass of training
+    said = "bfloat16 is emulated and slower: training in float32" in capsys.readouterr().out
+    assert said != native
+    assert (torch.bfloat16 in seen) == native  # the forward pass of training
     assert torch.float32 in seen  # validation
     ckpt = torch.load(tmp_path / "r" / "best.pt", weights_only=True)
     assert all(v.dtype == torch.float32 for v in ckpt["state_dict"].values() if v.is_floating_point())
+
+
+ZEN4 = "processor\t: 0\nmodel name\t: AMD EPYC\nflags\t\t: fpu sse avx avx2 avx512f avx512_vnni avx512_bf16\n"
+ZEN3 = "processor\t: 0\nmodel name\t: AMD EPYC 7763\nflags\t\t: fpu sse avx avx2 fma\n"
+SAPPHIRE = "flags\t\t: avx2 avx512f avx512_vnni amx_bf16 amx_int8 amx_tile\n"
+PI5 = "processor\t: 0\nBogoMIPS\t: 108.00\nFeatures\t: fp asimd evtstrm aes pmull sha1 sha2 crc32 asimdrdm asimddp\n"
+
+
+@pytest.mark.parametrize("cpuinfo, environ, bf16, sets", [
+    (ZEN4, {}, True, "AVX2, AVX-512, VNNI, BF16"),
+    (ZEN4, {"ONEDNN_MAX_CPU_ISA": "AVX2"}, False, "AVX2, AVX-512, VNNI, BF16"),  # oneDNN held below bfloat16
+    (ZEN4, {"ONEDNN_MAX_CPU_ISA": "avx512_core_bf16"}, True, "AVX2, AVX-512, VNNI, BF16"),
+    (ZEN3, {}, False, "AVX2 (no AVX-512)"),
+    (SAPPHIRE, {}, True, "AVX2, AVX-512, VNNI, AMX-BF16, AMX-INT8"),
+    (PI5, {}, False, "NEON, dot product"),
+    ("processor\t: 0\n", {}, None, "instruction sets unknown"),  # no flags line: not known
+])
+def test_the_cpus_instruction_sets_and_whether_it_computes_in_bfloat16(cpuinfo, environ, bf16, sets):
+    from steerlab.cpu import bf16_instructions, instruction_sets
+
+    assert bf16_instructions(cpuinfo, environ) is bf16
+    assert instruction_sets(cpuinfo).split(": ", 1)[1] == sets
+
+
+def test_the_cpus_name():
+    from steerlab.cpu import model_name
+
+    assert model_name(ZEN3) == "AMD EPYC 7763"

@@ -8,7 +8,7 @@ from pathlib import Path
 PACKAGE = Path(__file__).resolve().parents[1] / "src" / "steerlab"
 
 LAYERS = [
-    ("base", ["errors", "locks", "video", "figures", "options", "control", "paths", "files", "processes"]),
+    ("base", ["errors", "locks", "video", "figures", "options", "control", "paths", "files", "processes", "cpu"]),
     ("data", ["data"]),
     ("models", ["models", "checkpoint", "runtime", "export", "pilot", "donkey"]),
     ("train / sim", ["train", "sim", "evaluate", "serve"]),

@@ -48,6 +48,8 @@ def test_training_lowers_loss_and_checkpoint_reproduces(tiny_recording, tmp_path
     rows = _log(tmp_path)
     assert len(rows) == 4
     assert float(rows[-1]["train_loss"]) < float(rows[0]["train_loss"])
+    # the training pass alone, then the epoch with its validation of 60 frames after it
+    assert all(0 < float(r["train_seconds"]) < float(r["seconds"]) for r in rows)
     # the streaming evaluation of the best checkpoint reproduces its validation predictions in batch
     m = evaluate(tmp_path / "run" / "best.pt", Source(str(tiny_recording), "240:300"), tmp_path / "eval",
                  progress=False)
@@ -380,7 +382,9 @@ def test_a_run_of_an_earlier_version_loads_and_resumes(tiny_recording, tmp_path,
     best = loop.train(load_config(None, base=user), progress=False)
     rows = _log(tmp_path)
     assert [r["epoch"] for r in rows] == ["1", "2"] and best["epoch"] in (1, 2)
-    assert rows[0] == next(csv.DictReader(open(old / "log.csv")))  # epoch 1 is the earlier version's
+    earlier = rows[0].pop("train_seconds")  # a column 0.1.0 did not write: left empty in its epoch
+    assert rows[0] == next(csv.DictReader(open(old / "log.csv"))) and earlier == ""  # epoch 1 is the earlier version's
+    assert float(rows[1]["train_seconds"]) > 0
     with pytest.raises(SteerlabError, match="another config"):
         loop.train(load_config(None, base={**user, "train": {**user["train"], "lr": 1e-3}}), progress=False)
 

@@ -37,6 +37,16 @@ from steerlab.runtime import FORMAT, HASH_KEY, META_KEY, content_sha256
 OPSET = 18
 CALIB_FRAMES, CALIB_SAMPLES = 500, 300  # int8 calibration: default frames of the recording, inputs kept
 QUANTIZED_OPS = ["Conv", "MatMul", "Gemm"]
+# How an int8 model is quantized: QDQ, activations int8 per tensor, weights int8 per output channel in 7 bits
+# (reduce_range). x86's int8 kernels without VNNI (AVX2, AVX-512 before VNNI) multiply unsigned 8-bit activations
+# by signed 8-bit weights and add pairs of products in 16 bits, which saturate when both are near their ends; with
+# weights in [-64, 63] a pair stays within 16 bits, so every CPU sums the same integers and the int8 model steers
+# alike on all of them (docs/results/latency.md, "int8 on every CPU": the schemes measured on each).
+INT8_SCHEMES = {  # name: (activation type, weight type, reduce_range)
+    "s8s8": ("QInt8", "QInt8", False), "s8s8-7bit": ("QInt8", "QInt8", True), "u8u8": ("QUInt8", "QUInt8", False)}
+INT8_SCHEME = "s8s8-7bit"
+# the CPUs whose kernels an int8 model of INT8_SCHEME was checked on against its fp32 model (benchmarks/bench_int8.py)
+INT8_CHECKED_ON = ["x86-64 AVX2 without VNNI", "x86-64 AVX-512 with VNNI", "aarch64"]
 
 
 def export_onnx(checkpoint: str | Path, out: str | Path, calib: str | Path | None = None,
@@ -126,10 +136,11 @@ def _one_frame(model, outputs: list[str]):
     return OneFrame()
 
 
-def quantize_int8(fp32: bytes, rec, calib_range: str | None) -> tuple[bytes, dict]:
-    """The exported fp32 model (its bytes) quantized statically by ONNX Runtime (QDQ, int8 weights per channel,
-    int8 activations; convolutions and matrix products only, so an LSTM stays fp32), and what it was calibrated
-    on: the recording `rec`'s frames `calib_range` (default: its first CALIB_FRAMES)."""
+def quantize_int8(fp32: bytes, rec, calib_range: str | None, scheme: str = INT8_SCHEME) -> tuple[bytes, dict]:
+    """The exported fp32 model (its bytes) quantized statically by ONNX Runtime (QDQ, `scheme` of INT8_SCHEMES;
+    convolutions and matrix products only, so an LSTM stays fp32), and what it was calibrated on: the recording
+    `rec`'s frames `calib_range` (default: its first CALIB_FRAMES), with the scheme and the CPUs it was checked
+    on."""
     import tempfile
 
     import onnx
@@ -153,10 +164,13 @@ def quantize_int8(fp32: bytes, rec, calib_range: str | None) -> tuple[bytes, dic
                 return next(self.feeds, None)
 
         quant_pre_process(fp32_path, pre)
+        activations, weights, reduce_range = INT8_SCHEMES[scheme]
         quantize_static(pre, int8, Feeds(), quant_format=QuantFormat.QDQ, op_types_to_quantize=QUANTIZED_OPS,
-                        per_channel=True, activation_type=QuantType.QInt8, weight_type=QuantType.QInt8)
+                        per_channel=True, reduce_range=reduce_range, activation_type=QuantType[activations],
+                        weight_type=QuantType[weights])
         data = int8.read_bytes()
-    return data, {"calibration": str(rec.source), "range": calib_range or f"0:{n}", "frames": len(feeds)}
+    return data, {"calibration": str(rec.source), "range": calib_range or f"0:{n}", "frames": len(feeds),
+                  "scheme": scheme, "checked_on": INT8_CHECKED_ON if scheme == INT8_SCHEME else []}
 
 
 def _calibration_inputs(fp32: Path, rec, n: int) -> list[dict[str, np.ndarray]]:

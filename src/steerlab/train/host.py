@@ -5,14 +5,12 @@ frees tensors of tens of megabytes (donkeycar's linear model: 55 MB for the firs
 128). glibc's malloc hands blocks that large out with mmap and returns them with munmap, so every step touches fresh
 pages and the kernel zeroes them again: a quarter of a step. `keep_freed_memory` tells malloc to serve them from its
 heap and keep what is freed there for the next step (the process's peak memory stays what it was; it is not given
-back until the process ends). `bf16_instructions` says whether the CPU computes in bfloat16 itself
-(`train.precision: bf16` is faster there, emulated and slower elsewhere)."""
+back until the process ends)."""
 
 from __future__ import annotations
 
 import ctypes
 import ctypes.util
-from pathlib import Path
 
 _M_TRIM_THRESHOLD, _M_MMAP_MAX = -1, -4  # mallopt's parameters (malloc.h)
 _done = False
@@ -33,13 +31,3 @@ def keep_freed_memory() -> bool:
         return False
     _done = bool(mallopt(_M_MMAP_MAX, 0)) and bool(mallopt(_M_TRIM_THRESHOLD, 1 << 30))
     return _done
-
-
-def bf16_instructions() -> bool | None:
-    """Whether this CPU has bfloat16 instructions (x86's avx512_bf16 or amx_bf16; Linux reads them from
-    /proc/cpuinfo), None where that cannot be read."""
-    try:
-        flags = next(line for line in Path("/proc/cpuinfo").read_text().splitlines() if line.startswith("flags"))
-    except (OSError, StopIteration):
-        return None
-    return bool({"avx512_bf16", "amx_bf16"} & set(flags.split()))

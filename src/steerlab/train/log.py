@@ -1,4 +1,6 @@
-"""The epoch log of a training run: `out/log.csv` and, optionally, TensorBoard."""
+"""The epoch log of a training run: `out/log.csv` and, optionally, TensorBoard. Each epoch's row holds its training
+loss and validation metrics, `train_seconds`, the training pass alone, and `seconds`, the whole epoch (the
+validation included)."""
 
 from __future__ import annotations
 
@@ -18,7 +20,7 @@ class EpochLog:
     def __init__(self, out: Path, targets: tuple, history: list[dict], tensorboard: bool = False):
         self.path = out / "log.csv"
         self.fields = (["epoch", "train_loss", "val_mse", "val_rmse", "val_mae", "val_mae_deg", "val_gamma_deg"]
-                       + [f"val_{METRIC[t]}" for t in targets] + ["seconds"])
+                       + [f"val_{METRIC[t]}" for t in targets] + ["train_seconds", "seconds"])
         with open(self.path, "w", newline="") as f:
             w = csv.DictWriter(f, self.fields)
             w.writeheader()
@@ -32,8 +34,9 @@ class EpochLog:
             start = history[-1]["epoch"] + 1 if history else 1  # a resumed run drops later events first
             self.board = SummaryWriter(str(out / "tensorboard"), purge_step=start)
 
-    def write(self, epoch: int, loss: float, m: dict, seconds: float) -> dict:
-        row = {"epoch": epoch, "train_loss": loss, "seconds": round(seconds, 2)}
+    def write(self, epoch: int, loss: float, m: dict, train_seconds: float, seconds: float) -> dict:
+        row = {"epoch": epoch, "train_loss": loss, "train_seconds": round(train_seconds, 3),
+               "seconds": round(seconds, 3)}
         row.update({f"val_{k}": m[k] for k in ("mse", "rmse", "mae", "mae_deg", "gamma_deg", *METRIC.values())
                     if k in m})
         with open(self.path, "a", newline="") as f:

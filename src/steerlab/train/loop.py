@@ -39,7 +39,8 @@ from steerlab.train.batches import (Batch, EpochSampler, FrameBatches, balance_w
                                     sequence_windows)
 from steerlab.train.config import LOSSES, TrainConfig, another_config, differences, parse_config, unreadable
 from steerlab.train.distributed import Ranks, setup, wrap
-from steerlab.train.host import bf16_instructions, keep_freed_memory
+from steerlab.cpu import bf16_instructions
+from steerlab.train.host import keep_freed_memory
 from steerlab.train.log import METRIC, EpochLog
 from steerlab.train.sources import (check_camera, check_extra_data, main_recording, prepare_dataset, steering_ahead,
                                     throttle_learned, training_sources, usable_frames)
@@ -347,9 +348,13 @@ def fit(run: Run, ranks: Ranks, progress: bool, on_epoch=None) -> dict:
         torch.set_rng_state(state["torch_rng"])
         if ranks.main:
             print(f"resuming {out} after epoch {state['epoch']}")
-    if t.precision == "bf16" and ranks.device.type == "cpu" and bf16_instructions() is False and progress:
-        print("train.precision bf16: this CPU has no bfloat16 instructions (avx512_bf16, amx_bf16), so bfloat16 is "
-              "emulated and slower than fp32 here (train.precision=fp32)")
+    precision = t.precision
+    if precision == "bf16" and ranks.device.type == "cpu" and bf16_instructions() is False:
+        precision = "fp32"  # emulated, bfloat16 is slower than float32 (docs/results/speed.md)
+        if progress:
+            print("train.precision bf16: this CPU has no bfloat16 instructions (avx512_bf16, amx_bf16; or "
+                  "ONEDNN_MAX_CPU_ISA keeps torch from them), where bfloat16 is emulated and slower: training in "
+                  "float32")
     log = EpochLog(out, predicted(model), history, t.tensorboard) if ranks.main else None
     batches = loader(run.data, run.sampler, t.workers, ranks.device)
     if progress and start <= t.epochs:
@@ -361,7 +366,8 @@ def fit(run: Run, ranks: Ranks, progress: bool, on_epoch=None) -> dict:
         t0 = time.time()
         run.sampler.set_epoch(epoch)
         loss = train_one_epoch(step_model, opt, batches, ranks, t.loss, t.smoothness, (t.throttle_weight,
-                               t.lane_weight), progress, f"epoch {epoch}", t.precision)
+                               t.lane_weight), progress, f"epoch {epoch}", precision)
+        trained = time.time() - t0
         pred = predict(model, run.data, run.val_idx)
         m = all_metrics(pred, run.truth, deg)
         for what, value in (("training loss", loss), (f"validation {score}", m[score])):
@@ -370,7 +376,7 @@ def fit(run: Run, ranks: Ranks, progress: bool, on_epoch=None) -> dict:
                 raise SteerlabError(f"training diverged in epoch {epoch}: the {what} is {value} (train.lr "
                                     f"{t.lr:g} may be too high: lower it); {kept}")
         if log is not None:
-            history.append(log.write(epoch, loss, m, time.time() - t0))
+            history.append(log.write(epoch, loss, m, trained, time.time() - t0))
         if progress:
             extra = "".join(f"  {k} {m[k]:.3f}" for k in METRIC.values() if k in m)
             angles = (f"mae {m['mae_deg']:.2f} deg  gamma {m['gamma_deg']:.3f} (target {m['target_gamma_deg']:.3f})"
