@@ -32,6 +32,7 @@ import numpy as np
 import yaml
 
 from steerlab.cli import run_script, script_parser
+from steerlab.control import Throttle
 from steerlab.data.car import CARS
 from steerlab.data.readers import open_recording
 from steerlab.options import AT_LEAST_1, MINUTES, SEED, WORKERS, Options, Range, option
@@ -88,7 +89,7 @@ def drive(kind: str, model: str | None, car: str | None, folder: str, o: TrackDr
     Path(folder).mkdir(parents=True, exist_ok=True)
     part = DonkeycarPart(donkey_python(), Path(car), Path(model), Path(folder) / "part.log", math.inf)
     pilot = PartPilot(part, CARS["donkey"].full_lock_deg, name=DONKEYCAR, source=model,
-                      throttle_scale=o.throttle_scale, max_throttle=o.max_throttle)
+                      throttle=Throttle(scale=o.throttle_scale, cap=o.max_throttle))
     try:
         return run.drive(pilot, folder, o, progress=False, plot=False, meta=meta)
     finally:

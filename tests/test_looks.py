@@ -66,6 +66,12 @@ def test_a_look_is_drawn_from_its_seed():
     """The same seed, the same look; other seeds, other looks (every one of 20 differs from every other in its floor,
     tape, light, noise and mount)."""
     assert Look.draw(5) == Look.draw(5) and Look.draw(5).varied and not LOOK.varied
+    assert asdict(Look.draw(5)) == {  # seed 5's draws, as its tubs show them (exact: integer draws made floats)
+        "floor": (36.4, 53.4, 73.5), "floor2": (88.0, 107.8, 44.6), "pattern": "checker", "tile_m": 0.8752008983577515,
+        "marks": 2, "tape": (201.9, 244.2, 176.2), "tape_width": 0.04803524673176097, "light": 1.5514091350069408,
+        "gradient": 0.2063675773280843, "light_from_deg": 314.16022958305786, "glare": 2.8284391465588308,
+        "clutter": 0.09161203004200057, "people": 0, "noise": 5.188352290460025, "blur": 0.9728094014901241,
+        "jpeg_quality": 69, "mount_dz": -0.01501595660946843, "pitch_ddeg": 0.01290877553271308}
     looks = [Look.draw(seed) for seed in range(20)]
     for field in ("floor", "tape", "light", "noise", "mount_dz", "pitch_ddeg"):
         assert len({getattr(k, field) for k in looks}) == 20, field

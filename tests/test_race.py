@@ -133,6 +133,21 @@ def test_the_selection_tracks_are_not_the_suites_and_are_never_recorded(tmp_path
             record(tmp_path / "r", TrackRecordOptions(seed=seed, minutes=0.01), progress=False)
 
 
+def test_the_suites_that_results_are_scored_on_are_pinned():
+    """Every track and road of the suites, as docs/results name them (racing.md, road-world.md): a suite changed by
+    a digit scores other tracks than its results say, so a change here is a new suite under a new name."""
+    from steerlab.sim.road.suite import SUITES
+    from steerlab.sim.track.suite import TRACK_SUITES
+
+    two_minutes = {"minutes": 2.0, "lane_width": 0.9}
+    assert TRACK_SUITES == {
+        "t1": {**two_minutes, "tracks": {"taped": [9401, 9402, 9403, 9404, 9405, 9406], "centre": [9451, 9452]}},
+        "s1": {**two_minutes, "tracks": {"taped": [9501, 9502, 9503, 9504, 9505, 9506], "centre": [9551, 9552]}},
+        "t2": {**two_minutes, "tracks": {"taped": [9701, 9702, 9703, 9704, 9705, 9706], "centre": [9751, 9752]}}}
+    assert SUITES == {"v1": {"minutes": 3.0, "roads": {"country": [9101, 9102, 9103, 9104, 9105],
+                                                       "highway": [9201, 9202, 9203], "twisty": [9301, 9302, 9303]}}}
+
+
 def test_a_random_split_draws_frames_as_its_seed_says():
     split = Split.parse_option({"random": 0.25, "seed": 4}, "split")
     train, val = make_split(split, 40)

@@ -8,6 +8,7 @@ from functools import partial
 import numpy as np
 import pytest
 
+from steerlab.control import Throttle
 from steerlab.errors import SteerlabError
 from steerlab.sim.core.part import PartPilot
 from steerlab.sim.track import world as track_world
@@ -56,7 +57,7 @@ def test_a_parts_throttle_reaches_the_car_scaled_then_capped(tmp_path, monkeypat
         assert len(applied) == 2 * 60 and applied == pytest.approx([expected] * 120)
         assert [r.label for r in rows] == ["stub", "stub"] and rows[0].checkpoint == str(model)
     # PartPilot alone: the same order, and the angle only limited to the servo's range
-    controls = PartPilot(Stub(2.0, -0.5), 25.0, throttle_scale=3.0, max_throttle=0.8).step(
+    controls = PartPilot(Stub(2.0, -0.5), 25.0, throttle=Throttle(scale=3.0, cap=0.8)).step(
         np.zeros((120, 160, 3), np.uint8))
     assert (controls.steering, controls.throttle) == (1.0, -0.8)
 
@@ -107,10 +108,12 @@ def test_two_pilots_of_one_label_and_a_part_out_of_range_are_refused(tmp_path):
     with pytest.raises(SteerlabError,
                        match="two pilots of the suite are labelled 'stub': give each a label of its own"):
         race([stub(model), stub(model)], tmp_path / "suite", options(), progress=False)
-    with pytest.raises(SteerlabError, match=r"max_throttle must lie in \(0, 1\], got 1.5"):
-        PartPilot(Stub(0.0, 0.0), 25.0, max_throttle=1.5)
-    with pytest.raises(SteerlabError, match=r"throttle_floor must lie in \[0, 1\], got -0.1"):
-        PartPilot(Stub(0.0, 0.0), 25.0, throttle_floor=-0.1)
+    with pytest.raises(SteerlabError, match=r"^max_throttle must be a number in \(0, 1\], got 1.5$"):
+        PartPilot(Stub(0.0, 0.0), 25.0, throttle=Throttle(cap=1.5))
+    with pytest.raises(SteerlabError, match=r"^throttle_floor must be a number in \[0, 1\], got -0.1$"):
+        PartPilot(Stub(0.0, 0.0), 25.0, throttle=Throttle(floor=-0.1))
+    with pytest.raises(SteerlabError, match=r"^PartPilot: throttle must be a steerlab.control.Throttle or None, got 0.5"):
+        PartPilot(Stub(0.0, 0.0), 25.0, throttle=0.5)
 
 
 def test_a_throttle_floor_holds_only_while_the_car_stands():
@@ -119,11 +122,11 @@ def test_a_throttle_floor_holds_only_while_the_car_stands():
     frame = np.zeros((120, 160, 3), np.uint8)
 
     def throttle(speed, floor, cap=1.0):
-        return PartPilot(Stub(0.0, -0.2), 25.0, max_throttle=cap, throttle_floor=floor).step(frame, speed).throttle
+        return PartPilot(Stub(0.0, -0.2), 25.0, throttle=Throttle(cap=cap, floor=floor)).step(frame, speed).throttle
 
     assert throttle(0.0, 0.15) == 0.15 and throttle(0.099, 0.15) == 0.15 and throttle(0.0, 0.15, cap=0.1) == 0.1
     assert throttle(0.1, 0.15) == -0.2 and throttle(2.0, 0.15) == -0.2 and throttle(0.0, 0.0) == -0.2
-    assert PartPilot(Stub(0.0, 0.4), 25.0, throttle_floor=0.15).step(frame, 0.0).throttle == 0.4  # above the floor
+    assert PartPilot(Stub(0.0, 0.4), 25.0, throttle=Throttle(cap=1.0, floor=0.15)).step(frame, 0.0).throttle == 0.4
     assert throttle(None, 0.15) == -0.2  # no speed measured: no floor
 
 

@@ -117,7 +117,7 @@ def test_a_tub_of_constant_throttle_gets_no_throttle_output(tmp_path, capsys):
     best = loop.train(cfg, progress=False)
     assert f"{tub} has a constant throttle (0.3): the model learns the steering alone" in capsys.readouterr().out
     assert "throttle_mae" not in best and "throttle" not in load_checkpoint(tmp_path / "run" / "best.pt")["model_cfg"]
-    assert SteerlabPilot(tmp_path / "run" / "best.pt").throttle == 0.3  # the constant default
+    assert SteerlabPilot(tmp_path / "run" / "best.pt").shaping.constant == 0.3  # the constant default
 
 
 def test_pretraining_with_and_without_a_throttle_output_carries_the_steering(tmp_path, capsys):
@@ -157,3 +157,55 @@ def test_the_tub_default_learns_the_throttle_only_with_a_model_that_can(tmp_path
     with pytest.raises(SteerlabError, match=r"train.throttle_weight: model 'two-stream-flow' does not learn a "
                                             r"throttle; these do: cg23, cnn3d, donkey-linear, flow-lstm"):
         load_config(None, base={**base, "model": {"name": "two-stream-flow"}}, overrides=["train.throttle_weight=1"])
+
+
+def test_the_simulated_car_and_the_real_one_get_the_same_controls_for_every_throttle_option(tmp_path):
+    """One throttle (control.Throttle): `steerlab sim drive --world track`'s pilot (track.run.checkpoint_pilot,
+    the part as the sim makes it) and `SteerlabPilot` on a car, given the same checkpoint, options and frames,
+    answer the same (angle, throttle) for every combination of the constant throttle, the scale, the cap and the
+    floor, on a model that learned the throttle and one that did not, at rest and moving, or both refuse. (A
+    constant throttle above the cap once drove at the cap in the sim and above it on the car; a floor on a model of
+    a constant throttle was applied in the sim and refused on the car.)"""
+    from itertools import product
+
+    from conftest import made
+    from steerlab.sim.track.run import checkpoint_pilot
+    from steerlab.sim.track.world import TrackDriveOptions, TrackWorld, constant_throttle
+
+    models = {"learned": made(tmp_path, "normalized", "right", "donkey", full_lock_deg=25, throttle=True),
+              "constant": made(tmp_path, "normalized", "right", "donkey", name="steering.pt", full_lock_deg=25)}
+    world = TrackWorld(9401, 0.9, "taped", 20.0)
+    frames = [world.render()]
+    for _ in range(3):
+        world.step(0.1, 0.4)
+        frames.append(world.render())
+    said, both = [], 0
+    for (kind, ckpt), constant, scale, cap, floor in product(models.items(), (None, 0.3, 0.8), (1.0, 1.5), (0.5, 1.0),
+                                                             (0.0, 0.2)):
+        options = {"throttle_scale": scale, "max_throttle": cap, "throttle_floor": floor}
+        try:
+            sim = checkpoint_pilot(ckpt, TrackDriveOptions(throttle=constant, **options))
+        except SteerlabError as e:
+            sim = str(e)
+        try:
+            car = SteerlabPilot(ckpt, constant, full_lock_deg=25, reset_after_s=None, **options)
+        except SteerlabError as e:
+            car = str(e)
+        case = (kind, constant, scale, cap, floor)
+        assert isinstance(sim, str) == isinstance(car, str), (case, sim, car)
+        if isinstance(sim, str):
+            said.append(case)
+            continue
+        both += 1
+        for frame, speed in zip(frames, (0.0, 0.05, 1.0, 2.0)):
+            controls = sim.step(frame, speed)
+            assert car.run(np.ascontiguousarray(frame[..., ::-1]), speed) == pytest.approx(
+                (controls.steering, controls.throttle), abs=1e-6), case
+            if kind == "constant":
+                assert controls.throttle == constant_throttle(constant)  # never above the cap: refused there
+    assert both == 13 and len(said) == 35  # hand-counted: 8 of the learned model's 24 cases, 5 of the other's
+    # refused: a constant throttle forced on the model that learned one (16), and on the other a scale or a floor
+    # (18 of 24) or a constant 0.8 above the cap 0.5 (1 more with scale 1 and no floor)
+    assert sum(k == "learned" for k, *_ in said) == 16
+    assert sorted(c for c in said if c[0] == "constant" and c[2] == 1.0 and c[4] == 0.0) == [
+        ("constant", 0.8, 1.0, 0.5, 0.0)]

@@ -447,9 +447,15 @@ def test_sim_bench_world_track_writes_its_tables_and_reuses_drives(tmp_path, cap
     assert main([*argv, "--throttle", "0.4"]) == 0  # another throttle: driven anew
     assert (out / "a" / "centre-9451" / "drive.json").stat().st_mtime_ns != stamp
     assert "throttle_scale" not in key  # at its default: drives kept before the option existed stay reusable
-    assert main([*argv, "--throttle-scale", "1.5"]) == 0
-    key = json.loads((out / "a" / "centre-9451" / "drive.json").read_text())["cache_key"]
-    assert key["throttle_scale"] == 1.5 and "(the learned one times 1.5 first)" in (out / "suite.md").read_text()
+    # a scale shapes a learned throttle: on this model of a constant one it is refused, as the car's part refuses it
+    assert main([*argv, "--throttle-scale", "1.5"]) == 2
+    assert "throttle_scale shapes a learned throttle; best.pt drives at a constant throttle" in capsys.readouterr().err
+    (tmp_path / "b").mkdir()  # a model that learned the throttle races scaled
+    learned = made(tmp_path / "b", "normalized", "right", "donkey", name="best.pt", full_lock_deg=25, throttle=True)
+    assert main(["sim", "bench", str(learned), *argv[3:-1], str(tmp_path / "scaled"), "--throttle-scale", "1.5"]) == 0
+    key = json.loads((tmp_path / "scaled" / "b" / "centre-9451" / "drive.json").read_text())["cache_key"]
+    assert key["throttle_scale"] == 1.5
+    assert "(the learned one times 1.5 first)" in (tmp_path / "scaled" / "suite.md").read_text()
 
 
 def test_the_suites_tracks_are_recorded_only_for_evaluation(tmp_path):

@@ -1,22 +1,79 @@
 """The one speed controller: the throttle that drives a measured speed to a target (the Udacity simulator
-server's set speed, a donkeycar part's predicted speed), and the one throttle floor at rest."""
+server's set speed, a donkeycar part's predicted speed), and the one shaping of a part's throttle on its way to the
+car (`Throttle`: a constant throttle, or a learned one scaled, capped and floored at rest), which the car's part
+(`donkey.SteerlabPilot`) and every pilot of the simulated car (`sim.core.part.PartPilot`) apply alike."""
 
 from __future__ import annotations
 
+import math
+from dataclasses import dataclass
+
 import numpy as np
 
+from steerlab.errors import SteerlabError
+
 AT_REST = 0.1  # m/s: slower than this, the car stands (or creeps) as far as a throttle floor is concerned
+DEFAULT_THROTTLE = 0.3  # the constant throttle of a model that predicts none when none is given
 
 
-def shaped_throttle(throttle: float, scale: float, cap: float, floor: float = 0.0,
-                    speed: float | None = None) -> float:
-    """A part's throttle as it reaches the car: times `scale`, limited to +-`cap`, and at least `floor` (within the
-    cap) while the car stands (`speed` below AT_REST; without a measured speed, no floor): a throttle learned from
-    the image alone brakes at rest where the expert braked at speed, and would leave the car standing for good."""
-    shaped = float(np.clip(scale * throttle, -cap, cap))
-    if floor and speed is not None and speed < AT_REST:
-        return max(shaped, min(floor, cap))
-    return shaped
+def number(name: str, value, low: float, high: float, low_open: bool = False) -> float:
+    """`value` as a float when it is a real number (not a bool) in [low, high] ((low, high] with `low_open`); else
+    one line naming `name`, the interval and what was given."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
+            or not math.isfinite(value) or not (low < value if low_open else low <= value) or value > high:
+        interval = f"{'(' if low_open else '['}{low:g}, {high:g}]"
+        raise SteerlabError(f"{name} must be a number in {interval}, got {value!r}")
+    return float(value)
+
+
+@dataclass(frozen=True)
+class Throttle:
+    """What shapes a part's throttle on its way to the car, checked once when made (`number`'s one message):
+
+    - `constant`: the throttle of a model that predicts none, and the cruising throttle of the speed controllers
+      (a model that predicts its speed or a speed command);
+    - `scale`, `cap` (donkeycar's max_throttle) and `floor`: a learned throttle (a model's, or any donkeycar
+      part's) reaches the car times `scale`, limited to +-`cap`, and at least `floor` (within the cap) while the car
+      stands (`shaped`).
+
+    `for_model(learned)` checks the shaping against the throttle that drives: a floor or a scale shapes a learned
+    throttle only, and a constant or cruising throttle above the cap is refused (it would drive above it)."""
+
+    constant: float = DEFAULT_THROTTLE
+    scale: float = 1.0
+    cap: float = 0.5
+    floor: float = 0.0
+
+    def __post_init__(self):
+        for name, field, low, high, low_open in (("throttle", "constant", 0.0, 1.0, False),
+                                                 ("throttle_scale", "scale", 0.0, 10.0, True),
+                                                 ("max_throttle", "cap", 0.0, 1.0, True),
+                                                 ("throttle_floor", "floor", 0.0, 1.0, False)):
+            object.__setattr__(self, field, number(name, getattr(self, field), low, high, low_open))
+
+    def for_model(self, learned: bool, name: str, kind: str = "constant") -> Throttle:
+        """This shaping for model `name` (what messages call it): `learned`, its own throttle drives; else its
+        `kind` ("constant" or "cruising") throttle. Returns itself; refuses a shaping that would not apply."""
+        if learned:
+            return self
+        for field, value, default in (("throttle_floor", self.floor, 0.0), ("throttle_scale", self.scale, 1.0)):
+            if value != default:
+                raise SteerlabError(f"{field} shapes a learned throttle; {name} drives at a {kind} throttle: "
+                                    f"leave {field} out")
+        if self.constant > self.cap:
+            raise SteerlabError(f"the {kind} throttle {self.constant:g} exceeds max_throttle {self.cap:g}: lower "
+                                "the throttle or raise max_throttle")
+        return self
+
+    def shaped(self, throttle: float, speed: float | None = None) -> float:
+        """A learned throttle as it reaches the car: times `scale`, limited to +-`cap`, and at least `floor` (within
+        the cap) while the car stands (`speed` below AT_REST; without a measured speed, no floor): a throttle
+        learned from the image alone brakes at rest where the expert braked at speed, and would leave the car
+        standing for good."""
+        shaped = float(np.clip(self.scale * throttle, -self.cap, self.cap))
+        if self.floor and speed is not None and speed < AT_REST:
+            return max(shaped, min(self.floor, self.cap))
+        return shaped
 
 
 class SpeedControl:

@@ -16,9 +16,10 @@ deliver) and, optionally, the measured speed (`enc/speed`, m/s, from donkeycar's
 - **throttle**: for a model that learned the throttle (a tub model trained with `train.throttle_weight`, the
   tub default) the learned throttle times `throttle_scale`, capped to [-`max_throttle`, `max_throttle`]
   (negative: the brake or reverse, as the tub recorded it), and at least `throttle_floor` while the measured speed
-  says the car stands (`control.shaped_throttle`; the floor needs `enc/speed`); forcing a constant `throttle` on
-  such a model is refused unless `learned_throttle=False` says so. For a steering model the constant `throttle`
-  (0.3 unless given); for a model that predicts the next frame's speed (`multitask-speed`, which also needs the
+  says the car stands (`control.Throttle`, the shaping the simulated car applies too; the floor needs `enc/speed`);
+  forcing a constant `throttle` on such a model is refused unless `learned_throttle=False` says so. For a steering
+  model the constant `throttle` (0.3 unless given, at most `max_throttle`; a scale or a floor, which shape a
+  learned throttle, is refused); for a model that predicts the next frame's speed (`multitask-speed`, which also needs the
   measured speed with every frame) a PI controller drives the measured speed to the predicted one around
   `throttle` as the cruising throttle; for a speed-command model (`speed-command`: decelerate / maintain /
   accelerate) the throttle steps down, stays or steps up by `command_step` each frame. donkeycar's `DriveMode`
@@ -48,7 +49,7 @@ from typing import Callable
 
 import numpy as np
 
-from steerlab.control import SpeedControl, shaped_throttle
+from steerlab.control import DEFAULT_THROTTLE, SpeedControl, Throttle, number
 from steerlab.data.car import car_of
 from steerlab.data.geometry import CAMERAS
 from steerlab.data.recording import SteeringConvention, said_full_lock
@@ -58,11 +59,10 @@ from steerlab.pilot import Controls, Pilot
 
 
 def _check(name: str, value, low: float, high: float, low_open: bool = False) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
-            or not (low < value if low_open else low <= value) or value > high:
-        interval = f"{'(' if low_open else '['}{low:g}, {high:g}]"
-        raise SteerlabError(f"SteerlabPilot: {name} must be a number in {interval}, got {value!r}")
-    return float(value)
+    try:
+        return number(name, value, low, high, low_open)
+    except SteerlabError as e:
+        raise SteerlabError(f"SteerlabPilot: {e}") from None
 
 
 def servo_angle(value: float, convention: SteeringConvention, full_lock: float | None, steering_ratio: float) -> float:
@@ -78,9 +78,6 @@ def servo_angle(value: float, convention: SteeringConvention, full_lock: float |
     return float(np.clip(servo, -1.0, 1.0))
 
 
-DEFAULT_THROTTLE = 0.3  # the constant throttle of a steering model when none is given
-
-
 class SteerlabPilot:
     """A donkeycar part: `run(img_arr, speed=None) -> (angle, throttle)`; see the module's docstring.
 
@@ -92,7 +89,8 @@ class SteerlabPilot:
     throttle_floor: the learned throttle is at least this while the car stands (slower than 0.1 m/s; needs the
         measured speed with every frame).
     full_lock_deg: the car's road-wheel angle at full lock, in degrees; needed for models trained on angles.
-    max_throttle: no throttle but the constant one exceeds it (a learned one is capped to +-max_throttle).
+    max_throttle: no throttle exceeds it (a learned one is capped to +-max_throttle; a constant or cruising one
+        above it is refused).
     threads: the model's threads (default: half the cores, at least one).
     kp, ki: the PI gains of the speed controller (throttle per m/s, per m/s and frame).
     command_step: the throttle change per frame of a speed-command model's accelerate / decelerate.
@@ -109,9 +107,11 @@ class SteerlabPilot:
                  smoothing: float | None = None, steering_step: float | None = None, threads: int | None = None,
                  reset_after_s: float | None = 0.5, clock: Callable[[], float] = time.monotonic):
         forced = throttle is not None
-        self.throttle = _check("throttle", DEFAULT_THROTTLE if throttle is None else throttle, 0.0, 1.0)
-        self.throttle_scale = _check("throttle_scale", throttle_scale, 0.0, 10.0, low_open=True)
-        self.throttle_floor = _check("throttle_floor", throttle_floor, 0.0, 1.0)
+        try:
+            shape = Throttle(DEFAULT_THROTTLE if throttle is None else throttle, throttle_scale, max_throttle,
+                             throttle_floor)
+        except SteerlabError as e:
+            raise SteerlabError(f"SteerlabPilot: {e}") from None
         self.full_lock = None if full_lock_deg is None else math.radians(
             _check("full_lock_deg", full_lock_deg, 0.0, 89.0, low_open=True))
         said_full_lock(full_lock_deg, "SteerlabPilot", once=False)  # each part is made once
@@ -127,21 +127,19 @@ class SteerlabPilot:
             raise SteerlabError(f"SteerlabPilot: {self.source.name} learned the throttle; throttle={throttle!r} "
                                 "would override it: pass learned_throttle=False to drive at a constant throttle, or "
                                 "leave throttle out (throttle_scale and max_throttle shape the learned one)")
-        if self.throttle_floor and not self.learned:
-            raise SteerlabError(f"SteerlabPilot: throttle_floor shapes a learned throttle; {self.source.name} drives "
-                                "at a constant throttle or a speed controller's: leave throttle_floor out")
+        kind = "cruising" if {"speed", "command"} & set(self.pilot.targets) else "constant"
+        try:
+            self.shaping = shape.for_model(self.learned, self.source.name, kind)
+        except SteerlabError as e:
+            raise SteerlabError(f"SteerlabPilot: {e}") from None
         conv = self.pilot.convention
         if conv.kind != "normalized" and self.full_lock is None:
             wheel = "steering-wheel" if conv.kind == "steering_wheel" else "road-wheel"
             raise SteerlabError(f"{self.source} predicts the {wheel} angle (positive {conv.positive}); donkeycar "
                                 "steers with a servo command in [-1, 1]: give the car's full-lock road-wheel angle, "
                                 f"SteerlabPilot({str(self.source)!r}, full_lock_deg=...)")
-        self.max_throttle = _check("max_throttle", max_throttle, 0.0, 1.0, low_open=True)  # 0: the car never moves
-        if {"speed", "command"} & set(self.pilot.targets) and self.throttle > self.max_throttle:
-            raise SteerlabError(f"SteerlabPilot: the cruising throttle {self.throttle:g} exceeds max_throttle "
-                                f"{self.max_throttle:g}: lower the throttle or raise max_throttle")
-        self.speed_control = SpeedControl(_check("kp", kp, 0.0, 10.0), _check("ki", ki, 0.0, 10.0), self.throttle,
-                                          0.0, self.max_throttle)
+        self.speed_control = SpeedControl(_check("kp", kp, 0.0, 10.0), _check("ki", ki, 0.0, 10.0),
+                                          self.shaping.constant, 0.0, self.shaping.cap)
         self.command_step = _check("command_step", command_step, 0.0, 1.0)
         self.reset_after_s = None if reset_after_s is None else _check("reset_after_s", reset_after_s, 0.0, 1e9,
                                                                        low_open=True)
@@ -155,14 +153,14 @@ class SteerlabPilot:
         self.frames = 0
         self.controls = None  # the model's last answer (`pilot.Controls`: the lane of a model with a lane head too)
         self._last = None
-        self._commanded = self.throttle
+        self._commanded = self.shaping.constant
         self._closed = self._warned = False
 
     def reset(self) -> None:
         """Forget the past: the next frame starts a segment (previous frame, histories, recurrent state)."""
         self.pilot.reset()
         self.speed_control.reset()
-        self._commanded = self.throttle
+        self._commanded = self.shaping.constant
 
     def expected(self) -> str:
         if self.shape is None:
@@ -191,8 +189,8 @@ class SteerlabPilot:
             got = "x".join(map(str, img.shape)) or "a scalar"
             raise SteerlabError(f"SteerlabPilot: the camera frame is {got} {img.dtype}; {self.source.name} "
                                 f"(model {self.pilot.name!r}) expects {self.expected()}")
-        if (self.pilot.speed_history or "speed" in self.pilot.targets or self.throttle_floor) and speed is None:
-            needs = "the throttle floor needs" if self.throttle_floor else f"model {self.pilot.name!r} needs"
+        if (self.pilot.speed_history or "speed" in self.pilot.targets or self.shaping.floor) and speed is None:
+            needs = "the throttle floor needs" if self.shaping.floor else f"model {self.pilot.name!r} needs"
             raise SteerlabError(f"SteerlabPilot: {needs} the measured speed (m/s) with every frame: add the car's "
                                 "odometry (HAVE_ODOM = True) and inputs=['cam/image_array', 'enc/speed']")
         if gap:
@@ -203,18 +201,17 @@ class SteerlabPilot:
         return angle, self._throttle(out, speed)
 
     def _throttle(self, out: Controls, speed: float | None) -> float:
-        """The throttle of the model's answer `out` (see the module's docstring): the learned one times
-        `throttle_scale` capped to +-`max_throttle`, the speed controller's, the speed command's step, or the
-        constant one."""
+        """The throttle of the model's answer `out` (see the module's docstring): the learned one shaped
+        (`control.Throttle.shaped`), the speed controller's, the speed command's step, or the constant one."""
         if self.learned:
-            return shaped_throttle(out.throttle, self.throttle_scale, self.max_throttle, self.throttle_floor, speed)
+            return self.shaping.shaped(out.throttle, speed)
         if out.speed is not None:
             return self.speed_control.update(out.speed, speed)
         if out.command is not None:
             self._commanded = float(np.clip(self._commanded + self.command_step * (out.command - 1), 0.0,
-                                            self.max_throttle))
+                                            self.shaping.cap))
             return self._commanded
-        return self.throttle
+        return self.shaping.constant
 
     def shutdown(self) -> None:
         """donkeycar calls it when the vehicle stops: the model is released."""

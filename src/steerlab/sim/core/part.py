@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from steerlab.control import shaped_throttle
+from steerlab.control import Throttle
 from steerlab.data.car import CARS, Car
 from steerlab.data.recording import SteeringConvention
 from steerlab.donkey import SteerlabPilot
@@ -27,30 +27,25 @@ from steerlab.pilot import Controls, Pilot
 class PartPilot:
     """`part`: anything with `run(img_arr) -> (angle, throttle)`, or `run(img_arr, speed)` with `with_speed`
     (the measured speed in m/s as the part's second input, as donkeycar's `enc/speed`); `full_lock_deg`: the
-    road-wheel angle of the driven car at angle +-1. The part's throttle reaches the car times `throttle_scale`,
-    then limited to +-`max_throttle` (at most 1, the ESC's range): min(max_throttle, throttle_scale x throttle)
-    going forward, as steerlab's own part shapes a learned throttle (donkeycar's AI_THROTTLE_MULT scales after its
-    cap instead). While the car is at rest, the throttle is at least `throttle_floor` (within the cap;
-    `control.shaped_throttle`). `reset()` calls the part's own `reset` if it has one (after an off-track event the pilot
-    forgets its past), `close()` its `close` (a part behind a pipe). `name`, `geometry` (the camera the part expects;
-    "donkey" for donkeycar's 160x120 camera) and `source` (what messages name) describe it to the loop."""
+    road-wheel angle of the driven car at angle +-1. The part's throttle reaches the car shaped by `throttle`
+    (`control.Throttle.shaped`, as steerlab's own part shapes a learned throttle on the car: times its scale, then
+    limited to +-its cap, at least its floor at rest; donkeycar's AI_THROTTLE_MULT scales after its cap instead);
+    `throttle=None` for a part that shapes its own (steerlab's, `donkey_pilot`), whose throttle passes as it is,
+    within the ESC's [-1, 1]. `reset()` calls the part's own `reset` if it has one (after an off-track event the
+    pilot forgets its past), `close()` its `close` (a part behind a pipe). `name`, `geometry` (the camera the part
+    expects; "donkey" for donkeycar's 160x120 camera) and `source` (what messages name) describe it to the loop."""
 
     def __init__(self, part, full_lock_deg: float, name: str | None = None, geometry: str | None = "donkey",
-                 source: str | None = None, with_speed: bool = False, throttle_scale: float = 1.0,
-                 max_throttle: float = 1.0, throttle_floor: float = 0.0):
+                 source: str | None = None, with_speed: bool = False,
+                 throttle: Throttle | None = Throttle(cap=1.0)):
         if not callable(getattr(part, "run", None)):
             raise SteerlabError(f"{type(part).__name__} is not a donkeycar part: it has no run(img_arr); "
                                 "give a part that has one")
         if not 0 < full_lock_deg < 90:
             raise SteerlabError(f"full_lock_deg must lie in (0, 90) degrees, got {full_lock_deg}")
-        if not 0 < throttle_scale <= 10:
-            raise SteerlabError(f"throttle_scale must lie in (0, 10], got {throttle_scale}")
-        if not 0 < max_throttle <= 1:
-            raise SteerlabError(f"max_throttle must lie in (0, 1], got {max_throttle}")
-        if not 0 <= throttle_floor <= 1:
-            raise SteerlabError(f"throttle_floor must lie in [0, 1], got {throttle_floor}")
-        self.part, self.with_speed, self.throttle_floor = part, with_speed, throttle_floor
-        self.throttle_scale, self.max_throttle = throttle_scale, max_throttle
+        if throttle is not None and not isinstance(throttle, Throttle):
+            raise SteerlabError(f"PartPilot: throttle must be a steerlab.control.Throttle or None, got {throttle!r}")
+        self.part, self.with_speed, self.throttle = part, with_speed, throttle
         self.convention = SteeringConvention("normalized", "right", math.radians(full_lock_deg))
         self.name = name or type(part).__name__
         self.geometry = geometry
@@ -58,8 +53,7 @@ class PartPilot:
 
     def step(self, frame: np.ndarray, speed: float | None = None) -> Controls:
         """One BGR frame (and the car's speed) -> the part's angle as steering, limited to [-1, 1] as the servo
-        limits it, and its throttle times `throttle_scale`, limited to +-`max_throttle`, at least `throttle_floor`
-        (within the cap) while the car is at rest."""
+        limits it, and its throttle shaped by `throttle` (or as it is, within [-1, 1])."""
         rgb = np.ascontiguousarray(frame[..., ::-1])
         out = self.part.run(rgb, speed) if self.with_speed else self.part.run(rgb)
         try:
@@ -69,7 +63,8 @@ class PartPilot:
                 from None
         if not (math.isfinite(angle) and math.isfinite(throttle)):
             raise SteerlabError(f"{self.source}: run() returned ({angle}, {throttle}); finite numbers are expected")
-        throttle = shaped_throttle(throttle, self.throttle_scale, self.max_throttle, self.throttle_floor, speed)
+        throttle = (float(np.clip(throttle, -1.0, 1.0)) if self.throttle is None
+                    else self.throttle.shaped(throttle, speed))
         return Controls(float(np.clip(angle, -1.0, 1.0)), throttle=throttle)
 
     def reset(self) -> None:
@@ -91,20 +86,17 @@ def learns_throttle(checkpoint: str | Path) -> bool:
 def donkey_pilot(checkpoint: str | Path, throttle: float, smoothing: float | None = None, max_throttle: float = 0.5,
                  car: Car = CARS["donkey"], steering_step: float | None = None,
                  throttle_scale: float = 1.0, throttle_floor: float = 0.0) -> PartPilot:
-    """steerlab's donkeycar part on `checkpoint` driving `car`: its full lock turns the angles of models trained
+    """steerlab's donkeycar part on `checkpoint` driving `car`, made as on the car (`donkey.SteerlabPilot`, which
+    shapes its own throttle: the sim and the car drive alike): its full lock turns the angles of models trained
     on angles into servo commands, `throttle` is the part's constant throttle for models that predict none (a
     model that learned the throttle drives with its own times `throttle_scale`, capped at `max_throttle`, at least
-    `throttle_floor` at rest),
+    `throttle_floor` at rest; a scale or a floor on a model of a constant throttle is refused, as on the car),
     `smoothing` and `steering_step` shape its steering as the Pilot's do, the measured speed is its second input
     (speed models need it), and it forgets the past when the world puts the car back, not after a gap in
     wall-clock time (a simulation keeps no wall-clock pace)."""
-    def part_with(constant: float | None) -> SteerlabPilot:
-        return SteerlabPilot(checkpoint, constant, full_lock_deg=car.full_lock_deg, smoothing=smoothing,
-                             steering_step=steering_step, max_throttle=max_throttle, reset_after_s=None,
-                             throttle_scale=throttle_scale)
-
-    part = part_with(None)  # the learned throttle of a model that learned one
-    if not part.learned:
-        part = part_with(throttle)
+    constant = None if learns_throttle(checkpoint) else throttle  # the learned throttle of a model that learned one
+    part = SteerlabPilot(checkpoint, constant, full_lock_deg=car.full_lock_deg, smoothing=smoothing,
+                         steering_step=steering_step, max_throttle=max_throttle, reset_after_s=None,
+                         throttle_scale=throttle_scale, throttle_floor=throttle_floor)
     return PartPilot(part, car.full_lock_deg, name=part.pilot.name, geometry=part.pilot.geometry,
-                     source=str(checkpoint), with_speed=True, max_throttle=max_throttle, throttle_floor=throttle_floor)
+                     source=str(checkpoint), with_speed=True, throttle=None)

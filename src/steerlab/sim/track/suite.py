@@ -31,6 +31,7 @@ from typing import Literal
 
 import numpy as np
 
+from steerlab.control import Throttle
 from steerlab.data.car import CARS
 from steerlab.errors import SteerlabError
 from steerlab.options import MINUTES, Options, WORKERS, frames_held, frames_in, names_from, names_held, option
@@ -203,7 +204,7 @@ def race_part(make_part: Callable, name: str, source: str, o: TrackSuiteOptions)
         raise SteerlabError(f"{source}: steer_by {o.steer_by} steers by a steerlab checkpoint's lane head; a "
                             "donkeycar part steers by its own angle: set steer_by to steering")
     return PartPilot(make_part(), CARS["donkey"].full_lock_deg, name=name, source=source,
-                     throttle_scale=o.throttle_scale, max_throttle=o.max_throttle, throttle_floor=o.throttle_floor)
+                     throttle=Throttle(scale=o.throttle_scale, cap=o.max_throttle, floor=o.throttle_floor))
 
 
 def _job(entrant: Entrant | None, o: TrackSuiteOptions, style: str, seed: int, out: str, key: dict) -> TrackDrive:

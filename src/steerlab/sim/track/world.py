@@ -28,6 +28,7 @@ from typing import Literal
 
 import numpy as np
 
+from steerlab.control import DEFAULT_THROTTLE
 from steerlab.data.car import CARS, Car
 from steerlab.data.fisheye import DONKEY_FISHEYE, FisheyeCamera, load_calibration
 from steerlab.data.recording import SteeringConvention
@@ -40,7 +41,7 @@ from steerlab.sim.track.smallcar import SmallCar
 from steerlab.sim.track.track import LANE_WIDTH, Track
 from steerlab.sim.track.render import TrackRenderer
 
-THROTTLE = 0.3        # the constant throttle of a pilot that gives none: about 1.4 m/s on a straight
+THROTTLE = DEFAULT_THROTTLE  # the constant throttle of a pilot that gives none (0.3): about 1.4 m/s on a straight
 DRIFT_EVERY_S = 12.0  # the racing expert's drift-and-recover episodes in a recording, on average
 
 
