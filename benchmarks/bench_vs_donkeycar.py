@@ -67,7 +67,8 @@ def steerlab_side(config: str, epochs: int, out: Path, overrides: list[str] = ()
                   rss, lines[-1][0])
 
 
-def timing(records: int, validated: int, epochs: list[float], passes: list[float], rss: float, command_s: float) -> dict:
+def timing(records: int, validated: int, epochs: list[float], passes: list[float], rss: float,
+           command_s: float) -> dict:
     """A trainer's figures from its epochs' seconds (the validation included) and its training passes' seconds:
     the medians of the epochs after the first, and records a second of each (training records over seconds)."""
     epoch, train = statistics.median(epochs[1:]), statistics.median(passes[1:])

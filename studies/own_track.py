@@ -32,14 +32,13 @@ import numpy as np
 import yaml
 
 from steerlab.cli import run_script, script_parser
-from steerlab.control import Throttle
 from steerlab.data.car import CARS
 from steerlab.data.readers import open_recording
 from steerlab.options import AT_LEAST_1, MINUTES, SEED, WORKERS, Options, Range, option
 from steerlab.sim.core.part import PartPilot
 from steerlab.sim.core.suite import Planned, as_stored, file_sha256, run_drives
 from steerlab.sim.track import run
-from steerlab.sim.track.world import TrackDriveOptions, TrackRecordOptions, throttle_scale_option
+from steerlab.sim.track.world import TrackDriveOptions, TrackRecordOptions, part_throttle, throttle_scale_option
 from studies.common import (ROOT, DonkeycarPart, NumberList, donkey_models, donkey_python, machine, mean_min_max,
                             write_table)
 
@@ -89,7 +88,7 @@ def drive(kind: str, model: str | None, car: str | None, folder: str, o: TrackDr
     Path(folder).mkdir(parents=True, exist_ok=True)
     part = DonkeycarPart(donkey_python(), Path(car), Path(model), Path(folder) / "part.log", math.inf)
     pilot = PartPilot(part, CARS["donkey"].full_lock_deg, name=DONKEYCAR, source=model,
-                      throttle=Throttle(scale=o.throttle_scale, cap=o.max_throttle))
+                      throttle=part_throttle(o))
     try:
         return run.drive(pilot, folder, o, progress=False, plot=False, meta=meta)
     finally:

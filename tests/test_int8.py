@@ -25,7 +25,7 @@ def test_int8_export_drives_like_fp32(tmp_path, tiny_checkpoint, tiny_recording)
     assert int8.stat().st_size < 0.3 * fp32.stat().st_size
     meta, meta32 = read_metadata(int8)[0], read_metadata(fp32)[0]
     assert meta.pop("int8") == {"calibration": str(tiny_recording), "range": "0:240", "frames": 240,
-                                "scheme": "s8s8-7bit", "checked_on": INT8_CHECKED_ON}
+                                "scheme": "s8s8-7bit", "scheme_checked_on": INT8_CHECKED_ON}
     assert meta == meta32
     ops = {n.op_type for n in onnx.load(int8).graph.node}
     assert {"QuantizeLinear", "DequantizeLinear"} <= ops
@@ -75,7 +75,7 @@ def test_int8_recurrent_model_keeps_its_lstm_in_fp32_and_drives_like_its_fp32_ex
     ckpt = untrained(tmp_path, "lstm", "sim")
     fp32, path = export_onnx(ckpt, tmp_path / "m.onnx"), export_onnx(ckpt, tmp_path / "m-int8.onnx", tiny_recording)
     assert read_metadata(path)[0]["int8"] == {"calibration": str(tiny_recording), "range": "0:300", "frames": 300,
-                                              "scheme": "s8s8-7bit", "checked_on": INT8_CHECKED_ON}
+                                              "scheme": "s8s8-7bit", "scheme_checked_on": INT8_CHECKED_ON}
     graph = onnx.load(path).graph
     dequantized = {n.output[0] for n in graph.node if n.op_type == "DequantizeLinear"}
     lstm = [n for n in graph.node if n.op_type == "LSTM"]

@@ -112,7 +112,7 @@ def test_two_pilots_of_one_label_and_a_part_out_of_range_are_refused(tmp_path):
         PartPilot(Stub(0.0, 0.0), 25.0, throttle=Throttle(cap=1.5))
     with pytest.raises(SteerlabError, match=r"^throttle_floor must be a number in \[0, 1\], got -0.1$"):
         PartPilot(Stub(0.0, 0.0), 25.0, throttle=Throttle(floor=-0.1))
-    with pytest.raises(SteerlabError, match=r"^PartPilot: throttle must be a steerlab.control.Throttle or None, got 0.5"):
+    with pytest.raises(SteerlabError, match=r"^throttle must be a steerlab.control.Throttle or None, got 0.5"):
         PartPilot(Stub(0.0, 0.0), 25.0, throttle=0.5)
 
 

@@ -163,9 +163,9 @@ def test_the_simulated_car_and_the_real_one_get_the_same_controls_for_every_thro
     """One throttle (control.Throttle): `steerlab sim drive --world track`'s pilot (track.run.checkpoint_pilot,
     the part as the sim makes it) and `SteerlabPilot` on a car, given the same checkpoint, options and frames,
     answer the same (angle, throttle) for every combination of the constant throttle, the scale, the cap and the
-    floor, on a model that learned the throttle and one that did not, at rest and moving, or both refuse. (A
-    constant throttle above the cap once drove at the cap in the sim and above it on the car; a floor on a model of
-    a constant throttle was applied in the sim and refused on the car.)"""
+    floor, on a model that learned the throttle and one that did not, at rest and moving, or both refuse (shaped
+    twice, a constant throttle above the cap drives at the cap in the sim and above it on the car, and a floor on a
+    model of a constant throttle is applied in the sim where the car refuses it)."""
     from itertools import product
 
     from conftest import made

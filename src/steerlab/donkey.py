@@ -19,11 +19,11 @@ deliver) and, optionally, the measured speed (`enc/speed`, m/s, from donkeycar's
   says the car stands (`control.Throttle`, the shaping the simulated car applies too; the floor needs `enc/speed`);
   forcing a constant `throttle` on such a model is refused unless `learned_throttle=False` says so. For a steering
   model the constant `throttle` (0.3 unless given, at most `max_throttle`; a scale or a floor, which shape a
-  learned throttle, is refused); for a model that predicts the next frame's speed (`multitask-speed`, which also needs the
-  measured speed with every frame) a PI controller drives the measured speed to the predicted one around
-  `throttle` as the cruising throttle; for a speed-command model (`speed-command`: decelerate / maintain /
-  accelerate) the throttle steps down, stays or steps up by `command_step` each frame. donkeycar's `DriveMode`
-  part multiplies it by `AI_THROTTLE_MULT`.
+  learned throttle, is refused); for a model that predicts the next frame's speed (`multitask-speed`, which also
+  needs the measured speed with every frame) a PI controller drives the measured speed to the predicted one around
+  `throttle` as the cruising throttle (at most `max_throttle`); for a speed-command model (`speed-command`: decelerate
+  / maintain / accelerate) the throttle steps down, stays or steps up by `command_step` each frame. donkeycar's
+  `DriveMode` part multiplies it by `AI_THROTTLE_MULT`.
 
 The streaming state lives in the steerlab `Pilot` (previous frame for difference and flow, frame stack, speed
 history, recurrent state): the same code `steerlab evaluate` runs, so what was evaluated is what drives. The
@@ -44,6 +44,7 @@ from __future__ import annotations
 import math
 import os
 import time
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Callable
 
@@ -58,11 +59,18 @@ from steerlab.paths import a_path
 from steerlab.pilot import Controls, Pilot
 
 
-def _check(name: str, value, low: float, high: float, low_open: bool = False) -> float:
+@contextmanager
+def _said_by_the_part():
+    """A refusal of the checks below, said as the part's ("SteerlabPilot: ...")."""
     try:
-        return number(name, value, low, high, low_open)
+        yield
     except SteerlabError as e:
         raise SteerlabError(f"SteerlabPilot: {e}") from None
+
+
+def _check(name: str, value, low: float, high: float, low_open: bool = False) -> float:
+    with _said_by_the_part():
+        return number(name, value, low, high, low_open)
 
 
 def servo_angle(value: float, convention: SteeringConvention, full_lock: float | None, steering_ratio: float) -> float:
@@ -85,9 +93,10 @@ class SteerlabPilot:
     throttle: the constant throttle of a steering model (default 0.3), and the cruising throttle of the speed
         controllers; for a model that learned the throttle only with `learned_throttle=False`.
     learned_throttle: a model that learned the throttle drives with it (False: with the constant `throttle`).
-    throttle_scale: the learned throttle is multiplied by it (donkeycar's AI_THROTTLE_MULT does the same later).
+    throttle_scale: the learned throttle is multiplied by it (donkeycar's AI_THROTTLE_MULT does the same later);
+        refused for a model that drives at a constant or cruising throttle.
     throttle_floor: the learned throttle is at least this while the car stands (slower than 0.1 m/s; needs the
-        measured speed with every frame).
+        measured speed with every frame); refused as throttle_scale is.
     full_lock_deg: the car's road-wheel angle at full lock, in degrees; needed for models trained on angles.
     max_throttle: no throttle exceeds it (a learned one is capped to +-max_throttle; a constant or cruising one
         above it is refused).
@@ -107,11 +116,9 @@ class SteerlabPilot:
                  smoothing: float | None = None, steering_step: float | None = None, threads: int | None = None,
                  reset_after_s: float | None = 0.5, clock: Callable[[], float] = time.monotonic):
         forced = throttle is not None
-        try:
-            shape = Throttle(DEFAULT_THROTTLE if throttle is None else throttle, throttle_scale, max_throttle,
+        with _said_by_the_part():
+            given = Throttle(DEFAULT_THROTTLE if throttle is None else throttle, throttle_scale, max_throttle,
                              throttle_floor)
-        except SteerlabError as e:
-            raise SteerlabError(f"SteerlabPilot: {e}") from None
         self.full_lock = None if full_lock_deg is None else math.radians(
             _check("full_lock_deg", full_lock_deg, 0.0, 89.0, low_open=True))
         said_full_lock(full_lock_deg, "SteerlabPilot", once=False)  # each part is made once
@@ -126,12 +133,11 @@ class SteerlabPilot:
         if self.learned and forced:
             raise SteerlabError(f"SteerlabPilot: {self.source.name} learned the throttle; throttle={throttle!r} "
                                 "would override it: pass learned_throttle=False to drive at a constant throttle, or "
-                                "leave throttle out (throttle_scale and max_throttle shape the learned one)")
+                                "leave throttle out (throttle_scale, max_throttle and throttle_floor shape the learned "
+                                "one)")
         kind = "cruising" if {"speed", "command"} & set(self.pilot.targets) else "constant"
-        try:
-            self.shaping = shape.for_model(self.learned, self.source.name, kind)
-        except SteerlabError as e:
-            raise SteerlabError(f"SteerlabPilot: {e}") from None
+        with _said_by_the_part():
+            self.shaping = given.for_model(self.learned, self.source.name, kind)
         conv = self.pilot.convention
         if conv.kind != "normalized" and self.full_lock is None:
             wheel = "steering-wheel" if conv.kind == "steering_wheel" else "road-wheel"

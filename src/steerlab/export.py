@@ -16,9 +16,10 @@ The file is self-contained: what the Pilot needs to feed it raw frames lives in 
 
 Writing needs torch and the `onnx` package; reading (`runtime.py`) needs neither.
 
-An int8 export (`steerlab export --int8 --calib DATA`) is the same file quantized by ONNX Runtime, calibrated on
-the inputs the fp32 graph receives in the Pilot on a recording's frames; its metadata adds `int8` (calibration
-source, range, frames) and its sha256 is computed again, so the Pilot runs it unchanged.
+An int8 export (`steerlab export --int8 --calib DATA`) is the same file quantized by ONNX Runtime (weights in 7
+bits, `INT8_SCHEME`), calibrated on the inputs the fp32 graph receives in the Pilot on a recording's frames; its
+metadata adds `int8` (calibration source, range, frames, the scheme and the CPUs it was checked on) and its sha256
+is computed again, so the Pilot runs it unchanged.
 """
 
 from __future__ import annotations
@@ -40,12 +41,13 @@ QUANTIZED_OPS = ["Conv", "MatMul", "Gemm"]
 # How an int8 model is quantized: QDQ, activations int8 per tensor, weights int8 per output channel in 7 bits
 # (reduce_range). x86's int8 kernels without VNNI (AVX2, AVX-512 before VNNI) multiply unsigned 8-bit activations
 # by signed 8-bit weights and add pairs of products in 16 bits, which saturate when both are near their ends; with
-# weights in [-64, 63] a pair stays within 16 bits, so every CPU sums the same integers and the int8 model steers
+# weights in [-64, 64] a pair stays within 16 bits, so every CPU sums the same integers and the int8 model steers
 # alike on all of them (docs/results/latency.md, "int8 on every CPU": the schemes measured on each).
 INT8_SCHEMES = {  # name: (activation type, weight type, reduce_range)
     "s8s8": ("QInt8", "QInt8", False), "s8s8-7bit": ("QInt8", "QInt8", True), "u8u8": ("QUInt8", "QUInt8", False)}
 INT8_SCHEME = "s8s8-7bit"
-# the CPUs whose kernels an int8 model of INT8_SCHEME was checked on against its fp32 model (benchmarks/bench_int8.py)
+# the CPUs on whose kernels INT8_SCHEME was checked against fp32 (benchmarks/bench_int8.py: 16 models, two of the
+# three CPUs emulated), written into an int8 model's metadata as `scheme_checked_on`
 INT8_CHECKED_ON = ["x86-64 AVX2 without VNNI", "x86-64 AVX-512 with VNNI", "aarch64"]
 
 
@@ -170,7 +172,7 @@ def quantize_int8(fp32: bytes, rec, calib_range: str | None, scheme: str = INT8_
                         weight_type=QuantType[weights])
         data = int8.read_bytes()
     return data, {"calibration": str(rec.source), "range": calib_range or f"0:{n}", "frames": len(feeds),
-                  "scheme": scheme, "checked_on": INT8_CHECKED_ON if scheme == INT8_SCHEME else []}
+                  "scheme": scheme, "scheme_checked_on": INT8_CHECKED_ON if scheme == INT8_SCHEME else []}
 
 
 def _calibration_inputs(fp32: Path, rec, n: int) -> list[dict[str, np.ndarray]]:

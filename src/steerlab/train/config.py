@@ -91,8 +91,9 @@ class TrainOptions(Options):
     workers: int = option(0, Range(0, WORKERS.hi), help="data-loading worker processes (0: in this one; the results do not "
                                                  "depend on it)")
     precision: Literal["fp32", "bf16"] = option("fp32", help="bf16: the forward pass in bfloat16 (torch.autocast; "
-                                                "about 1.6x faster on CPUs with AVX512-BF16 or AMX, slower on others); "
-                                                "the weights and the loss stay float32")
+                                                "about 1.5x faster on CPUs with AVX512-BF16 or AMX; on others, where "
+                                                "it is emulated, training says so and runs in float32); the weights "
+                                                "and the loss stay float32")
 
 
 @dataclass(frozen=True)

@@ -21,13 +21,14 @@ from tqdm import tqdm
 
 from steerlab.files import write_json
 from steerlab.checkpoint import load_checkpoint, save_checkpoint
+from steerlab.cpu import bf16_instructions
 from steerlab.data.cache import cache_root
 from steerlab.data.car import car_of
 from steerlab.data.dataset import CompiledDataset
 from steerlab.data.inputs import channel_stats, segment_starts
 from steerlab.data.recording import SteeringConvention
 from steerlab.data.splits import make_split
-from steerlab.errors import SteerlabError
+from steerlab.errors import SteerlabError, warn
 from steerlab.evaluate.metrics import all_metrics
 from steerlab.evaluate.scoring import write_predictions
 from steerlab.locks import folder_lock
@@ -39,7 +40,6 @@ from steerlab.train.batches import (Batch, EpochSampler, FrameBatches, balance_w
                                     sequence_windows)
 from steerlab.train.config import LOSSES, TrainConfig, another_config, differences, parse_config, unreadable
 from steerlab.train.distributed import Ranks, setup, wrap
-from steerlab.cpu import bf16_instructions
 from steerlab.train.host import keep_freed_memory
 from steerlab.train.log import METRIC, EpochLog
 from steerlab.train.sources import (check_camera, check_extra_data, main_recording, prepare_dataset, steering_ahead,
@@ -350,11 +350,11 @@ def fit(run: Run, ranks: Ranks, progress: bool, on_epoch=None) -> dict:
             print(f"resuming {out} after epoch {state['epoch']}")
     precision = t.precision
     if precision == "bf16" and ranks.device.type == "cpu" and bf16_instructions() is False:
-        precision = "fp32"  # emulated, bfloat16 is slower than float32 (docs/results/speed.md)
-        if progress:
-            print("train.precision bf16: this CPU has no bfloat16 instructions (avx512_bf16, amx_bf16; or "
-                  "ONEDNN_MAX_CPU_ISA keeps torch from them), where bfloat16 is emulated and slower: training in "
-                  "float32")
+        precision = "fp32"  # emulated, bfloat16 is 9x slower than float32 (docs/results/speed.md)
+        if ranks.main:
+            warn("train.precision bf16: this CPU has no bfloat16 instructions (avx512_bf16, amx_bf16; or "
+                 "ONEDNN_MAX_CPU_ISA keeps torch from them), where bfloat16 is emulated and slower: training in "
+                 "float32")
     log = EpochLog(out, predicted(model), history, t.tensorboard) if ranks.main else None
     batches = loader(run.data, run.sampler, t.workers, ranks.device)
     if progress and start <= t.epochs:

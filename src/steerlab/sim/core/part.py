@@ -30,21 +30,21 @@ class PartPilot:
     road-wheel angle of the driven car at angle +-1. The part's throttle reaches the car shaped by `throttle`
     (`control.Throttle.shaped`, as steerlab's own part shapes a learned throttle on the car: times its scale, then
     limited to +-its cap, at least its floor at rest; donkeycar's AI_THROTTLE_MULT scales after its cap instead);
-    `throttle=None` for a part that shapes its own (steerlab's, `donkey_pilot`), whose throttle passes as it is,
-    within the ESC's [-1, 1]. `reset()` calls the part's own `reset` if it has one (after an off-track event the
-    pilot forgets its past), `close()` its `close` (a part behind a pipe). `name`, `geometry` (the camera the part
-    expects; "donkey" for donkeycar's 160x120 camera) and `source` (what messages name) describe it to the loop."""
+    `throttle=None` (the default) for a part that shapes its own (steerlab's, `donkey_pilot`), whose throttle passes
+    as it is, within the ESC's [-1, 1]. `reset()` calls the part's own `reset` if it has one (after an off-track
+    event the pilot forgets its past), `close()` its `close` (a part behind a pipe). `name`, `geometry` (the camera
+    the part expects; "donkey" for donkeycar's 160x120 camera) and `source` (what messages name) describe it to
+    the loop."""
 
     def __init__(self, part, full_lock_deg: float, name: str | None = None, geometry: str | None = "donkey",
-                 source: str | None = None, with_speed: bool = False,
-                 throttle: Throttle | None = Throttle(cap=1.0)):
+                 source: str | None = None, with_speed: bool = False, throttle: Throttle | None = None):
         if not callable(getattr(part, "run", None)):
             raise SteerlabError(f"{type(part).__name__} is not a donkeycar part: it has no run(img_arr); "
                                 "give a part that has one")
         if not 0 < full_lock_deg < 90:
             raise SteerlabError(f"full_lock_deg must lie in (0, 90) degrees, got {full_lock_deg}")
         if throttle is not None and not isinstance(throttle, Throttle):
-            raise SteerlabError(f"PartPilot: throttle must be a steerlab.control.Throttle or None, got {throttle!r}")
+            raise SteerlabError(f"throttle must be a steerlab.control.Throttle or None, got {throttle!r}")
         self.part, self.with_speed, self.throttle = part, with_speed, throttle
         self.convention = SteeringConvention("normalized", "right", math.radians(full_lock_deg))
         self.name = name or type(part).__name__

@@ -193,7 +193,7 @@ def checkpoint_pilot(checkpoint: str | Path, o, w: DriveWith = DriveWith()):
     if o.throttle is not None and pilot.part.learned:
         raise SteerlabError(f"{checkpoint} learned the throttle; the throttle {o.throttle:g} (steerlab sim drive "
                             "--throttle) is the constant throttle of a model that predicts none: leave it out "
-                            "(throttle_scale and max_throttle shape a learned throttle)")
+                            "(throttle_scale, max_throttle and throttle_floor shape a learned throttle)")
     return lane_pilot(pilot, checkpoint) if o.steer_by == "lane" else pilot
 
 

@@ -45,8 +45,8 @@ from steerlab.sim.core.suite import (Entrant, Planned, as_stored, check_world_of
 from steerlab.sim.track import run
 from steerlab.sim.track.run import TrackDrive, drive_expert
 from steerlab.sim.track.world import (TrackDriveOptions, TrackRecordOptions, calibration_option, camera_of,
-                                      constant_throttle, latency_option, max_throttle_option, steer_by_option,
-                                      throttle_floor_option, throttle_option, throttle_scale_option)
+                                      constant_throttle, latency_option, max_throttle_option, part_throttle,
+                                      steer_by_option, throttle_floor_option, throttle_option, throttle_scale_option)
 
 TRACK_SUITES = {
     # 8 tracks of 2 minutes, 0.9 m lanes: six taped, two with a painted centre line (28-54 m laps; the expert
@@ -204,7 +204,7 @@ def race_part(make_part: Callable, name: str, source: str, o: TrackSuiteOptions)
         raise SteerlabError(f"{source}: steer_by {o.steer_by} steers by a steerlab checkpoint's lane head; a "
                             "donkeycar part steers by its own angle: set steer_by to steering")
     return PartPilot(make_part(), CARS["donkey"].full_lock_deg, name=name, source=source,
-                     throttle=Throttle(scale=o.throttle_scale, cap=o.max_throttle, floor=o.throttle_floor))
+                     throttle=part_throttle(o))
 
 
 def _job(entrant: Entrant | None, o: TrackSuiteOptions, style: str, seed: int, out: str, key: dict) -> TrackDrive:
@@ -238,11 +238,14 @@ def race(pilots, out: str | Path, o: TrackSuiteOptions, progress: bool = True) -
     if taken:
         raise SteerlabError(f"{taken[0]}: its label begins with {EXPERT!r}, as the folders of the expert's drives do; "
                             "name it otherwise (its run folder)")
-    checkpoints = [e.source for e in racing if "checkpoint_sha256" in e.identity]
-    if o.throttle is not None and checkpoints and all(learns_throttle(c) for c in checkpoints):
+    checkpoints = {e.source: learns_throttle(e.source) for e in racing if "checkpoint_sha256" in e.identity}
+    if o.throttle is not None and checkpoints and all(checkpoints.values()):
         raise SteerlabError(f"the throttle {o.throttle:g} (steerlab sim bench --throttle) is the constant throttle "
                             "of a model that predicts none; every checkpoint here learned its own: leave it out "
-                            "(throttle_scale and max_throttle shape a learned throttle)")
+                            "(throttle_scale, max_throttle and throttle_floor shape a learned throttle)")
+    shaping = Throttle(constant_throttle(o.throttle), o.throttle_scale, o.max_throttle, o.throttle_floor)
+    for checkpoint, learned in checkpoints.items():  # before any drive: as its part on the car would refuse it
+        shaping.for_model(learned, checkpoint)
     expert_key = as_stored({"suite": o.suite, "minutes": o.place_minutes, "max_throttle": o.max_throttle})
     runs = [(o.expert_folder(), None, expert_key), *((e.label, e, o.key(e)) for e in racing)]
     planned = [Planned((label, seed), out / label / f"{style}-{seed}", key,

@@ -28,7 +28,7 @@ from typing import Literal
 
 import numpy as np
 
-from steerlab.control import DEFAULT_THROTTLE
+from steerlab.control import DEFAULT_THROTTLE, Throttle
 from steerlab.data.car import CARS, Car
 from steerlab.data.fisheye import DONKEY_FISHEYE, FisheyeCamera, load_calibration
 from steerlab.data.recording import SteeringConvention
@@ -91,6 +91,12 @@ def throttle_floor_option():
     """The option of every track command that drives a model: the least throttle while the car is at rest."""
     return option(0.0, UNIT, help="the least throttle while the car stands (below 0.1 m/s), within the cap: a "
                   "throttle learned from the image alone can brake at rest where the expert braked at speed (0: none)")
+def part_throttle(o) -> Throttle:
+    """How a drive's or a suite's options `o` shape a donkeycar part's throttle (its scale, cap and floor):
+    `core.part.PartPilot(throttle=...)` for a part that is not steerlab's."""
+    return Throttle(scale=o.throttle_scale, cap=o.max_throttle, floor=o.throttle_floor)
+
+
 def steer_by_option():
     """The option of every track command that drives a model: what it steers by."""
     return option("steering", help="steering: the model's steering head; lane: a Stanley controller on the lane its "
