@@ -24,7 +24,7 @@ from benchmarks.int8_kernels import measure
 from steerlab.cli import path_option, run_script
 from steerlab.data.readers import open_recording
 from steerlab.errors import DataError
-from steerlab.export import INT8_SCHEMES, _calibration_inputs, export_onnx, quantize_int8
+from steerlab.export import INT8_SCHEMES, calibration_inputs, export_onnx, quantize_int8
 from steerlab.models import list_models, model_class
 
 SIZE = {"width": 64, "height": 64}
@@ -94,7 +94,7 @@ def write_case(out: Path, ckpt: Path, rec: Path, calib: str | None, scored: list
     feeds = []
     for block in scored:
         part = open_recording(rec, block)
-        feeds += _calibration_inputs(fp32, part, len(part))
+        feeds += calibration_inputs(fp32, part, len(part))
     np.savez(out / "feeds.npz", **{k: np.stack([f[k] for f in feeds]) for k in feeds[0]})
 
 

@@ -147,14 +147,14 @@ def test_int8_calibration_starts_every_segment_from_a_zero_state(tmp_path, tiny_
     first frame of each segment (a recording of two here, the second from frame 20) and carried within one."""
     from test_export_serve import untrained
 
-    from steerlab.export import _calibration_inputs
+    from steerlab.export import calibration_inputs
 
     fp32 = export_onnx(untrained(tmp_path, "lstm", "sim"), tmp_path / "m.onnx")
     rec = open_recording(tiny_recording, "0:40")
     rec.timestamps_ns = rec.timestamps_ns.copy()
     rec.timestamps_ns[20:] += 2_000_000_000  # a gap of 2 s: a second segment
     assert rec.segments() == [(0, 20), (20, 40)]
-    feeds = _calibration_inputs(fp32, rec, 40)
+    feeds = calibration_inputs(fp32, rec, 40)
     assert len(feeds) == 40
     state = [np.abs(np.concatenate([f["h"].ravel(), f["c"].ravel()])).max() for f in feeds]
     assert state[0] == state[20] == 0.0

@@ -156,7 +156,7 @@ def quantize_int8(fp32: bytes, rec, calib_range: str | None, scheme: str = INT8_
     with tempfile.TemporaryDirectory() as folder:
         fp32_path, pre, int8 = (Path(folder) / f"{k}.onnx" for k in ("fp32", "pre", "int8"))
         fp32_path.write_bytes(fp32)
-        feeds = _calibration_inputs(fp32_path, rec, n)
+        feeds = calibration_inputs(fp32_path, rec, n)
 
         class Feeds(CalibrationDataReader):
             def __init__(self):
@@ -175,7 +175,7 @@ def quantize_int8(fp32: bytes, rec, calib_range: str | None, scheme: str = INT8_
                   "scheme": scheme, "scheme_checked_on": INT8_CHECKED_ON if scheme == INT8_SCHEME else []}
 
 
-def _calibration_inputs(fp32: Path, rec, n: int) -> list[dict[str, np.ndarray]]:
+def calibration_inputs(fp32: Path, rec, n: int) -> list[dict[str, np.ndarray]]:
     """What the graph sees in the Pilot: the fp32 model drives the recording's first `n` frames, reset at every
     segment start, and the inputs (standardised frame, speeds, recurrent state) of up to CALIB_SAMPLES frames
     spread evenly over them are kept."""
