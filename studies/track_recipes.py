@@ -107,6 +107,19 @@ ROOMS_NO_DRIFT = tuple(name for name in AUGMENT if name.endswith("-no-drift"))
 AUGMENT |= {f"{style}-{seed}-vary": [style, str(seed), "--minutes", "1", "--vary"]
             for style, seeds in (("taped", range(200, 248)), ("centre", range(248, 264))) for seed in seeds}
 
+# frames from poses drawn around the expert's line (`sim record --poses`) on the sixteen rooms' tracks, in their rooms:
+# the places and speeds of M minutes of its drive, the rear axle within +-1.25 half lane widths, turned within +-30 deg
+POSE_MINUTES = (0.25, 0.5, 1.0)
+AUGMENT |= {f"{style}-{seed}-poses-{m:g}": [style, str(seed), "--minutes", f"{m:g}", "--poses"]
+            for m in POSE_MINUTES for style, seeds in (("taped", range(5, 17)), ("centre", range(17, 21)))
+            for seed in seeds}
+
+
+
+def with_poses(minutes: float) -> tuple[str, ...]:
+    """The sixteen rooms' tubs and their pose frames of `minutes` each (the first validates)."""
+    return (*ROOMS, *(n for n in AUGMENT if n.endswith(f"-poses-{minutes:g}")))
+
 
 def varied(n: int) -> tuple[str, ...]:
     """The first n varied tubs, three of every four taped (the first validates)."""
@@ -215,6 +228,24 @@ RECIPES = {
                            (*BEST, "preprocess.stack=3"), RACE_BEST, ROOMS, only=240),
     "best-floor-0.2": Recipe("track_best driven with a throttle of at least 0.2 while the car stands "
                              "(--throttle-floor 0.2)", race={**RACE_BEST, "throttle_floor": 0.2}, starts="flip-mae"),
+    # frames from every pose: track_best's tubs and M minutes of pose frames of each of their tracks
+    **{f"best-poses-{m:g}": Recipe(f"track_best + {m:g} min of pose frames of each of its sixteen tracks in its room "
+                                   "(sim record --poses: the rear axle within +-1.25 half lane widths, turned within "
+                                   "+-30 degrees, the expert's controls from there), driven as best-floor-0.2",
+                                   BEST, {**RACE_BEST, "throttle_floor": 0.2},
+                                   with_poses(m), only=240)
+       for m in POSE_MINUTES},
+    # the lane head (train.lane_weight 0.5) on track_best's tubs without and with pose frames, driven by its steering
+    # head and by the lane controller on the lane it sees (--steer-by lane)
+    "best-lane": Recipe("track_best + a lane head (train.lane_weight 0.5), driven by its steering head as "
+                        "best-floor-0.2", (*BEST, "train.lane_weight=0.5"), {**RACE_BEST, "throttle_floor": 0.2},
+                        ROOMS, only=240),
+    "best-poses-0.5-lane": Recipe("best-poses-0.5 + a lane head (train.lane_weight 0.5), driven by its steering head",
+                                  (*BEST, "train.lane_weight=0.5"), {**RACE_BEST, "throttle_floor": 0.2},
+                                  with_poses(0.5), only=240),
+    **{f"{name}-by-lane": Recipe(f"{name} steering by the lane it sees (--steer-by lane: the lane controller, "
+                                 "Stanley's law)", race={**RACE_BEST, "throttle_floor": 0.2, "steer_by": "lane"},
+                                 starts=name) for name in ("best-lane", "best-poses-0.5-lane")},
     # the data-scale curve of varied rooms (docs/results/racing.md, "Rooms that cannot be memorised")
     **{f"vary-{n}": Recipe(f"track_best on {n} tracks in {n} varied rooms (sim record --vary), a minute each",
                            BEST, RACE_BEST, varied(n), only=240) for n in (16, 32, 64)},

@@ -19,7 +19,9 @@ from steerlab.models import create_model, list_models
 from steerlab.models.registry import learns_lane
 from steerlab.pilot import Controls
 from steerlab.sim.core.driving import drive_loop
-from steerlab.sim.track.lane import K_OFFSET, V0, LanePilot, lane_steering
+from steerlab.control import K_OFFSET, V0, lane_steering
+from steerlab.donkey import SteerlabPilot
+from steerlab.sim.track.lane import LanePilot
 from steerlab.sim.track.world import TrackDriveOptions, TrackWorld
 from steerlab.train import loop
 from steerlab.train.config import load_config
@@ -162,23 +164,41 @@ def test_a_lane_model_trains_and_its_pilot_sees_the_lane_but_drives_by_steering(
     pilot = Pilot(run / "best.pt")
     controls = pilot.step(frame)
     assert "lane" in pilot.targets and len(controls.lane) == 3 and all(math.isfinite(v) for v in controls.lane)
-    onnx = export_onnx(run / "best.pt", tmp_path / "model.onnx")  # steering alone: the lane head is not exported
+    onnx = export_onnx(run / "best.pt", tmp_path / "model.onnx")  # the lane head is exported with the rest
     exported = Pilot(onnx)
-    assert "lane" not in exported.targets and exported.step(frame).lane is None
+    assert "lane" in exported.targets
+    assert exported.step(frame).lane == pytest.approx(controls.lane, abs=1e-4)
     assert exported.step(frame).steering == pytest.approx(controls.steering, abs=1e-4)
 
-    # steering by the lane: the controller's angle on the lane the model sees, the model's throttle
+    # steering by the lane, on the car: the controller's angle on the lane the model sees over the car's full lock
+    # (servo units, positive right), its throttle the model's as usual
+    rgb = np.ascontiguousarray(frame[..., ::-1])
+    for model in (run / "best.pt", onnx):
+        part = SteerlabPilot(model, steer_by="lane", full_lock_deg=25, reset_after_s=None)
+        plain = SteerlabPilot(model, full_lock_deg=25, reset_after_s=None)
+        (angle, throttle), (_, head_throttle) = part.run(rgb, 1.5), plain.run(rgb, 1.5)
+        expected = -lane_steering(*part.controls.lane, 1.5, CAR.wheelbase) / CAR.full_lock
+        assert angle == pytest.approx(float(np.clip(expected, -1, 1)), abs=1e-9) and throttle == head_throttle
+        assert part.controls.lane == pytest.approx(controls.lane, abs=1e-4)
+        with pytest.raises(SteerlabError, match="steer_by lane needs the measured speed"):
+            part.run(rgb)
+    for given, match in (({"smoothing": 0.5}, "smoothing shapes the steering head's output; steer_by lane"),
+                         ({"steering_step": 0.1}, "steering_step shapes the steering head's output"),
+                         ({"steer_by": "lanes"}, "steer_by must be 'steering' or 'lane', got 'lanes'")):
+        with pytest.raises(SteerlabError, match=match):
+            SteerlabPilot(onnx, **{"steer_by": "lane", **given})
+
+    # in the track world the same part drives: the sim's angle is the car's
     from steerlab.sim.track.run import checkpoint_pilot
 
     world = TrackWorld(1)
-    lane = checkpoint_pilot(run / "best.pt", TrackDriveOptions(steer_by="lane"))
-    plain = checkpoint_pilot(run / "best.pt", TrackDriveOptions())
     frame = world.render()
-    got, head = lane.step(frame, 1.5), plain.step(frame, 1.5)
-    seen = lane.inner.part.controls.lane
-    expected = np.clip(lane_steering(*seen, 1.5, CAR.wheelbase), -CAR.full_lock, CAR.full_lock)
-    assert got.steering == pytest.approx(expected) and got.throttle == head.throttle
-    assert lane.convention.kind == "road_wheel" and lane.name == plain.name
+    for model in (run / "best.pt", onnx):
+        lane = checkpoint_pilot(model, TrackDriveOptions(steer_by="lane"))
+        car = SteerlabPilot(model, steer_by="lane", full_lock_deg=25, reset_after_s=None)
+        got = lane.step(frame, 1.5)
+        assert got.steering == car.run(np.ascontiguousarray(frame[..., ::-1]), 1.5)[0]
+        assert lane.name == "donkey-linear" and lane.part.steer_by == "lane"
 
 
 def test_steering_by_the_lane_is_refused_for_a_model_without_the_head(tmp_path, capsys):

@@ -1,7 +1,20 @@
 """The one speed controller: the throttle that drives a measured speed to a target (the Udacity simulator
-server's set speed, a donkeycar part's predicted speed), and the one shaping of a part's throttle on its way to the
+server's set speed, a donkeycar part's predicted speed), the one shaping of a part's throttle on its way to the
 car (`Throttle`: a constant throttle, or a learned one scaled, capped and floored at rest), which the car's part
-(`donkey.SteerlabPilot`) and every pilot of the simulated car (`sim.core.part.PartPilot`) apply alike."""
+(`donkey.SteerlabPilot`) and every pilot of the simulated car (`sim.core.part.PartPilot`) apply alike, and the
+one lane controller (`lane_steering`), which steers by the lane a model's lane head sees, on the car and in the
+simulated track world alike.
+
+The lane controller's law is Stanley's (Thrun et al. 2006, "Stanley: the robot that won the DARPA Grand
+Challenge"), with the lane's curvature as a feed-forward: road-wheel angle (rad, positive left) =
+
+    atan(wheelbase x curvature) - K_HEADING x heading - atan(K_OFFSET x offset / (v + V0))
+
+for the lateral offset of the rear axle (m, positive left), the heading to the lane (rad, positive turned left),
+the lane's curvature (1/m, positive turning left) and the speed v (m/s), limited to the car's full lock by its
+caller. The first term is the angle that follows the lane's curve (a kinematic car turns with curvature
+tan(angle) / wheelbase), the second turns the wheels back along the lane, the third steers towards the centre line
+over a distance that grows with the speed."""
 
 from __future__ import annotations
 
@@ -12,6 +25,14 @@ import numpy as np
 
 from steerlab.errors import SteerlabError
 
+# Stanley's own heading term: the wheels turned back by the whole heading error point the car along the lane.
+K_HEADING = 1.0
+# 1/s: near the lane centre the car closes its offset at about K_OFFSET x offset m/s. On the donkeycar's 0.26 m
+# wheelbase the offset then settles like a spring of damping sqrt(v / (4 K_OFFSET wheelbase)): 0.7 at 1 m/s, 1.2 at
+# 3 m/s, never oscillating much at racing speeds, and back within a car's length at the speeds it races.
+K_OFFSET = 2.0
+# m/s: keeps the offset term finite at standstill (the start line) and gentle below a walking pace.
+V0 = 0.5
 AT_REST = 0.1  # m/s: slower than this, the car stands (or creeps) as far as a throttle floor is concerned
 DEFAULT_THROTTLE = 0.3  # the constant throttle of a model that predicts none when none is given
 
@@ -93,3 +114,9 @@ class SpeedControl:
         error = target - measured
         self.integral = min(max(self.integral + error, -self.limit), self.limit)
         return float(np.clip(self.cruise + self.kp * error + self.ki * self.integral, self.low, self.high))
+
+
+def lane_steering(offset: float, heading: float, curvature: float, speed: float, wheelbase: float) -> float:
+    """The road-wheel angle (rad, positive left) of the lane controller (see the module's docstring), unlimited."""
+    return (math.atan(wheelbase * curvature) - K_HEADING * heading
+            - math.atan(K_OFFSET * offset / (max(speed, 0.0) + V0)))

@@ -25,6 +25,11 @@ deliver) and, optionally, the measured speed (`enc/speed`, m/s, from donkeycar's
   / maintain / accelerate) the throttle steps down, stays or steps up by `command_step` each frame. donkeycar's
   `DriveMode` part multiplies it by `AI_THROTTLE_MULT`.
 
+With `steer_by="lane"` a model with a lane head (`train.lane_weight`) steers by the lane it sees, not by its
+steering head: the lane controller (`control.lane_steering`, Stanley's law on the offset, heading and curvature,
+at the measured speed, which it needs with every frame; the car's wheelbase is its camera's car's) gives the
+road-wheel angle, which the car's full lock makes a servo command; the throttle is as above.
+
 The streaming state lives in the steerlab `Pilot` (previous frame for difference and flow, frame stack, speed
 history, recurrent state): the same code `steerlab evaluate` runs, so what was evaluated is what drives. The
 part converts RGB to the BGR the Pilot takes (OpenCV's order, as recordings are read). A gap of more than
@@ -50,7 +55,7 @@ from typing import Callable
 
 import numpy as np
 
-from steerlab.control import DEFAULT_THROTTLE, SpeedControl, Throttle, number
+from steerlab.control import DEFAULT_THROTTLE, SpeedControl, Throttle, lane_steering, number
 from steerlab.data.car import car_of
 from steerlab.data.geometry import CAMERAS
 from steerlab.data.recording import SteeringConvention, said_full_lock
@@ -106,6 +111,8 @@ class SteerlabPilot:
     smoothing: exponential smoothing of the steering (paper 002 Eq. 2), as `steerlab sim drive --smoothing`.
     steering_step: then the largest change of the steering from one frame to the next (servo units for a tub model),
     as `steerlab sim drive --steering-step`.
+    steer_by: "steering" (the model's steering head) or "lane" (the lane controller on the lane its lane head
+        sees; needs the measured speed, and the full lock from `full_lock_deg` or the checkpoint's).
     reset_after_s: a longer gap between frames starts a new segment (None: never).
     clock: seconds, for the gap (`time.monotonic`).
     """
@@ -114,7 +121,8 @@ class SteerlabPilot:
                  throttle_scale: float = 1.0, throttle_floor: float = 0.0, full_lock_deg: float | None = None,
                  max_throttle: float = 0.5, kp: float = 0.1, ki: float = 0.01, command_step: float = 0.01,
                  smoothing: float | None = None, steering_step: float | None = None, threads: int | None = None,
-                 reset_after_s: float | None = 0.5, clock: Callable[[], float] = time.monotonic):
+                 steer_by: str = "steering", reset_after_s: float | None = 0.5,
+                 clock: Callable[[], float] = time.monotonic):
         forced = throttle is not None
         with _said_by_the_part():
             given = Throttle(DEFAULT_THROTTLE if throttle is None else throttle, throttle_scale, max_throttle,
@@ -139,6 +147,7 @@ class SteerlabPilot:
         with _said_by_the_part():
             self.shaping = given.for_model(self.learned, self.source.name, kind)
         conv = self.pilot.convention
+        self.steer_by = self._lane_steering(steer_by, smoothing, steering_step)
         if conv.kind != "normalized" and self.full_lock is None:
             wheel = "steering-wheel" if conv.kind == "steering_wheel" else "road-wheel"
             raise SteerlabError(f"{self.source} predicts the {wheel} angle (positive {conv.positive}); donkeycar "
@@ -153,7 +162,8 @@ class SteerlabPilot:
             raise SteerlabError(f"SteerlabPilot: clock must be a function that returns seconds (time.monotonic), "
                                 f"got {clock!r}")
         self.clock = clock
-        self.steering_ratio = car_of(self.pilot.geometry).steering_ratio  # the car its angles were recorded on
+        car = car_of(self.pilot.geometry)  # the car its angles were recorded on
+        self.steering_ratio, self.wheelbase = car.steering_ratio, car.wheelbase
         cam = CAMERAS.get(self.pilot.geometry)
         self.shape = None if cam is None else (cam.height, cam.width, 3)  # the frames the model was trained on
         self.frames = 0
@@ -161,6 +171,27 @@ class SteerlabPilot:
         self._last = None
         self._commanded = self.shaping.constant
         self._closed = self._warned = False
+
+    def _lane_steering(self, steer_by, smoothing, steering_step) -> str:
+        """`steer_by` checked against the model: "lane" needs a lane head and a full lock, and leaves the steering
+        head's smoothing and step nothing to shape."""
+        if steer_by not in ("steering", "lane"):
+            raise SteerlabError(f"SteerlabPilot: steer_by must be 'steering' or 'lane', got {steer_by!r}")
+        if steer_by == "steering":
+            return steer_by
+        if "lane" not in self.pilot.targets:
+            raise SteerlabError(f"{self.source}: steer_by lane steers by the lane a model's lane head sees; model "
+                                f"{self.pilot.name!r} has none: train it with train.lane_weight > 0 on tubs with "
+                                "lane values (steerlab sim record --world track), or set steer_by to steering")
+        for name, value in (("smoothing", smoothing), ("steering_step", steering_step)):
+            if value is not None:
+                raise SteerlabError(f"SteerlabPilot: {name} shapes the steering head's output; steer_by lane steers "
+                                    f"by the lane controller instead: leave {name} out, or set steer_by to steering")
+        if (self.full_lock or self.pilot.convention.full_lock) is None:
+            raise SteerlabError(f"SteerlabPilot: steer_by lane turns the lane controller's road-wheel angle into a "
+                                f"servo command with the car's full lock, which {self.source.name} does not know: "
+                                "give full_lock_deg")
+        return steer_by
 
     def reset(self) -> None:
         """Forget the past: the next frame starts a segment (previous frame, histories, recurrent state)."""
@@ -195,15 +226,22 @@ class SteerlabPilot:
             got = "x".join(map(str, img.shape)) or "a scalar"
             raise SteerlabError(f"SteerlabPilot: the camera frame is {got} {img.dtype}; {self.source.name} "
                                 f"(model {self.pilot.name!r}) expects {self.expected()}")
-        if (self.pilot.speed_history or "speed" in self.pilot.targets or self.shaping.floor) and speed is None:
-            needs = "the throttle floor needs" if self.shaping.floor else f"model {self.pilot.name!r} needs"
+        lane = self.steer_by == "lane"
+        if (self.pilot.speed_history or "speed" in self.pilot.targets or self.shaping.floor or lane) and speed is None:
+            needs = ("the throttle floor needs" if self.shaping.floor else "steer_by lane needs" if lane
+                     else f"model {self.pilot.name!r} needs")
             raise SteerlabError(f"SteerlabPilot: {needs} the measured speed (m/s) with every frame: add the car's "
                                 "odometry (HAVE_ODOM = True) and inputs=['cam/image_array', 'enc/speed']")
         if gap:
             self.reset()
         self.frames += 1
         out = self.controls = self.pilot.step(np.ascontiguousarray(img[..., ::-1]), speed)
-        angle = servo_angle(out.steering, self.pilot.convention, self.full_lock, self.steering_ratio)
+        if lane:
+            full_lock = self.full_lock or self.pilot.convention.full_lock
+            wheel = lane_steering(*out.lane, speed, self.wheelbase)
+            angle = float(np.clip(-wheel / full_lock, -1.0, 1.0))
+        else:
+            angle = servo_angle(out.steering, self.pilot.convention, self.full_lock, self.steering_ratio)
         return angle, self._throttle(out, speed)
 
     def _throttle(self, out: Controls, speed: float | None) -> float:

@@ -3,7 +3,8 @@
 `model.onnx` holds the network for one frame: input `x` (1, C, H, W), standardised exactly as the torch Pilot
 feeds it, plus `speeds` (1, N) for models with a speed history and `h`, `c` (layers, 1, hidden) for recurrent
 models, whose next state comes back as outputs `h_out`, `c_out` (zeros start a segment, as the torch Pilot's
-empty state). Outputs: `steering` (1,), `speed` (1,) or `command` (1, 3) where the model has them.
+empty state). Outputs: `steering` (1,), `speed` (1,) or `command` (1, 3), `throttle` (1,) and `lane` (1, 3)
+where the model has them.
 
 The file is self-contained: what the Pilot needs to feed it raw frames lives in the model's own metadata
 (ONNX `metadata_props`), so a copied `model.onnx` runs on its own:
@@ -82,7 +83,7 @@ def export_onnx(checkpoint: str | Path, out: str | Path, calib: str | Path | Non
         names.append("speeds")
     with torch.no_grad():
         probe = model(x[:, None]) if model.recurrent else model(*args)
-    outputs = [k for k in ("steering", "speed", "command", "throttle")
+    outputs = [k for k in ("steering", "speed", "command", "throttle", "lane")
                if k in (probe[0] if isinstance(probe, tuple) else probe)]
     state = None
     if model.recurrent:

@@ -125,10 +125,11 @@ class TubWriter:
         return float(np.clip(-road_wheel / self.full_lock, -1.0, 1.0))
 
     def add(self, frame: np.ndarray, timestamp_ns: int, road_wheel: float, throttle: float,
-            deleted: bool = False, lane: tuple[float, float, float] | None = None) -> None:
+            deleted: bool = False, lane: tuple[float, float, float] | None = None, new_session: bool = False) -> None:
         """One record: a BGR frame, its time (ns from the start), the road-wheel angle (rad, positive left) and
         the throttle in [-1, 1]; `deleted`: cut out of the drive (see the class's docstring); `lane`: (offset,
-        heading, curvature), given exactly when the writer was made with `lane`."""
+        heading, curvature), given exactly when the writer was made with `lane`; `new_session`: the record starts
+        a session (a frame unrelated to the one before it)."""
         if (lane is not None) != self.lane:
             raise SteerlabError(f"TubWriter {self.out}: lane values belong to every record of a tub made with "
                                 "lane=True and to none of another: give add(lane=...) exactly when the writer has "
@@ -136,7 +137,7 @@ class TubWriter:
         i = len(self.records)
         if deleted:
             self.deleted.append(i)
-        elif self.deleted and self.deleted[-1] == i - 1:  # the first record kept after a cut
+        elif (new_session and i) or (self.deleted and self.deleted[-1] == i - 1):  # after a cut, or unrelated
             self.sessions.append(f"{self.day}_{len(self.sessions)}")
         name = f"{i}_cam_image_array_.jpg"
         if not cv2.imwrite(str(self.out / "images" / name), frame, self.jpeg):

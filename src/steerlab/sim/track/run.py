@@ -37,6 +37,7 @@ from steerlab.sim.core.parallel import tick_reporter
 from steerlab.sim.core.plots import write_strip
 from steerlab.sim.core.suite import check_seed, write_json
 from steerlab.sim.track.look import LOOK, Look
+from steerlab.sim.track.poses import record_poses
 from steerlab.sim.track.world import (DRIFT_EVERY_S, RacerPilot, TrackDriveOptions, TrackRecordOptions, TrackWorld,
                                       camera_of, constant_throttle)
 from steerlab.video import DriveVideo
@@ -76,13 +77,16 @@ class TrackDrive:
 def record(out: str | Path, o: TrackRecordOptions = TrackRecordOptions(), progress: bool = True, *,
            suite_ok: bool = False) -> Path:
     """The racing expert on the track made from `o.seed` (with drift-and-recover episodes unless `o.drift` is
-    false), written as a tub or a steerlab recording (see the module's docstring). Same options, same bytes.
+    false), written as a tub or a steerlab recording (see the module's docstring); with `o.poses`, frames from
+    poses drawn around its line (`poses.record_poses`). Same options, same bytes.
 
     `suite_ok=True` is for evaluation recordings only (replay against the track suite, with the options of
     `TrackSuiteOptions.record_options`; not in the CLI, never for training data): it allows the track suite's
     reserved seeds, so that the recording shows the suite's own track."""
     if not suite_ok:
         check_seed(o.seed, "track")
+    if o.poses:
+        return record_poses(out, o, progress)
     camera, look = o.camera(), o.look()
     world = TrackWorld(o.seed, o.lane_width, o.style, o.fps, camera, room=o.room, look=look)
     expert = RacerPilot(world, o.seed, DRIFT_EVERY_S if o.drift else None)
@@ -183,18 +187,17 @@ def checkpoint_pilot(checkpoint: str | Path, o, w: DriveWith = DriveWith()):
     race it: the constant throttle `o.throttle` for a model that predicts none (refused for one that learned the
     throttle), its learned throttle times `o.throttle_scale` capped at `o.max_throttle` (at least `o.throttle_floor`
     while the car stands), its steering shaped as `w` says; with `o.steer_by` lane, steering by the lane its model's
-    lane head sees (`lane.lane_pilot`)."""
+    lane head sees (`donkey.SteerlabPilot(steer_by="lane")`)."""
     from steerlab.sim.core.part import donkey_pilot
-    from steerlab.sim.track.lane import lane_pilot
 
     pilot = donkey_pilot(checkpoint, constant_throttle(o.throttle), w.smoothing, o.max_throttle,
                          steering_step=w.steering_step, throttle_scale=o.throttle_scale,
-                         throttle_floor=o.throttle_floor)
+                         throttle_floor=o.throttle_floor, steer_by=o.steer_by)
     if o.throttle is not None and pilot.part.learned:
         raise SteerlabError(f"{checkpoint} learned the throttle; the throttle {o.throttle:g} (steerlab sim drive "
                             "--throttle) is the constant throttle of a model that predicts none: leave it out "
                             "(throttle_scale, max_throttle and throttle_floor shape a learned throttle)")
-    return lane_pilot(pilot, checkpoint) if o.steer_by == "lane" else pilot
+    return pilot
 
 
 def drive_checkpoint(checkpoint: str | Path, out: str | Path | None, o: TrackDriveOptions, w: DriveWith = DriveWith(),

@@ -32,7 +32,8 @@ from steerlab.control import DEFAULT_THROTTLE, Throttle
 from steerlab.data.car import CARS, Car
 from steerlab.data.fisheye import DONKEY_FISHEYE, FisheyeCamera, load_calibration
 from steerlab.data.recording import SteeringConvention
-from steerlab.options import AT_LEAST_0, FPS, MINUTES, Options, Range, SEED, UNIT, holds_frames, option
+from steerlab.options import (AT_LEAST_0, FPS, MINUTES, Options, Range, SEED, UNIT, frames_held, holds_frames,
+                              option)
 from steerlab.pilot import Controls
 from steerlab.sim.core.vehicle import VehicleState
 from steerlab.sim.track.expert import Racer, expert_controls, pursuit
@@ -132,6 +133,25 @@ class TrackRecordOptions(Options):
                         "the camera (noise, blur, JPEG quality, mount +-3 cm, pitch +-4 degrees) drawn from far wider "
                         "ranges (the look is kept in the recording's metadata)")
 
+    poses: bool = option(False, help="frames rendered from poses drawn around the expert's line instead of its own "
+                         "view (the lane crossed and left, the car turned), each labelled with the expert's controls "
+                         "from there (sim/track/poses.py): a tub")
+    pose_offset: float | None = option(None, Range(0, 3), help="with poses: the lateral offsets drawn, in half lane "
+                                       "widths either side of the lane centre (default 1.25; 1: the rear axle on a "
+                                       "lane line)")
+    pose_heading: float | None = option(None, Range(0, 90, unit="degrees"), help="with poses: the headings to the "
+                                        "lane drawn, degrees either way (default 30)")
+    pose_seed: int | None = option(None, SEED, help="with poses: the seed of the draw (default 0)")
+
+    @classmethod
+    def related(cls, v):
+        yield from frames_held(v, "minutes")
+        if v.poses and v.layout != "tub":
+            yield "layout", "tub with poses (pose frames are written as a tub)"
+        for name in ("pose_offset", "pose_heading", "pose_seed"):
+            if not v.poses and getattr(v, name) is not None:
+                yield name, "given only with poses (--poses): it shapes the pose frames"
+
     def look(self) -> Look:
         """The room's look: its own, or with `vary` one drawn from the room's seed (`look.Look.draw`)."""
         return Look.draw(self.seed if self.room is None else self.room) if self.vary else LOOK
@@ -142,8 +162,6 @@ class TrackRecordOptions(Options):
         mount = {"mount_height": self.mount_height, "pitch_deg": self.pitch}
         given = replace(camera_of(self.calibration), **{k: v for k, v in mount.items() if v is not None})
         return self.look().mount(given)
-
-    related = holds_frames("minutes")
 
 
 @dataclass(frozen=True)
