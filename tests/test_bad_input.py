@@ -1507,16 +1507,14 @@ def _option_classes():
     the readers' option tables."""
     from steerlab.cli import OPTIONS, build_parser
     from steerlab.dagger import DaggerOptions, own_options, places
-    from steerlab.data import bag, tub, videolog
-    from steerlab.data.simlog import SIM_OPTIONS
+    from steerlab.data.readers import READERS
     from steerlab.train.config import TrainOptions
 
     build_parser()
     classes = {cls for group in OPTIONS.values() for cls in group}
     owns = {own_options(p) for p in places()}  # the options of a dagger section that one place takes
-    return sorted(classes | owns | {DaggerOptions, TrainOptions, tub.OPTIONS, bag.OPTIONS, videolog.OPTIONS,
-                                    SIM_OPTIONS},
-                  key=lambda c: c.__name__)
+    readers = {r.options for r in READERS if r.options}  # every registered reader's option table
+    return sorted(classes | owns | readers | {DaggerOptions, TrainOptions}, key=lambda c: c.__name__)
 
 
 def _wrong_values(o):

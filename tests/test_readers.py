@@ -132,3 +132,73 @@ def test_ch2_interpolated_layout_with_side_cameras(tmp_path):
     np.testing.assert_allclose(rec.speed, [5, 6, 7, 8])
     assert rec.frames["left"][2].name == f"{1_000_000_000 + 100_000_000 - 3_000_000}.jpg"
     assert rec.frames["center"][2].name == f"{rec.frame_ids[2]}.jpg"
+
+
+def test_a_reader_of_ones_own_is_one_registration(tmp_path, monkeypatch):
+    """A toy layout (a folder with toy.txt: one grey value a line, the steering its tenth) registered as the
+    registry says: detected, its options typed, named in "not a recording", read like any other."""
+    from dataclasses import dataclass
+
+    import cv2
+
+    from steerlab.data import readers
+    from steerlab.data.recording import Recording, SteeringConvention
+    from steerlab.data.rows import Reader
+    from steerlab.errors import SteerlabError
+    from steerlab.options import Options, Range, option
+
+    @dataclass(frozen=True)
+    class ToyOptions(Options):
+        gain: float = option(1.0, Range(0, 10))
+
+    def read_toy(folder, frame_range=None, gain=1.0):
+        values = [int(v) for v in (folder / "toy.txt").read_text().split()]
+        frames = []
+        for i, v in enumerate(values):
+            cv2.imwrite(str(folder / f"{i}.png"), np.full((4, 4, 3), v, np.uint8))
+            frames.append(folder / f"{i}.png")
+        return Recording(name=folder.name, source=folder, frames={"center": frames},
+                         timestamps_ns=np.arange(len(values), dtype=np.int64) * 50_000_000,
+                         steering=gain * np.array(values) / 10, convention=SteeringConvention("road_wheel", "left"),
+                         frame_ids=np.arange(len(values)))
+
+    monkeypatch.setattr(readers, "READERS", list(readers.READERS))
+    toy = readers.register(Reader("toy", "a toy folder (toy.txt)", lambda p: (p / "toy.txt").is_file(), read_toy,
+                                  ToyOptions))
+    with pytest.raises(SteerlabError, match="a reader named 'toy' is registered already"):
+        readers.register(toy)
+    folder = tmp_path / "toy"
+    folder.mkdir()
+    (folder / "toy.txt").write_text("1\n2\n3\n")
+    rec = open_recording(folder, options={"gain": 2.0})
+    assert len(rec) == 3 and list(rec.steering) == [0.2, 0.4, 0.6]
+    with pytest.raises(DataError, match=r"reader.gain must be a number in \[0, 10\]"):
+        open_recording(folder, options={"gain": 11})
+    with pytest.raises(DataError, match=r"unknown reader option\(s\) \['strict'\]; this recording's reader \(toy\) "
+                                        r"takes gain"):
+        open_recording(folder, options={"strict": True})
+    (tmp_path / "nothing").mkdir()
+    with pytest.raises(DataError, match=r"not a recording: expected a steerlab recording \(recording.json\), .* or a "
+                                        r"toy folder \(toy.txt\)$"):
+        open_recording(tmp_path / "nothing")
+
+
+def test_a_donkeycar_tub_v1_is_refused_with_the_command_that_converts_it(tmp_path):
+    folder = tmp_path / "tub_1_20-01-01"
+    folder.mkdir()
+    (folder / "meta.json").write_text('{"inputs": ["cam/image_array", "user/angle"], "types": ["image_array", "float"]}')
+    (folder / "record_0.json").write_text('{"cam/image_array": "0_cam-image_array_.jpg", "user/angle": 0.1}')
+    with pytest.raises(DataError, match=r"tub_1_20-01-01: a donkeycar tub v1 \(meta.json \+ record_\*.json\), which "
+                                        r"steerlab does not read: convert it to a tub v2 with donkeycar 4.x's "
+                                        r"scripts/convert_to_tub_v2.py"):
+        open_recording(folder)
+
+
+def test_the_docs_name_every_registered_reader_in_the_registrys_order():
+    from pathlib import Path
+
+    from steerlab.data.readers import READERS
+
+    page = (Path(__file__).parents[1] / "docs" / "architecture" / "other-recordings.md").read_text()
+    listed = " ".join(page.split("tried in this order: ")[1].split(". ")[0].split())
+    assert listed == ", ".join(f"`{r.name}`" for r in READERS)

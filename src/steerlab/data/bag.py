@@ -27,7 +27,7 @@ from tqdm import tqdm
 
 from steerlab.data.cache import cache_root
 from steerlab.data.ch2 import CH2_CONVENTION
-from steerlab.data.rows import apply_range, check_unique, nearest
+from steerlab.data.rows import Reader, apply_range, check_unique, nearest
 from steerlab.data.recording import Recording
 from steerlab.errors import DataError, SteerlabError
 from steerlab.options import Options, option
@@ -176,3 +176,7 @@ def _extract(path: Path, topics: dict, cache: Path) -> tuple[Path, dict]:
             raise
         shutil.rmtree(tmp)  # another process extracted the same bag first
     return folder, index
+
+
+READER = Reader("ros-bag", "a ROS bag (.bag, or a ROS 2 folder with metadata.yaml)", is_bag, read_bag, OPTIONS,
+                cache=True)

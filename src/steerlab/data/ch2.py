@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from steerlab.data.recording import Recording, SteeringConvention
-from steerlab.data.rows import (apply_range, check_images, check_increasing, check_unique, csv_header, nearest,
+from steerlab.data.rows import (Reader, apply_range, check_images, check_increasing, check_unique, csv_header, nearest,
                                 number, read_rows)
 from steerlab.errors import DataError
 
@@ -110,3 +110,7 @@ def _ch2_interpolated_rows(path: Path, header: list[str], body: list[list[str]])
             cams[cam] = np.array([side[k][1] for k in j], dtype=object)
     speed = np.array([c[3] for c in center])
     return ids, np.array([c[2] for c in center]), (speed if np.all(np.isfinite(speed)) else None), cams
+
+
+READER = Reader("ch2", "a CH2 folder (center/ + CSV)", lambda path: path.is_dir() and (path / "center").is_dir(),
+                read_ch2, labels=True)

@@ -9,7 +9,7 @@ import numpy as np
 
 from steerlab.data.fisheye import fisheye_from
 from steerlab.data.recording import Recording, SteeringConvention
-from steerlab.data.rows import apply_range, check_images, check_increasing, check_unique, csv_header, number, read_rows
+from steerlab.data.rows import Reader, apply_range, check_images, check_increasing, check_unique, csv_header, number, read_rows
 from steerlab.errors import DataError
 from steerlab.files import read_json
 
@@ -72,3 +72,13 @@ def read_native(folder: str | Path, frame_range=None) -> Recording:
         geometry=meta.get("geometry", meta.get("preset", "sim")),  # "preset" in older recordings
         fisheye=fisheye_from(meta_path, meta["fisheye"]) if "fisheye" in meta else None,
     )
+
+
+def _recognises(path: Path) -> bool:
+    """A folder with recording.json, or its log.csv."""
+    folder = path if path.is_dir() else path.parent
+    return (folder / "recording.json").is_file() and (path.is_dir() or path.name == "log.csv")
+
+
+READER = Reader("steerlab", "a steerlab recording (recording.json)", _recognises,
+                lambda path, rng: read_native(path if path.is_dir() else path.parent, rng))

@@ -1,9 +1,12 @@
-"""`open_recording`: any recording on disk as a `Recording`, its layout detected from the path.
+"""`open_recording`: any recording on disk as a `Recording`, its layout detected from the path by the registry of
+readers (`READERS`).
 
-One module per layout, all below this one: Udacity CH2 folders (`ch2.py`), the Udacity simulator's
-`driving_log.csv` (`simlog.py`), steerlab's native layout (`native.py`), donkeycar tub v2 folders (`tub.py`),
-ROS 1/2 bags as Udacity released its data (`bag.py`) and video files with a CSV log (`videolog.py`); what they
-share (frame ranges, CSV rows, checks that name the file and row) is in `rows.py`.
+One module per layout, all below this one, each defining its `READER` (a `rows.Reader`: how it recognises a path,
+its options, how it reads) and registered by one line of `READERS`: steerlab's native layout (`native.py`), the
+Udacity simulator's `driving_log.csv` (`simlog.py`), video files with a CSV log (`videolog.py`), ROS 1/2 bags as
+Udacity released its data (`bag.py`), donkeycar tubs (`tub.py`) and Udacity CH2 folders (`ch2.py`); what they
+share (frame ranges, CSV rows, checks that name the file and row) is in `rows.py`. A layout of one's own is a
+module with a `Reader` and `register(READER)`.
 """
 
 from __future__ import annotations
@@ -11,17 +14,25 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from steerlab.data import bag, tub, videolog
-from steerlab.data.ch2 import read_ch2
-from steerlab.data.native import read_native
+from steerlab.data import bag, ch2, native, simlog, tub, videolog
 from steerlab.data.recording import Recording
-from steerlab.data.rows import parse_range
-from steerlab.data.simlog import SIM_OPTIONS, read_sim_log
+from steerlab.data.rows import Reader, parse_range
 from steerlab.errors import DataError, SteerlabError
 from steerlab.options import options_of, parse
 from steerlab.paths import a_path
 
-VIDEO_SUFFIXES = (".mp4", ".avi", ".mkv", ".mov")
+# Every layout steerlab reads, in the order a path is tried: one line each (a layout's module defines its READER).
+READERS: list[Reader] = [native.READER, simlog.READER, videolog.READER, bag.READER, tub.READER, ch2.READER]
+
+
+def register(reader: Reader) -> Reader:
+    """Add a layout (a `rows.Reader`) to the registry, tried after the others; its name must be new."""
+    if not isinstance(reader, Reader):
+        raise SteerlabError(f"register: a steerlab.data.rows.Reader is expected, got {reader!r}")
+    if any(r.name == reader.name for r in READERS):
+        raise SteerlabError(f"register: a reader named {reader.name!r} is registered already; choose another name")
+    READERS.append(reader)
+    return reader
 
 
 @dataclass(frozen=True)
@@ -58,13 +69,14 @@ def open_recording(path: str | Path, frame_range: str | tuple | None = None, lab
     if not path.exists():
         raise DataError(path, "recording not found: check the path")
     rng = parse_range(frame_range)
-    reader, kind = _reader_of(path)
+    reader = reader_of(path)
+    kind = reader.options
     known = [o.key for o in options_of(kind)] if kind else []
     if options is not None and not isinstance(options, dict):
         raise DataError(path, f"reader options must be a dict (e.g. {{'strict': True}}), got {options!r}")
     unknown = sorted(set(options or {}) - set(known))
     if unknown:
-        raise DataError(path, f"unknown reader option(s) {unknown}; this recording's reader takes "
+        raise DataError(path, f"unknown reader option(s) {unknown}; this recording's reader ({reader.name}) takes "
                               f"{', '.join(known) or 'none'}")
     try:  # typed and range-checked, as every option is (a boolean is a boolean: skip_missing=maybe is refused)
         typed = parse(kind, options, "reader") if kind else None
@@ -72,40 +84,19 @@ def open_recording(path: str | Path, frame_range: str | tuple | None = None, lab
         raise DataError(path, str(e)) from None
     options = {k: getattr(typed, k) for k in known}
     if labels is not None:
-        if reader is not read_ch2:
+        if not reader.labels:
             raise DataError(path, "a label file (labels) belongs to CH2 folders only: leave it out")
         options["labels"] = a_path(labels, "labels")
-    if reader is bag.read_bag:
+    if reader.cache:
         options["cache"] = cache
-    return reader(path, rng, **options)
+    return reader.read(path, rng, **options)
 
 
-def _reader_of(path: Path):
-    """The reader function for a path and the options it takes."""
-    if path.is_file() and path.suffix == ".csv":
-        if path.name == "log.csv" and (path.parent / "recording.json").exists():
-            return _native_folder, None
-        return read_sim_log, SIM_OPTIONS
-    if path.is_file() and path.suffix.lower() in VIDEO_SUFFIXES:
-        return videolog.read_video, videolog.OPTIONS
-    if bag.is_bag(path):
-        return bag.read_bag, bag.OPTIONS
-    if path.is_dir() and (path / "recording.json").exists():
-        return read_native, None
-    if path.is_dir() and (path / "driving_log.csv").exists():
-        return _sim_folder, SIM_OPTIONS
-    if path.is_dir() and tub.is_tub(path):
-        return tub.read_tub, tub.OPTIONS
-    if path.is_dir() and (path / "center").is_dir():
-        return read_ch2, None
-    raise DataError(path, "not a recording: expected a CH2 folder (center/ + CSV), a driving_log.csv, a steerlab "
-                          "recording (recording.json), a donkeycar tub (manifest.json + catalogs), a ROS bag "
-                          f"(.bag, or a ROS 2 folder with metadata.yaml) or a video ({', '.join(VIDEO_SUFFIXES)})")
-
-
-def _native_folder(log: Path, rng) -> Recording:
-    return read_native(log.parent, rng)
-
-
-def _sim_folder(folder: Path, rng, strict: bool = False) -> Recording:
-    return read_sim_log(folder / "driving_log.csv", rng, strict)
+def reader_of(path: Path) -> Reader:
+    """The registered reader that recognises `path` (the first in `READERS`' order); else a one-line error that
+    lists what each expects."""
+    for reader in READERS:
+        if reader.recognises(path):
+            return reader
+    raise DataError(path, "not a recording: expected " + ", ".join(r.expects for r in READERS[:-1])
+                    + f" or {READERS[-1].expects}")

@@ -1,15 +1,34 @@
-"""What every reader shares: frame ranges, CSV rows, numbers and image checks that name the file and row,
-unique frame ids, and matching frames by time."""
+"""What every reader shares: what a reader is (`Reader`, the one registration of a layout), frame ranges, CSV rows,
+numbers and image checks that name the file and row, unique frame ids, and matching frames by time."""
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable
 
 import numpy as np
 
 from steerlab.errors import DataError
 from steerlab.files import csv_header, read_csv  # noqa: F401 - csv_header: the readers' header
+
+
+@dataclass(frozen=True)
+class Reader:
+    """A recording layout, as `readers.READERS` registers it: `name` (what the docs and messages call it),
+    `expects` (what it recognises, in the words of the "not a recording" message), `recognises(path)` (whether a
+    path is of this layout; tried in the registry's order), `read(path, frame_range, **options)` (the
+    `Recording`), `options` (the dataclass of its reader options, None: it takes none), and whether it takes a
+    label file (`labels`, CH2's) or the cache root (`cache`, where a ROS bag's frames are extracted)."""
+
+    name: str
+    expects: str
+    recognises: Callable[[Path], bool]
+    read: Callable
+    options: type | None = None
+    labels: bool = False
+    cache: bool = False
 
 
 def parse_range(text: str | tuple | None) -> tuple[int | None, int | None] | None:

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from steerlab.data.recording import Recording, SteeringConvention
-from steerlab.data.rows import (apply_range, check_images, check_increasing, check_unique, csv_header, ends_torn,
+from steerlab.data.rows import (Reader, apply_range, check_images, check_increasing, check_unique, csv_header, ends_torn,
                                 number, read_rows)
 from steerlab.errors import DataError, warn
 from steerlab.options import Options, option
@@ -146,3 +146,13 @@ def read_sim_log(log: str | Path, frame_range=None, strict: bool = False) -> Rec
         speed=np.array(vals["speed"]) * MPH_TO_MS, throttle=np.array(vals["throttle"]),
         brake=np.array(vals["brake"]), geometry="sim",
     )
+
+
+def _recognises(path: Path) -> bool:
+    """A .csv file (the log itself), or a folder with driving_log.csv."""
+    return (path.is_file() and path.suffix == ".csv") or (path.is_dir() and (path / "driving_log.csv").is_file())
+
+
+READER = Reader("udacity-sim", "a driving_log.csv", _recognises,
+                lambda path, rng, strict=False: read_sim_log(path if path.is_file() else path / "driving_log.csv", rng,
+                                                              strict), SIM_OPTIONS)

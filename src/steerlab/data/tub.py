@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from steerlab.data.fisheye import fisheye_from
-from steerlab.data.rows import apply_range
+from steerlab.data.rows import Reader, apply_range
 from steerlab.data.recording import FULL_LOCK_DEG, Recording, SteeringConvention, said_full_lock
 from steerlab.options import Options, option
 from steerlab.paths import regular_file
@@ -56,6 +56,11 @@ LANE_FIELDS = {"lane/offset": "lateral_offset", "lane/heading": "heading_error",
 
 def is_tub(folder: Path) -> bool:
     return (folder / "manifest.json").is_file() and any(folder.glob("catalog_*.catalog"))
+
+
+def is_tub_v1(folder: Path) -> bool:
+    """donkeycar's tub before 4.0: meta.json and a record_N.json a frame."""
+    return (folder / "meta.json").is_file() and any(folder.glob("record_*.json"))
 
 
 def _json_lines(path: Path, torn: list[int] | None = None) -> list[tuple[int, object]]:
@@ -248,3 +253,15 @@ def read_tub(folder: str | Path, frame_range=None, full_lock_deg: float | None =
         extra={"session": np.array([str(r.get("_session_id", "")) for r in recs]), **lane}, geometry="donkey",
         fisheye=fisheye_from(folder / "manifest.json", metadata["fisheye"]) if "fisheye" in metadata else None,
     )
+
+
+def _read(folder: Path, frame_range=None, **options) -> Recording:
+    if is_tub_v1(folder) and not is_tub(folder):
+        raise DataError(folder, "a donkeycar tub v1 (meta.json + record_*.json), which steerlab does not read: "
+                                "convert it to a tub v2 with donkeycar 4.x's scripts/convert_to_tub_v2.py "
+                                "--tub=<this folder> --output=<new folder>, then give the new folder")
+    return read_tub(folder, frame_range, **options)
+
+
+READER = Reader("donkeycar-tub", "a donkeycar tub (manifest.json + catalogs)",
+                lambda path: path.is_dir() and (is_tub(path) or is_tub_v1(path)), _read, OPTIONS)

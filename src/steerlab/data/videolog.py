@@ -20,7 +20,7 @@ import cv2
 import numpy as np
 
 from steerlab.data.preprocess import CROP_PRESETS
-from steerlab.data.rows import apply_range, check_increasing, check_unique, csv_header, number, read_rows
+from steerlab.data.rows import Reader, apply_range, check_increasing, check_unique, csv_header, number, read_rows
 from steerlab.data.recording import FULL_LOCK_DEG, KINDS, Recording, SteeringConvention, VideoFrames, said_full_lock
 from steerlab.errors import DataError
 from steerlab.options import Options, option
@@ -118,3 +118,8 @@ def _integer(path: Path, row: int, column: str, text: str) -> int:
         return int(text)
     except ValueError:
         raise DataError(path, f"column {column!r} must be an integer, got {text!r}", row) from None
+
+
+SUFFIXES = (".mp4", ".avi", ".mkv", ".mov")
+READER = Reader("video", f"a video ({', '.join(SUFFIXES)})",
+                lambda path: path.is_file() and path.suffix.lower() in SUFFIXES, read_video, OPTIONS)
