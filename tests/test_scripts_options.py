@@ -57,7 +57,7 @@ def _needed(script: str, tmp_path: Path, leave: str | None = None) -> list[str]:
     file.touch()
     folder.mkdir(exist_ok=True)
     paths = p.get_default("paths") or {}
-    value = {"folder": str(folder), "new-file": str(tmp_path / "new-file")}
+    value = {"folder": str(folder), "new-file": str(tmp_path / "new-file"), "file": str(file)}
     argv = []
     for a in p._actions:
         if a.dest == leave or isinstance(a, argparse._HelpAction):
@@ -153,7 +153,7 @@ def test_the_sweeps_reach_every_script():
             ("studies.replay_references", "speed"), ("studies.pruning_replay", "factors"),
             ("studies.track_recipes", "seeds"), ("studies.track_recipes", "caps"),
             ("benchmarks.bench_track_drive", "minutes"), ("benchmarks.bench_vs_donkeycar", "epochs")} <= numeric
-    assert len(SCRIPTS) == 27 and len(_single_value_flags()) >= len(SCRIPTS)
+    assert len(SCRIPTS) == 28 and len(_single_value_flags()) >= len(SCRIPTS)
 
 
 def test_what_a_script_refuses_once_it_runs_ends_in_one_line_too(tmp_path, capsys):

@@ -241,5 +241,5 @@ def test_train_and_evaluate_on_a_tub_split_by_session(tmp_path, capsys):
     assert metrics["mae_deg"] == pytest.approx(25 * metrics["mae"])
     assert main(["evaluate", str(tmp_path / "run" / "best.pt"), "--data", str(tub), "--reader", "log=x.csv",
                  "--out", str(tmp_path / "eval")]) == 2
-    assert "unknown reader option(s) ['log']; this recording's reader takes full_lock_deg, skip_missing" in \
+    assert "unknown reader option(s) ['log']; this recording's reader (donkeycar-tub) takes full_lock_deg, skip_missing" in \
         capsys.readouterr().err

@@ -258,8 +258,8 @@ def read_tub(folder: str | Path, frame_range=None, full_lock_deg: float | None =
 def _read(folder: Path, frame_range=None, **options) -> Recording:
     if is_tub_v1(folder) and not is_tub(folder):
         raise DataError(folder, "a donkeycar tub v1 (meta.json + record_*.json), which steerlab does not read: "
-                                "convert it to a tub v2 with donkeycar 4.x's scripts/convert_to_tub_v2.py "
-                                "--tub=<this folder> --output=<new folder>, then give the new folder")
+                                "convert it to a tub v2 with donkeycar 4.x's scripts/convert_to_tub_v2.py (this "
+                                "folder its tub, a new folder its output), then give the new folder")
     return read_tub(folder, frame_range, **options)
 
 
