@@ -662,13 +662,13 @@ BAD_INPUTS = {
     "replay the same checkpoint twice": (_two_of("replay"), "is named twice"),
     # n) what cannot be right is refused, never used
     "compile a CH2 frame of 1280x960 among 640x480": (_ch2_with_odd_frame((960, 1280)),
-                                                      ".jpg: the frame is 1280x960; the recording's frames are "
-                                                      "640x480 (frame 3)", ("cache/",)),
-    "compile a CH2 frame of 400x480": (_ch2_with_odd_frame((480, 400)), "the frame is 400x480; the recording's",
+                                                      ".jpg: the frame is 960x1280 (height x width); the "
+                                                      "recording's frames are 480x640 (frame 3)", ("cache/",)),
+    "compile a CH2 frame of 400x480": (_ch2_with_odd_frame((480, 400)), "the frame is 480x400 (height x width); the recording's",
                                        ("cache/",)),
     "compile a recording whose log names a column otherwise": (
         _compile(_renamed_column), "log.csv, row 1: header lacks columns ['steering']; expected frame,timestamp_ns,"),
-    "compile a CH2 frame of 1x1": (_ch2_with_odd_frame((1, 1)), ".jpg: the frame is 1x1; the recording's frames",
+    "compile a CH2 frame of 1x1": (_ch2_with_odd_frame((1, 1)), ".jpg: the frame is 1x1 (height x width); the recording's frames",
                                    ("cache/",)),
     "checkpoint with its statistics changed": (_stats_changed, "best.pt: the file's bytes do not match the sha256 "
                                                                "stored with them: the file is damaged"),
@@ -1418,7 +1418,7 @@ def test_the_pilot_and_the_donkeycar_part_refuse_what_is_not_a_frame_or_a_speed(
     rgb = np.zeros((120, 160, 3), np.uint8)
     for frame in (b"", None, "abc", bytearray(b"xyz"), rgb.astype(np.float64), rgb[..., 0],
                   np.zeros((480, 640, 3), np.uint8)):
-        with pytest.raises(SteerlabError, match=r"120x160x3 uint8|trained on the 'donkey' camera \(160x120\)"):
+        with pytest.raises(SteerlabError, match=r"120x160x3 uint8|trained on the 'donkey' camera \(120x160\)"):
             pilot.step(frame)
     with pytest.raises(SteerlabError, match="the measured speed must be a finite number of m/s, at least 0, got "
                                             "'fast'"):
@@ -1708,12 +1708,22 @@ def rule1_named_set_cases():
     return out
 
 
-@pytest.mark.parametrize("cls, suite, key, value", rule1_named_set_cases(), ids=str)
-def test_rule1_names_from_a_fixed_set_once_each(cls, suite, key, value):
+def rule1_road_list_cases():
+    """(class, value): a road list naming one road type twice and nothing else, unknown types, or none."""
+    from steerlab.sim.road.road import ROAD_TYPES
+    from steerlab.sim.road.world import DriveOptions, RecordOptions
+
+    return [(cls, value) for cls in (RecordOptions, DriveOptions) for name in ROAD_TYPES
+            for value in (f"{name},{name}", f"{name},{name},{name}", f"{name},{name}x", ",")]
+
+
+@pytest.mark.parametrize("cls, value", rule1_road_list_cases(), ids=str)
+def test_rule1_a_road_list_whose_repeat_means_nothing_is_refused(cls, value):
     from steerlab.options import parse
 
-    with pytest.raises(SteerlabError, match=f"^--{key} must be a comma list of .* each once"):
-        parse(cls, {"suite": suite, key: value}, name=lambda f: f"--{f}")
+    with pytest.raises(SteerlabError, match=r"^--road must be .* \(not one name alone, repeated\)"):
+        parse(cls, {"road": value}, name=lambda f: f"--{f}")
+    assert parse(cls, {"road": "country,twisty,twisty"}).road == "country,twisty,twisty"  # a repeat that means more
 
 
 def _commands():

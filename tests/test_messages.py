@@ -187,8 +187,8 @@ def test_a_frame_of_another_size_is_named_by_its_file(tmp_path, capsys):
     (img.parent / "driving_log.csv").write_text("".join(f"{img / name},,,0.0,0.5,0,10\n" for name in names))
     assert main(["evaluate", str(made(tmp_path)), "--data", str(img.parent / "driving_log.csv"), "--out",
                  str(tmp_path / "e")]) == 2
-    assert capsys.readouterr().err == (f"error: {img / names[2]}: a 320x240 frame; model 'pilotnet' was "
-                                       "trained on the 'sim' camera (320x160): give it that camera's frames "
+    assert capsys.readouterr().err == (f"error: {img / names[2]}: a 240x320 frame (height x width); model "
+                                       "'pilotnet' was trained on the 'sim' camera (160x320): give it that camera's frames "
                                        "(other_camera: crop and resize any frame)\n")
 
 

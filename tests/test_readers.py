@@ -202,3 +202,43 @@ def test_the_docs_name_every_registered_reader_in_the_registrys_order():
     page = (Path(__file__).parents[1] / "docs" / "architecture" / "other-recordings.md").read_text()
     listed = " ".join(page.split("tried in this order: ")[1].split(". ")[0].split())
     assert listed == ", ".join(f"`{r.name}`" for r in READERS)
+
+
+def _tub(folder, n=6):
+    from steerlab.data.writer import TubWriter
+
+    w = TubWriter(folder, full_lock_deg=25)
+    for i in range(n):
+        w.add(np.full((120, 160, 3), 20 * i, np.uint8), i * 50_000_000, 0.01 * i, 0.3)
+    return w.close()
+
+
+def test_a_tub_is_read_as_people_save_it_a_bom_crlf_and_hand_edited_values(tmp_path, capsys):
+    tub = _tub(tmp_path / "tub")
+    plain = open_recording(tub)
+    manifest = tub / "manifest.json"
+    manifest.write_bytes(b"\xef\xbb\xbf" + manifest.read_bytes().replace(b"\n", b"\r\n"))
+    catalog = tub / "catalog_0.catalog"
+    catalog.write_bytes(b"\xef\xbb\xbf" + catalog.read_bytes().replace(b"\n", b"\r\n"))
+    again = open_recording(tub)
+    np.testing.assert_array_equal(again.steering, plain.steering)
+    # values shortened by hand: the catalog ends before its catalog_manifest's line lengths say, all records read
+    catalog.write_text(catalog.read_text(encoding="utf-8-sig").replace('"user/mode": "user", ', ""))
+    capsys.readouterr()
+    edited = open_recording(tub)
+    assert len(edited) == 6 and capsys.readouterr().err == ""
+    # a record cut off at the end is still counted lost
+    lines = catalog.read_text().splitlines(keepends=True)
+    catalog.write_text("".join(lines[:-1]))
+    assert len(open_recording(tub)) == 5 and "1 line(s) cut off at its end; 1 record(s) lost" in capsys.readouterr().err
+
+
+def test_a_record_naming_a_key_twice_is_refused_naming_its_line(tmp_path):
+    tub = _tub(tmp_path / "tub")
+    catalog = tub / "catalog_0.catalog"
+    lines = catalog.read_text().splitlines(keepends=True)
+    lines[3] = lines[3].replace('"user/angle": ', '"user/angle": 0.5, "user/angle": ')
+    catalog.write_text("".join(lines))
+    with pytest.raises(DataError, match=r"catalog_0.catalog, row 4: the JSON object names key\(s\) \['user/angle'\] "
+                                        r"twice; keep one"):
+        open_recording(tub)

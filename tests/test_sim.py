@@ -120,7 +120,7 @@ def test_udacity_sim_layout_round_trip(tmp_path):
 
 def test_bad_inputs_give_clear_errors(tmp_path, capsys):
     assert main(["sim", "record", "--out", str(tmp_path / "x"), "--road", "moon"]) == 2
-    assert "unknown road type 'moon'" in capsys.readouterr().err
+    assert "--road must be highway, country, twisty, mixed (all three) or a comma list of them" in capsys.readouterr().err
     assert main(["sim", "record", "--out", str(tmp_path / "y"), "--minutes", "-1"]) == 2
     assert "--minutes must be a number in (0, 1440] min" in capsys.readouterr().err
     assert main(["sim", "record", "--out", str(tmp_path / "z"), "--geometry", "fisheye", "--minutes", "0.01"]) == 2
@@ -153,7 +153,7 @@ def test_mixed_recording_interleaves_one_road_per_type(tmp_path):
     speed = [rec.speed[a:b] for a, b in rec.segments()]  # country starts at 19 m/s, twisty at 13 m/s
     assert speed[0].mean() > 16 > speed[1].mean() and speed[2].mean() < 16 and speed[3].mean() > 16
     assert abs(speed[2][0] - speed[1][-1]) < 0.1  # the second twisty chunk continues the first one's drive
-    with pytest.raises(SteerlabError, match="unknown road type"):
+    with pytest.raises(SteerlabError, match="RecordOptions.road must be highway, country, twisty, mixed"):
         record(tmp_path / "x", RecordOptions(road="country,mountain", minutes=0.01), progress=False)
 
 

@@ -212,6 +212,9 @@ class SteerlabPilot:
         if self._closed:
             raise SteerlabError("SteerlabPilot: run() after shutdown(): make a new one")
         now = self.clock()
+        if isinstance(now, bool) or not isinstance(now, (int, float, np.integer, np.floating)) or not math.isfinite(now):
+            raise SteerlabError(f"SteerlabPilot: clock() must return seconds, a finite number (as time.monotonic), "
+                                f"got {now!r}")
         gap = self._last is not None and self.reset_after_s is not None and now - self._last > self.reset_after_s
         self._last = now
         if img_arr is None:

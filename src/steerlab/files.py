@@ -141,12 +141,14 @@ def read_yaml(path: str | Path, what: str = "YAML file") -> Any:
     return parse_yaml(read_text(path, what, "YAML text"), path)
 
 
-def _unique_pairs(path):
+def unique_pairs(path, line: int | None = None):
+    """json's `object_pairs_hook` that refuses an object naming a key twice (which json.loads would let the last
+    win), naming `path` and its `line`."""
     def hook(pairs):
         keys = [k for k, _ in pairs]
         twice = sorted({k for k in keys if keys.count(k) > 1})
         if twice:
-            raise DataError(path, f"the JSON object names key(s) {twice} twice; keep one")
+            raise DataError(path, f"the JSON object names key(s) {twice} twice; keep one", line)
         return dict(pairs)
     return hook
 
@@ -157,7 +159,7 @@ def parse_json(text: str, where: str | Path) -> Any:
         raise DataError(where, f"{name} is not JSON (a number that is not finite); write null")
 
     try:
-        return json.loads(text, object_pairs_hook=_unique_pairs(where), parse_constant=constant)
+        return json.loads(text, object_pairs_hook=unique_pairs(where), parse_constant=constant)
     except json.JSONDecodeError as e:
         raise DataError(where, f"not valid JSON: {e.msg}; fix its JSON", e.lineno) from None
 

@@ -230,8 +230,8 @@ class Pilot:
                                 f"{self.expected()}")
         if self.frame_size is not None and frame.shape[:2] != self.frame_size:
             h, w = self.frame_size
-            raise SteerlabError(f"a {frame.shape[1]}x{frame.shape[0]} frame; model {self.name!r} was trained on the "
-                                f"{self.geometry!r} camera ({w}x{h}): give it that camera's frames "
+            raise SteerlabError(f"a {frame.shape[0]}x{frame.shape[1]} frame (height x width); model {self.name!r} was "
+                                f"trained on the {self.geometry!r} camera ({h}x{w}): give it that camera's frames "
                                 "(other_camera: crop and resize any frame)")
         return preprocess(frame, self.config)
 

@@ -36,9 +36,11 @@ def load_model(checkpoint: str | Path | dict, threads: int | None = None):
     if isinstance(checkpoint, dict):
         from steerlab.checkpoint import FORMATS
 
-        if checkpoint.get("format") not in FORMATS or not isinstance(checkpoint.get("state_dict"), dict):
-            raise SteerlabError("the checkpoint given as a dict is not a steerlab checkpoint (no 'format' of "
-                                f"{' or '.join(FORMATS)} with a 'state_dict'): load it with "
+        missing = [k for k in ("model", "model_cfg", "stats", "preprocess", "convention") if k not in checkpoint]
+        if checkpoint.get("format") not in FORMATS or not isinstance(checkpoint.get("state_dict"), dict) or missing:
+            lacks = f"it lacks {', '.join(map(repr, missing))}" if missing and checkpoint.get("format") in FORMATS \
+                else f"no 'format' of {' or '.join(FORMATS)} with a 'state_dict'"
+            raise SteerlabError(f"the checkpoint given as a dict is not a steerlab checkpoint ({lacks}): load it with "
                                 "steerlab.checkpoint.load_checkpoint(path), or give the path")
     elif not isinstance(checkpoint, (str, os.PathLike)) or not str(checkpoint):
         raise SteerlabError(f"checkpoint must be the path of a .pt checkpoint or an .onnx file (or a loaded "

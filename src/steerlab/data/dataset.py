@@ -159,6 +159,9 @@ def remove_leftovers(cache: Path) -> None:
             shutil.rmtree(tmp, ignore_errors=True)
 
 
+BLACK = 8  # of 255: a frame whose every pixel is darker is black
+
+
 def _build(rec: Recording, cfg: PreprocessConfig, camera: str, view, final: Path, workers: int | None,
            progress: bool, name: str) -> None:
     """Compile the cache entry `final` in a temporary folder beside it, renamed into place when complete."""
@@ -174,13 +177,16 @@ def _build(rec: Recording, cfg: PreprocessConfig, camera: str, view, final: Path
     geometry = None if view is None else geometry_of(rec.geometry)
 
     size = expected_size(rec, camera)
+    lit = []  # frames brighter than black: a recording with none recorded nothing
 
     def load(i: int) -> np.ndarray:
         frame = rec.load_frame(i, camera)
         if frame.shape[:2] != size:
-            raise DataError(rec.frames[camera][i], f"the frame is {frame.shape[1]}x{frame.shape[0]}; the recording's "
-                                                   f"frames are {size[1]}x{size[0]} (frame {i}): resize it, or give "
-                                                   "a frame range without it")
+            raise DataError(rec.frames[camera][i], f"the frame is {frame.shape[0]}x{frame.shape[1]} (height x width); "
+                                                   f"the recording's frames are {size[0]}x{size[1]} (frame {i}): "
+                                                   "resize it, or give a frame range without it")
+        if not lit and frame.max() >= BLACK:
+            lit.append(i)
         return frame if view is None else shift_view(frame, geometry, *view)
 
     def work(start: int) -> int:
@@ -206,6 +212,10 @@ def _build(rec: Recording, cfg: PreprocessConfig, camera: str, view, final: Path
                                                        disable=None if progress else True) as bar:
             for done in pool.map(work, range(0, n, CHUNK)):
                 bar.update(done)
+        if not lit:
+            raise DataError(rec.source, f"all {n} frames of camera {camera!r} are black (no pixel reaches {BLACK} of "
+                                        "255): the camera recorded nothing (a lens cap, no exposure?); record it "
+                                        "again, or give another recording")
         for a in arrays.values():
             a.flush()
         arrays.clear()  # close the memory maps before the folder is renamed

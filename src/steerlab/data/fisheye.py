@@ -72,6 +72,11 @@ class FisheyeCamera:
         # every pixel must see a ray: theta_d(theta) has to rise monotonically past the image corners
         corners = np.array([[0, 0], [self.width - 1, 0], [0, self.height - 1], [self.width - 1, self.height - 1]])
         reach = float(np.max(np.hypot(*self._normalised(corners[:, 0], corners[:, 1]))))
+        if reach > np.pi:  # theta_d beyond pi: no lens, whatever its D, sees the corners
+            raise SteerlabError(f"the focal lengths fx={self.fx:g}, fy={self.fy:g} px put the image's corners "
+                                f"{reach:.3g} rad from the optical axis (beyond pi: no lens sees so wide); K in pixels "
+                                f"of the {self.width}x{self.height} image is expected (a K of a smaller image, or in "
+                                "other units?)")
         theta = np.linspace(0, np.pi, 2001)
         rising = np.diff(self.distort_theta(theta)) > 0
         top = self.distort_theta(theta[int(np.argmin(rising))] if not rising.all() else np.pi)

@@ -117,6 +117,9 @@ class SteeringConvention:
         return d
 
 
+PLAUSIBLE_LOCKS = 2.0  # steering beyond twice the car's full lock is no car's: another unit
+
+
 @dataclass
 class Recording:
     """One drive.
@@ -161,7 +164,30 @@ class Recording:
                 raise DataError(self.source, f"signal {name!r} has {len(arr)} values, expected {n}")
         if np.any(np.diff(self.timestamps_ns) <= 0):
             i = int(np.argmax(np.diff(self.timestamps_ns) <= 0)) + 1
-            raise DataError(self.source, f"timestamps must increase; frame {i} ({self.frame_ids[i]}) does not")
+            raise DataError(self.source, f"timestamps must increase: frame {i} (id {self.frame_ids[i]}) is at "
+                                         f"{self.timestamps_ns[i]} ns, not after frame {i - 1} at "
+                                         f"{self.timestamps_ns[i - 1]} ns; sort the frames by time, or remove the "
+                                         "repeated ones")
+        self._check_steering()
+
+    def _check_steering(self) -> None:
+        """Steering no car can give is refused: beyond PLAUSIBLE_LOCKS times the full lock of the recording's car
+        (a column in degrees read as radians, say), naming the first such frame."""
+        from steerlab.data.car import car_of
+
+        if not len(self.steering) or not np.all(np.isfinite(self.steering)):
+            return  # the readers name a value that is not a number
+        car = car_of(self.geometry if self.geometry in ("sim", "ch2", "donkey") else None)
+        if self.convention.kind == "normalized":
+            lock, unit = 1.0, "(normalized: 1 is full lock)"
+        else:
+            lock = car.full_lock if self.convention.kind == "road_wheel" else car.full_lock * car.steering_ratio
+            unit = f"rad of the {self.convention.kind.replace('_', '-')} angle"
+        i = int(np.argmax(np.abs(self.steering)))
+        if abs(self.steering[i]) > PLAUSIBLE_LOCKS * lock:
+            raise DataError(self.source, f"frame {i} (id {self.frame_ids[i]}): steering {self.steering[i]:g} is "
+                                         f"{abs(self.steering[i]) / lock:.1f} times the car's full lock ({lock:.3g} "
+                                         f"{unit}): no car steers so far; convert the column to that unit (is it in degrees?)")
 
     def _signals(self) -> dict[str, np.ndarray]:
         out = {"steering": self.steering, "frame_ids": self.frame_ids}

@@ -35,6 +35,7 @@ from steerlab.data.recording import FULL_LOCK_DEG, Recording, SteeringConvention
 from steerlab.options import Options, option
 from steerlab.paths import regular_file
 from steerlab.errors import DataError, SteerlabError, warn
+from steerlab.files import unique_pairs
 
 
 
@@ -69,7 +70,7 @@ def _json_lines(path: Path, torn: list[int] | None = None) -> list[tuple[int, ob
     when the rest of the line holds one)."""
     regular_file(path)
     out = []
-    with open(path, encoding="utf-8", errors="replace") as f:
+    with open(path, encoding="utf-8-sig", errors="replace") as f:  # as people save it: a byte-order mark, CRLF
         for n, line in enumerate(f, start=1):
             text = line.strip().strip("\x00").strip()
             if "\x00" in line and torn is not None:
@@ -77,7 +78,7 @@ def _json_lines(path: Path, torn: list[int] | None = None) -> list[tuple[int, ob
             if not text:
                 continue
             try:
-                out.append((n, json.loads(text)))
+                out.append((n, json.loads(text, object_pairs_hook=unique_pairs(path, n))))
             except json.JSONDecodeError as e:
                 if torn is None:
                     raise DataError(path, f"broken JSON line ({e.msg} at column {e.colno}): remove the line or fix its "
@@ -151,16 +152,18 @@ def _integer(value) -> bool:
     return isinstance(value, int) and not isinstance(value, bool)
 
 
-def _lines_cut_off(catalog: Path) -> int:
+def _lines_cut_off(catalog: Path, read: int) -> int:
     """How many of the lines a catalog's `.catalog_manifest` lists (its `line_lengths`, which add up to the
-    catalog's size) lie wholly beyond the catalog's end: records lost when a copy or the car cut the catalog off
-    at a line end, which no line shows. 0 without a readable catalog manifest."""
+    catalog's size) lie wholly beyond the catalog's end and were not read (`read`: the lines read from it): records
+    lost when a copy or the car cut the catalog off at a line end, which no line shows. A catalog edited by hand
+    (shorter values) ends before its lengths say, but every listed line is still read: none lost. 0 without a
+    readable catalog manifest."""
     try:
         lengths = json.loads((catalog.parent / f"{catalog.name}_manifest").read_text().splitlines()[0])["line_lengths"]
         starts = np.cumsum([0] + [int(n) for n in lengths])[:-1]
     except (OSError, ValueError, KeyError, TypeError, IndexError):
         return 0
-    return int(np.sum(starts >= catalog.stat().st_size))
+    return min(int(np.sum(starts >= catalog.stat().st_size)), max(len(lengths) - read, 0))
 
 
 def _in_range(value) -> bool:
@@ -185,7 +188,7 @@ def read_tub(folder: str | Path, frame_range=None, full_lock_deg: float | None =
                                            "out", torn[0])
         if torn:
             torn_at[name], lost = torn, lost + _records_lost(lines, torn)
-        cut = _lines_cut_off(folder / name)
+        cut = _lines_cut_off(folder / name, len(lines) + len(set(torn) - {n for n, _ in lines}))
         if cut and strict:
             raise DataError(folder / name, f"the catalog ends {cut} line(s) before its catalog_manifest does (cut off), "
                                            "refused as reader option strict is true: copy the tub again, or leave "

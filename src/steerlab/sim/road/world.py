@@ -23,21 +23,29 @@ ROAD_CAMERAS = ("sim", "ch2")  # the camera geometries the road world renders
 
 
 def road_types(road: str) -> list[str]:
-    """"country", "mixed" (every road type) or a comma list such as "country,twisty"."""
+    """"country", "mixed" (every road type) or a comma list such as "country,twisty,twisty": the chunks' types in
+    turn, so a repeat means more of that type; one type named several times alone means that type once, and is
+    refused."""
     types = list(ROAD_TYPES) if road == "mixed" else [t.strip() for t in road.split(",") if t.strip()]
     bad = [t for t in types if t not in ROAD_TYPES]
     if bad or not types:
         raise SteerlabError(f"unknown road type {','.join(bad) or road!r}; choose one of "
                             f"{', '.join(ROAD_TYPES)}, mixed, or a comma list")
+    if len(types) > 1 and len(set(types)) == 1:
+        raise SteerlabError(f"{types[0]} named {len(types)} times and nothing else: the same as {types[0]}; name it "
+                            "once")
     return types
 
 
 def _roads(road: str) -> bool:
-    road_types(road)
+    try:
+        road_types(road)
+    except SteerlabError:
+        return False
     return True
 
 
-ROADS = "highway, country, twisty, mixed (all three) or a comma list of them"
+ROADS = "highway, country, twisty, mixed (all three) or a comma list of them (not one name alone, repeated)"
 
 
 @dataclass(frozen=True)
