@@ -119,9 +119,9 @@ def parser():
 
 def main(a, args: TrainerTiming) -> None:
     config = ROOT / "configs" / "track_best.yaml"
+    report = Report(__file__, {"epochs": args.epochs, "config": "configs/track_best.yaml"}, a.json)  # before any work
     tubs = record_race_tubs(config)
-    report = Report(__file__, {"epochs": args.epochs, "tubs": len(tubs), "config": "configs/track_best.yaml"},
-                    a.json)
+    report.data["settings"]["tubs"] = len(tubs)
     print(f"machine: {machine()}; donkey-linear on {len(tubs)} track tubs, {args.epochs} epochs each")
     with tempfile.TemporaryDirectory() as tmp:
         ours = steerlab_side(str(config), args.epochs, Path(tmp))

@@ -25,7 +25,7 @@ import numpy as np
 from steerlab.cli import path_option, script_parser
 from steerlab.errors import DataError
 from steerlab.files import json_text, plain
-from studies.common import ROOT, SHARED, machine
+from studies.common import ROOT, SHARED, machine, track_tub
 
 CH2 = SHARED / "udacity-ch2"
 
@@ -45,10 +45,8 @@ def record_race_tubs(config: Path) -> list[Path]:
     cfg = read_yaml(config)
     tubs = [ROOT / t for t in [cfg["data"], *cfg.get("extra_data", [])]]
     for tub in tubs:
-        if not (tub / "manifest.json").exists():
-            style, seed, minutes = tub.name.removesuffix("min").split("-")
-            subprocess.run([sys.executable, "-m", "steerlab", "sim", "record", "--world", "track", "--style", style,
-                            "--seed", seed, "--minutes", minutes, "--out", str(tub)], check=True)
+        style, seed, minutes = tub.name.removesuffix("min").split("-")
+        track_tub(tub, "--style", style, "--seed", seed, "--minutes", minutes)
     return tubs
 
 

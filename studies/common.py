@@ -35,21 +35,31 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from steerlab.errors import SteerlabError
 from steerlab.options import AT_LEAST_1, Options, Range, names_held, option
 
 ROOT = Path(__file__).resolve().parents[1]
 SHARED = ROOT.parent / "shared" / "data"
 
 
+def track_tub(out: Path, *args: str) -> Path:
+    """The tub `steerlab sim record --world track ARGS --out OUT` writes, recorded where it is missing (an
+    interrupted recording leaves no folder behind, so a rerun records it again); one that fails ends the study in
+    one line, after the command's own message."""
+    if not (out / "manifest.json").exists():
+        command = ["sim", "record", "--world", "track", *args, "--out", str(out)]
+        done = subprocess.run([sys.executable, "-m", "steerlab", *command])
+        if done.returncode:
+            raise SteerlabError(f"steerlab {' '.join(command)} failed (exit status {done.returncode}; its message is "
+                                "above): fix what it says, then run the study again")
+    return out
+
+
 def track_tubs() -> list[Path]:
     """The racing expert's tubs of the track world that configs/track_*.yaml train on (tracks 1-4, 3 minutes
     each, in runs/track), recorded first where they are missing."""
-    tubs = [ROOT / "runs" / "track" / f"tub-{seed}" for seed in (1, 2, 3, 4)]
-    for seed, tub in enumerate(tubs, 1):
-        if not (tub / "manifest.json").exists():
-            subprocess.run([sys.executable, "-m", "steerlab", "sim", "record", "--world", "track", "--seed", str(seed),
-                            "--minutes", "3", "--out", str(tub)], check=True)
-    return tubs
+    return [track_tub(ROOT / "runs" / "track" / f"tub-{seed}", "--seed", str(seed), "--minutes", "3")
+            for seed in (1, 2, 3, 4)]
 
 
 @dataclass(frozen=True)

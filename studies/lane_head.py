@@ -17,8 +17,6 @@ from __future__ import annotations
 
 import json
 import math
-import subprocess
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -31,7 +29,7 @@ from steerlab.errors import SteerlabError
 from steerlab.options import Options, option
 from steerlab.pilot import Pilot
 from steerlab.sim.track.track import LANE_WIDTH
-from studies.common import ROOT, machine
+from studies.common import ROOT, machine, track_tub
 
 TRACKS = (("taped", 70), ("taped", 71), ("taped", 72), ("taped", 73), ("centre", 74), ("centre", 75))
 POSES = ["--poses", "--pose-offset", "1.5", "--pose-heading", "40", "--pose-seed", "7"]
@@ -44,11 +42,8 @@ def held_out(tubs: Path) -> dict[str, list[Path]]:
     out = {"driving": [], "poses": []}
     for style, seed in TRACKS:
         for kind, extra in (("driving", ["--no-drift"]), ("poses", POSES)):
-            tub = tubs / f"{style}-{seed}-{kind}"
-            if not (tub / "manifest.json").exists():
-                subprocess.run([sys.executable, "-m", "steerlab", "sim", "record", "--world", "track", "--style", style,
-                                "--seed", str(seed), "--minutes", "0.5", *extra, "--out", str(tub)], check=True)
-            out[kind].append(tub)
+            out[kind].append(track_tub(tubs / f"{style}-{seed}-{kind}", "--style", style, "--seed", str(seed),
+                                       "--minutes", "0.5", *extra))
     return out
 
 

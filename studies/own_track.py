@@ -12,9 +12,11 @@ for it on s1). Synthetic closed loop.
 
 OUT/own-track.md, .csv, .json: per pilot, K and light the mean over its runs of laps, clean laps (their share),
 off-track events and pace (the mean clean lap over the expert's on the same track, uncapped), each with the runs'
-min-max; and the fewest minutes of driving to >= 95 % clean laps. OUT/own-track.png: clean laps against K. Every
-tub, model and drive is kept and reused (a model while the recipe is the same, else refused; a drive while its
-key, the model's sha256 and the options, holds).
+min-max; and the fewest minutes of driving to >= 95 % clean laps; steerlab's pilot is named by the recipe's file
+(track_best). OUT/own-track.png: clean laps against K. Every tub, model and drive is kept and reused (a model while
+the recipe is the same, else refused; a drive while its key, the model's sha256 and the options, holds); a rerun
+into the same OUT with other race options (the track, its style, the race minutes, the light, the throttle scales)
+is refused rather than written over the races (OUT/races.json keeps them); more minutes, seeds or runs are added.
 
 python -m studies.own_track [--track 77] [--style taped] [--minutes 0.5,1,2,4] [--seeds 0,1] [--light 0.55]
     [--recipe configs/track_best.yaml]
@@ -29,11 +31,12 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from steerlab.cli import run_script, script_parser
 from steerlab.data.car import CARS
 from steerlab.data.readers import open_recording
+from steerlab.errors import SteerlabError
+from steerlab.files import read_yaml
 from steerlab.options import AT_LEAST_1, MINUTES, SEED, WORKERS, Options, Range, option
 from steerlab.sim.core.part import PartPilot
 from steerlab.sim.core.suite import Planned, as_stored, file_sha256, run_drives
@@ -44,7 +47,9 @@ from studies.common import (ROOT, DonkeycarPart, NumberList, donkey_models, donk
 
 RECIPE = ROOT / "configs" / "track_best.yaml"
 CLEAN = 95.0  # % of laps clean: the target
-DONKEYCAR, STEERLAB, EXPERT = "donkeycar", "track_best", "expert"
+DONKEYCAR, STEERLAB, EXPERT = "donkeycar", "steerlab", "expert"  # the kinds of pilot a drive is of
+# the options that shape every race: a rerun into the same --out with others is refused, not written over it
+RACE_OPTIONS = ("track", "style", "race_minutes", "light", "throttle_scale", "donkeycar_throttle_scale")
 
 
 def record(tubs: Path, track: int, style: str, minutes: float) -> Path:
@@ -61,7 +66,7 @@ def train(recipe: Path, tub: Path, seed: int, out: Path) -> Path:
     from steerlab.train.config import another_config, load_config
     from steerlab.train.loop import run_changes, train as train_config
 
-    raw = yaml.safe_load(recipe.read_text())
+    raw = read_yaml(recipe, "the recipe (--recipe)")
     usable = len(open_recording(str(tub), options=raw["reader"]))
     cut = int(round(0.8 * usable))
     raw.update(data=str(tub), split={"train": f"0:{cut}", "val": f"{cut}:{usable}"})
@@ -71,7 +76,7 @@ def train(recipe: Path, tub: Path, seed: int, out: Path) -> Path:
         if changes := run_changes(out, cfg):
             raise another_config(out, changes)
     else:
-        print(f"== training {STEERLAB} on {tub.name}, seed {seed}", flush=True)
+        print(f"== training {recipe.stem} on {tub.name}, seed {seed}", flush=True)
         metrics = train_config(cfg, progress=False)
         (out / "done.json").write_text(json.dumps(metrics, indent=1, default=str))
     return out / "best.pt"
@@ -193,8 +198,26 @@ def parser():
     return script_parser(__spec__.name, __doc__, OwnTrack)
 
 
+def same_races(out: Path, a: "OwnTrack") -> None:
+    """The race options of the study in `out` (`RACE_OPTIONS`, kept in OUT/races.json by its first run) are `a`'s,
+    or a one-line error: its races and table would be written over. More minutes, seeds or runs are welcome."""
+    mine = {k: getattr(a, k) for k in RACE_OPTIONS}
+    path = out / "races.json"
+    if path.exists():
+        stored = json.loads(path.read_text())
+        changed = [f"--{k.replace('_', '-')} {stored[k]:g}" if isinstance(stored[k], (int, float)) else
+                   f"--{k.replace('_', '-')} {stored[k]}" for k in RACE_OPTIONS if stored.get(k) != mine[k]]
+        if changed:
+            raise SteerlabError(f"{out} holds the races of {', '.join(changed)}, which these options would write "
+                                "over: give another --out, or those options")
+    out.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(mine, indent=1))
+
+
 def main(_, a: OwnTrack) -> None:
     out = Path(a.out)
+    same_races(out, a)
+    label = Path(a.recipe).stem  # what the table, the plot and the folders call steerlab's pilot
     lights = {"own": None, "other": a.light}
     base = TrackDriveOptions(seed=a.track, minutes=a.race_minutes, style=a.style, max_throttle=1.0)
     expert = {name: TrackDriveOptions(**{**asdict(base), "light": light}) for name, light in lights.items()}
@@ -204,20 +227,21 @@ def main(_, a: OwnTrack) -> None:
     pilots = {}
     for minutes in MINUTES_LIST.of(a.minutes):
         tub = record(out / "tubs", a.track, a.style, minutes)
-        racing = [(STEERLAB, f"seed{s}", train(Path(a.recipe), tub, s, out / f"{minutes:g}min" / f"seed{s}"), None,
-                   a.throttle_scale)
+        racing = [(STEERLAB, label, f"seed{s}", train(Path(a.recipe), tub, s, out / f"{minutes:g}min" / f"seed{s}"),
+                   None, a.throttle_scale)
                   for s in SEEDS.of(a.seeds)]
         if a.donkeycar:
             car, models = donkey_models(out, tub.parent, a.donkeycar_runs, (tub.name,), f"donkey-{minutes:g}min")
-            racing += [(DONKEYCAR, f"run{k}", m, car, a.donkeycar_throttle_scale) for k, m in enumerate(models)]
-        for who, name, model, car, scale in racing:
+            racing += [(DONKEYCAR, DONKEYCAR, f"run{k}", m, car, a.donkeycar_throttle_scale)
+                       for k, m in enumerate(models)]
+        for kind, who, name, model, car, scale in racing:
             for light_name, light in lights.items():
                 o = TrackDriveOptions(**{**asdict(base), "light": light, "throttle_scale": scale})
                 key = as_stored({"model_sha256": file_sha256(Path(model)), **asdict(o)})
                 where = (who, minutes, light_name, name)
                 folder = out / f"{minutes:g}min" / f"{who}-{name}" / light_name
-                planned.setdefault(who, []).append(Planned(where, folder, key, (who, str(model), car and str(car),
-                                                                                  str(folder), o, key)))
+                planned.setdefault(kind, []).append(Planned(where, folder, key, (kind, str(model), car and str(car),
+                                                                                   str(folder), o, key)))
                 pilots.setdefault((who, minutes, light_name), []).append(where)
     results = {}
     ticks = int(a.race_minutes * 60 * base.fps)

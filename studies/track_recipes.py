@@ -33,8 +33,6 @@ import csv
 import json
 import math
 import shutil
-import subprocess
-import sys
 from dataclasses import asdict, dataclass, field, replace
 from functools import partial
 from pathlib import Path
@@ -48,7 +46,7 @@ from steerlab.options import AT_LEAST_1, SEED, WORKERS, Options, Range, names_fr
 from steerlab.sim.track.suite import TRACK_SUITES, TrackSuiteOptions, part_entrant, race, report, summarize
 from steerlab.sim.track.world import throttle_floor_option, throttle_scale_option
 from studies.common import (ROOT, DonkeycarPart, NumberList, donkey_models, donkey_python, machine, mean_min_max,
-                            training_tub)
+                            track_tub, training_tub)
 
 TUBS = [f"{style}-{seed}" for style in ("taped", "centre") for seed in (1, 2, 3, 4)]
 TUB_MINUTES = 2.0
@@ -258,11 +256,9 @@ RECIPES = {
 def record_tubs(tubs: Path, names) -> None:
     """The tubs `names` (of TUBS and AUGMENT), recorded where they are missing."""
     for name in names:
-        if not (tubs / name / "manifest.json").exists():
-            style, seed, *extra = AUGMENT.get(name) or name.split("-")
-            minutes = [] if "--minutes" in extra else ["--minutes", str(TUB_MINUTES)]
-            subprocess.run([sys.executable, "-m", "steerlab", "sim", "record", "--world", "track", "--style", style,
-                            "--seed", seed, *minutes, *extra, "--out", str(tubs / name)], check=True)
+        style, seed, *extra = AUGMENT.get(name) or name.split("-")
+        minutes = [] if "--minutes" in extra else ["--minutes", str(TUB_MINUTES)]
+        track_tub(tubs / name, "--style", style, "--seed", seed, *minutes, *extra)
 
 
 def recipe_base(name: str, tubs: Path) -> dict:
@@ -324,25 +320,28 @@ def merged_tub(tubs: Path, names, out: Path) -> Path:
 
 def train_recipe(name: str, seed: int, out: Path, tubs: Path) -> Path:
     """The recipe's checkpoint for `seed` (trained once; an interrupted training resumes; DAgger where the recipe
-    has a `dagger` section)."""
+    has a `dagger` section; a finished run of another config, the recipe changed since, is refused, not reused)."""
     from steerlab.dagger import run_dagger
-    from steerlab.train.config import load_config
-    from steerlab.train.loop import train
+    from steerlab.train.config import another_config, load_config
+    from steerlab.train.loop import run_changes, train
 
     recipe = RECIPES[name]
     if recipe.starts and not recipe.overrides and not recipe.tubs:
         return train_recipe(recipe.starts, seed, out, tubs)
     init = train_recipe(recipe.starts, seed, out, tubs) if recipe.starts else None
     run = out / "recipes" / name / f"seed{seed}"
-    if not (run / "done.json").exists():
+    record_tubs(tubs, recipe.tubs)
+    cfg = recipe_base(name, tubs)
+    if recipe.only:
+        usable = len(open_recording(cfg["data"], options=cfg["reader"]))
+        cfg["split"] = {"train": f"0:{usable - recipe.only}", "val": f"{usable - recipe.only}:{usable}"}
+    cfg = load_config(None, base=cfg, overrides=[*(o.replace("{init}", str(init)) for o in recipe.overrides),
+                                                 f"train.seed={seed}", f"out={run}"])
+    if (run / "done.json").exists():
+        if not cfg.dagger and (changes := run_changes(run, cfg)):
+            raise another_config(run, changes, f"recipe {name}'s run")
+    else:
         print(f"== training {name}, seed {seed}", flush=True)
-        record_tubs(tubs, recipe.tubs)
-        cfg = recipe_base(name, tubs)
-        if recipe.only:
-            usable = len(open_recording(cfg["data"], options=cfg["reader"]))
-            cfg["split"] = {"train": f"0:{usable - recipe.only}", "val": f"{usable - recipe.only}:{usable}"}
-        cfg = load_config(None, base=cfg, overrides=[*(o.replace("{init}", str(init)) for o in recipe.overrides),
-                                                     f"train.seed={seed}", f"out={run}"])
         metrics = run_dagger(cfg, progress=False) if cfg.dagger else train(cfg, progress=False)
         (run / "done.json").write_text(json.dumps(metrics if isinstance(metrics, dict) else str(metrics), indent=1))
     return run / "best.pt"

@@ -75,3 +75,37 @@ def test_a_finished_training_is_reused_only_for_the_same_recipe(tmp_path):
     recipe.write_text(recipe.read_text().replace("lr: 1.0e-3", "lr: 2.0e-3"))
     with pytest.raises(SteerlabError, match=r"run holds a run of another config \(train.lr: 0.001 -> 0.002\)"):
         train(recipe, tub, 0, tmp_path / "run")
+
+
+def test_a_rerun_with_other_race_options_is_refused_not_written_over(tmp_path):
+    from studies.own_track import OwnTrack, same_races
+
+    same_races(tmp_path, OwnTrack(out=str(tmp_path)))
+    same_races(tmp_path, OwnTrack(out=str(tmp_path), minutes="0.5,1,2,4,8", seeds="0,1,2"))  # more: welcome
+    for given, said in (({"race_minutes": 3.0}, "--race-minutes 2"), ({"light": 0.8}, "--light 0.55"),
+                        ({"throttle_scale": 1.5}, "--throttle-scale 1.2"), ({"style": "centre"}, "--style taped"),
+                        ({"track": 78}, "--track 77")):
+        with pytest.raises(SteerlabError, match=rf"^{tmp_path} holds the races of {said}, which these options "
+                                                r"would write over: give another --out, or those options$"):
+            same_races(tmp_path, OwnTrack(out=str(tmp_path), **given))
+
+
+def test_steerlabs_pilot_is_named_by_its_recipe(tmp_path, monkeypatch):
+    """`--recipe tiny.yaml`: the table, plot and folders say tiny, not track_best."""
+    import studies.own_track as own
+
+    seen = {}
+    monkeypatch.setattr(own, "record", lambda tubs, track, style, minutes: tmp_path / "tub")
+    monkeypatch.setattr(own, "train", lambda recipe, tub, seed, out: tmp_path / "best.pt")
+    monkeypatch.setattr(own, "file_sha256", lambda path: "0" * 64)
+    monkeypatch.setattr(own, "run_drives", lambda drive, kind, planned, *rest: seen.setdefault("planned", []).extend(
+        planned) or {p.where: None for p in planned})
+    monkeypatch.setattr(own, "rows_of", lambda results, expert, pilots: seen.update(pilots=pilots) or [])
+    monkeypatch.setattr(own, "markdown", lambda rows, a: "")
+    monkeypatch.setattr(own, "plot", lambda rows, path: None)
+    monkeypatch.setattr(own, "write_table", lambda path, rows: None)
+    recipe = tmp_path / "tiny.yaml"
+    recipe.write_text("model: {name: donkey-linear}\n")
+    own.main(None, own.OwnTrack(out=str(tmp_path / "out"), minutes="1", seeds="0", recipe=str(recipe)))
+    assert {who for who, *_ in seen["pilots"]} == {"tiny"}
+    assert {p.folder.parent.name for p in seen["planned"] if p.folder.parent.name != "expert"} == {"tiny-seed0"}

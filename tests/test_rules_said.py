@@ -99,3 +99,32 @@ def test_a_recording_of_black_frames_is_refused_when_compiled(tmp_path, capsys):
     for i in range(6):
         w.add(np.full((120, 160, 3), 40 if i == 5 else 0, np.uint8), i * 50_000_000, 0.01 * i, 0.3)
     assert main(["compile", "--data", str(w.close()), "--cache", str(tmp_path / "cache")]) == 0
+
+
+@pytest.mark.parametrize("layout", ["tub", "steerlab"])
+def test_an_interrupted_recording_leaves_nothing_and_a_rerun_records_it(tmp_path, monkeypatch, layout):
+    from steerlab.data import writer
+
+    out = tmp_path / "rec"
+    cls = writer.TubWriter if layout == "tub" else writer.RecordingWriter
+    real = cls.add
+
+    def add(self, *args, **kw):
+        if len(getattr(self, "records", None) or getattr(self, "rows", [])) == 5:
+            raise KeyboardInterrupt  # Ctrl-C halfway
+        return real(self, *args, **kw)
+
+    argv = ["sim", "record", "--world", "track", "--minutes", "0.01", "--layout", layout, "--out", str(out)]
+    with monkeypatch.context() as m:
+        m.setattr(cls, "add", add)
+        assert main(argv) == 130  # "interrupted"
+    assert not out.exists() and (tmp_path / ".rec.part").is_dir()  # the half-written recording, hidden beside
+    assert main(argv) == 0 and len(open_recording(out)) == 12 and not (tmp_path / ".rec.part").exists()
+
+
+def test_a_study_whose_recording_fails_ends_in_one_line(tmp_path):
+    from studies.common import track_tub
+
+    with pytest.raises(SteerlabError, match=r"^steerlab sim record --world track --seed 9501 --out .* failed \(exit "
+                                            r"status 2; its message is above\): fix what it says"):
+        track_tub(tmp_path / "tub", "--seed", "9501")  # a suite's reserved seed

@@ -57,3 +57,25 @@ def test_the_table_gives_the_runs_min_max_beside_every_mean():
     cells = markdown([row], "s1").splitlines()[-1].split(" | ")
     assert cells[4:] == ["67.0 (64.0-70.0)", "78.3 (76.6-80.0)", "6.5 (6.0-7.0) of 8", "0.15 (0.10-0.20)",
                          "12.5 (9.0-16.0)", "0.900 (6) |"]  # one run's pace: no spread
+
+
+def test_a_finished_recipe_run_of_another_config_is_refused_not_reused(tmp_path, monkeypatch):
+    """A recipe trained once is reused as it is; changed since (a learning rate of 2e-3 where it had 1e-3), its
+    finished run is refused, naming the change, instead of racing a model of the old recipe under the new name."""
+    import pytest
+
+    import studies.track_recipes as tr
+    from steerlab.errors import SteerlabError
+
+    monkeypatch.setitem(tr.AUGMENT, "taped-5-tiny", ["taped", "5", "--minutes", "0.05"])
+    tiny = ("train.epochs=1", "train.batch_size=16", "train.epoch_samples=0", f"cache={tmp_path / 'cache'}")
+    monkeypatch.setitem(tr.RECIPES, "tiny", tr.Recipe("a tiny recipe", (*tiny, "train.lr=1.0e-3"),
+                                                      tubs=("taped-5-tiny",), only=20))
+    best = tr.train_recipe("tiny", 0, tmp_path, tmp_path / "tubs")
+    made = best.stat().st_mtime_ns
+    assert tr.train_recipe("tiny", 0, tmp_path, tmp_path / "tubs") == best and best.stat().st_mtime_ns == made
+    monkeypatch.setitem(tr.RECIPES, "tiny", tr.Recipe("a tiny recipe", (*tiny, "train.lr=2.0e-3"),
+                                                      tubs=("taped-5-tiny",), only=20))
+    with pytest.raises(SteerlabError, match=r"seed0 holds recipe tiny's run of another config \(train.lr: 0.001 -> "
+                                            r"0.002\); choose a new out directory or delete it"):
+        tr.train_recipe("tiny", 0, tmp_path, tmp_path / "tubs")

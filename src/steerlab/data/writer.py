@@ -7,6 +7,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import shutil
 from datetime import datetime, timezone
 from pathlib import Path
 
@@ -26,6 +27,26 @@ EPOCH_NS = int(datetime(2020, 1, 1, tzinfo=timezone.utc).timestamp()) * 1_000_00
 JPEG = [cv2.IMWRITE_JPEG_QUALITY, 92]
 
 
+def begin(out: Path) -> Path:
+    """The folder a writer fills for `out` (which must be new or empty): its hidden sibling `.<name>.part`, a
+    leftover of an interrupted writer removed first; `finish` renames it to `out` once the recording is whole. So
+    an interrupted recording leaves `out` as it was, and the same command run again records it afresh."""
+    if out.exists() and any(out.iterdir()):
+        raise SteerlabError(f"{out} exists and is not empty; choose a new output folder")
+    part = out.parent / f".{out.name}.part"
+    shutil.rmtree(part, ignore_errors=True)
+    part.mkdir(parents=True)
+    return part
+
+
+def finish(part: Path, out: Path) -> Path:
+    """`begin`'s folder, whole, renamed to `out` (an empty `out` is replaced)."""
+    if out.is_dir():
+        out.rmdir()
+    part.rename(out)
+    return out
+
+
 class RecordingWriter:
     """Writes frames and per-frame rows as a steerlab recording (`recording.json`, `log.csv`, one folder of
     JPEGs per camera) or in the Udacity simulator's `driving_log.csv` layout. Steering is written in
@@ -39,10 +60,9 @@ class RecordingWriter:
             raise SteerlabError(f"unknown layout {layout!r}; choose steerlab or udacity-sim")
         self.out, self.cameras, self.layout, self.convention = Path(out), cameras, layout, convention
         self.geometry, self.jpeg = geometry, JPEG if quality is None else [cv2.IMWRITE_JPEG_QUALITY, quality]
-        if self.out.exists() and any(self.out.iterdir()):
-            raise SteerlabError(f"{self.out} exists and is not empty; choose a new output folder")
+        self.dir = begin(self.out)
         for cam in cameras:
-            (self.out / ("IMG" if layout == "udacity-sim" else cam)).mkdir(parents=True, exist_ok=True)
+            (self.dir / ("IMG" if layout == "udacity-sim" else cam)).mkdir(parents=True, exist_ok=True)
         self.rows: list[dict] = []
 
     def add(self, frames: dict[str, np.ndarray], row: dict) -> None:
@@ -55,27 +75,27 @@ class RecordingWriter:
                 names[cam] = f"IMG/{image_name(cam, EPOCH_NS + ts)}"
             else:
                 names[cam] = f"{cam}/{i:06d}.jpg"
-            cv2.imwrite(str(self.out / names[cam]), frames[cam], self.jpeg)
+            cv2.imwrite(str(self.dir / names[cam]), frames[cam], self.jpeg)
         self.rows.append({"frame": i, **{c: names.get(c, "") for c in ("center", "left", "right")}, **row})
 
     def close(self, meta: dict) -> Path:
         ratio = car_of(self.geometry).steering_ratio
         if self.layout == "udacity-sim":
-            with open(self.out / "driving_log.csv", "w", newline="") as f:
+            with open(self.dir / "driving_log.csv", "w", newline="") as f:
                 w = csv.writer(f)
                 for r in self.rows:
                     road_wheel = self.convention.to_road_wheel_left(r["steering"], ratio)
                     w.writerow(log_row(r["center"], r["left"], r["right"], to_sim_steering(road_wheel),
                                        r["throttle"], r["brake"], r["speed"]))
-            return self.out
-        with open(self.out / "log.csv", "w", newline="") as f:
+            return finish(self.dir, self.out)
+        with open(self.dir / "log.csv", "w", newline="") as f:
             w = csv.DictWriter(f, NATIVE_COLUMNS)
             w.writeheader()
             for r in self.rows:
                 w.writerow({k: (f"{v:.6f}" if isinstance(v, float) else v) for k, v in r.items()})
-        write_json(self.out / "recording.json", {"format": "steerlab-recording-1", **meta, "geometry": self.geometry,
+        write_json(self.dir / "recording.json", {"format": "steerlab-recording-1", **meta, "geometry": self.geometry,
                                                  "steering": self.convention.as_dict(), "episodes": list(EPISODES)})
-        return self.out
+        return finish(self.dir, self.out)
 
 
 TUB_KEYS = ["cam/image_array", "user/angle", "user/throttle", "user/mode"]
@@ -112,9 +132,8 @@ class TubWriter:
         self.out, self.full_lock = Path(out), math.radians(full_lock_deg)
         self.max_len, self.start_ns, self.metadata, self.lane = max_len, start_ns, metadata or {}, lane
         self.jpeg = TUB_JPEG if quality is None else [cv2.IMWRITE_JPEG_QUALITY, quality]
-        if self.out.exists() and any(self.out.iterdir()):
-            raise SteerlabError(f"{self.out} exists and is not empty; choose a new output folder")
-        (self.out / "images").mkdir(parents=True, exist_ok=True)
+        self.dir = begin(self.out)
+        (self.dir / "images").mkdir(parents=True, exist_ok=True)
         self.day = f"{datetime.fromtimestamp(start_ns / 1e9, timezone.utc):%y-%m-%d}"
         self.sessions = [f"{self.day}_0"]
         self.records: list[dict] = []
@@ -140,7 +159,7 @@ class TubWriter:
         elif (new_session and i) or (self.deleted and self.deleted[-1] == i - 1):  # after a cut, or unrelated
             self.sessions.append(f"{self.day}_{len(self.sessions)}")
         name = f"{i}_cam_image_array_.jpg"
-        if not cv2.imwrite(str(self.out / "images" / name), frame, self.jpeg):
+        if not cv2.imwrite(str(self.dir / "images" / name), frame, self.jpeg):
             raise SteerlabError(f"cannot write {self.out / 'images' / name}: free disk space, or choose "
                                 "another output folder")
         self.records.append({"_index": i, "_session_id": self.sessions[-1],
@@ -156,10 +175,10 @@ class TubWriter:
             name = f"catalog_{n}.catalog"
             lines = [json.dumps(r, allow_nan=False, sort_keys=True) + "\n"
                      for r in self.records[first: first + self.max_len]]
-            (self.out / name).write_text("".join(lines))
+            (self.dir / name).write_text("".join(lines))
             manifest = {"path": f"catalog_{n}.catalog_manifest", "created_at": created, "start_index": first,
                         "line_lengths": [len(line) for line in lines]}
-            (self.out / f"catalog_{n}.catalog_manifest").write_text(json.dumps(manifest, allow_nan=False,
+            (self.dir / f"catalog_{n}.catalog_manifest").write_text(json.dumps(manifest, allow_nan=False,
                                                                                sort_keys=True) + "\n")
             paths.append(name)
         sessions = {"all_full_ids": self.sessions, "last_id": len(self.sessions) - 1,
@@ -169,5 +188,5 @@ class TubWriter:
         lane = list(LANE_FIELDS) if self.lane else []
         lines = [TUB_KEYS + lane, TUB_TYPES + ["float"] * len(lane), self.metadata,
                  {"created_at": created, "sessions": sessions}, catalogs]
-        (self.out / "manifest.json").write_text("".join(json.dumps(line) + "\n" for line in lines))
-        return self.out
+        (self.dir / "manifest.json").write_text("".join(json.dumps(line) + "\n" for line in lines))
+        return finish(self.dir, self.out)
