@@ -339,7 +339,7 @@ def record_expert(world: str, out: Path, minutes: float) -> dict[tuple[str, int]
     from steerlab.sim.worlds import WORLDS
 
     w = WORLDS[world]
-    suite = w.suite_options(minutes=minutes)
+    suite = w.suite.options(minutes=minutes)
     recs = {}
     for kind, seed in suite.drives():
         folder = out / "expert" / f"{kind}-{seed}"
@@ -348,7 +348,7 @@ def record_expert(world: str, out: Path, minutes: float) -> dict[tuple[str, int]
             shutil.rmtree(folder, ignore_errors=True)
             shutil.rmtree(out / "replay" / folder.name, ignore_errors=True)
             t0 = time.time()
-            w.record(folder, suite.record_options(kind, seed), progress=False, suite_ok=True)
+            w.record.run(folder, suite.record_options(kind, seed), progress=False, suite_ok=True)
             stamp.write_text(json.dumps({"minutes": minutes}))
             print(f"recorded the expert on {kind}-{seed} ({minutes:g} min) in {time.time() - t0:.0f} s", flush=True)
         recs[(kind, seed)] = folder

@@ -1644,9 +1644,9 @@ def rule1_world_cases():
     for command, sub in (("record", "sim record"), ("drive", "sim drive"), ("suite", "sim bench"),
                          ("replay", "replay")):
         for world in WORLDS.values():
-            own = {o.key for o in options_of(getattr(world, f"{command}_options"))}
+            own = {o.key for o in options_of(getattr(world, command).options)}
             for other in WORLDS.values():
-                for o in options_of(getattr(other, f"{command}_options")):
+                for o in options_of(getattr(other, command).options):
                     if o.key in own or o.path:
                         continue
                     kind = optional(o.kind)[0]

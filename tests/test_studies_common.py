@@ -88,7 +88,7 @@ def test_the_expert_is_recorded_on_every_place_of_a_suite_once(tmp_path):
     from steerlab.sim.worlds import WORLDS
 
     recs = common.record_expert("road", tmp_path, 0.01)
-    roads = WORLDS["road"].suite_options().drives()
+    roads = WORLDS["road"].suite.options().drives()
     first = tmp_path / "expert" / "country-9101"
     assert list(recs) == roads and recs[roads[0]] == first
     assert len(open_recording(first)) == 12  # 0.01 min at 20 frames/s

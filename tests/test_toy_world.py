@@ -21,7 +21,8 @@ from steerlab.data.writer import RecordingWriter
 from steerlab.options import MINUTES, Options, SEED, WORKERS, frames_in, option
 from steerlab.pilot import Controls, smoothing_option, steering_step_option
 from steerlab.sim.core.driving import autonomy, drive_loop, rollout
-from steerlab.sim.core.entry import Column, WorldEntry
+from steerlab.sim.core.entry import (Column, DaggerEntry, Driver, Recorder, ReplayEntry, ReportEntry, SuiteEntry,
+                                     WorldEntry)
 from steerlab.sim.core.suite import Planned, close, entrants, run_drives, write_csv, write_json
 from steerlab.sim.core.vehicle import VehicleState
 from steerlab.sim.replay.run import ReplayOptions
@@ -205,15 +206,17 @@ def round_columns(summary: list[ToyDrive]) -> dict:
 
 TOY = WorldEntry(
     name="toy", help="an endless straight lane", cameras=("sim",),
-    record_options=RecordToy, record=record, drive_options=DriveToy, drive=drive_checkpoint, drive_files="drive.json",
-    suite_options=ToySuite, suites=SUITES, suite=run_suite, suite_figures="none",
-    replay_options=ReplayOptions,
-    dagger_options=ToyDagger, rollout=rollout_job, rollout_camera=lambda rec: rec.geometry,
-    rollout_done="recording.json", round_columns=round_columns,
-    dagger_columns=("toy_autonomy",), dagger_series=(("toy_autonomy", "k.-", "toy lanes"),),
-    closed_loop_metrics=lambda checkpoint, o, progress, plots=True: round_columns(run_suite([checkpoint], o)),
-    closed_loop_table=(Column(header="toy autonomy [%]", keys=("toy_autonomy",), digits=1),),
-    worst=Column(header="worst seed [%]", keys=("toy_autonomy",), digits=1), plot_drives=lambda *a: None)
+    record=Recorder(options=RecordToy, run=record),
+    drive=Driver(options=DriveToy, run=drive_checkpoint, files="drive.json"),
+    suite=SuiteEntry(options=ToySuite, versions=SUITES, run=run_suite, figures="none"),
+    replay=ReplayEntry(options=ReplayOptions),
+    dagger=DaggerEntry(options=ToyDagger, rollout=rollout_job, camera=lambda rec: rec.geometry, done="recording.json",
+                       round_columns=round_columns, columns=("toy_autonomy",),
+                       series=(("toy_autonomy", "k.-", "toy lanes"),)),
+    report=ReportEntry(metrics=lambda checkpoint, o, progress, plots=True: round_columns(run_suite([checkpoint], o)),
+                       table=(Column(header="toy autonomy [%]", keys=("toy_autonomy",), digits=1),),
+                       worst=Column(header="worst seed [%]", keys=("toy_autonomy",), digits=1),
+                       plot_drives=lambda *a: None))
 
 
 @pytest.fixture

@@ -62,13 +62,13 @@ def test_the_loop_refuses_what_is_not_a_world_or_a_pilot():
 def test_each_world_is_found_by_its_camera_and_its_suites():
     assert world_of("donkey").name == "track" and world_of("sim").name == world_of("ch2").name == "road"
     for name, w in WORLDS.items():
-        assert w.name == name and w.cameras and w.suites
-        for cls in (w.record_options, w.drive_options, w.suite_options, w.replay_options):
+        assert w.name == name and w.cameras and w.suite.versions
+        for cls in (w.record.options, w.drive.options, w.suite.options, w.replay.options):
             cls()  # every option of a world has a default
-        kinds = w.dagger_options().kinds()  # a world's own options of a dagger section name its rollouts' places
-        assert kinds and w.dagger_options(**{k: ",".join(kinds) for k in ("roads", "styles")
-                                             if k in w.dagger_options.__dataclass_fields__}).kinds() == kinds
-        assert w.suite_options().drives()  # the default suite has places to drive
+        kinds = w.dagger.options().kinds()  # a world's own options of a dagger section name its rollouts' places
+        assert kinds and w.dagger.options(**{k: ",".join(kinds) for k in ("roads", "styles")
+                                             if k in w.dagger.options.__dataclass_fields__}).kinds() == kinds
+        assert w.suite.options().drives()  # the default suite has places to drive
 
 
 def test_a_config_that_names_the_road_world_synthetic_still_loads(tmp_path, capsys):
@@ -88,7 +88,7 @@ def test_sim_drive_of_each_world_prints_its_result(tmp_path, tiny_checkpoint, ca
         assert main(["sim", "drive", str(ckpt), "--world", world, "--minutes", "0.01", "--out", str(out)]) == 0
         printed = capsys.readouterr().out
         result = json.loads((out / "drive.json").read_text())
-        assert result["label"] == "pilotnet" and f"wrote {out}/{WORLDS[world].drive_files}" in printed
+        assert result["label"] == "pilotnet" and f"wrote {out}/{WORLDS[world].drive.files}" in printed
         assert all(name in printed for name in result)  # every field of the typed result in the table
 
 def test_dagger_drives_the_suite_of_its_own_world_unless_told():

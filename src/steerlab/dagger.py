@@ -4,14 +4,14 @@ Round 0 trains the model on the config's data. Every later round rolls the curre
 probability beta per tick the expert drives instead: beta = `beta` x `beta_decay`^(round - 1)), lets the
 expert label every visited frame, adds those recordings to the training data (`extra_data`) and trains again,
 starting from the previous round's weights. In a world (`dagger.world`: a name of `sim.worlds.WORLDS`), the rollouts
-drive fresh places of it, one of each kind its own options name (`WorldEntry.dagger_options`: the road world's
+drive fresh places of it, one of each kind its own options name (`WorldEntry.dagger.options`: the road world's
 `roads`, the track world's `styles`), through the world's `rollout` (the road world: pure pursuit of the lane
 centre labels the frames, `road.run.rollout`; the track world: the model races as the track suite drives it, its
 learned throttle capped at `max_throttle`, and the expert labels steering and throttle, `track.run.rollout`), and
 the world's suite is driven after every round (unless `suite` is null); `world: replay` rolls out in closed-loop
 replay over the training frames of the config's recording (the expert: the human's steering plus pure pursuit's
 way back to the path, `replay.run.rollout_recording`) and replays the validation frames after every round.
-`dagger.csv` and `dagger.png` show the place's closed-loop columns (the world's `dagger_columns`: autonomy per road
+`dagger.csv` and `dagger.png` show the place's closed-loop columns (the world's `dagger.columns`: autonomy per road
 type; clean laps, lap time over the expert's, off-track events per lap; or replay's autonomy) against the round.
 Every step is kept on disk and reused, so an interrupted run continues where it stopped. The final round's
 `best.pt`, `log.csv`, `val_predictions.csv` and `metrics.json` are copied to the output folder.
@@ -71,7 +71,7 @@ class DaggerOptions(Options):
     beta_decay: float = option(0.5, UNIT, help="beta is multiplied by this every round")
     epochs: int = option(4, AT_LEAST_1, help="epochs of every retraining (round 0 uses train.epochs)")
     warm_start: bool = option(True, help="retrain from the previous round's weights (else from scratch)")
-    suite: str | None = option(next(iter(default_world().suites)), lambda v: v in all_suites(),
+    suite: str | None = option(next(iter(default_world().suite.versions)), lambda v: v in all_suites(),
                                " or ".join(all_suites()), help="closed-loop suite after every round: one of the "
                                "rollouts' world (default: the world's first, v1 or t1; null: none)")
     suite_minutes: float | None = option(None, MINUTES, help="minutes per suite road or track")
@@ -92,7 +92,7 @@ WORLD_KEYS = ("minutes", "suite", "suite_minutes")  # options of DAgger in a wor
 
 def own_options(world: str) -> type:
     """The options class of a `dagger:` section's keys that only `world` takes."""
-    return ReplayDaggerOptions if world == REPLAY else WORLDS[world].dagger_options
+    return ReplayDaggerOptions if world == REPLAY else WORLDS[world].dagger.options
 
 
 def taking(key: str) -> list[str]:
@@ -127,7 +127,7 @@ def _parsed(raw: dict, earlier: bool = False) -> DaggerOptions:
                                 f"{o.world} does not take it")
     o = replace(o, own=parse(mine, rest, "dagger"))
     if "suite" not in raw:  # the default suite is the world's own (replay drives none)
-        o = replace(o, suite=next(iter(WORLDS[o.world].suites)) if o.world in WORLDS else None)
+        o = replace(o, suite=next(iter(WORLDS[o.world].suite.versions)) if o.world in WORLDS else None)
     return o
 
 
@@ -147,15 +147,15 @@ def round_suite(o: DaggerOptions):
     if o.world not in WORLDS:
         return None
     world = WORLDS[o.world]
-    if o.suite and o.suite not in world.suites:
+    if o.suite and o.suite not in world.suite.versions:
         raise SteerlabError(f"dagger.suite: {o.suite} is a {suite_world(o.suite).name} suite; world {o.world} "
-                            f"drives a {o.world} suite ({', '.join(world.suites)}) or none (null): set it to one of "
+                            f"drives a {o.world} suite ({', '.join(world.suite.versions)}) or none (null): set it to one of "
                             "them")
     keys = type(o.own).suite_keys  # the suite's options that the world's own options set, and their dagger keys
     given = {"suite": o.suite, "minutes": o.suite_minutes, "workers": o.workers,
              **{k: getattr(o.own, v) for k, v in keys.items()}}
     names = {"minutes": "suite_minutes", **keys}  # as the dagger section names them
-    return parse(world.suite_options, {k: v for k, v in given.items() if v is not None},
+    return parse(world.suite.options, {k: v for k, v in given.items() if v is not None},
                  name=lambda f: f"dagger.{names.get(f, f)}")
 
 
@@ -179,8 +179,8 @@ class _InWorld:
         self.drives = round_suite(o)  # how the rollouts and the suite drive
         self.suite = self.drives if o.suite else None
         self.kinds = o.own.kinds()  # one rollout of each per round
-        self.camera = self.world.rollout_camera(rec)
-        self.columns, self.series = self.world.dagger_columns, self.world.dagger_series
+        self.camera = self.world.dagger.camera(rec)
+        self.columns, self.series = self.world.dagger.columns, self.world.dagger.series
         if self.suite:  # its places checked before anything is written
             try:
                 self.suite.drives()
@@ -193,20 +193,20 @@ class _InWorld:
         for k, kind in enumerate(self.kinds):
             folder = out / f"round{r}" / "rollouts" / f"{kind}-{o.seeds_from + 100 * r + k}"
             extra.append(str(folder))
-            if not (folder / world.rollout_done).exists():
+            if not (folder / world.dagger.done).exists():
                 shutil.rmtree(folder, ignore_errors=True)  # an interrupted rollout starts again
                 jobs.append((str(out / f"round{r - 1}" / "best.pt"), str(folder), o.seeds_from + 100 * r + k,
                              o.minutes / len(self.kinds), kind, beta, self.camera, self.drives))
         if progress and jobs:
             print(f"== DAgger round {r}: rolling out round {r - 1}'s model in {len(jobs)} fresh place(s) of the "
                   f"{world.name} world, beta {beta:.3f}")
-        return [m.autonomy for m in run_parallel(world.rollout, jobs, o.workers,
+        return [m.autonomy for m in run_parallel(world.dagger.rollout, jobs, o.workers,
                                                  frames_in(o.minutes / len(self.kinds), 20.0), progress, "rollouts")]
 
     def evaluate(self, run: Path, progress: bool) -> dict:
         if not self.suite:
             return {}
-        return self.world.round_columns(self.world.suite([run / "best.pt"], run / "suite", self.suite,
+        return self.world.dagger.round_columns(self.world.suite.run([run / "best.pt"], run / "suite", self.suite,
                                                          progress=progress))
 
 
@@ -328,7 +328,7 @@ def _write_log(out: Path, rows: list[dict], rounds) -> None:
 
 def plot_rounds(path: str | Path, rows: list[dict], series) -> None:
     """DAgger: the closed-loop columns of the rollouts' place (`series`: (column, matplotlib style, label); a world's
-    `dagger_series`: autonomy per road type, the track suite's clean laps; or in replay) and the validation RMSE
+    `dagger.series`: autonomy per road type, the track suite's clean laps; or in replay) and the validation RMSE
     against the round; the validation RMSE alone when the rounds were not driven (`suite: null`)."""
     import numpy as np
 

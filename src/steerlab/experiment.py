@@ -1,7 +1,7 @@
 """`steerlab experiment`: train several models, several seeds each, on identical splits, and tabulate them in
 the form of paper 000 Table I (model, input, input shape, MSE mean +- std, gamma, target gamma) and of paper
 002 Tables I-II (steering MAE, speed MAE, speed-command accuracy), optionally with closed-loop columns (every
-run drives the suite of the `closed_loop:` section's world: its columns, `WorldEntry.closed_loop_table`, such as
+run drives the suite of the `closed_loop:` section's world: its columns, `WorldEntry.report.table`, such as
 autonomy per road type, interventions per km and command gamma, and one figure per road or track with every
 model's seed-0 drive on it) and the streaming latency of every model. With closed-loop columns the experiment also
 plots open-loop error against autonomy and says how well each open-loop metric ranks the models' driving and which
@@ -172,7 +172,7 @@ def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: boo
             run = {**_smoothed(run_dir, labels, deg), **json.loads(done.read_text()), "train_s": _train_seconds(run_dir)}
             if exp.closed_loop:
                 checkpoint = suite_checkpoint(run_dir, cfg, exp.closed_loop)
-                run.update(exp.world.closed_loop_metrics(checkpoint, exp.closed_loop, progress, plots=False))
+                run.update(exp.world.report.metrics(checkpoint, exp.closed_loop, progress, plots=False))
                 if seed == 0:
                     suites[entry.name] = checkpoint.parent / "suite"
             if exp.replay is not None:
@@ -186,7 +186,7 @@ def run_experiment(path: str | Path, overrides=(), seeds: int = 3, progress: boo
         preds[entry.name] = read_steering_csv(out / entry.name / "seed0" / "val_predictions.csv")
     _write(out, rows, preds, cfg, seeds, _speed_references(labels, next(iter(preds.values()))[0]), exp.world)
     if suites:
-        exp.world.plot_drives(out, suites, exp.closed_loop)
+        exp.world.report.plot_drives(out, suites, exp.closed_loop)
     return out / "table.md"
 
 
@@ -208,7 +208,7 @@ def _speed_references(labels: dict, val_ids: np.ndarray) -> str:
 
 def closed_loop_keys(world: WorldEntry | None) -> list[str]:
     """The closed-loop metrics of an experiment's table in `world` (None: without a suite, none)."""
-    return [] if world is None else list(dict.fromkeys(k for c in world.closed_loop_table for k in c.keys))
+    return [] if world is None else list(dict.fromkeys(k for c in world.report.table for k in c.keys))
 
 
 def _row(label: str, model: str, pre: PreprocessConfig, runs: list[dict], latency: dict,
@@ -295,9 +295,9 @@ def _fmt(value: float, digits: int, std: float | None = None) -> str:
 def _closed_cells(r: dict, world: WorldEntry, worst: bool) -> str:
     """A row's closed-loop cells of table.md: the world's columns (and the worst seed's autonomy per kind)."""
     cells = [(_fmt(r[f"{c.keys[0]}_mean"], c.digits, r[f"{c.keys[0]}_std"]) if c.std
-              else " / ".join(_fmt(r[f"{k}_mean"], c.digits) for k in c.keys)) for c in world.closed_loop_table]
+              else " / ".join(_fmt(r[f"{k}_mean"], c.digits) for k in c.keys)) for c in world.report.table]
     if worst:
-        cells.append(" / ".join(_fmt(r.get(f"{k}_min", np.nan), world.worst.digits) for k in world.worst.keys))
+        cells.append(" / ".join(_fmt(r.get(f"{k}_min", np.nan), world.report.worst.digits) for k in world.report.worst.keys))
     return "".join(f" {c} |" for c in cells)
 
 
@@ -310,9 +310,9 @@ def _write(out: Path, rows: list[dict], preds: dict, cfg: TrainConfig, seeds: in
         w.writerows(rows)
     closed = world is not None
     worst = closed and seeds > 1
-    heads = ([c.header for c in world.closed_loop_table] + ([world.worst.header] if worst else [])) if closed else []
+    heads = ([c.header for c in world.report.table] + ([world.report.worst.header] if worst else [])) if closed else []
     lines = [f"{seeds} seed(s) per model (mean +- std over seeds); validation split {as_dict(cfg.split)}; plots: "
-             "predictions.png (seed 0)" + (f", {world.suite_figures} (every model's seed-0 drive on each place of the "
+             "predictions.png (seed 0)" + (f", {world.suite.figures} (every model's seed-0 drive on each place of the "
                                            "suite)" if closed else "") + ".", "", "Paper 000 Table I form:", "",
              "| model | input | input shape | MSE | gamma [deg] | target gamma [deg] | RMSE | RMSE smoothed "
              f"a={SMOOTHING_ALPHA} | gamma smoothed [deg] | best epoch | train time [s] | latency p50 / p99 [ms] |"

@@ -38,7 +38,7 @@ class SplitReplay:
             rec.convention.to_road_wheel_left(0.0, CARS[rec.geometry].steering_ratio)
         except SteerlabError as e:
             raise SteerlabError(f"{rec.source}: replay cannot turn its steering into a wheel angle: {e}") from None
-        self.options = world_of(rec.geometry).replay_options(speed=speed, workers=1)
+        self.options = world_of(rec.geometry).replay.options(speed=speed, workers=1)
         setup = self.options.setup(rec)
         self.replay = setup.replay
         self.source = Source(cfg.data, cfg.range, cfg.labels, cfg.reader)

@@ -17,12 +17,12 @@ def world_options(a, command: str, extra: tuple[type, ...] = ()) -> list:
     (its range is that world's): it means nothing in this world."""
     from steerlab.sim.worlds import WORLDS
 
-    mine = (getattr(WORLDS[a.world], f"{command}_options"), *extra)
+    mine = (getattr(WORLDS[a.world], command).options, *extra)
     own = {o.key for cls in mine for o in options_of(cls)}
     for world in WORLDS.values():
         if world.name == a.world:
             continue
-        for o in options_of(getattr(world, f"{command}_options")):
+        for o in options_of(getattr(world, command).options):
             value = getattr(a, o.key, None)
             if o.key in own or value is None:
                 continue
@@ -36,7 +36,7 @@ def cmd_sim_record(a) -> None:
     from steerlab.sim.worlds import WORLDS
 
     (o,) = world_options(a, "record")
-    print(f"wrote {WORLDS[a.world].record(a.out, o)}")
+    print(f"wrote {WORLDS[a.world].record.run(a.out, o)}")
 
 
 def cmd_sim_drive(a) -> None:
@@ -45,8 +45,8 @@ def cmd_sim_drive(a) -> None:
 
     world = WORLDS[a.world]
     o, w = world_options(a, "drive", (DriveWith,))
-    print_table(asdict(world.drive(a.checkpoint, a.out, o, w, a.video)))
-    print(f"wrote {a.out}/{world.drive_files}" + (f", {a.video}" if a.video else ""))
+    print_table(asdict(world.drive.run(a.checkpoint, a.out, o, w, a.video)))
+    print(f"wrote {a.out}/{world.drive.files}" + (f", {a.video}" if a.video else ""))
 
 
 def cmd_sim_bench(a) -> None:
@@ -55,9 +55,9 @@ def cmd_sim_bench(a) -> None:
     world = WORLDS[a.world]
     start = time.perf_counter()
     (o,) = world_options(a, "suite")
-    world.suite(a.checkpoints, a.out, o)
+    world.suite.run(a.checkpoints, a.out, o)
     print((Path(a.out) / "suite.md").read_text())
-    print(f"wrote {a.out}/suite.md, suite.csv (one row per drive), summary.csv, {world.suite_figures} "
+    print(f"wrote {a.out}/suite.md, suite.csv (one row per drive), summary.csv, {world.suite.figures} "
           f"in {time.perf_counter() - start:.0f} s")
 
 
@@ -113,7 +113,7 @@ def register(sub) -> None:
         q.add_argument("--world", choices=list(WORLDS), default=first, help="; ".join(
             f"{w.name}: {w.help}" + (" (default)" if w.name == first else "") for w in WORLDS.values()))
         for w in WORLDS.values():
-            add_options(q, name, getattr(w, f"{command}_options"), *(extra if w.name == first else ()),
+            add_options(q, name, getattr(w, command).options, *(extra if w.name == first else ()),
                         label=None if w.name == first else f"--world {w.name}")
 
     sim = sub.add_parser("sim", help="the synthetic driving worlds").add_subparsers(dest="sim_command", required=True,
@@ -172,7 +172,7 @@ def register(sub) -> None:
                    "world of the recording's camera: track for donkeycar tubs and the track world's recordings, road "
                    "for the others)")
     for w in WORLDS.values():
-        add_options(q, "replay", w.replay_options, label=None if w.name == first else f"--world {w.name}")
+        add_options(q, "replay", w.replay.options, label=None if w.name == first else f"--world {w.name}")
     q.set_defaults(func=cmd_replay)
 
     q = sub.add_parser("serve", help="drive the Udacity simulator (socket.io server on port 4567)",

@@ -41,12 +41,12 @@ def world_of(geometry: str) -> WorldEntry:
 
 def suite_world(version: str) -> WorldEntry:
     """The world whose suite has this version."""
-    return next(w for w in WORLDS.values() if version in w.suites)
+    return next(w for w in WORLDS.values() if version in w.suite.versions)
 
 
 def all_suites() -> list[str]:
     """Every world's suite versions."""
-    return [v for w in WORLDS.values() for v in w.suites]
+    return [v for w in WORLDS.values() for v in w.suite.versions]
 
 
 def closed_loop(section: dict | None, where: str = "closed_loop") -> tuple[WorldEntry, object]:
@@ -63,4 +63,4 @@ def closed_loop(section: dict | None, where: str = "closed_loop") -> tuple[World
         world = suite_world(raw["suite"])
     else:
         world = default_world()
-    return world, parse(world.suite_options, raw, where)
+    return world, parse(world.suite.options, raw, where)

@@ -129,7 +129,7 @@ def run_tune(cfg: TrainConfig, o: TuneOptions, progress: bool = True) -> Path:
         if objective == "rmse+gamma":
             return best["rmse"], best["gamma_deg"]
         # a trial's suite keeps its tables; figures for every trial of a study would go unseen
-        return world.closed_loop_metrics(Path(run_cfg.out) / "best.pt", closed, False, plots=False)["autonomy"]
+        return world.report.metrics(Path(run_cfg.out) / "best.pt", closed, False, plots=False)["autonomy"]
 
     done_states = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.PRUNED)
     finished = len(study.get_trials(deepcopy=False, states=done_states))

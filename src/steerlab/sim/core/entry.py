@@ -7,6 +7,8 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -21,51 +23,86 @@ class Column:
 
 
 @dataclass(frozen=True, kw_only=True)
-class WorldEntry:
-    """What a world provides (every field by keyword).
+class Recorder:
+    """Recording a world's expert: `options` (the record options' dataclass) and `run(out, options, progress=True,
+    *, suite_ok=False) -> Path` (the recording written)."""
 
-    - `name`, `help`: `--world NAME` and what it is; `cameras`: the camera geometries its renderer makes (a
-      recording of one of them is replayed in this world unless told otherwise);
-    - recording its expert: `record_options`, `record(out, options)`;
-    - a model's drive: `drive_options`, `drive(checkpoint, out, options, drive_with, video)` (`pilot.DriveWith`:
-      how its Pilot is made) and the files it writes (`drive_files`);
-    - its suite: `suite_options` (with `drives()`: the (kind, seed) of its places, and `place_minutes`), `suites`
-      (the versions), `suite(pilots, out, options, progress, plots)` -> summary rows (`pilots`: checkpoints, or
-      `core.suite.Entrant`s: any pilot), and the figures it draws (`suite_figures`);
-    - replay of its recordings: `replay_options` (their `setup(rec)` makes the replay);
-    - DAgger: `dagger_options` (the options of a `dagger:` section that only this world takes, with `kinds()`: the
-      places of the rollouts, and `suite_given()`: what they set of the round's suite), `rollout(checkpoint, out,
-      seed, minutes, kind, beta, camera, suite)` (run in a worker process), `rollout_camera(rec)`: what the
-      rollouts render through for a training recording, `rollout_done`: the file a finished rollout has;
-      `round_columns(summary)`: a round's columns of dagger.csv (`dagger_columns`, in order) and `dagger_series`:
-      their lines in dagger.png, (column, matplotlib style, label);
-    - experiments and tuning: `closed_loop_metrics(checkpoint, options, progress, plots)` -> the metrics of a
-      checkpoint on the suite (`autonomy` among them: tune's objective), `closed_loop_table`: their columns in
-      table.md (`worst`: the per-kind autonomy shown at the worst seed), and `plot_drives(out, suites, options)`:
-      every entry's seed-0 drives (`suites`: label -> its run's suite folder) drawn per place.
-    """
+    options: type
+    run: Callable[..., Path]
+
+
+@dataclass(frozen=True, kw_only=True)
+class Driver:
+    """A model's drive: `options`, `run(checkpoint, out, options, drive_with, video) -> a result dataclass`
+    (`pilot.DriveWith`: how its Pilot is made) and the `files` it writes (for the command's last line)."""
+
+    options: type
+    run: Callable[..., Any]
+    files: str
+
+
+@dataclass(frozen=True, kw_only=True)
+class SuiteEntry:
+    """A world's suite: `options` (with `drives()`, the (kind, seed) of its places, and `place_minutes`), its
+    `versions` (name -> its places), `run(pilots, out, options, progress, plots) -> summary rows` (`pilots`:
+    checkpoints, or `core.suite.Entrant`s: any pilot) and the `figures` it draws."""
+
+    options: type
+    versions: dict
+    run: Callable[..., list]
+    figures: str
+
+
+@dataclass(frozen=True, kw_only=True)
+class ReplayEntry:
+    """Replay of a world's recordings: `options` (their `setup(rec)` makes the replay)."""
+
+    options: type
+
+
+@dataclass(frozen=True, kw_only=True)
+class DaggerEntry:
+    """DAgger in a world: `options` (the options of a `dagger:` section that only this world takes, with
+    `kinds()`: the places of the rollouts), `rollout(checkpoint, out, seed, minutes, kind, beta, camera, suite)`
+    (run in a worker process), `camera(rec)`: what the rollouts render through for a training recording,
+    `done`: the file a finished rollout has; `round_columns(summary)`: a round's columns of dagger.csv
+    (`columns`, in order) and `series`: their lines in dagger.png, (column, matplotlib style, label)."""
+
+    options: type
+    rollout: Callable[..., Any]
+    camera: Callable[[Any], Any]
+    done: str
+    round_columns: Callable[[list], dict]
+    columns: tuple[str, ...]
+    series: tuple[tuple[str, str, str], ...]
+
+
+@dataclass(frozen=True, kw_only=True)
+class ReportEntry:
+    """Experiments and tuning: `metrics(checkpoint, options, progress, plots) -> dict` (a checkpoint's metrics on
+    the suite, `autonomy` among them: tune's objective), `table`: their columns in table.md (`worst`: the per-kind
+    autonomy shown at the worst seed), and `plot_drives(out, suites, options)`: every entry's seed-0 drives
+    (`suites`: label -> its run's suite folder) drawn per place."""
+
+    metrics: Callable[..., dict]
+    table: tuple[Column, ...]
+    worst: Column
+    plot_drives: Callable[..., None]
+
+
+@dataclass(frozen=True, kw_only=True)
+class WorldEntry:
+    """What a world provides, grouped by what uses it (every field by keyword): `name` and `help` (`--world NAME`
+    and what it is), `cameras` (the camera geometries its renderer makes: a recording of one of them is replayed
+    in this world unless told otherwise), and `record`, `drive`, `suite`, `replay`, `dagger` and `report` (the
+    groups above)."""
 
     name: str
     help: str
     cameras: tuple[str, ...]
-    record_options: type
-    record: Callable
-    drive_options: type
-    drive: Callable
-    drive_files: str
-    suite_options: type
-    suites: dict
-    suite: Callable
-    suite_figures: str
-    replay_options: type
-    dagger_options: type
-    rollout: Callable
-    rollout_camera: Callable
-    rollout_done: str
-    round_columns: Callable
-    dagger_columns: tuple[str, ...]
-    dagger_series: tuple[tuple[str, str, str], ...]
-    closed_loop_metrics: Callable
-    closed_loop_table: tuple[Column, ...]
-    worst: Column
-    plot_drives: Callable
+    record: Recorder
+    drive: Driver
+    suite: SuiteEntry
+    replay: ReplayEntry
+    dagger: DaggerEntry
+    report: ReportEntry

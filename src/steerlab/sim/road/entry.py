@@ -6,7 +6,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from steerlab.options import Options, option
-from steerlab.sim.core.entry import Column, WorldEntry
+from steerlab.sim.core.entry import (Column, DaggerEntry, Driver, Recorder, ReplayEntry, ReportEntry, SuiteEntry,
+                                     WorldEntry)
 from steerlab.sim.replay.run import ReplayOptions
 from steerlab.sim.road import run, suite
 from steerlab.sim.road.world import ROAD_CAMERAS, ROADS, DriveOptions, RecordOptions, _roads, road_types
@@ -44,19 +45,22 @@ def plot_drives(out, suites: dict, o) -> None:
 
 ENTRY = WorldEntry(
     name="road", help="a full-size car on procedural roads", cameras=ROAD_CAMERAS,
-    record_options=RecordOptions, record=run.record,
-    drive_options=DriveOptions, drive=run.drive_checkpoint,
-    drive_files="trajectory.csv, path.png, frames.png, drive.json",
-    suite_options=suite.SuiteOptions, suites=suite.SUITES, suite=suite.run_suite, suite_figures="roads/*.png",
-    replay_options=ReplayOptions,
-    dagger_options=RoadDaggerOptions, rollout=run.rollout_job, rollout_camera=lambda rec: rec.geometry,
-    rollout_done="recording.json", round_columns=suite.round_columns,
-    dagger_columns=(*_autonomy(TYPES), "autonomy_all", "interventions_per_km"),
-    dagger_series=(*zip(_autonomy(TYPES), ("o-", "s-", "^-"), dict.fromkeys(TYPES)), ("autonomy_all", "k.--", "all")),
-    closed_loop_metrics=suite.closed_loop_metrics,
-    closed_loop_table=(Column(header="autonomy [%]", keys=("autonomy",), digits=1, std=True),
-                       Column(header=" / ".join(dict.fromkeys(TYPES)) + " [%]", keys=_autonomy(TYPES), digits=1),
-                       Column(header="interventions/km", keys=("interventions_per_km",), digits=2),
-                       Column(header="command gamma [deg]", keys=("command_gamma_deg",), digits=3)),
-    worst=Column(header="worst seed: " + " / ".join(dict.fromkeys(TYPES)) + " [%]", keys=_autonomy(TYPES), digits=1),
-    plot_drives=plot_drives)
+    record=Recorder(options=RecordOptions, run=run.record),
+    drive=Driver(options=DriveOptions, run=run.drive_checkpoint,
+                 files="trajectory.csv, path.png, frames.png, drive.json"),
+    suite=SuiteEntry(options=suite.SuiteOptions, versions=suite.SUITES, run=suite.run_suite, figures="roads/*.png"),
+    replay=ReplayEntry(options=ReplayOptions),
+    dagger=DaggerEntry(options=RoadDaggerOptions, rollout=run.rollout_job, camera=lambda rec: rec.geometry,
+                       done="recording.json", round_columns=suite.round_columns,
+                       columns=(*_autonomy(TYPES), "autonomy_all", "interventions_per_km"),
+                       series=(*zip(_autonomy(TYPES), ("o-", "s-", "^-"), dict.fromkeys(TYPES)),
+                               ("autonomy_all", "k.--", "all"))),
+    report=ReportEntry(
+        metrics=suite.closed_loop_metrics,
+        table=(Column(header="autonomy [%]", keys=("autonomy",), digits=1, std=True),
+               Column(header=" / ".join(dict.fromkeys(TYPES)) + " [%]", keys=_autonomy(TYPES), digits=1),
+               Column(header="interventions/km", keys=("interventions_per_km",), digits=2),
+               Column(header="command gamma [deg]", keys=("command_gamma_deg",), digits=3)),
+        worst=Column(header="worst seed: " + " / ".join(dict.fromkeys(TYPES)) + " [%]", keys=_autonomy(TYPES),
+                     digits=1),
+        plot_drives=plot_drives))

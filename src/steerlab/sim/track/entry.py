@@ -8,7 +8,8 @@ from dataclasses import dataclass
 from steerlab.data.fisheye import DONKEY_FISHEYE
 from steerlab.errors import SteerlabError
 from steerlab.options import Options, Range, option
-from steerlab.sim.core.entry import Column, WorldEntry
+from steerlab.sim.core.entry import (Column, DaggerEntry, Driver, Recorder, ReplayEntry, ReportEntry, SuiteEntry,
+                                     WorldEntry)
 from steerlab.sim.track.replay import TrackReplayOptions
 from steerlab.sim.track import run, suite
 from steerlab.sim.track.track import STYLES
@@ -62,23 +63,23 @@ def plot_drives(out, suites: dict, o) -> None:
 
 ENTRY = WorldEntry(
     name="track", help="a donkeycar on a procedural track in a hall, seen through its fisheye", cameras=("donkey",),
-    record_options=TrackRecordOptions, record=run.record,
-    drive_options=TrackDriveOptions, drive=run.drive_checkpoint,
-    drive_files="trajectory.csv, track.png, frames.png, drive.json",
-    suite_options=suite.TrackSuiteOptions, suites=suite.TRACK_SUITES, suite=suite.run_suite,
-    suite_figures="tracks/*.png",
-    replay_options=TrackReplayOptions,
-    dagger_options=TrackDaggerOptions, rollout=run.rollout_job,
-    rollout_camera=lambda rec: rec.fisheye or DONKEY_FISHEYE,
-    rollout_done="manifest.json", round_columns=suite.round_columns,
-    dagger_columns=("clean_laps_pct", "lap_ratio", "off_track_per_lap"),
-    dagger_series=(("clean_laps_pct", "g*-", "clean laps of the track suite"),),
-    closed_loop_metrics=suite.closed_loop_metrics,
-    closed_loop_table=(Column(header="autonomy [%]", keys=("autonomy",), digits=1, std=True),
-                       Column(header=" / ".join(STYLES) + " [%]", keys=AUTONOMY, digits=1),
-                       Column(header="clean laps [%]", keys=("clean_laps_pct",), digits=1),
-                       Column(header="pace", keys=("lap_ratio",), digits=2),
-                       Column(header="off track / lap", keys=("off_track_per_lap",), digits=2),
-                       Column(header="command gamma [deg]", keys=("command_gamma_deg",), digits=3)),
-    worst=Column(header="worst seed: " + " / ".join(STYLES) + " [%]", keys=AUTONOMY, digits=1),
-    plot_drives=plot_drives)
+    record=Recorder(options=TrackRecordOptions, run=run.record),
+    drive=Driver(options=TrackDriveOptions, run=run.drive_checkpoint,
+                 files="trajectory.csv, track.png, frames.png, drive.json"),
+    suite=SuiteEntry(options=suite.TrackSuiteOptions, versions=suite.TRACK_SUITES, run=suite.run_suite,
+                     figures="tracks/*.png"),
+    replay=ReplayEntry(options=TrackReplayOptions),
+    dagger=DaggerEntry(options=TrackDaggerOptions, rollout=run.rollout_job,
+                       camera=lambda rec: rec.fisheye or DONKEY_FISHEYE, done="manifest.json",
+                       round_columns=suite.round_columns, columns=("clean_laps_pct", "lap_ratio", "off_track_per_lap"),
+                       series=(("clean_laps_pct", "g*-", "clean laps of the track suite"),)),
+    report=ReportEntry(
+        metrics=suite.closed_loop_metrics,
+        table=(Column(header="autonomy [%]", keys=("autonomy",), digits=1, std=True),
+               Column(header=" / ".join(STYLES) + " [%]", keys=AUTONOMY, digits=1),
+               Column(header="clean laps [%]", keys=("clean_laps_pct",), digits=1),
+               Column(header="pace", keys=("lap_ratio",), digits=2),
+               Column(header="off track / lap", keys=("off_track_per_lap",), digits=2),
+               Column(header="command gamma [deg]", keys=("command_gamma_deg",), digits=3)),
+        worst=Column(header="worst seed: " + " / ".join(STYLES) + " [%]", keys=AUTONOMY, digits=1),
+        plot_drives=plot_drives))
