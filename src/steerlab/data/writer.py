@@ -28,11 +28,15 @@ JPEG = [cv2.IMWRITE_JPEG_QUALITY, 92]
 
 
 def begin(out: Path) -> Path:
-    """The folder a writer fills for `out` (which must be new or empty): its hidden sibling `.<name>.part`, a
-    leftover of an interrupted writer removed first; `finish` renames it to `out` once the recording is whole. So
-    an interrupted recording leaves `out` as it was, and the same command run again records it afresh."""
+    """The folder a writer fills for `out` (which must be new or empty): for a new `out`, its hidden sibling
+    `.<name>.part` (a leftover of an interrupted writer removed first), which `finish` renames to `out` once the
+    recording is whole, so an interrupted recording leaves nothing and the same command run again records it
+    afresh; an `out` that exists already (an empty folder, a symlink to one, a mount point) is written into
+    directly, as it cannot be replaced by a rename."""
     if out.exists() and any(out.iterdir()):
         raise SteerlabError(f"{out} exists and is not empty; choose a new output folder")
+    if out.exists():
+        return out
     part = out.parent / f".{out.name}.part"
     shutil.rmtree(part, ignore_errors=True)
     part.mkdir(parents=True)
@@ -40,10 +44,9 @@ def begin(out: Path) -> Path:
 
 
 def finish(part: Path, out: Path) -> Path:
-    """`begin`'s folder, whole, renamed to `out` (an empty `out` is replaced)."""
-    if out.is_dir():
-        out.rmdir()
-    part.rename(out)
+    """`begin`'s folder, whole, at `out`."""
+    if part != out:
+        part.rename(out)
     return out
 
 
