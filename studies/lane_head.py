@@ -67,7 +67,7 @@ def by_bin(true: np.ndarray, predicted: np.ndarray, column: int, edges, scale: f
     key = np.abs(true[:, column]) / scale
     rows = []
     for lo, hi in zip(edges[:-1], edges[1:]):
-        m = (key >= lo) & (key < hi)
+        m = (key >= lo) & ((key < hi) | (hi == edges[-1]))  # the last bin holds its upper edge and beyond
         if not m.any():
             continue
         err = np.abs(predicted[m] - true[m])
@@ -114,7 +114,7 @@ def main(a, o: LaneHead) -> None:
                                  f"{r['offset_sd_cm']:.1f} | {r['heading_mae_deg']:.1f} | {r['heading_sd_deg']:.1f} | "
                                  f"{r['curvature_mae']:.3f} | {r['curvature_sd']:.3f} |")
                 if kind == "driving":
-                    break  # the expert's drive spans no range of poses: its overall row alone
+                    break  # the expert's drive spans no range of headings: its offset rows alone
     out.mkdir(parents=True, exist_ok=True)
     (out / "lane_head.md").write_text("\n".join(lines) + "\n")
     (out / "lane_head.json").write_text(json.dumps(results, indent=1))

@@ -36,7 +36,7 @@ from steerlab.cli import run_script, script_parser
 from steerlab.data.car import CARS
 from steerlab.data.readers import open_recording
 from steerlab.errors import SteerlabError
-from steerlab.files import read_yaml
+from steerlab.files import read_json, read_yaml
 from steerlab.options import AT_LEAST_1, MINUTES, SEED, WORKERS, Options, Range, option
 from steerlab.sim.core.part import PartPilot
 from steerlab.sim.core.suite import Planned, as_stored, file_sha256, run_drives
@@ -204,9 +204,10 @@ def same_races(out: Path, a: "OwnTrack") -> None:
     mine = {k: getattr(a, k) for k in RACE_OPTIONS}
     path = out / "races.json"
     if path.exists():
-        stored = json.loads(path.read_text())
-        changed = [f"--{k.replace('_', '-')} {stored[k]:g}" if isinstance(stored[k], (int, float)) else
-                   f"--{k.replace('_', '-')} {stored[k]}" for k in RACE_OPTIONS if stored.get(k) != mine[k]]
+        stored = read_json(path, "the study's race options")
+        stored = stored if isinstance(stored, dict) else {}
+        changed = [f"--{k.replace('_', '-')} {stored.get(k):g}" if isinstance(stored.get(k), (int, float)) else
+                   f"--{k.replace('_', '-')} {stored.get(k)}" for k in RACE_OPTIONS if stored.get(k) != mine[k]]
         if changed:
             raise SteerlabError(f"{out} holds the races of {', '.join(changed)}, which these options would write "
                                 "over: give another --out, or those options")

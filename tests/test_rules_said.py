@@ -128,3 +128,20 @@ def test_a_study_whose_recording_fails_ends_in_one_line(tmp_path):
     with pytest.raises(SteerlabError, match=r"^steerlab sim record --world track --seed 9501 --out .* failed \(exit "
                                             r"status 2; its message is above\): fix what it says"):
         track_tub(tmp_path / "tub", "--seed", "9501")  # a suite's reserved seed
+
+
+@pytest.mark.parametrize("kind, geometry, steering, said", [
+    ("road_wheel", "donkey", [0.1, 0.9, 1.5], r"frame 1 \(id 11\): steering 0.9 is 2.1 times the car's full lock "
+                                              r"\(0.436 rad of the road-wheel angle\)"),
+    ("normalized", "donkey", [0.5, 2.5, 5.0], r"frame 1 \(id 11\): steering 2.5 is 2.5 times the car's full lock "
+                                              r"\(1, normalized\)"),
+    ("road_wheel", None, [math.nan, 1.2, 0.1], r"frame 1 \(id 11\): steering 1.2 is 2.2 times"),
+])
+def test_the_first_implausible_frame_is_named_in_every_convention(tmp_path, kind, geometry, steering, said):
+    from steerlab.data.recording import Recording, SteeringConvention
+
+    with pytest.raises(DataError, match=said):
+        Recording(name="rec", source=tmp_path / "rec", frames={"center": [tmp_path / "f.jpg"] * 3},
+                  timestamps_ns=np.array([0, 50, 100]), steering=np.array(steering),
+                  convention=SteeringConvention(kind, "left"), frame_ids=np.array([10, 11, 12]),
+                  **({"geometry": geometry} if geometry else {"geometry": "unknown"}))

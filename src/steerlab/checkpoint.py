@@ -31,6 +31,15 @@ from steerlab.paths import check_outputs, distinct, regular_file
 # the sha256 of its weights inside (0.1.0) or with no hash at all (the first versions)
 FORMAT = "steerlab-checkpoint-2"
 FORMATS = ("steerlab-checkpoint-1", FORMAT)
+REQUIRED = ("model", "model_cfg", "stats", "preprocess", "convention")  # what the Pilot reads of a checkpoint
+
+
+def lacks(ckpt) -> str | None:
+    """What makes a loaded `ckpt` (a dict given to the Python API) no steerlab checkpoint; None: nothing."""
+    if not isinstance(ckpt, dict) or ckpt.get("format") not in FORMATS or not isinstance(ckpt.get("state_dict"), dict):
+        return f"no 'format' of {' or '.join(FORMATS)} with a 'state_dict'"
+    missing = [k for k in REQUIRED if k not in ckpt]
+    return f"it lacks {', '.join(map(repr, missing))}" if missing else None
 
 
 def _hash_into(h, value) -> None:

@@ -34,13 +34,10 @@ def load_model(checkpoint: str | Path | dict, threads: int | None = None):
     """The model of a .pt checkpoint (path or loaded dict) on PyTorch, or of an exported .onnx file on ONNX
     Runtime; `threads`: the runtime's intra-op threads (for PyTorch the process's, `torch.set_num_threads`)."""
     if isinstance(checkpoint, dict):
-        from steerlab.checkpoint import FORMATS
+        from steerlab.checkpoint import lacks
 
-        missing = [k for k in ("model", "model_cfg", "stats", "preprocess", "convention") if k not in checkpoint]
-        if checkpoint.get("format") not in FORMATS or not isinstance(checkpoint.get("state_dict"), dict) or missing:
-            lacks = f"it lacks {', '.join(map(repr, missing))}" if missing and checkpoint.get("format") in FORMATS \
-                else f"no 'format' of {' or '.join(FORMATS)} with a 'state_dict'"
-            raise SteerlabError(f"the checkpoint given as a dict is not a steerlab checkpoint ({lacks}): load it with "
+        if why := lacks(checkpoint):
+            raise SteerlabError(f"the checkpoint given as a dict is not a steerlab checkpoint ({why}): load it with "
                                 "steerlab.checkpoint.load_checkpoint(path), or give the path")
     elif not isinstance(checkpoint, (str, os.PathLike)) or not str(checkpoint):
         raise SteerlabError(f"checkpoint must be the path of a .pt checkpoint or an .onnx file (or a loaded "

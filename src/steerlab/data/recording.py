@@ -173,21 +173,20 @@ class Recording:
     def _check_steering(self) -> None:
         """Steering no car can give is refused: beyond PLAUSIBLE_LOCKS times the full lock of the recording's car
         (a column in degrees read as radians, say), naming the first such frame."""
-        from steerlab.data.car import car_of
+        from steerlab.data.car import CARS, car_of
 
-        if not len(self.steering) or not np.all(np.isfinite(self.steering)):
-            return  # the readers name a value that is not a number
-        car = car_of(self.geometry if self.geometry in ("sim", "ch2", "donkey") else None)
+        car = car_of(self.geometry if self.geometry in CARS else None)
         if self.convention.kind == "normalized":
-            lock, unit = 1.0, "(normalized: 1 is full lock)"
+            lock, unit = 1.0, "1, normalized"
         else:
             lock = car.full_lock if self.convention.kind == "road_wheel" else car.full_lock * car.steering_ratio
-            unit = f"rad of the {self.convention.kind.replace('_', '-')} angle"
-        i = int(np.argmax(np.abs(self.steering)))
-        if abs(self.steering[i]) > PLAUSIBLE_LOCKS * lock:
+            unit = f"{lock:.3g} rad of the {self.convention.kind.replace('_', '-')} angle"
+        beyond = np.flatnonzero(np.abs(self.steering) > PLAUSIBLE_LOCKS * lock)  # NaN is no number the readers take
+        if len(beyond):
+            i = int(beyond[0])
             raise DataError(self.source, f"frame {i} (id {self.frame_ids[i]}): steering {self.steering[i]:g} is "
-                                         f"{abs(self.steering[i]) / lock:.1f} times the car's full lock ({lock:.3g} "
-                                         f"{unit}): no car steers so far; convert the column to that unit (is it in degrees?)")
+                                         f"{abs(self.steering[i]) / lock:.1f} times the car's full lock ({unit}): no "
+                                         "car steers so far; convert the column to that unit (is it in degrees?)")
 
     def _signals(self) -> dict[str, np.ndarray]:
         out = {"steering": self.steering, "frame_ids": self.frame_ids}

@@ -163,7 +163,7 @@ class TubWriter:
             self.sessions.append(f"{self.day}_{len(self.sessions)}")
         name = f"{i}_cam_image_array_.jpg"
         if not cv2.imwrite(str(self.dir / "images" / name), frame, self.jpeg):
-            raise SteerlabError(f"cannot write {self.out / 'images' / name}: free disk space, or choose "
+            raise SteerlabError(f"cannot write {self.dir / 'images' / name}: free disk space, or choose "
                                 "another output folder")
         self.records.append({"_index": i, "_session_id": self.sessions[-1],
                              "_timestamp_ms": (self.start_ns + int(timestamp_ns)) // 1_000_000,
