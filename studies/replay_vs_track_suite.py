@@ -115,7 +115,7 @@ def speed_options(ckpts: list[Path], mode: str) -> list:
     for all; `model`, as the suite drives them: the model's own throttle when it learned one, else the speed
     that the suite's constant throttle holds."""
     from steerlab.pilot import Pilot
-    from steerlab.sim.track.smallcar import steady_speed
+    from steerlab.data.car import steady_speed
     from steerlab.sim.track.suite import FPS
     from steerlab.sim.track.world import THROTTLE
 

@@ -357,7 +357,7 @@ def run_line(cfg) -> str:
         (t.recovery_weight > 1, f"recover episodes drawn {t.recovery_weight} times"),
         (t.epoch_samples, f"at least {t.epoch_samples} samples an epoch"),
         (t.exclude_episodes, "without " + " and ".join(t.exclude_episodes)),
-        (t.views, "views " + " ".join(f"{x:+g} m {y:+g} deg" for x, y in t.views)),
+        (t.views, "views " + " ".join(v.describe() for v in t.views)),
         (t.recovery_distance_m, f"returning within {t.recovery_distance_m or 0:g} m"),
         (cfg.extra_data, f"{len(cfg.extra_data)} extra recordings"),
         (t.init, f"from {t.init}"),
@@ -390,7 +390,9 @@ def tune_line(space) -> str:
 
 
 def plain(value):
-    """A parsed value as YAML writes it: tuples as lists."""
+    """A parsed value as YAML writes it: tuples as lists, a value that writes itself (a view) as it does."""
+    if hasattr(value, "as_dict"):
+        return value.as_dict()
     if isinstance(value, (list, tuple)):
         return [plain(v) for v in value]
     if isinstance(value, dict):

@@ -34,8 +34,7 @@ def test_donkeycars_drive_is_its_part_under_the_drives_throttle_scale(tmp_path, 
     `PartPilot`, its throttle times the drive's scale (0.3 x 1.5 = 0.45: the car's speed tends to 0.45 x its top
     speed), the part closed after the drive."""
     import studies.own_track as own
-    from steerlab.data.car import CARS
-    from steerlab.sim.track.smallcar import steady_speed
+    from steerlab.data.car import CARS, steady_speed
     from steerlab.sim.track.world import TrackDriveOptions
 
     closed = []

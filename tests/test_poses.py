@@ -16,7 +16,7 @@ from steerlab.data.writer import TUB_JPEG
 from steerlab.errors import SteerlabError
 from steerlab.pilot import Controls
 from steerlab.sim.core.driving import drive_loop
-from steerlab.sim.core.vehicle import VehicleState
+from steerlab.data.car import VehicleState
 from steerlab.sim.track.expert import expert_controls
 from steerlab.sim.track.poses import draw
 from steerlab.sim.track.track import LANE_WIDTH

@@ -7,14 +7,13 @@ import json
 import numpy as np
 import pytest
 
-from steerlab.data.car import CARS
+from steerlab.data.car import CARS, steady_speed
 from steerlab.data.readers import Source
 from steerlab.data.recording import SteeringConvention
 from steerlab.data.splits import Split, make_split
 from steerlab.errors import SteerlabError
 from steerlab.pilot import Controls, Pilot
 from steerlab.sim.core.driving import drive_loop
-from steerlab.sim.track.smallcar import steady_speed
 from steerlab.sim.track.world import TrackWorld
 from test_export_serve import frames, untrained
 

@@ -16,7 +16,7 @@ from steerlab.data.readers import open_recording
 from steerlab.data.speed import estimate_speed
 from steerlab.pilot import Controls, Pilot
 from steerlab.sim.core.driving import Trajectory, drive_loop
-from steerlab.sim.replay.path import human_path
+from steerlab.data.path import human_path
 from steerlab.sim.replay.run import RESULT_FIELDS, replay_recording
 from steerlab.sim.replay.world import Replay, ReplayWorld
 from steerlab.sim.road.world import RecordOptions
@@ -82,7 +82,7 @@ def test_leaving_the_path_or_turning_beyond_the_warp_is_an_intervention(twisty):
     """On a straight path along x with a 1 m limit: 1 m off is inside, beyond it (either side) the car is put back on
     the path; on the path, a heading error beyond the warp's 10 degrees is one too, 9 degrees is not; where the human
     stood still over the whole search there is no path to leave."""
-    from steerlab.sim.core.vehicle import VehicleState
+    from steerlab.data.car import VehicleState
 
     replay, t = Replay(CAMERAS["sim"], CARS["sim"]), np.arange(60) * 0.05
     world = replay.world(twisty, 0, human_path(np.zeros(60), np.full(60, 10.0), t, CARS["sim"]))

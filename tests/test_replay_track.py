@@ -10,16 +10,14 @@ import pytest
 from conftest import SHARED, made
 
 from steerlab.cli import main
-from steerlab.data.car import CARS
+from steerlab.data.car import CARS, VehicleState, speed_after, steady_speed, throttle_speeds
 from steerlab.data.fisheye import DONKEY_FISHEYE, FisheyeCamera, shift_view, view_maps
 from steerlab.data.geometry import CAMERAS
 from steerlab.data.readers import Source
 from steerlab.pilot import Controls
-from steerlab.sim.replay.path import human_path
+from steerlab.data.path import human_path
 from steerlab.sim.replay.run import replay_recording
 from steerlab.sim.track.replay import TrackReplay
-from steerlab.sim.track.smallcar import speed_after, steady_speed, throttle_speeds
-from steerlab.sim.core.vehicle import VehicleState
 
 DONKEY = CARS["donkey"]
 TUBS = SHARED / "donkeycar"

@@ -5,13 +5,12 @@ import numpy as np
 import pytest
 
 from steerlab.cli import main
-from steerlab.data.car import CH2_CAR
+from steerlab.data.car import CH2_CAR, Vehicle, VehicleState
 from steerlab.data.labels import speed_commands
 from steerlab.data.readers import open_recording
 from steerlab.errors import SteerlabError
 from steerlab.sim.road.render import Renderer
 from steerlab.sim.road.road import EDGE, LANE_CENTER, LINE_WIDTH, Road
-from steerlab.sim.core.vehicle import Vehicle, VehicleState
 from steerlab.sim.core.driving import autonomy
 from steerlab.sim.road.run import record
 from steerlab.sim.road.world import RecordOptions

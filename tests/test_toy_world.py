@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from steerlab.cli import build_parser, main
-from steerlab.data.car import CARS
+from steerlab.data.car import CARS, VehicleState
 from steerlab.data.geometry import CAMERAS
 from steerlab.data.writer import RecordingWriter
 from steerlab.options import MINUTES, Options, SEED, WORKERS, frames_in, option
@@ -24,7 +24,6 @@ from steerlab.sim.core.driving import autonomy, drive_loop, rollout
 from steerlab.sim.core.entry import (Column, DaggerEntry, Driver, Recorder, ReplayEntry, ReportEntry, SuiteEntry,
                                      WorldEntry)
 from steerlab.sim.core.suite import Planned, close, entrants, run_drives, write_csv, write_json
-from steerlab.sim.core.vehicle import VehicleState
 from steerlab.sim.replay.run import ReplayOptions
 from steerlab.sim.worlds import WORLDS, register
 

@@ -200,9 +200,8 @@ def test_speed_profile_respects_its_limits(tracks):
 
 # --- the small car -----------------------------------------------------------------------------------------------
 
-from steerlab.data.car import CARS  # noqa: E402
-from steerlab.sim.track.smallcar import SmallCar, speed_after, throttle_for  # noqa: E402
-from steerlab.sim.core.vehicle import VehicleState  # noqa: E402
+from steerlab.data.car import CARS, VehicleState, speed_after, throttle_for  # noqa: E402
+from steerlab.sim.track.smallcar import SmallCar  # noqa: E402
 
 
 def test_small_car_throttle_lag_and_braking():

@@ -12,7 +12,7 @@ import pytest
 
 from conftest import assert_video, drawn_along, drawn_pixels, image_of, legend_of, made
 from steerlab.cli import main
-from steerlab.data.car import CARS
+from steerlab.data.car import CARS, VehicleState, speed_after, steady_speed
 from steerlab.data.readers import open_recording
 from steerlab.data.recording import SteeringConvention
 from steerlab.errors import SteerlabError
@@ -20,9 +20,7 @@ from steerlab.pilot import Controls
 from steerlab.sim.core.driving import Trajectory, drive_loop
 from steerlab.sim.core.part import PartPilot, donkey_pilot
 from steerlab.sim.track.look import Look
-from steerlab.sim.track.smallcar import speed_after, steady_speed
 from steerlab.sim.track.world import Laps, RacerPilot, TrackWorld
-from steerlab.sim.core.vehicle import VehicleState
 from steerlab.sim.road.world import World
 
 DONKEY = CARS["donkey"]

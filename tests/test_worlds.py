@@ -16,7 +16,7 @@ from steerlab.pilot import Controls, Pilot
 from steerlab.sim.core.contracts import Pilot as PilotContract, World as WorldContract
 from steerlab.sim.core.driving import drive_loop
 from steerlab.sim.core.part import PartPilot
-from steerlab.sim.replay.path import human_path
+from steerlab.data.path import human_path
 from steerlab.sim.track.replay import TrackReplay
 from steerlab.sim.replay.world import Replay
 from steerlab.sim.road.world import World

@@ -8,6 +8,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from steerlab.errors import SteerlabError
 
 
@@ -81,3 +83,90 @@ def car_of(geometry: str | None) -> Car:
     if geometry is not None and geometry not in CARS:
         raise SteerlabError(f"unknown camera geometry {geometry!r}; choose one of {', '.join(CARS)}")
     return CARS[geometry or "sim"]
+
+
+# --- the motor: how a small car's speed answers its throttle ------------------------------------------------------
+
+def speed_after(v: float, throttle: float, dt: float, car: Car) -> float:
+    """Speed (m/s) after dt seconds at a throttle in [-1, 1], starting at v."""
+    m = car.motor
+    u = float(np.clip(throttle, -1.0, 1.0))
+    target = max(u, 0.0) * m.top_speed
+    tau = m.time_constant if target >= v else m.coast_time_constant
+    v_new = target + (v - target) * math.exp(-dt / tau)
+    if u < 0:
+        v_new += u * car.max_decel * dt
+    if v > 0:
+        v_new -= (m.rolling + car.drag * v * v) * dt
+    return max(0.0, v_new)
+
+
+def steady_speed(throttle: float, dt: float, car: Car) -> float:
+    """The speed (m/s) that a throttle holds in steps of dt seconds (`speed_after(v, throttle, dt) == v`): where
+    the motor's pull towards u x `top_speed` balances rolling resistance and drag; 0 for u <= 0."""
+    m = car.motor
+    target = max(float(np.clip(throttle, -1.0, 1.0)), 0.0) * m.top_speed
+    # target + (v - target) e - (rolling + drag v^2) dt = v, with e = exp(-dt / tau): a quadratic in v
+    pull = 1 - math.exp(-dt / m.time_constant)
+    a, b, c = car.drag * dt, pull, m.rolling * dt - pull * target
+    if c >= 0:
+        return 0.0
+    return (-b + math.sqrt(b * b - 4 * a * c)) / (2 * a) if a > 0 else -c / b
+
+
+def throttle_speeds(throttle: np.ndarray, times_s: np.ndarray, car: Car) -> np.ndarray:
+    """The speed (m/s) at every frame of a drive with the recorded throttle: frame i's throttle for the time to
+    frame i + 1 (`speed_after`), from the speed the first frame's throttle holds (a recording starts mid-drive
+    as often as at standstill)."""
+    dt = np.diff(np.asarray(times_s, float))
+    v = [steady_speed(float(throttle[0]), float(np.median(dt)) if len(dt) else 0.05, car)]
+    for u, step in zip(throttle[:-1], dt):
+        v.append(speed_after(v[-1], float(u), float(step), car))
+    return np.array(v)
+
+
+def throttle_for(v: float, accel: float, car: Car) -> float:
+    """The throttle in [-1, 1] that gives acceleration `accel` (m/s^2) at speed v: the inverse of
+    `speed_after` over a short step (the feed-forward of a speed controller)."""
+    m = car.motor
+    want = accel + (m.rolling + car.drag * v * v if v > 0 else 0.0)
+    if want >= 0:
+        u = (v + m.time_constant * want) / m.top_speed
+    elif want >= -v / m.coast_time_constant:
+        u = (v + m.coast_time_constant * want) / m.top_speed
+    else:
+        u = (want + v / m.coast_time_constant) / car.max_decel
+    return float(np.clip(u, -1.0, 1.0))
+
+
+# --- the kinematic bicycle with simple longitudinal dynamics, stepped at the camera frame rate -------------------
+
+@dataclass
+class VehicleState:
+    x: float
+    y: float
+    psi: float
+    v: float
+
+
+class Vehicle:
+    def __init__(self, state: VehicleState, car: Car = CH2_CAR):
+        self.state, self.car = state, car
+
+    def step(self, road_wheel: float, throttle: float, brake: float, dt: float) -> VehicleState:
+        """Advance by dt with the road-wheel angle (rad, positive left), throttle and brake in [0, 1]."""
+        c, v = self.car, self.state.v
+        acc = np.clip(throttle, 0, 1) * c.max_accel - np.clip(brake, 0, 1) * c.max_decel - c.drag * v * v
+        return self.advance(road_wheel, max(0.0, v + acc * dt), dt)
+
+    def advance(self, road_wheel: float, v_new: float, dt: float) -> VehicleState:
+        """Advance by dt with the road-wheel angle (rad, positive left, limited to the steering lock) while the
+        speed changes linearly to `v_new` (m/s): the kinematic bicycle, integrated at the interval's midpoint."""
+        c, s = self.car, self.state
+        delta = float(np.clip(road_wheel, -c.full_lock, c.full_lock))
+        v_mid = (s.v + v_new) / 2
+        yaw_rate = v_mid * np.tan(delta) / c.wheelbase
+        psi_mid = s.psi + yaw_rate * dt / 2
+        self.state = VehicleState(s.x + v_mid * np.cos(psi_mid) * dt, s.y + v_mid * np.sin(psi_mid) * dt,
+                                  s.psi + yaw_rate * dt, v_new)
+        return self.state

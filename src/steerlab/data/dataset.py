@@ -25,11 +25,12 @@ import numpy as np
 from tqdm import tqdm
 
 from steerlab.data.cache import cache_root
-from steerlab.data.geometry import CAMERAS, shift_view
-from steerlab.data.geometry import camera as geometry_of
+from steerlab.data.fisheye import FisheyeCamera
+from steerlab.data.geometry import CAMERAS
 from steerlab.data.modalities import frame_difference, optical_flow
 from steerlab.data.preprocess import PreprocessConfig, preprocess
 from steerlab.data.recording import Recording
+from steerlab.data.views import View, lens_name, warp
 from steerlab.errors import DataError, warn
 from steerlab.locks import pid_alive, waiting_lock
 
@@ -102,15 +103,16 @@ class CompiledDataset:
 
 def compile_recording(rec: Recording, cfg: PreprocessConfig, cache_dir: str | Path | None = None,
                       camera: str = "center", workers: int | None = None, progress: bool = True,
-                      view: tuple[float, float] | None = None) -> CompiledDataset:
+                      view: View | None = None, lens: FisheyeCamera | None = None) -> CompiledDataset:
     """Compile (or reuse) the cached arrays for `rec` under `cfg`.
 
-    `view` = (shift_m, yaw_deg) compiles a virtual camera instead: every frame as seen from the camera moved
-    shift_m to the left and turned yaw_deg to the left (`geometry.shift_view`, with the camera geometry of
-    the recording's preset). Frame stacking happens when batches are gathered, so the cache holds single
-    frames whatever `cfg.stack` is; the returned dataset carries `cfg` itself."""
+    `view` compiles a virtual camera instead: every frame as seen from the camera moved shift_m to the left and
+    turned yaw_deg to the left (`views.View`: fixed, or drawn for each frame), warped through `lens` (a
+    fisheye, `views.lens_of`) or, without one, the pinhole of the recording's camera geometry. Frame stacking
+    happens when batches are gathered, so the cache holds single frames whatever `cfg.stack` is; the returned
+    dataset carries `cfg` itself."""
     user_cfg, cfg = cfg, replace(cfg, stack=1)
-    name = camera if view is None else f"{camera}@{view[0]:+g}m{view[1]:+g}deg"
+    name = camera if view is None else f"{camera}@{view.name}" + (f"-lens{lens_name(lens)}" if lens else "")
     key = f"{rec.name}-{name}-{source_key(rec, camera)}-{cfg.key()}"
     final = cache_root(cache_dir) / key
     final.parent.mkdir(parents=True, exist_ok=True)
@@ -122,7 +124,7 @@ def compile_recording(rec: Recording, cfg: PreprocessConfig, cache_dir: str | Pa
             shutil.rmtree(final)
         if not (final / "meta.json").exists():
             remove_leftovers(final.parent)
-            _build(rec, cfg, camera, view, final, workers, progress, name)
+            _build(rec, cfg, camera, view, lens, final, workers, progress, name)
     return replace(CompiledDataset.load(final), config=user_cfg)
 
 
@@ -162,8 +164,8 @@ def remove_leftovers(cache: Path) -> None:
 BLACK = 8  # of 255: a frame whose every pixel is darker is black
 
 
-def _build(rec: Recording, cfg: PreprocessConfig, camera: str, view, final: Path, workers: int | None,
-           progress: bool, name: str) -> None:
+def _build(rec: Recording, cfg: PreprocessConfig, camera: str, view: View | None, lens: FisheyeCamera | None,
+           final: Path, workers: int | None, progress: bool, name: str) -> None:
     """Compile the cache entry `final` in a temporary folder beside it, renamed into place when complete."""
     tmp = final.parent / f".{final.name}.tmp-{os.getpid()}"
     shutil.rmtree(tmp, ignore_errors=True)
@@ -174,7 +176,7 @@ def _build(rec: Recording, cfg: PreprocessConfig, camera: str, view, final: Path
                                            dtype=np.float16 if m == "flow" else np.uint8)
               for m, c in ch.items()}
     seg = rec.segment_ids()
-    geometry = None if view is None else geometry_of(rec.geometry)
+    shifts, yaws = (None, None) if view is None else view.offsets(n)
 
     size = expected_size(rec, camera)
     lit = []  # frames brighter than black: a recording with none recorded nothing
@@ -187,7 +189,7 @@ def _build(rec: Recording, cfg: PreprocessConfig, camera: str, view, final: Path
                                                    "resize it, or give a frame range without it")
         if not lit and frame.max() >= BLACK:
             lit.append(i)
-        return frame if view is None else shift_view(frame, geometry, *view)
+        return frame if view is None else warp(frame, rec.geometry, lens, float(shifts[i]), float(yaws[i]))
 
     def work(start: int) -> int:
         stop = min(start + CHUNK, n)
@@ -221,7 +223,7 @@ def _build(rec: Recording, cfg: PreprocessConfig, camera: str, view, final: Path
         arrays.clear()  # close the memory maps before the folder is renamed
         np.savez(tmp / "labels.npz", **_labels(rec))
         meta = {"preprocess": cfg.as_dict(), "source": str(rec.source), "name": rec.name, "camera": camera,
-                "view": view,
+                "view": None if view is None else view.as_dict(), "lens": None if lens is None else lens_name(lens),
                 "frames": n, "convention": rec.convention.as_dict(), "geometry": rec.geometry,
                 "frame_rate": rec.frame_rate(),
                 "checksums": {f.name: _sha1(f) for f in sorted(tmp.iterdir())}}

@@ -19,6 +19,7 @@ from steerlab.data.native import EPISODES
 from steerlab.data.preprocess import PreprocessConfig, PreprocessOptions
 from steerlab.data.splits import Split
 from steerlab.data.tub import is_tub
+from steerlab.data.views import EXPECTED as VIEWS_EXPECTED, View
 from steerlab.errors import SteerlabError
 from steerlab.models.registry import ModelSpec, learns_lane, learns_throttle, list_models
 from steerlab import files
@@ -34,10 +35,6 @@ def _folder(recording: str) -> Path:
     """A recording's folder: a driving log or a native log.csv names the folder it lies in."""
     path = Path(recording)
     return path.parent if path.suffix == ".csv" and path.is_file() else path
-
-
-def _pairs(views) -> bool:
-    return all(len(v) == 2 for v in views)
 
 
 @dataclass(frozen=True)
@@ -61,9 +58,13 @@ class TrainOptions(Options):
     side_offset_m: float | None = option(None, Range(), help="side cameras' offset (default: the car's)")
     recovery_s: float = option(1.0, POSITIVE, help="seconds in which a displaced car returns to its path")
     steering_ratio: float | None = option(None, POSITIVE, help="for the recovery labels (default: the car's)")
-    views: tuple[tuple[float, float], ...] = option(
-        (), _pairs, "a list of [shift_m, yaw_deg] pairs of numbers",
-        help="viewpoint shifts (NVIDIA PilotNet): virtual cameras warped from the centre camera")
+    views: tuple[View, ...] = option(
+        (), expected=VIEWS_EXPECTED,
+        help="viewpoint shifts (NVIDIA PilotNet): virtual cameras warped from the centre camera, each [shift_m "
+             "left, yaw_deg left], a number or a range [lo, hi] drawn for every frame; one view of every frame each")
+    calibration: str | None = option(None, path="file", help="views of a donkey-camera recording: the fisheye "
+                                     "calibration of its camera (JSON or YAML: image size, K, D; default: the one "
+                                     "the recording carries, else a 160-degree Raspberry Pi camera)")
     recovery_distance_m: float | None = option(None, POSITIVE, help="return distance without a speed signal")
     min_speed: float = option(0.0, AT_LEAST_0, help="m/s; slower frames are dropped (paper 002 V-A uses 4)")
     balance: bool = option(False, help="thin out straight driving, redrawn every epoch (paper 003)")
@@ -153,6 +154,9 @@ class TrainConfig(Options):
             raise SteerlabError("train.lane_weight: the lane values are the centre camera's, not those of side "
                                 "cameras or virtual views: set train.side_cameras and train.views off, or "
                                 "train.lane_weight to 0")
+        if t.calibration is not None and not t.views:
+            raise SteerlabError("train.calibration is the lens that train.views are warped through: set train.views "
+                                "too, or leave the calibration out")
         inputs = self.preprocessing()
         if t.hue_deg and inputs.color != "rgb":
             raise SteerlabError(f"train.hue_deg turns the hue of RGB inputs; preprocess.color is {inputs.color}: "
@@ -162,7 +166,7 @@ class TrainConfig(Options):
     def inputs(self) -> list[str]:
         """Every path the run reads: recordings, a label file or video log, checkpoints. No output may be one."""
         return [p for p in (self.data, *self.extra_data, self.labels, self.reader.get("log"), self.train.init,
-                            self.train.teacher) if isinstance(p, str)]
+                            self.train.teacher, self.train.calibration) if isinstance(p, str)]
 
     def preprocessing(self, geometry: str | None = None) -> PreprocessConfig:
         """The preprocessing of this config's model on a recording of the camera `geometry`."""
@@ -189,7 +193,7 @@ class TrainConfig(Options):
             del t["side_offset_m"]
         if not (t["side_cameras"] or t["views"]):
             del t["steering_ratio"]
-        for key in ("throttle_weight", "lane_weight", "epoch_samples"):  # runs from before these existed
+        for key in ("throttle_weight", "lane_weight", "epoch_samples", "calibration"):  # runs from before these
             if not t[key]:
                 del t[key]
         return d

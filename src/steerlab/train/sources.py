@@ -5,15 +5,19 @@ their data with the same functions as `train`."""
 
 from __future__ import annotations
 
+from dataclasses import replace
 from functools import partial
 
 import numpy as np
 
+from steerlab.data.car import CARS, throttle_speeds
 from steerlab.data.dataset import CompiledDataset, compile_recording
 from steerlab.data.geometry import CAMERAS
+from steerlab.data.path import human_path, view_steering
 from steerlab.data.preprocess import CROP_PRESETS
 from steerlab.data.readers import open_recording
 from steerlab.data.recording import Recording, SteeringConvention
+from steerlab.data.views import FISHEYE_GEOMETRY, View, lens_of
 from steerlab.errors import SteerlabError
 from steerlab.train.config import TrainConfig, TrainOptions
 
@@ -47,10 +51,11 @@ def check_extra_data(cfg: TrainConfig, main: Recording) -> None:
                                 "one camera geometry")
 
 
-def prepare_dataset(cfg: TrainConfig, progress: bool = True, camera: str | None = None, view: tuple | None = None,
+def prepare_dataset(cfg: TrainConfig, progress: bool = True, camera: str | None = None, view: View | None = None,
                     data: str | None = None) -> CompiledDataset:
     """The compiled main recording of a config (or the whole recording `data`), one camera stream of it, or a
-    virtual view (shift_m, yaw_deg) synthesised from its centre camera."""
+    virtual view synthesised from its centre camera (through its fisheye, `views.lens_of`, for the donkey
+    camera)."""
     rec = main_recording(cfg) if data is None else open_recording(data, cache=cfg.cache)
     check_camera(cfg, rec)
     camera = camera or cfg.camera
@@ -60,7 +65,9 @@ def prepare_dataset(cfg: TrainConfig, progress: bool = True, camera: str | None 
     if view is not None and rec.geometry not in CAMERAS:
         raise SteerlabError(f"viewpoint shifts need the camera geometry of the recording; {rec.source} has the "
                             f"{rec.geometry!r} preset, and geometry is known for {', '.join(CAMERAS)}")
-    return compile_recording(rec, cfg.preprocessing(rec.geometry), cfg.cache, camera, progress=progress, view=view)
+    lens = None if view is None else lens_of(rec, cfg.train.calibration)
+    return compile_recording(rec, cfg.preprocessing(rec.geometry), cfg.cache, camera, progress=progress, view=view,
+                             lens=lens)
 
 
 def usable_frames(ds: CompiledDataset, idx: np.ndarray, name: str, min_speed: float = 0.0,
@@ -81,12 +88,12 @@ def usable_frames(ds: CompiledDataset, idx: np.ndarray, name: str, min_speed: fl
     return idx
 
 
-def recovery_labels(ds: CompiledDataset, steering: np.ndarray, shift_m: float, yaw_deg: float,
-                    t: TrainOptions) -> np.ndarray:
+def recovery_labels(ds: CompiledDataset, steering: np.ndarray, shift_m, yaw_deg, t: TrainOptions) -> np.ndarray:
     """The steering that brings a car `shift_m` left of where the recording was made, turned `yaw_deg` to the
     left, back to the recorded path (paper 002 Eq. 3, with the turn added): theta_f = theta_r +
     arctan(-d_y / L) - yaw as a road-wheel angle (positive left), where L = speed * t_r is the distance in which
-    the car returns (t_r = `recovery_s`; `recovery_distance_m` when the recording has no speed). Converted back
+    the car returns (t_r = `recovery_s`; `recovery_distance_m` when the recording has no speed); `shift_m` and
+    `yaw_deg` a number or one per frame. Converted back
     to the recording's convention (steering-wheel recordings use the steering ratio `t.steering_ratio`, which
 `TrainConfig.for_car` takes from the car)."""
     if "speed" in ds.labels:
@@ -99,6 +106,41 @@ def recovery_labels(ds: CompiledDataset, steering: np.ndarray, shift_m: float, y
     conv = SteeringConvention(**ds.meta["convention"])
     correction = np.arctan(-shift_m / distance) - np.radians(yaw_deg)
     return steering + conv.from_road_wheel_left(correction, t.steering_ratio)
+
+
+def view_labels(ds: CompiledDataset, steering: np.ndarray, view: View, t: TrainOptions,
+                convention: SteeringConvention | None = None) -> np.ndarray:
+    """The steering that brings the car of every frame of a view back to the recorded path: for the donkey
+    camera (a small car), the label replay gives a car there (`path.view_steering`: the recorded path rebuilt from
+    the steering and the speed, or from the throttle through the small car's motor model as replay does, and pure
+    pursuit with the car's wheelbase of the point `recovery_s` of travel ahead on it), limited to the car's full
+    lock; for other cameras paper 002's Eq. 3 (`recovery_labels`, returning within `recovery_s`). `convention`:
+    the steering's (default the recording's; an extra recording's is the config's data's, whose reader options
+    give the full lock)."""
+    shift, yaw = view.offsets(len(ds))
+    if ds.meta["geometry"] != FISHEYE_GEOMETRY:
+        return recovery_labels(ds, steering, shift, yaw, t)
+    car, labels = CARS[FISHEYE_GEOMETRY], ds.labels
+    conv = convention or SteeringConvention(**ds.meta["convention"])
+    try:
+        wheel = conv.to_road_wheel_left(steering, t.steering_ratio)
+    except SteerlabError as e:
+        raise SteerlabError(f"{ds.meta['source']}: train.views of a small car rebuild its path from the steering: "
+                            f"{e}") from None
+    times = labels["timestamps_ns"] / 1e9
+    out = np.empty(len(ds))
+    seg = labels["segment"]
+    for a, b in zip(np.flatnonzero(np.diff(seg, prepend=-1)), [*np.flatnonzero(np.diff(seg)) + 1, len(seg)]):
+        if "speed" in labels:
+            speed = labels["speed"][a:b]
+        elif "throttle" in labels:
+            speed = throttle_speeds(labels["throttle"][a:b], times[a:b], car)
+        else:
+            raise SteerlabError(f"{ds.meta['source']} records neither speed nor throttle: train.views of a small car "
+                                "need the speed the car drove at (from the throttle, as replay takes it)")
+        path = human_path(wheel[a:b], speed, times[a:b], car)
+        out[a:b] = view_steering(path, shift[a:b], yaw[a:b], car, t.recovery_s)
+    return conv.from_road_wheel_left(np.clip(out, -car.full_lock, car.full_lock), t.steering_ratio).astype(np.float32)
 
 
 def steering_ahead(ds: CompiledDataset, seconds: float, steering: np.ndarray | None = None) -> np.ndarray:
@@ -157,6 +199,7 @@ def training_sources(cfg: TrainConfig, ds: CompiledDataset, train_idx: np.ndarra
                             t.exclude_episodes)
         recordings.append((path, extra, idx, {"left", "right"} <= set(open_recording(path).cameras)))
     sources, codes, offset = [], [], 0
+    convention = SteeringConvention(**ds.meta["convention"])  # the config's data's: the reader's full lock
     for path, main, idx, sides in recordings:
         ahead = steering_ahead(main, t.target_shift_s, taught if path is None else None)
         streams = [(main, ahead)]
@@ -164,9 +207,10 @@ def training_sources(cfg: TrainConfig, ds: CompiledDataset, train_idx: np.ndarra
             for cam, sign in (("left", 1.0), ("right", -1.0)):
                 side = prepare_dataset(cfg, progress, camera=cam, data=path)
                 streams.append((side, recovery_labels(side, ahead, sign * t.side_offset_m, 0.0, t)))
-        for shift, yaw in t.views:
-            view = prepare_dataset(cfg, progress, view=(shift, yaw), data=path)
-            streams.append((view, recovery_labels(view, ahead, shift, yaw, t)))
+        for k, view in enumerate(t.views):
+            view = replace(view, draw=k)
+            warped = prepare_dataset(cfg, progress, view=view, data=path)
+            streams.append((warped, view_labels(warped, ahead, view, t, convention)))
         for stream in streams:
             sources.append(stream)
             codes.append(idx + offset)

@@ -15,10 +15,9 @@ from typing import TYPE_CHECKING, Protocol, runtime_checkable
 import numpy as np
 
 if TYPE_CHECKING:
-    from steerlab.data.car import Car
+    from steerlab.data.car import Car, VehicleState
     from steerlab.data.recording import SteeringConvention
     from steerlab.pilot import Controls
-    from steerlab.sim.core.vehicle import VehicleState
 
 
 @runtime_checkable

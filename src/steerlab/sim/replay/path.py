@@ -1,10 +1,7 @@
-"""The human's path in replay: the recorded steering and speed integrated through the kinematic bicycle
-(`human_path`), the speed to replay at (recorded, given or estimated from the frames: `replay_speed`) and the
-stretches of a recording that are replayed (`replay_segments`)."""
+"""Replay's share of the human's path (`data.path`): the speed to replay at (recorded, given or estimated from
+the frames: `replay_speed`), the recorded steering as road-wheel angles (`human_road_wheel`) and the stretches of a recording that are replayed (`replay_segments`)."""
 
 from __future__ import annotations
-
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -13,36 +10,8 @@ from steerlab.data.geometry import Camera
 from steerlab.data.recording import Recording
 from steerlab.data.speed import estimate_speed
 from steerlab.errors import DataError, SteerlabError
-from steerlab.sim.core.vehicle import Vehicle, VehicleState
 
 MIN_SECONDS = 3.0       # shorter segments are not replayed
-
-
-@dataclass
-class HumanPath:
-    """The path the human drove, one point per frame: time (s), pose (m, rad) and arc length (m), speed (m/s)
-    and the human's road-wheel angle (rad, positive left)."""
-
-    t: np.ndarray
-    x: np.ndarray
-    y: np.ndarray
-    psi: np.ndarray
-    s: np.ndarray
-    v: np.ndarray
-    wheel: np.ndarray
-
-
-def human_path(road_wheel: np.ndarray, speed: np.ndarray, times_s: np.ndarray, car: Car) -> HumanPath:
-    """Integrate the recorded road-wheel angles (rad, positive left) and speeds through the vehicle model: frame
-    i's steering and frame i+1's speed take the car from frame i to frame i+1."""
-    vehicle = Vehicle(VehicleState(0.0, 0.0, 0.0, float(speed[0])), car)
-    pose = [(0.0, 0.0, 0.0)]
-    for i in range(1, len(times_s)):
-        st = vehicle.advance(float(road_wheel[i - 1]), float(speed[i]), float(times_s[i] - times_s[i - 1]))
-        pose.append((st.x, st.y, st.psi))
-    x, y, psi = np.array(pose).T
-    s = np.concatenate([[0.0], np.cumsum(np.hypot(np.diff(x), np.diff(y)))])
-    return HumanPath(np.asarray(times_s, float), x, y, psi, s, np.asarray(speed, float), np.asarray(road_wheel, float))
 
 
 def replay_speed(rec: Recording, cam: Camera, car: Car, speed: float | None) -> tuple[float | None, str]:

@@ -2,7 +2,7 @@
 of a road it has only seen as a recording?
 
 As NVIDIA tested PilotNet on recorded video: the human's path is rebuilt from the recorded steering and speed
-through the kinematic bicycle (`path.human_path`); a simulated car starts on it and, each tick, takes the recorded
+through the kinematic bicycle (`data.path.human_path`); a simulated car starts on it and, each tick, takes the recorded
 frame at its arc length along the path, warped to its own viewpoint (lateral offset and heading error, flat
 road: `geometry.shift_view`), asks the pilot for a command and moves by it, in the driving loop that every world
 uses (`core.driving.drive_loop`): `ReplayWorld` is one segment of a recording seen as a world. Further than the
@@ -18,13 +18,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from steerlab.data.car import Car
+from steerlab.data.car import Car, Vehicle, VehicleState
 from steerlab.data.geometry import Camera, shift_view
+from steerlab.data.path import HumanPath, human_path, return_steering
 from steerlab.data.recording import Recording
 from steerlab.errors import DataError, SteerlabError
 from steerlab.options import Range
-from steerlab.sim.core.vehicle import Vehicle, VehicleState
-from steerlab.sim.replay.path import HumanPath, human_path, human_road_wheel, replay_segments
+from steerlab.sim.replay.path import human_road_wheel, replay_segments
 
 MAX_HEADING_DEG = 10.0  # beyond this the warped view shows too much of what the camera never saw
 MOUNT_HEIGHT = Range(0, 10, lo_open=True, hi_open=True, unit="m")  # the camera mounts a replay takes
@@ -56,10 +56,6 @@ class ReplayWorld:
     def done(self) -> bool:
         return self.k >= len(self.path.t) - 1 or self.s >= self.path.s[-1]
 
-    def _pose(self, s: float) -> tuple[float, float, float]:
-        p = self.path
-        return (float(np.interp(s, p.s, p.x)), float(np.interp(s, p.s, p.y)), float(np.interp(s, p.s, p.psi)))
-
     def project(self, px, py) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
         """Points (arrays) near the car on the human's path: the index of the path segment [j, j + 1] nearest to
         each (searched near the car), where along it (0..1), and the signed distance from it (m, left positive).
@@ -87,7 +83,7 @@ class ReplayWorld:
         self.i, u, offset = int(nearest[0]), float(nearest[1]), float(nearest[2])
         p = self.path
         self.s = p.s[self.i] + u * (p.s[self.i + 1] - p.s[self.i])
-        heading = (st.psi - self._pose(self.s)[2] + math.pi) % (2 * math.pi) - math.pi
+        heading = (st.psi - self.path.pose(self.s)[2] + math.pi) % (2 * math.pi) - math.pi
         return offset, heading
 
     def leaves_lane(self, offset: float, heading: float, limit_m: float) -> bool:
@@ -99,7 +95,7 @@ class ReplayWorld:
         offset, heading = self.observe()
         if not self.leaves_lane(offset, heading, limit_m):
             return False, offset, heading
-        x, y, psi = self._pose(self.s)
+        x, y, psi = self.path.pose(self.s)
         self.vehicle.state = VehicleState(x, y, psi, self.vehicle.state.v)
         return True, 0.0, 0.0
 
@@ -141,22 +137,10 @@ class ReplayWorld:
 
     def expert_steering(self) -> float:
         """The label of a visited state: the road-wheel angle (rad, positive left) that brings the car back to
-        the human's path. The human's own steering at the car's place on the path, plus the correction of pure
-        pursuit (pure pursuit of the path from the car's pose, minus pure pursuit from the path's own pose
-        there): on the path exactly the human's steering, as the recording labels it, and off it the
-        generalisation of paper 002's side-camera label (Eq. 3)."""
+        the human's path (`data.path.return_steering`: the human's steering at the car's place on the path plus
+        the correction of pure pursuit)."""
         st = self.vehicle.state
-        x, y, psi = self._pose(self.s)
-        return (float(self.path.wheel[self.frame_index()]) + self._pursuit(st.x, st.y, st.psi, st.v)
-                - self._pursuit(x, y, psi, st.v))
-
-    def _pursuit(self, x: float, y: float, psi: float, v: float) -> float:
-        """Pure pursuit of the path from a pose: the road-wheel angle towards the path point one lookahead
-        ahead of the car's arc length."""
-        lookahead = max(0.9 * v, 3.0 * self.car.wheelbase)
-        tx, ty, _ = self._pose(self.s + lookahead)
-        alpha = (math.atan2(ty - y, tx - x) - psi + math.pi) % (2 * math.pi) - math.pi
-        return math.atan2(2 * self.car.wheelbase * math.sin(alpha), math.hypot(tx - x, ty - y))
+        return return_steering(self.path, self.frame_index(), self.s, st.x, st.y, st.psi, st.v, self.car)
 
     def step(self, road_wheel: float, throttle: float | None = None) -> None:
         """Apply a road-wheel angle for one frame at the recorded (or replayed) speed; a pilot's throttle is not

@@ -5,9 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from steerlab.data.car import CH2_CAR, Car
+from steerlab.data.car import CH2_CAR, Car, VehicleState
 from steerlab.sim.road.road import LANE_CENTER, Road
-from steerlab.sim.core.vehicle import VehicleState
 
 DRIFT_TARGET = 0.85   # m beside the lane centre the driver aims for while drifting out
 DRIFT_TURN = 0.7      # m: the driver notices and starts to steer back

@@ -10,10 +10,9 @@ from typing import Literal
 
 import numpy as np
 
-from steerlab.data.car import car_of
+from steerlab.data.car import Vehicle, VehicleState, car_of
 from steerlab.errors import SteerlabError
 from steerlab.options import FPS, MINUTES, Options, POSITIVE, SEED, holds_frames, option
-from steerlab.sim.core.vehicle import Vehicle, VehicleState
 from steerlab.sim.road.expert import cruise, pure_pursuit
 from steerlab.sim.road.render import Renderer
 from steerlab.sim.road.road import LANE_CENTER, ROAD_TYPES, Road

@@ -20,10 +20,8 @@ import math
 
 import numpy as np
 
-from steerlab.data.car import Car
-from steerlab.sim.track.smallcar import throttle_for
+from steerlab.data.car import Car, VehicleState, throttle_for
 from steerlab.sim.track.track import Track
-from steerlab.sim.core.vehicle import VehicleState
 
 DRIFT_TARGET = 0.6   # of the room beside the lane centre: where a drift aims
 DRIFT_TURN = 0.45    # the driver notices and steers back

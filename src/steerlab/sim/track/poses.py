@@ -25,7 +25,7 @@ from tqdm import tqdm
 from steerlab.data.writer import TubWriter
 from steerlab.options import frames_in
 from steerlab.sim.core.driving import drive_loop
-from steerlab.sim.core.vehicle import VehicleState
+from steerlab.data.car import VehicleState
 from steerlab.sim.track.world import DRIFT_EVERY_S, RacerPilot, TrackWorld
 
 POSE_OFFSET = 1.25   # half lane widths either side of the lane centre: across the lane and beyond its edges

@@ -24,16 +24,16 @@ from typing import Literal
 
 import numpy as np
 
-from steerlab.data.car import CARS
+from steerlab.data.car import CARS, throttle_speeds
 from steerlab.data.fisheye import DONKEY_FISHEYE, FisheyeCamera, load_calibration, shift_view
 from steerlab.data.geometry import CAMERAS
+from steerlab.data.path import HumanPath
 from steerlab.data.recording import Recording
 from steerlab.errors import DataError, SteerlabError
 from steerlab.options import Options, SPEED, WORKERS, option
 from steerlab.pilot import smoothing_option
-from steerlab.sim.replay.path import HumanPath
 from steerlab.sim.replay.world import MOUNT_HEIGHT, PITCH, Replay, ReplaySetup, ReplayWorld
-from steerlab.sim.track.smallcar import SmallCar, throttle_speeds
+from steerlab.sim.track.smallcar import SmallCar
 from steerlab.sim.track.track import LANE_WIDTH
 from steerlab.sim.track.world import lane_width_option
 

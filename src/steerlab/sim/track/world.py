@@ -29,13 +29,12 @@ from typing import Literal
 import numpy as np
 
 from steerlab.control import DEFAULT_THROTTLE, Throttle
-from steerlab.data.car import CARS, Car
+from steerlab.data.car import CARS, Car, VehicleState
 from steerlab.data.fisheye import DONKEY_FISHEYE, FisheyeCamera, load_calibration
 from steerlab.data.recording import SteeringConvention
 from steerlab.options import (AT_LEAST_0, FPS, MINUTES, Options, Range, SEED, UNIT, frames_held, holds_frames,
                               option)
 from steerlab.pilot import Controls
-from steerlab.sim.core.vehicle import VehicleState
 from steerlab.sim.track.expert import Racer, expert_controls, pursuit
 from steerlab.sim.track.look import LOOK, Look
 from steerlab.sim.track.smallcar import SmallCar
