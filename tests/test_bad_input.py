@@ -24,7 +24,7 @@ from conftest import flip_bytes
 from steerlab.cli import main
 from steerlab.errors import SteerlabError
 from steerlab.options import WORKERS
-from studies.common import ROWS, ch2, made, sim_log, tub, write_jpeg
+from tests.inputs import ROWS, ch2, made, sim_log, tub, write_jpeg
 
 def _renamed(catalog, key, other):
     """The first record of a tub catalog with `key` named `other` (as long: the manifest's line lengths hold)."""

@@ -1,6 +1,5 @@
-"""The rules a second new user's round (`python -m studies.bad_input_round --round 2`) added to "Nothing silent",
-each with its
-cases: the Python API checks the type of every value and every path where it enters (as the command line does),
+"""The rules a second new user's round (`python -m tests.rounds.run --round 2`) added to "Nothing silent", each with
+its cases: the Python API checks the type of every value and every path where it enters (as the command line does),
 Ctrl-C ends in one line at any moment, an error about a whole config or recording names the file and what to
 do, a number in other units is refused where its range cannot hold it, and every script of studies/ and
 benchmarks/ refuses bad arguments in one line before any work."""
@@ -20,7 +19,7 @@ import pytest
 from steerlab.cli import main
 from steerlab.errors import SteerlabError
 from steerlab.options import FRACTION, Options, optional
-from studies.common import ch2, made, sim_log, tub
+from tests.inputs import ch2, made, sim_log, tub
 from test_bad_input import config
 
 ROOT = Path(__file__).resolve().parents[1]

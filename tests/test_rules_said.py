@@ -12,7 +12,7 @@ from steerlab.data.car import CARS
 from steerlab.data.readers import open_recording
 from steerlab.data.recording import PLAUSIBLE_LOCKS
 from steerlab.errors import DataError, SteerlabError
-from studies.common import ch2
+from tests.inputs import ch2
 
 CH2_LOCK = CARS["ch2"].full_lock * CARS["ch2"].steering_ratio  # rad of the steering wheel at full lock
 

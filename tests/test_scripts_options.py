@@ -1,8 +1,8 @@
-"""The scripts of studies/ and benchmarks/ take their options as the steerlab command does (`cli.script_parser`):
-every option of every script is swept by its declared type, as tests/test_bad_input.py sweeps the commands' (numbers
-outside their range, paths that are not there or of the wrong kind, an option given twice), and each bad value is
-refused in one line that names the option and the script, exit code 2. Only the command lines are parsed: no
-script's work starts here."""
+"""The scripts of studies/ and benchmarks/, and the bad-input rounds' runner (tests/rounds/run.py), take their
+options as the steerlab command does (`cli.script_parser`): every option of every script is swept by its declared
+type, as tests/test_bad_input.py sweeps the commands' (numbers outside their range, paths that are not there or of
+the wrong kind, an option given twice), and each bad value is refused in one line that names the option and the
+script, exit code 2. Only the command lines are parsed: no script's work starts here."""
 
 import argparse
 import ast
@@ -20,7 +20,7 @@ from studies.common import ROOT, NumberList
 from test_bad_input import _a_range, _edges
 
 SCRIPTS = [f"{folder}.{p.stem}" for folder in ("studies", "benchmarks") for p in sorted((ROOT / folder).glob("*.py"))
-           if not p.stem.startswith("_") and p.stem != "common"]
+           if not p.stem.startswith("_") and p.stem != "common"] + ["tests.rounds.run"]  # and the rounds' runner
 _parsers = {}
 
 

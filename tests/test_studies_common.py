@@ -76,7 +76,7 @@ def test_the_rule_sees_each_way_of_breaking_it(tmp_path):
                      "from conftest import made\nimport test_bad_input\n"                    # tests, as top-level names
                      "from studies.donkeycar_tubs import blocks\nfrom donkeycar_tubs import TUBS\n"  # other studies
                      "from studies import track_recipes\nfrom . import same_batches\n"
-                     "from studies.common import ROOT\nfrom studies._round_cases import FIX\nfrom . import common\n")
+                     "from studies.common import ROOT\nfrom studies._first_batches import main\nfrom . import common\n")
     assert _edits_sys_path(study) == [3, 4]
     assert _wrong_imports(study) == ["conftest.made", "test_bad_input", "studies.donkeycar_tubs.blocks",
                                      "donkeycar_tubs.TUBS", "studies.track_recipes", "studies.same_batches"]

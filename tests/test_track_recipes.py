@@ -6,8 +6,8 @@ import json
 import numpy as np
 
 from steerlab.data.readers import open_recording
-from studies.common import tub
 from studies.track_recipes import merged_tub
+from tests.inputs import tub
 
 
 def test_a_merged_tub_reads_as_its_tubs_one_after_another(tmp_path):

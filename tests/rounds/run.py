@@ -3,15 +3,16 @@ of the build on PYTHONPATH; each classified as handled (refused in one line, tak
 failures: lost (an input changed or gone), traceback, silent (taken without a word where it should be refused or
 said), unclear (refused, but not in one line naming what is wrong), hang.
 
-The fixtures are those of tests/test_bad_input.py (the tiny inputs of `studies.common`, made in OUT_DIR/fx); every
-case runs in a forked process of its own with a 45 s limit; the counts are printed, and every input not handled is
-written to OUT_DIR/failures.txt.
+The cases are the rows of a round's table (tests/rounds/round1.py; `--round 2`: tests/rounds/round2.py, every
+command given the wrong kind of file, runs interrupted and rerun, mixed recordings, the Python API with wrong types
+and units, the scripts with bad arguments), each a name, what it runs (a command line, a call of the Python API,
+or a builder of the table named by the row) and the outcome expected; `cases` reads them. The fixtures are the
+tiny inputs of the bad-input tests (tests/inputs.py), made in OUT_DIR/fx; every case runs in a forked process of
+its own with a 45 s limit; the counts are printed, and every input not handled is written to
+OUT_DIR/failures.txt.
 
-`--round 2`: the second round (studies/_round2_cases.py): every command given the wrong kind of file, runs
-interrupted and rerun, mixed recordings, the Python API with wrong types and units, the scripts with bad arguments.
-
-usage: PYTHONPATH=src python -m studies.bad_input_round [--round 2] OUT_DIR    (from the repository root;
-PYTHONPATH picks the build that is tried)"""
+usage: PYTHONPATH=src python -m tests.rounds.run [--round 2] OUT_DIR    (from the repository root; PYTHONPATH
+picks the build that is tried)"""
 
 import contextlib
 import io
@@ -29,45 +30,45 @@ from dataclasses import dataclass
 from steerlab.cli import path_option, run_script, script_parser
 from steerlab.errors import SteerlabError
 from steerlab.options import Options, Range, option
-from studies import _round_cases as inputs
-from studies.common import ch2, made, sim_log, tub  # the tiny inputs of the bad-input tests
+from tests.inputs import ch2, made, sim_log, tub  # the tiny inputs of the bad-input tests
+from tests.rounds import places
 
 TIMEOUT = 45  # s a case may take (a case's own "timeout" says more)
 
 
 @dataclass(frozen=True)
 class RoundOptions(Options):
-    round: int = option(1, Range(1, 2), help="the round: 1, or 2 (studies/_round2_cases.py)")
+    round: int = option(1, Range(1, 2), help="the round: 1 (tests/rounds/round1.py), or 2 (tests/rounds/round2.py)")
 
 
 def setup():
-    subprocess.run(["chattr", "-i", str(inputs.ROOT / "ro")], capture_output=True)
-    shutil.rmtree(inputs.FIX, ignore_errors=True)
-    inputs.FIX.mkdir(parents=True)
-    sim_log(inputs.FIX / "sim")
-    tub(inputs.FIX / "tub")
-    ch2(inputs.FIX / "ch2")
-    made(inputs.FIX, name="a.pt")
-    made(inputs.FIX, name="b.pt")
-    made(inputs.FIX, "normalized", "right", "donkey", name="donkey.pt", full_lock_deg=25)
-    (inputs.FIX / "run").mkdir()
-    shutil.copy(inputs.FIX / "a.pt", inputs.FIX / "run" / "best.pt")
-    shutil.copy(inputs.FIX / "a.pt", inputs.FIX / "run" / "last.pt")
-    (inputs.FIX / "run" / "config.json").write_text("{}")
+    subprocess.run(["chattr", "-i", str(places.ROOT / "ro")], capture_output=True)
+    shutil.rmtree(places.FIX, ignore_errors=True)
+    places.FIX.mkdir(parents=True)
+    sim_log(places.FIX / "sim")
+    tub(places.FIX / "tub")
+    ch2(places.FIX / "ch2")
+    made(places.FIX, name="a.pt")
+    made(places.FIX, name="b.pt")
+    made(places.FIX, "normalized", "right", "donkey", name="donkey.pt", full_lock_deg=25)
+    (places.FIX / "run").mkdir()
+    shutil.copy(places.FIX / "a.pt", places.FIX / "run" / "best.pt")
+    shutil.copy(places.FIX / "a.pt", places.FIX / "run" / "last.pt")
+    (places.FIX / "run" / "config.json").write_text("{}")
     from steerlab.sim.road.run import RecordOptions, record
 
-    record(inputs.FIX / "rec", RecordOptions(seed=0, minutes=0.05, side_cameras=False), progress=False)
-    (inputs.FIX / "c.yaml").write_text(f"data: {inputs.FIX / 'sim'}\ncache: {inputs.ROOT / 'cache'}\n"
-                                       f"out: {inputs.WORK / 'run'}\n"
+    record(places.FIX / "rec", RecordOptions(seed=0, minutes=0.05, side_cameras=False), progress=False)
+    (places.FIX / "c.yaml").write_text(f"data: {places.FIX / 'sim'}\ncache: {places.ROOT / 'cache'}\n"
+                                       f"out: {places.WORK / 'run'}\n"
                                        "split: {train: '0:6', val: '6:8'}\ntrain: {epochs: 1, batch_size: 2}\n")
-    os.symlink(inputs.FIX / "a.pt", inputs.FIX / "a-link.pt")
-    os.symlink(inputs.FIX / "sim", inputs.FIX / "sim-link")
+    os.symlink(places.FIX / "a.pt", places.FIX / "a-link.pt")
+    os.symlink(places.FIX / "sim", places.FIX / "sim-link")
 
 
 def snapshot():
     """The fixtures' files but a stale lock a command takes over (a killed run's `.lock`, emptied when it is
     released): a lock is no result nor input."""
-    return {p: (p.stat().st_size, p.stat().st_mtime_ns) for p in inputs.FIX.rglob("*") if p.is_file()
+    return {p: (p.stat().st_size, p.stat().st_mtime_ns) for p in places.FIX.rglob("*") if p.is_file()
             and p.name != ".lock"}
 
 
@@ -81,8 +82,8 @@ def run_case(fn):
         err = io.StringIO()
         out = {"code": None, "err": "", "exc": ""}
         try:
-            inputs.WORK.mkdir(parents=True, exist_ok=True)
-            os.chdir(inputs.WORK)
+            places.WORK.mkdir(parents=True, exist_ok=True)
+            os.chdir(places.WORK)
             with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
                 try:
                     if getattr(fn, "stage", False):
@@ -201,8 +202,6 @@ def classify(case, result, before, after):
     return "handled" if not refused else ("handled" if case.get("refuse_ok") else "silent-refusal")
 
 
-
-
 def preload():
     """What the commands import, imported once here: each case's process is forked from this one."""
     import importlib
@@ -229,25 +228,80 @@ def begin(out_dir) -> None:
     """The round's folders under `out_dir` (a new one or an earlier round's), emptied, and its fixtures made."""
     import torch
 
-    inputs.place(out_dir)
+    places.place(out_dir)
     torch.set_num_threads(1)  # no OpenMP thread team in this process: a forked child using one would hang
-    if inputs.ROOT.exists() and not (inputs.ROOT / "fx").is_dir():
-        raise SteerlabError(f"{inputs.ROOT} exists and is not an earlier round's folder (it has no fx/): name a new "
+    if places.ROOT.exists() and not (places.ROOT / "fx").is_dir():
+        raise SteerlabError(f"{places.ROOT} exists and is not an earlier round's folder (it has no fx/): name a new "
                             "one")
     preload()
-    subprocess.run(["chattr", "-i", str(inputs.ROOT / "ro")], capture_output=True)
-    shutil.rmtree(inputs.ROOT, ignore_errors=True)
+    subprocess.run(["chattr", "-i", str(places.ROOT / "ro")], capture_output=True)
+    shutil.rmtree(places.ROOT, ignore_errors=True)
     setup()
+
+
+TABLES = {1: "tests.rounds.round1", 2: "tests.rounds.round2"}  # each round's table of cases
+
+
+def _call(spec: str, table):
+    """A row's callable: `module:name` of the build tried, or a builder of the table (`name`)."""
+    import importlib
+
+    if ":" in spec:
+        module, name = spec.split(":")
+        return getattr(importlib.import_module(module), name)
+    return getattr(table, spec)
+
+
+def case_of(row: dict, table) -> dict:
+    """The case of a row of `table`: {name, group, fn, expect, hint, after, ...}, its paths filled (places.fill).
+    A row runs one of: `cli` (a command line, through steerlab.cli.main), `api` (a call of the Python API or a
+    builder, with `args` and `kwargs`, whose return value is no exit code), `build` (a builder of the table, with
+    `kwargs`, that returns the command's exit code); `expect` is refuse (the default), ok or warn, `hint` what the
+    one line must name; `stage`, `timeout`, `refuse_ok` and `after` as `run_case`, `main` and `classify` read them."""
+    extra = {k: v for k, v in row.items() if k in ("timeout", "refuse_ok")}
+    if "cli" in row:
+        argv = [str(a) for a in places.fill(row["cli"])]
+
+        def fn(a=argv):
+            from steerlab.cli import main as m
+            return m(a)
+        name = row.get("name", " ".join(argv))
+    else:
+        call = _call(row.get("api") or row["build"], table)
+        args, kwargs = places.fill(tuple(row.get("args", ()))), places.fill(row.get("kwargs", {}))
+        fn = (lambda: (call(*args, **kwargs), 0)[1]) if "api" in row else (lambda: call(*args, **kwargs))
+        name = row["name"]
+    fn.stage = row.get("stage", False)
+    after = row.get("after")
+    return {"name": places.fill(name), **({"group": row["group"]} if "group" in row else {}), "fn": fn,
+            "expect": row.get("expect", "refuse"), "hint": places.fill(row.get("hint")),
+            "after": after and _call(after, table), **extra}
+
+
+def cases(table) -> list[dict]:
+    """Every case of a round's table: its rows in order, a row `{"sweep": NAME}` standing for the rows its builder
+    `NAME()` makes (a sweep of the build's own options)."""
+    out = []
+    for row in table.CASES:
+        rows = _call(row["sweep"], table)() if "sweep" in row else [row]
+        out += [case_of(r, table) for r in rows]
+    return out
+
+
+def prepare(round: int, out_dir):
+    """The round's folders and fixtures made (`begin`, then the table's own `setup`), and its cases."""
+    import importlib
+
+    begin(out_dir)
+    table = importlib.import_module(TABLES[round])
+    if hasattr(table, "setup"):
+        table.setup()
+    return table, cases(table)
 
 
 def main(a, o: RoundOptions):
     global TIMEOUT
-    begin(a.out_dir)
-    if o.round == 2:
-        from studies import _round2_cases as second
-
-        second.setup()
-    cases = inputs.main_cases() if o.round == 1 else second.main_cases()
+    table, cases = prepare(o.round, a.out_dir)
     counts, bad, start = Counter(), [], time.monotonic()
     for n, case in enumerate(cases):
         if n % 50 == 0:
@@ -267,14 +321,14 @@ def main(a, o: RoundOptions):
             said = (exc.strip().splitlines() or [""])[-1][:300] if exc else err.strip()[-300:]
             bad.append(f"{cls:<10} [{case.get('group', '-')}] {case['name'][:200]}\n           {said}")
         if cls == "lost":  # put the fixtures back for the next case
-            shutil.rmtree(inputs.FIX)
+            shutil.rmtree(places.FIX)
             setup()
-            if o.round == 2:
-                second.setup()
+            if hasattr(table, "setup"):
+                table.setup()
     groups = Counter(case.get("group", "-") for case in cases)
     print(f"{len(cases)} inputs ({', '.join(f'{g} {k}' for g, k in groups.items())}) in "
           f"{time.monotonic() - start:.0f} s: " + ", ".join(f"{k} {v}" for k, v in counts.most_common()))
-    (inputs.ROOT / "failures.txt").write_text("\n".join(bad) + "\n")
+    (places.ROOT / "failures.txt").write_text("\n".join(bad) + "\n")
     print("\n".join(bad))
 
 
