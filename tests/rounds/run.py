@@ -164,8 +164,12 @@ def stop_before_work():
     def stop(*a, **k):
         raise Reached
 
+    def stopped(part):  # a world's record, drive or suite: an entry with its `run` (a function in earlier builds)
+        return dataclasses.replace(part, run=stop) if dataclasses.is_dataclass(part) else stop
+
     for name, entry in list(steerlab.sim.worlds.WORLDS.items()):
-        steerlab.sim.worlds.WORLDS[name] = dataclasses.replace(entry, record=stop, drive=stop, suite=stop)
+        steerlab.sim.worlds.WORLDS[name] = dataclasses.replace(
+            entry, **{part: stopped(getattr(entry, part)) for part in ("record", "drive", "suite")})
     for module, attr in ((steerlab.sim.replay.run, "run_replay"), (steerlab.serve, "serve"),
                          (steerlab.demo, "run_demo"), (steerlab.evaluate.latency, "run_latency"),
                          (steerlab.train.loop, "train"), (steerlab.experiment, "run_experiment"),
