@@ -11,6 +11,9 @@ import pytest
 # the tiny inputs of tests/inputs.py that most tests use, passed on: they import them from here
 from tests.inputs import flip_bytes, made, write_jpeg  # noqa: F401
 
+# the helpers of tests that assert, their asserts explained on failure as a test's own are
+pytest.register_assert_rewrite("tests.bad_input.builders")
+
 if os.environ.get("PYTEST_XDIST_WORKER"):  # two test processes on two cores: one torch thread each
     import torch
 

@@ -210,7 +210,7 @@ def test_replay_command_writes_its_report(tiny_checkpoint, twisty, tmp_path, cap
 
 
 def test_replay_without_speed_needs_one(tiny_checkpoint, twisty, tmp_path, capsys):
-    """A recording without speed whose frames give no estimate is refused (tests/test_bad_input.py); with --speed
+    """A recording without speed whose frames give no estimate is refused (tests/bad_input/test_recordings.py); with --speed
     it replays. A missing checkpoint is named."""
     assert main(["replay", str(tmp_path / "none.pt"), "--data", str(twisty.source), "--out", str(tmp_path / "x")]) == 2
     assert "none.pt: checkpoint not found" in capsys.readouterr().err

@@ -1,6 +1,6 @@
 """The scripts of studies/ and benchmarks/, and the bad-input rounds' runner (tests/rounds/run.py), take their
 options as the steerlab command does (`cli.script_parser`): every option of every script is swept by its declared
-type, as tests/test_bad_input.py sweeps the commands' (numbers outside their range, paths that are not there or of
+type, as tests/bad_input/ sweeps the commands' (numbers outside their range, paths that are not there or of
 the wrong kind, an option given twice), and each bad value is refused in one line that names the option and the
 script, exit code 2. Only the command lines are parsed: no script's work starts here."""
 
@@ -17,10 +17,11 @@ import pytest
 from steerlab.cli import Parser, flag, script_args
 from steerlab.options import optional, options_of
 from studies.common import ROOT, NumberList
-from test_bad_input import _a_range, _edges
+from tests.bad_input.builders import _a_range, _edges
 
-SCRIPTS = [f"{folder}.{p.stem}" for folder in ("studies", "benchmarks") for p in sorted((ROOT / folder).glob("*.py"))
-           if not p.stem.startswith("_") and p.stem != "common"] + ["tests.rounds.run"]  # and the rounds' runner
+SCRIPTS = ["tests.rounds.run"] + [  # the rounds' runner, and every study and timing
+    f"{folder}.{p.stem}" for folder in ("studies", "benchmarks") for p in sorted((ROOT / folder).glob("*.py"))
+    if not p.stem.startswith("_") and p.stem != "common"]
 _parsers = {}
 
 

@@ -8,7 +8,7 @@ from pathlib import Path
 from studies import common
 from studies.common import ROOT
 
-TESTS = {p.stem for p in (ROOT / "tests").glob("*.py")} | {"tests"}
+TESTS = {p.stem for p in (ROOT / "tests").rglob("*.py")} | {"tests"}  # and every test_*, wherever it is
 
 
 def _scripts(package: str) -> list[Path]:
@@ -41,14 +41,15 @@ def _edits_sys_path(path: Path) -> list[int]:
 
 
 def _wrong_imports(path: Path) -> list[str]:
-    """What a script of studies/ or benchmarks/ imports that it may not: a test, another study (through the package
-    or as a top-level name, as a script that puts studies/ on sys.path would)."""
+    """What a script of studies/ or benchmarks/ imports that it may not: a test or a module of tests/ (through the
+    package or as a top-level name), another study (through the package or as a top-level name, as a script that
+    puts studies/ on sys.path would)."""
     studies = {p.stem for p in _scripts("studies")}
     own = {f"studies.{path.stem}"}
     wrong = []
     for module in _imports(path):
         top, _, rest = module.partition(".")
-        if top in TESTS or (top in studies and top != "studies"):
+        if top in TESTS or top.startswith("test_") or (top in studies and top != "studies"):
             wrong.append(module)
         elif top == "studies" and rest:
             name = rest.split(".")[0]

@@ -16,13 +16,14 @@ from typing import Literal, get_args, get_origin
 import numpy as np
 import pytest
 
+import studies.common  # noqa: F401  (the options a study makes in Python, TubStudy's, among those swept)
 from steerlab.cli import main
 from steerlab.errors import SteerlabError
 from steerlab.options import FRACTION, Options, optional
+from tests.bad_input.builders import config
 from tests.inputs import ch2, made, sim_log, tub
-from test_bad_input import config
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 # ---------------------------------------------------------------- every option dataclass, made in Python
