@@ -1,7 +1,8 @@
 """Tiny inputs in every layout, made in a test's folder, for the tests and the bad-input rounds (tests/rounds/):
-`sim_log`, `tub`, `ch2` (recordings of `ROWS` or 6 frames), `write_jpeg`, `made`, an untrained checkpoint of a kind
-of recording, and `flip_bytes`, a file damaged in its middle. The tests import them from here or from conftest.py,
-which passes on `made`, `write_jpeg` and `flip_bytes`; nothing here imports a test."""
+`sim_log`, `tub`, `ch2` (recordings of `ROWS` or 6 frames), `write_tub` (a tub of the records given),
+`write_jpeg`, `made`, an untrained checkpoint of a kind of recording, and `flip_bytes`, a file damaged in its
+middle. The tests import them from here or from conftest.py, which passes on `made`, `write_jpeg` and
+`flip_bytes`; nothing here imports a test."""
 
 from __future__ import annotations
 
@@ -47,6 +48,27 @@ def tub(folder, records=None):
                 "str"], {}, {"created_at": 0.0, "sessions": {"all_full_ids": ["s"]}},
                 {"paths": ["catalog_0.catalog"], "current_index": ROWS, "max_len": 1000, "deleted_indexes": []}]
     (folder / "manifest.json").write_text("\n".join(json.dumps(m) for m in manifest) + "\n")
+    return folder
+
+
+def write_tub(folder, records, deleted=(), manifest_lines=None):
+    """A tub v2 folder: records are (index, session, timestamp_ms, angle); images 160x120."""
+    (folder / "images").mkdir(parents=True)
+    lines = []
+    for index, session, ms, angle in records:
+        name = f"{index}_cam_image_array_.jpg"
+        write_jpeg(folder / "images" / name, (index * 20) % 255, (120, 160))
+        lines.append(json.dumps({"_index": index, "_session_id": session, "_timestamp_ms": ms,
+                                 "cam/image_array": name, "user/angle": angle, "user/throttle": 0.3,
+                                 "user/mode": "user"}))
+    (folder / "catalog_0.catalog").write_text("\n".join(lines) + "\n")
+    manifest = [["cam/image_array", "user/angle", "user/throttle", "user/mode"],
+                ["image_array", "float", "float", "str"], {},
+                {"created_at": 0.0, "sessions": {"all_full_ids": sorted({r[1] for r in records})}},
+                {"paths": ["catalog_0.catalog"], "current_index": len(records), "max_len": 1000,
+                 "deleted_indexes": list(deleted)}]
+    text = "\n".join(json.dumps(m) for m in manifest[:manifest_lines]) + "\n"
+    (folder / "manifest.json").write_text(text)
     return folder
 
 

@@ -7,11 +7,12 @@ import cv2
 import numpy as np
 import pytest
 
-from conftest import SHARED, write_jpeg
+from conftest import SHARED
 from steerlab.data.readers import open_recording
 from steerlab.data.recording import SteeringConvention
 from steerlab.data.splits import Split, make_split
 from steerlab.errors import DataError, SteerlabError
+from tests.inputs import write_tub
 
 TUBS = SHARED / "donkeycar"
 needs_tubs = pytest.mark.skipif(not (TUBS / "hall" / "manifest.json").exists(), reason="../shared/data absent")
@@ -39,27 +40,6 @@ def test_real_tub_with_missing_images(capsys):
     assert len(rec) == 3078 - 2
     assert "skipped 2 record(s)" in capsys.readouterr().err
     assert rec.convention.degrees_per_unit == pytest.approx(25.0)
-
-
-def write_tub(folder, records, deleted=(), manifest_lines=None):
-    """A tub v2 folder: records are (index, session, timestamp_ms, angle); images 160x120."""
-    (folder / "images").mkdir(parents=True)
-    lines = []
-    for index, session, ms, angle in records:
-        name = f"{index}_cam_image_array_.jpg"
-        write_jpeg(folder / "images" / name, (index * 20) % 255, (120, 160))
-        lines.append(json.dumps({"_index": index, "_session_id": session, "_timestamp_ms": ms,
-                                 "cam/image_array": name, "user/angle": angle, "user/throttle": 0.3,
-                                 "user/mode": "user"}))
-    (folder / "catalog_0.catalog").write_text("\n".join(lines) + "\n")
-    manifest = [["cam/image_array", "user/angle", "user/throttle", "user/mode"],
-                ["image_array", "float", "float", "str"], {},
-                {"created_at": 0.0, "sessions": {"all_full_ids": sorted({r[1] for r in records})}},
-                {"paths": ["catalog_0.catalog"], "current_index": len(records), "max_len": 1000,
-                 "deleted_indexes": list(deleted)}]
-    text = "\n".join(json.dumps(m) for m in manifest[:manifest_lines]) + "\n"
-    (folder / "manifest.json").write_text(text)
-    return folder
 
 
 def test_tub_deletions_sessions_and_split(tmp_path):

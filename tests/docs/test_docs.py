@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 RESULTS = [ROOT / "docs" / "RESULTS.md", *sorted((ROOT / "docs" / "results").glob("*.md"))]
 # where the code, the configs and the docs name a section of a page: docs/results/speed.md, "The levers of ..."
 # (a comment may wrap the title: its line breaks and comment marks are read as spaces)

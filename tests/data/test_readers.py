@@ -199,7 +199,7 @@ def test_the_docs_name_every_registered_reader_in_the_registrys_order():
 
     from steerlab.data.readers import READERS
 
-    page = (Path(__file__).parents[1] / "docs" / "architecture" / "other-recordings.md").read_text()
+    page = (Path(__file__).parents[2] / "docs" / "architecture" / "other-recordings.md").read_text()
     listed = " ".join(page.split("tried in this order: ")[1].split(". ")[0].split())
     assert listed == ", ".join(f"`{r.name}`" for r in READERS)
 

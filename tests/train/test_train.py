@@ -368,7 +368,7 @@ def test_a_run_of_an_earlier_version_loads_and_resumes(tiny_recording, tmp_path,
 
     from steerlab.pilot import Pilot
 
-    old = Path(__file__).parent / "fixtures" / "run-0.1.0"
+    old = Path(__file__).parents[1] / "fixtures" / "run-0.1.0"
     monkeypatch.chdir(tmp_path)
     shutil.copytree(old, tmp_path / "run")
     (tmp_path / "rec").symlink_to(tiny_recording)  # the recording it was trained on: the same seed, the same bytes
@@ -465,7 +465,7 @@ def test_a_run_does_not_resume_on_changed_data(tiny_recording, tmp_path, monkeyp
 def test_training_on_a_tub_says_degrees_are_unknown(tmp_path, capsys):
     """A tub without a full-lock angle has no degrees: the epoch line and the table say n/a, never nan."""
     from steerlab.cli import main
-    from test_sources import write_tub
+    from tests.inputs import write_tub
 
     tub = write_tub(tmp_path / "tub", [(i, "s", 1000 + 50 * i, 0.5 * np.sin(i / 5)) for i in range(40)])
     cfg = tmp_path / "c.yaml"

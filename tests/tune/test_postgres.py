@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 
 from conftest import CliProcess
-from test_tune import Hold, rows, run_tune, tune_config
+from tests.tune.tuning import Hold, rows, run_tune, tune_config
 
 HEARTBEAT = "1,3"  # STEERLAB_TUNE_HEARTBEAT: beat every second, fail a trial silent for 3 s
 

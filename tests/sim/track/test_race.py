@@ -16,7 +16,7 @@ from steerlab.pilot import Controls, Pilot
 from steerlab.sim.core.driving import drive_loop
 from steerlab.sim.track.smallcar import steady_speed
 from steerlab.sim.track.world import TrackWorld
-from test_export_serve import frames, untrained
+from tests.pilot.samples import frames, untrained
 
 
 def test_the_steering_step_limits_the_change_from_frame_to_frame(tmp_path):

@@ -6,7 +6,7 @@ import pytest
 from steerlab.errors import SteerlabError
 from steerlab.export import export_onnx
 from steerlab.pilot import Pilot
-from test_export_serve import frames, untrained
+from tests.pilot.samples import frames, untrained
 
 
 @pytest.mark.parametrize("name, runtime", [("pilotnet-flow", "pt"), ("multimodal-lstm", "pt"),

@@ -133,7 +133,7 @@ def test_closed_loop_drives_the_suite_of_either_world(tmp_path, saved_figures):
     from steerlab.sim.track.suite import TrackSuiteOptions
     from steerlab.sim.track.world import TrackRecordOptions
     from steerlab.sim.worlds import closed_loop
-    from test_tune import rows, run_tune
+    from tests.tune.tuning import rows, run_tune
 
     assert closed_loop(None) == (WORLDS["road"], SuiteOptions())
     assert closed_loop({"suite": "t1", "minutes": 0.5}) == (WORLDS["track"], TrackSuiteOptions(minutes=0.5))

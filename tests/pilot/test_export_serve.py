@@ -12,42 +12,16 @@ import numpy as np
 import pytest
 import torch
 
-from conftest import CH2, SIM, flip_bytes, made, resaved
-from steerlab.checkpoint import save_checkpoint
+from conftest import SIM, flip_bytes, made, resaved
 from steerlab.data.readers import open_recording
 from steerlab.data.recording import SteeringConvention
 from steerlab.errors import SteerlabError
 from steerlab.export import export_onnx
-from steerlab.models import create_model, list_models
+from steerlab.models import list_models
 from steerlab.pilot import Pilot
 from steerlab.control import SpeedControl
 from steerlab.serve import DriveSession, to_simulator
-from steerlab.data.preprocess import PreprocessOptions
-from steerlab.models.registry import ModelSpec
-
-
-def untrained(tmp_path, name: str, geometry: str = "ch2", size: dict | None = None):
-    """A checkpoint of `name` with random weights and non-trivial standardisation statistics (input `size`:
-    {width, height}, default the geometry's)."""
-    pre = ModelSpec(name, {}).preprocess(PreprocessOptions(preset=geometry, **(size or {}))).resolve()
-    c = sum(pre.channels().values())
-    model_cfg = {"in_channels": c, "height": pre.height, "width": pre.width}
-    torch.manual_seed(0)
-    model = create_model(name, **model_cfg)
-    path = tmp_path / f"{name}.pt"
-    save_checkpoint(path, model, model_cfg, pre, {"mean": [100.0] * c, "std": [50.0] * c},
-                    SteeringConvention(), {"rmse": 0.1}, geometry=geometry, frame_rate=20.0)
-    return path
-
-
-def frames(n: int) -> list[np.ndarray]:
-    """Real CH2 frames when ../shared is there, else textured frames that move."""
-    if (CH2 / "CH2_final_evaluation.csv").exists():
-        rec = open_recording(CH2, f"0:{n}", CH2 / "CH2_final_evaluation.csv")
-        return [rec.load_frame(i) for i in range(n)]
-    rng = np.random.default_rng(0)
-    base = rng.integers(0, 255, (480, 700, 3), dtype=np.uint8)
-    return [np.ascontiguousarray(base[:, 3 * i: 3 * i + 640]) for i in range(n)]
+from tests.pilot.samples import frames, untrained
 
 
 @pytest.mark.parametrize("name", list_models())

@@ -70,7 +70,7 @@ def test_int8_recurrent_model_keeps_its_lstm_in_fp32_and_drives_like_its_fp32_ex
     leaves out: the int8 rounding of the weights and layers that amplify. A state carried wrongly moves the
     steering ten times as much (measured the same way: the state reset every frame 1.1e-2 rad, not reset at
     the segment start 9.7e-3, one frame late 9.5e-3)."""
-    from test_export_serve import untrained
+    from tests.pilot.samples import untrained
 
     ckpt = untrained(tmp_path, "lstm", "sim")
     fp32, path = export_onnx(ckpt, tmp_path / "m.onnx"), export_onnx(ckpt, tmp_path / "m-int8.onnx", tiny_recording)
@@ -105,9 +105,9 @@ def test_every_registered_model_with_a_convolution_quantizes(tmp_path, tiny_reco
     fp32 model's (the bound of the trained PilotNet above; at most 1.27e-3 measured, cg23, the same to the digits
     printed on AVX-512 with VNNI, AVX2 without it and aarch64: `python -m benchmarks.bench_int8`,
     docs/results/latency.md; with 8-bit weights AVX2 saturates, 3.2e-3 for cg23 and 5.6e-3 for flow-lstm; the fp32
-    export gives the fp32 model's steering to 1e-4, tests/test_export_serve.py). The models without a
+    export gives the fp32 model's steering to 1e-4, tests/pilot/test_export_serve.py). The models without a
     convolution, the constant baselines, are refused and leave nothing behind."""
-    from test_export_serve import untrained
+    from tests.pilot.samples import untrained
 
     size = {} if "width" in model_class(name).inputs else {"width": 64, "height": 64}
     ckpt = untrained(tmp_path, name, "sim", size)
@@ -145,7 +145,7 @@ def test_every_registered_model_with_a_convolution_quantizes(tmp_path, tiny_reco
 def test_int8_calibration_starts_every_segment_from_a_zero_state(tmp_path, tiny_recording):
     """The calibration inputs of a recurrent model are what its Pilot feeds the graph: the state is zero at the
     first frame of each segment (a recording of two here, the second from frame 20) and carried within one."""
-    from test_export_serve import untrained
+    from tests.pilot.samples import untrained
 
     from steerlab.export import calibration_inputs
 

@@ -171,7 +171,7 @@ def test_only_a_caught_steerlab_error_carries_its_own_fix():
 
 
 def test_a_checkpoint_given_as_a_config_is_named_so(capsys):
-    run = Path(__file__).parent / "fixtures" / "run-0.1.0"
+    run = Path(__file__).parents[1] / "fixtures" / "run-0.1.0"
     assert main(["train", str(run / "best.pt")]) == 2
     assert capsys.readouterr().err == (f"error: {run / 'best.pt'}: a steerlab checkpoint, where the config file is "
                                        f"expected (YAML text): give the config file, e.g. {run / 'config.json'}, the "

@@ -15,7 +15,7 @@ from steerlab.sim.worlds import closed_loop
 from steerlab.train.config import load_config
 from steerlab.tune.space import search_space
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 CONFIGS = sorted((ROOT / "configs").glob("*.yaml"))
 
 # The donkeycar tubs the configs train on: the two real tubs and the track world's recordings (`steerlab sim

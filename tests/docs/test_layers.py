@@ -5,7 +5,7 @@ layer (its top-level modules and folders) import each other without a loop."""
 import ast
 from pathlib import Path
 
-PACKAGE = Path(__file__).resolve().parents[1] / "src" / "steerlab"
+PACKAGE = Path(__file__).resolve().parents[2] / "src" / "steerlab"
 
 LAYERS = [
     ("base", ["errors", "locks", "video", "figures", "options", "control", "paths", "files", "processes", "cpu"]),
