@@ -93,7 +93,7 @@ def test_a_capped_dagger_rollout_labels_throttles_the_car_can_follow(tmp_path):
     """Under the cap 0.3 the expert's throttle labels stay within it, and when the expert drives (beta 1) the car
     never goes faster than throttle 0.3 holds."""
     from steerlab.sim.track.run import rollout
-    from test_track_world import Scripted
+    from tests.sim.track.pilots import Scripted
 
     r = rollout(Scripted(0.0, throttle=0.3), tmp_path / "r", 7, 0.1, "taped", beta=1.0, max_throttle=0.3)
     rec = Source(str(tmp_path / "r")).open()
