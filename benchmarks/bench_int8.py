@@ -1,5 +1,5 @@
 """int8 on every CPU: each quantization scheme of steerlab.export.INT8_SCHEMES against the fp32 export, on the cases
-tests/test_int8.py checks (PilotNet trained an epoch on a road-world recording, an untrained LSTM over a segment
+tests/pilot/test_int8.py checks (PilotNet trained an epoch on a road-world recording, an untrained LSTM over a segment
 start, every registered model with a convolution, untrained, on 64x64 frames where it takes a size) and donkeycar's
 linear model on track-world frames; each case written as files (fp32.onnx, <scheme>.onnx, feeds.npz: the inputs
 the Pilot fed the fp32 graph) and measured by benchmarks/int8_kernels.py, which runs on any CPU with ONNX Runtime
@@ -63,7 +63,7 @@ def trained_pilotnet(folder: Path, rec: Path) -> Path:
 
 
 def untrained(path: Path, name: str, geometry: str = "sim", size: dict | None = None) -> Path:
-    """tests/test_export_serve.py's untrained checkpoint: `name` with seed 0's random weights, mean 100 and
+    """tests/pilot/samples.py's untrained checkpoint: `name` with seed 0's random weights, mean 100 and
     standard deviation 50 on every channel, on frames of `size` (default: the geometry's)."""
     import torch
 
@@ -119,7 +119,7 @@ def main(args) -> None:
                                                                      "donkey"), rec["track"], "0:240", ["240:300"])
     for name in list_models():
         if name in ("zero", "train-mean"):
-            continue  # nothing to quantize (refused: tests/test_int8.py)
+            continue  # nothing to quantize (refused: tests/pilot/test_int8.py)
         size = {} if "width" in model_class(name).inputs else SIZE
         write_case(args.out / name, untrained(work / f"{name}.pt", name, "sim", size), rec["road"], "0:8", ["0:8"])
     shutil.rmtree(work)

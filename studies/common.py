@@ -14,16 +14,12 @@
 - Replay against the truth of a world's suite (`studies/replay_vs_road_suite.py`, `studies/replay_vs_track_suite.py`):
   `record_expert`, `train_baseline`, `train_snapshots`, `replayed`, `replay_missing`, `r2`, `correlations`,
   `correlation_table`, `scatter_axes`, `write_table`.
-- Tiny inputs in every layout, for the bad-input round (`studies/bad_input_round.py`) and the tests: `sim_log`, `tub`,
-  `ch2` (recordings of `ROWS` or 6 frames), `write_jpeg`, and `made`, an untrained checkpoint of a kind of recording.
 """
 
 from __future__ import annotations
 
 import csv
-import functools
 import json
-import math
 import os
 import shutil
 import subprocess
@@ -32,7 +28,6 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-import cv2
 import numpy as np
 
 from steerlab.errors import SteerlabError
@@ -481,104 +476,3 @@ def write_table(path: Path, rows: list[dict]) -> None:
         w = csv.DictWriter(f, list(rows[0]))
         w.writeheader()
         w.writerows([{k: (f"{v:.6g}" if isinstance(v, float) else v) for k, v in r.items()} for r in rows])
-
-
-# tiny inputs in every layout
-
-ROWS = 8  # frames of the tiny driving log and tub
-
-
-def sim_log(folder, rows=None, tail="\n"):
-    """A driving_log.csv (no header) with ROWS frames; `rows` replaces the values of some rows by index."""
-    (folder / "IMG").mkdir(parents=True, exist_ok=True)
-    lines = []
-    for i in range(ROWS):
-        name = f"center_2020_01_01_00_00_00_{100 * i:03d}.jpg"
-        write_jpeg(folder / "IMG" / name, 20 * i)
-        values = (rows or {}).get(i, f"{0.1 * (i % 3):.1f},0.5,0,10")
-        lines.append(f"/elsewhere/IMG/{name},,,{values}")
-    (folder / "driving_log.csv").write_text("\n".join(lines) + tail)
-    return folder / "driving_log.csv"
-
-
-def tub(folder, records=None):
-    """A donkeycar tub v2 with ROWS records; `records` changes fields of some records by index."""
-    (folder / "images").mkdir(parents=True)
-    lines = []
-    for i in range(ROWS):
-        name = f"{i}_cam_image_array_.jpg"
-        write_jpeg(folder / "images" / name, 20 * i, (120, 160))
-        rec = {"_index": i, "_session_id": "s", "_timestamp_ms": 1000 + 50 * i, "cam/image_array": name,
-               "user/angle": 0.1 * (i % 3), "user/throttle": 0.3, "user/mode": "user", **(records or {}).get(i, {})}
-        lines.append(json.dumps(rec))
-    (folder / "catalog_0.catalog").write_text("\n".join(lines) + "\n")
-    (folder / "catalog_0.catalog_manifest").write_text(json.dumps(  # as donkeycar writes it: each line's length
-        {"created_at": 0.0, "line_lengths": [len(line) + 1 for line in lines], "path": "catalog_0.catalog",
-         "start_index": 0}) + "\n")
-    manifest = [["cam/image_array", "user/angle", "user/throttle", "user/mode"], ["image_array", "float", "float",
-                "str"], {}, {"created_at": 0.0, "sessions": {"all_full_ids": ["s"]}},
-                {"paths": ["catalog_0.catalog"], "current_index": ROWS, "max_len": 1000, "deleted_indexes": []}]
-    (folder / "manifest.json").write_text("\n".join(json.dumps(m) for m in manifest) + "\n")
-    return folder
-
-
-def ch2(folder):
-    """A CH2-layout folder: 6 frames of 640x480 (steering-wheel angle, positive left) and its label CSV."""
-    (folder / "center").mkdir(parents=True)
-    ids = [1_000_000_000 + i * 50_000_000 for i in range(6)]
-    for i, fid in enumerate(ids):
-        write_jpeg(folder / "center" / f"{fid}.jpg", 40 * i, (480, 640))
-    (folder / "labels.csv").write_text("frame_id,steering_angle,public\n"
-                                       + "".join(f"{fid},{0.01 * i},{i % 2}\n" for i, fid in enumerate(ids)))
-    return folder
-
-
-def write_jpeg(path: Path, value: int = 128, size=(160, 320)) -> None:
-    path.write_bytes(_jpeg(value, tuple(size)))
-
-
-@functools.lru_cache(maxsize=None)
-def _jpeg(value: int, size: tuple) -> bytes:
-    """A uniform frame of `value` with some texture, as JPEG bytes (made once per value and size)."""
-    img = np.full((*size, 3), value, np.uint8)
-    img[::7, ::5] = 255 - value
-    return cv2.imencode(".jpg", img)[1].tobytes()
-
-
-def made(folder, kind="road_wheel", positive="right", geometry="sim", name="model.pt", full_lock_deg=None,
-         model="pilotnet", seed=0, **options):
-    """folder/name: an untrained checkpoint of `model` (initialised with `seed`, built with `options`; per-modality
-    statistics) with the steering convention and camera geometry of a kind of recording: road_wheel/right + sim (the
-    simulator), normalized/right (donkeycar, with `full_lock_deg` if known), steering_wheel/left + ch2 (CH2)."""
-    path = folder / name
-    path.write_bytes(_checkpoint(kind, positive, geometry, full_lock_deg, model, seed, tuple(sorted(options.items()))))
-    return path
-
-
-@functools.lru_cache(maxsize=None)
-def _checkpoint(kind, positive, geometry, full_lock_deg, model, seed, options) -> bytes:
-    """The bytes of `made`'s checkpoint (built once per set of arguments)."""
-    import tempfile
-
-    import torch
-
-    from steerlab.checkpoint import save_checkpoint
-    from steerlab.data.preprocess import PreprocessConfig
-    from steerlab.data.recording import SteeringConvention
-    from steerlab.models import create_model, model_class
-
-    options = dict(options)
-    pre = PreprocessConfig.from_dict({"preset": geometry, **model_class(model).inputs})
-    per = {"image": (100.0, 50.0), "diff": (128.0, 30.0), "flow": (0.0, 1.0)}
-    stats = {"mean": [], "std": []}
-    for modality, channels in pre.channels().items():
-        stats["mean"] += [per[modality][0]] * channels
-        stats["std"] += [per[modality][1]] * channels
-    model_cfg = {"in_channels": len(stats["mean"]), "height": pre.height, "width": pre.width, **options}
-    torch.manual_seed(seed)
-    with tempfile.TemporaryDirectory() as folder:
-        path = Path(folder) / "model.pt"
-        save_checkpoint(path, create_model(model, **model_cfg), model_cfg, pre, stats,
-                        SteeringConvention(kind, positive, full_lock_deg and math.radians(full_lock_deg)),
-                        {"rmse": 0.1}, geometry=geometry, frame_rate=20.0)
-        return path.read_bytes()

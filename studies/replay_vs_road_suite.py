@@ -159,7 +159,7 @@ def scatter(path: Path, table: list[dict], corr: dict) -> None:
 def warp_error(out: Path) -> list[str]:
     """shift_view against the renderer: the centre frame warped to a car moved sideways and turned, and the
     unwarped centre frame, each against the frame rendered from that pose, on the road rows (below the far
-    haze, as in tests/test_closed_loop.py)."""
+    haze, as in tests/sim/road/test_closed_loop.py)."""
     import cv2
 
     from steerlab.data.geometry import CAMERAS, shift_view

@@ -8,8 +8,11 @@ import cv2
 import numpy as np
 import pytest
 
-# the tiny inputs the tests share with the bad-input round of studies/; the tests import them from here
-from studies.common import made, write_jpeg  # noqa: F401
+# the tiny inputs of tests/inputs.py that most tests use, passed on: they import them from here
+from tests.inputs import flip_bytes, made, write_jpeg  # noqa: F401
+
+# the helpers of tests that assert, their asserts explained on failure as a test's own are
+pytest.register_assert_rewrite("tests.bad_input.builders")
 
 if os.environ.get("PYTEST_XDIST_WORKER"):  # two test processes on two cores: one torch thread each
     import torch
@@ -22,15 +25,6 @@ SIM = SHARED / "udacity-sim-track1"
 
 needs_ch2 = pytest.mark.skipif(not (CH2 / "CH2_final_evaluation.csv").exists(), reason="../shared/data absent")
 needs_sim = pytest.mark.skipif(not (SIM / "driving_log.csv").exists(), reason="../shared/data absent")
-
-
-def flip_bytes(path: Path) -> Path:
-    """The file with 16 bytes in its middle inverted (in a model's weights), as damage would."""
-    data = bytearray(path.read_bytes())
-    for i in range(len(data) // 2, len(data) // 2 + 16):
-        data[i] ^= 0xFF
-    path.write_bytes(bytes(data))
-    return path
 
 
 @pytest.fixture

@@ -15,7 +15,7 @@ from steerlab.errors import SteerlabError
 
 @dataclass(frozen=True)
 class Motor:
-    """How a small car's speed answers its throttle u in [-1, 1] (`sim/track/smallcar.py`, a brushed motor on an ESC):
+    """How a small car's speed answers its throttle u in [-1, 1] (a brushed motor on an ESC: `speed_after` below):
     for u >= 0 the speed approaches u x `top_speed` (m/s) with `time_constant` (s) under power, or with
     `coast_time_constant` (s) while it is faster than that (the ESC's drag brake); `rolling` (m/s^2) is the
     rolling resistance while it moves. Braking (u < 0) and air drag are the car's `max_decel` and `drag`."""

@@ -5,7 +5,7 @@ Steering: pure pursuit of a point on the lane centre `lookahead` metres ahead al
 at least 0.3 m), from the rear axle: the road-wheel angle whose circle passes through it. Speed: the track's
 speed profile (lateral acceleration within `lat_acc`, braking within `decel`, the car's top speed) read one
 throttle time constant ahead, times a pace that wanders slowly around 0.9 (a human does not drive the limit),
-reached by a feed-forward throttle (`smallcar.throttle_for`) with a proportional-integral correction. The hand
+reached by a feed-forward throttle (`car.throttle_for`) with a proportional-integral correction. The hand
 on the controls lags by `lag_s` (first order) and wanders (Ornstein-Uhlenbeck noise on the road wheel).
 
 Drift episodes, as the road expert has them (`road/expert.py`): about every `drift_every_s` seconds the driver lets

@@ -7,9 +7,9 @@ cars.
   the recording carries (the track world writes its camera into the tub), else the 160-degree Raspberry Pi
   camera's default (`fisheye.DONKEY_FISHEYE`); a calibration file replaces its K and D. The warp is from the
   car's camera (`Body.camera_forward` ahead of the rear axle) relative to the human's at that frame.
-- **The speed**: the recorded throttle through the small car's throttle model (`smallcar.throttle_speeds`)
+- **The speed**: the recorded throttle through the small car's throttle model (`car.throttle_speeds`)
   gives the human's speed, which the replayed car follows; or the model's learned throttle drives the replayed
-  car (`smallcar.speed_after` every tick; the human's path keeps the recorded throttle's speeds); or a
+  car (`car.speed_after` every tick; the human's path keeps the recorded throttle's speeds); or a
   constant `--speed`.
 - **The criterion**: the human is taken to have driven along the centre of a lane `lane_width` wide; a corner
   of the car's body (`Car.body`) outside it is an intervention, as an off-track event in the track world. No

@@ -1,12 +1,7 @@
-"""A 1:10 RC car as donkeycar owners build them: a kinematic bicycle for its pose and a first-order throttle
-model for its speed. Its numbers are `data.car.CARS["donkey"]` (wheelbase, full lock, `Motor`, `Body`).
-
-The pose follows `Vehicle.advance` (the kinematic bicycle about the rear axle, integrated at the interval's
-midpoint). The speed answers the throttle as a brushed motor on an ESC does: with throttle u >= 0 it approaches
-u x `top_speed` with time constant `time_constant` (the motor's back EMF limits speed, so its lag is first
-order), or, when it is faster than that, slows towards it more gently (`coast_time_constant`: the ESC's drag
-brake), less a little rolling resistance and air drag; a negative throttle adds braking at -u x the car's
-`max_decel`. The car never reverses (an ESC needs a second pull for that).
+"""A 1:10 RC car as donkeycar owners build them, stepped in the track world: its pose by the kinematic bicycle
+(`data.car.Vehicle.advance`, about the rear axle) and its speed by the car's motor model (`data.car.speed_after`:
+a brushed motor on an ESC); its numbers are `data.car.CARS["donkey"]` (wheelbase, full lock, `Motor`, `Body`),
+and `SmallCar` adds where its camera and its body's corners are.
 """
 
 from __future__ import annotations

@@ -1,0 +1,101 @@
+"""studies/ and benchmarks/ as packages: what the studies share (studies/common.py), and the rule that keeps the
+scripts apart: no script edits sys.path, a study imports steerlab and `studies.common` (and its own private modules,
+`studies._NAME`), never another study nor the tests, and a timing imports no study and no test either."""
+
+import ast
+from pathlib import Path
+
+from studies import common
+from studies.common import ROOT
+
+TESTS = {p.stem for p in (ROOT / "tests").rglob("*.py")} | {"tests"}  # and every test_*, wherever it is
+
+
+def _scripts(package: str) -> list[Path]:
+    return sorted((ROOT / package).glob("*.py"))
+
+
+def _imports(path: Path) -> list[str]:
+    """Every module `path` imports (at the top or inside functions), `from X import a, b` as X.a and X.b, relative
+    imports resolved against its package."""
+    package = path.parent.name
+    found = []
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Import):
+            found += [a.name for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            module = ".".join(filter(None, [package if node.level else "", node.module or ""]))
+            found += [f"{module}.{a.name}" for a in node.names]
+    return found
+
+
+def _edits_sys_path(path: Path) -> list[int]:
+    """The lines of `path` that touch sys.path (`sys.path.insert`, `sys.path = ...`, also in code run by `-c`)."""
+    lines = []
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.Attribute) and node.attr == "path" and getattr(node.value, "id", None) == "sys":
+            lines.append(node.lineno)
+        elif isinstance(node, ast.Constant) and isinstance(node.value, str) and "sys.path" in node.value:
+            lines.append(node.lineno)
+    return sorted(lines)
+
+
+def _wrong_imports(path: Path) -> list[str]:
+    """What a script of studies/ or benchmarks/ imports that it may not: a test or a module of tests/ (through the
+    package or as a top-level name), another study (through the package or as a top-level name, as a script that
+    puts studies/ on sys.path would)."""
+    studies = {p.stem for p in _scripts("studies")}
+    own = {f"studies.{path.stem}"}
+    wrong = []
+    for module in _imports(path):
+        top, _, rest = module.partition(".")
+        if top in TESTS or top.startswith("test_") or (top in studies and top != "studies"):
+            wrong.append(module)
+        elif top == "studies" and rest:
+            name = rest.split(".")[0]
+            if name != "common" and not name.startswith("_") and f"studies.{name}" not in own:
+                wrong.append(module)
+    return wrong
+
+
+def test_no_script_edits_sys_path_and_no_study_imports_a_test_or_another_study():
+    scripts = _scripts("studies") + _scripts("benchmarks")
+    assert len(scripts) > 25 and (ROOT / "studies" / "__init__.py").exists() and (ROOT / "benchmarks" / "__init__.py")
+    edits = {str(p.relative_to(ROOT)): lines for p in scripts if (lines := _edits_sys_path(p))}
+    assert edits == {}, f"these scripts edit sys.path (run them as python -m PACKAGE.NAME instead): {edits}"
+    wrong = {str(p.relative_to(ROOT)): w for p in scripts if (w := _wrong_imports(p))}
+    assert wrong == {}, f"a script imports a test or another study (share through studies/common.py): {wrong}"
+
+
+def test_the_rule_sees_each_way_of_breaking_it(tmp_path):
+    """The checks above on scripts that break the rule in each way they can (hand-written, the lines known)."""
+    study = tmp_path / "studies" / "x.py"
+    study.parent.mkdir()
+    study.write_text("import sys\nfrom pathlib import Path\n"
+                     "sys.path.insert(0, str(Path(__file__).parent))\n"                      # line 3
+                     "code = 'import sys; sys.path.append(\"/elsewhere\")'\n"                # line 4
+                     "from conftest import made\nimport test_bad_input\n"                    # tests, as top-level names
+                     "from studies.donkeycar_tubs import blocks\nfrom donkeycar_tubs import TUBS\n"  # other studies
+                     "from studies import track_recipes\nfrom . import same_batches\n"
+                     "from studies.common import ROOT\nfrom studies._first_batches import main\nfrom . import common\n")
+    assert _edits_sys_path(study) == [3, 4]
+    assert _wrong_imports(study) == ["conftest.made", "test_bad_input", "studies.donkeycar_tubs.blocks",
+                                     "donkeycar_tubs.TUBS", "studies.track_recipes", "studies.same_batches"]
+
+
+def test_the_expert_is_recorded_on_every_place_of_a_suite_once(tmp_path):
+    """The road suite's roads (the track suite's tracks go the same way, through the registry of worlds)."""
+    from steerlab.data.readers import open_recording
+    from steerlab.sim.worlds import WORLDS
+
+    recs = common.record_expert("road", tmp_path, 0.01)
+    roads = WORLDS["road"].suite.options().drives()
+    first = tmp_path / "expert" / "country-9101"
+    assert list(recs) == roads and recs[roads[0]] == first
+    assert len(open_recording(first)) == 12  # 0.01 min at 20 frames/s
+    (tmp_path / "replay" / "country-9101").mkdir(parents=True)
+    stamp = (first / "minutes.json").stat().st_mtime_ns
+    common.record_expert("road", tmp_path, 0.01)  # reused, with its replays
+    assert (first / "minutes.json").stat().st_mtime_ns == stamp and (tmp_path / "replay" / "country-9101").exists()
+    common.record_expert("road", tmp_path, 0.02)  # other minutes: recorded anew, the old replays deleted
+    assert len(open_recording(first)) == 24 and not (tmp_path / "replay" / "country-9101").exists()

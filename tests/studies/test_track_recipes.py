@@ -1,0 +1,81 @@
+"""studies/track_recipes.py's merged tub: the sixteen tubs as one, so that a random split draws from all of their
+records as donkeycar's trainer does (the recipe `mae-donkey-split`)."""
+
+import json
+
+import numpy as np
+
+from steerlab.data.readers import open_recording
+from studies.track_recipes import merged_tub
+from tests.inputs import tub
+
+
+def test_a_merged_tub_reads_as_its_tubs_one_after_another(tmp_path):
+    """Two tubs of 8 records, the second's record 3 deleted: the merged tub reads 15 records, the first tub's then
+    the second's (steering, frames), each tub a session of its own (the same session id "s" in both), time going on."""
+    a, b = tub(tmp_path / "a"), tub(tmp_path / "b", {i: {"user/angle": -0.05 * i} for i in range(8)})
+    lines = (b / "manifest.json").read_text().splitlines()
+    lines[4] = json.dumps({**json.loads(lines[4]), "deleted_indexes": [3]})
+    (b / "manifest.json").write_text("\n".join(lines) + "\n")
+    merged = merged_tub(tmp_path, ["a", "b"], tmp_path / "m")
+    m, ra, rb = (open_recording(str(p), options={"full_lock_deg": 25}) for p in (merged, a, b))
+    assert len(ra) == 8 and len(rb) == 7 and len(m) == 15
+    assert np.array_equal(m.steering, np.concatenate([ra.steering, rb.steering]))
+    assert np.array_equal(m.load_frame(12), rb.load_frame(4)) and np.array_equal(m.load_frame(2), ra.load_frame(2))
+    assert list(dict.fromkeys(m.extra["session"])) == ["0-s", "1-s"] and np.all(np.diff(m.timestamps_ns) > 0)
+    assert merged_tub(tmp_path, ["a"], tmp_path / "m") == merged  # made once
+
+
+def test_donkeycar_gets_the_records_steerlabs_recipe_trains_on(tmp_path, capsys):
+    """`without_validation`: the first tub without its last `only` usable records (a deleted one among them is
+    skipped, not counted); --donkeycar-ours only beside the tubs of a recipe that validates on such a block."""
+    import pytest
+
+    from steerlab.cli import script_args
+    from studies.track_recipes import parser, without_validation
+
+    t = tub(tmp_path / "t")
+    lines = (t / "manifest.json").read_text().splitlines()
+    lines[4] = json.dumps({**json.loads(lines[4]), "deleted_indexes": [6]})
+    (t / "manifest.json").write_text("\n".join(lines) + "\n")
+    kept = open_recording(str(without_validation(tmp_path, "t", 2)), options={"full_lock_deg": 25})
+    whole = open_recording(str(t), options={"full_lock_deg": 25})  # records 0-5 and 7
+    assert len(whole) == 7 and len(kept) == 5 and np.array_equal(kept.steering, whole.steering[:5])
+    assert script_args(parser(), ["--donkeycar", "--donkeycar-tubs", "rooms", "--donkeycar-ours"])[1][0].donkeycar_ours
+    with pytest.raises(SystemExit):
+        script_args(parser(), ["--donkeycar", "--donkeycar-ours"])  # donkeycar's recipe: no validation block
+    assert "--donkeycar-ours must be given with --donkeycar-tubs of a recipe" in capsys.readouterr().err
+
+
+def test_the_table_gives_the_runs_min_max_beside_every_mean():
+    from studies.track_recipes import markdown
+
+    each = [{"laps": 70, "clean_pct": 80.0, "finished": 7, "off_track_per_lap": 0.1, "off_track": 9, "pace": 0.9},
+            {"laps": 64, "clean_pct": 76.6, "finished": 6, "off_track_per_lap": 0.2, "off_track": 16, "pace": None}]
+    row = {"recipe": "flip-mae", "cap": 1, "runs": 2, "laps": 67, "clean_pct": 78.3, "finished": 6.5, "tracks": 8,
+           "off_track_per_lap": 0.15, "off_track": 12.5, "pace": 0.9, "pace_tracks": 6, "each": each}
+    cells = markdown([row], "s1").splitlines()[-1].split(" | ")
+    assert cells[4:] == ["67.0 (64.0-70.0)", "78.3 (76.6-80.0)", "6.5 (6.0-7.0) of 8", "0.15 (0.10-0.20)",
+                         "12.5 (9.0-16.0)", "0.900 (6) |"]  # one run's pace: no spread
+
+
+def test_a_finished_recipe_run_of_another_config_is_refused_not_reused(tmp_path, monkeypatch):
+    """A recipe trained once is reused as it is; changed since (a learning rate of 2e-3 where it had 1e-3), its
+    finished run is refused, naming the change, instead of racing a model of the old recipe under the new name."""
+    import pytest
+
+    import studies.track_recipes as tr
+    from steerlab.errors import SteerlabError
+
+    monkeypatch.setitem(tr.AUGMENT, "taped-5-tiny", ["taped", "5", "--minutes", "0.05"])
+    tiny = ("train.epochs=1", "train.batch_size=16", "train.epoch_samples=0", f"cache={tmp_path / 'cache'}")
+    monkeypatch.setitem(tr.RECIPES, "tiny", tr.Recipe("a tiny recipe", (*tiny, "train.lr=1.0e-3"),
+                                                      tubs=("taped-5-tiny",), only=20))
+    best = tr.train_recipe("tiny", 0, tmp_path, tmp_path / "tubs")
+    made = best.stat().st_mtime_ns
+    assert tr.train_recipe("tiny", 0, tmp_path, tmp_path / "tubs") == best and best.stat().st_mtime_ns == made
+    monkeypatch.setitem(tr.RECIPES, "tiny", tr.Recipe("a tiny recipe", (*tiny, "train.lr=2.0e-3"),
+                                                      tubs=("taped-5-tiny",), only=20))
+    with pytest.raises(SteerlabError, match=r"seed0 holds recipe tiny's run of another config \(train.lr: 0.001 -> "
+                                            r"0.002\); choose a new out directory or delete it"):
+        tr.train_recipe("tiny", 0, tmp_path, tmp_path / "tubs")
