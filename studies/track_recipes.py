@@ -216,6 +216,15 @@ RECIPES = {
     # the levers of recovery and racing on track_best (flip-mae, x 1.2 uncapped; each alone, without the floor)
     "best-no-drift": Recipe("track_best on the same tracks driven without drift-and-recover episodes (the "
                             "recovery the expert shows left out)", BEST, RACE_BEST, ROOMS_NO_DRIFT, only=240),
+    "best-no-drift-floor-0.2": Recipe("best-no-drift driven as track_best is (--throttle-floor 0.2)",
+                                      race={**RACE_BEST, "throttle_floor": 0.2}, starts="best-no-drift"),
+    # views (train.views through the fisheye, labelled by replay's return to the path, pursuing the point 0.3 s
+    # ahead as the expert does: docs/results/views.md) buying back the drift episodes' recovery
+    "best-no-drift-views": Recipe("best-no-drift + one view of every frame, its camera moved within +-0.15 m and "
+                                  "turned within +-15 degrees (train.views, train.recovery_s 0.3), driven as "
+                                  "best-floor-0.2", (*BEST, "train.views=[[[-0.15, 0.15], [-15, 15]]]",
+                                                     "train.recovery_s=0.3"),
+                                  {**RACE_BEST, "throttle_floor": 0.2}, ROOMS_NO_DRIFT, only=240),
     "best-dagger": Recipe("track_best + DAgger in the track world: 3 rounds of 4 minutes of rollouts on fresh tracks, "
                           "uncapped, the expert's labels at the car's speed, 2 epochs a round",
                           dagger_rounds(2), RACE_BEST, ROOMS, only=240, starts="flip-mae"),

@@ -3,7 +3,6 @@ recording's views are warped through its fisheye and labelled with the steering 
 (data/path.py), both checked against the truth the track world has: the frame its renderer draws at the moved
 camera and the expert's steering there."""
 
-import math
 from dataclasses import replace
 
 import numpy as np
@@ -11,21 +10,18 @@ import pytest
 
 from steerlab.cli import main
 from steerlab.data import fisheye
-from steerlab.data.car import CARS, VehicleState, throttle_speeds
+from steerlab.data.car import CARS, throttle_speeds
 from steerlab.data.dataset import compile_recording
-from steerlab.data.fisheye import DONKEY_FISHEYE
 from steerlab.data.path import human_path, view_steering
 from steerlab.data.preprocess import preprocess
 from steerlab.data.readers import open_recording
 from steerlab.data.views import View, lens_of
 from steerlab.errors import SteerlabError
-from steerlab.sim.track.look import Look
-from steerlab.sim.track.world import RacerPilot, TrackWorld
 from steerlab.train.config import load_config
 from steerlab.train.sources import prepare_dataset, view_labels
+from studies import view_truth
 
 CAR = CARS["donkey"]
-AHEAD = CAR.body.camera_forward
 
 
 def test_a_view_is_a_number_or_a_range_for_each_of_shift_and_turn():
@@ -52,43 +48,13 @@ def test_a_view_that_is_not_a_pair_of_numbers_or_ranges_is_refused(bad, says):
         View.parse_option(bad, "train.views[0]")
 
 
-def place(world, state, s, shift, yaw):
-    """The world's car with its camera `shift` m to the left of the camera of `state` and turned `yaw` degrees."""
-    c, sn = math.cos(state.psi), math.sin(state.psi)
-    cx, cy = state.x + AHEAD * c - shift * sn, state.y + AHEAD * sn + shift * c
-    psi = state.psi + math.radians(yaw)
-    world.smallcar.state = VehicleState(cx - AHEAD * math.cos(psi), cy - AHEAD * math.sin(psi), psi, state.v)
-    world.s = s
-
-
 @pytest.fixture(scope="module")
 def drive():
-    """The racing expert's drive of 20 s on track 21 (a matte floor; no drift), noise-free frames: the world and
-    every tick's (state, arc length, road-wheel angle, throttle), from 5 s on (the car at speed)."""
-    world = TrackWorld(21, look=Look(noise=0.0))
+    """The racing expert's drive of 20 s on track 21 (a matte floor; no drift), noise-free frames
+    (`studies.view_truth.drive`)."""
+    world, rows = view_truth.drive(21)
     assert world.renderer.room.gloss == 0  # a floor that mirrors nothing: what the floor shows does not move
-    pilot, rows = RacerPilot(world, 21, None), []
-    for _ in range(400):
-        c = pilot.step(None)
-        rows.append((world.state, world.s, c.steering, c.throttle))
-        world.step(c.steering, c.throttle)
-    return world, rows[100:]
-
-
-def floor_errors(world, state, s, shift, yaw):
-    """Mean absolute difference (0-255) of the warped frame from the frame rendered at the moved camera, and of
-    the unwarped frame, on the floor within 2.5 m and above the horizon, where the warp reads inside the frame."""
-    place(world, state, s, 0.0, 0.0)
-    a = world.render().astype(int)
-    place(world, state, s, shift, yaw)
-    b = world.render().astype(int)
-    warped = fisheye.shift_view(a.astype(np.uint8), DONKEY_FISHEYE, shift, yaw).astype(int)
-    mx, my = fisheye.view_maps(DONKEY_FISHEYE, shift, yaw)
-    inside = (mx >= 0) & (mx <= DONKEY_FISHEYE.width - 1) & (my >= 0) & (my <= DONKEY_FISHEYE.height - 1)
-    fwd, left, _, below = fisheye._floor_points(DONKEY_FISHEYE)
-    floor, sky = below & (np.hypot(fwd, left) < 2.5) & inside, ~below & inside
-    err = lambda x: np.abs(x - b).mean(-1)  # noqa: E731
-    return err(warped)[floor].mean(), err(a)[floor].mean(), err(warped)[sky].mean(), err(a)[sky].mean()
+    return world, rows
 
 
 @pytest.mark.parametrize("shift, yaw", [(0.12, 0.0), (-0.12, 0.0), (0.0, 12.0), (-0.1, -10.0)])
@@ -96,11 +62,12 @@ def test_a_fisheye_view_is_the_frame_the_renderer_draws_at_the_moved_camera_on_t
     """On a matte floor the warped frame is within half the unwarped frame's difference from the frame drawn there
     (what is left: the lens's vignette, which stays where it is, and the texture's filtering; a glossy floor's
     mirror and glare move with the camera and leave more: docs/results/views.md has the numbers). Above the
-    horizon a turn is exact for everything however near and a shift moves nothing (the walls are taken to be far away): not better than unwarped."""
+    horizon a turn is exact for everything however near and a shift moves nothing (the walls are taken to be far
+    away): not better than unwarped."""
     world, rows = drive
     for k in (20, 150, 260):
         state, s = rows[k][0], rows[k][1]
-        floor, floor0, sky, sky0 = floor_errors(world, state, s, shift, yaw)
+        floor, floor0, sky, sky0 = view_truth.floor_errors(world, state, s, shift, yaw)
         assert floor < 0.5 * floor0, (k, floor, floor0)
         if shift == 0:
             assert sky < 0.3 * sky0, (k, sky, sky0)
@@ -112,32 +79,17 @@ def test_a_fisheye_view_is_the_frame_the_renderer_draws_at_the_moved_camera_on_t
 
 def test_a_small_cars_view_label_is_the_track_experts_steering_at_the_moved_camera(drive):
     """The label of a view (replay's return to the path rebuilt from the recorded steering and throttle, as
-    training rebuilds it from a tub) against the expert's steering (`expert_controls`) with the car moved so: the
-    labels' corrections (the label less the recorded steering) follow the expert's (its steering there less its
-    steering on the path) when the return point lies as far ahead as the expert's own (0.3 s), and are gentler
-    for replay's 0.9 s."""
+    training rebuilds it from a tub) against the expert's steering (`expert_controls`) with the car moved so
+    (`studies.view_truth.label_agreement`): the labels' corrections follow the expert's when the return point lies
+    as far ahead as the expert's own (0.3 s), and are gentler for replay's 0.9 s."""
     world, rows = drive
+    agree = view_truth.label_agreement(world, rows, 0, (0.3, 0.9))
+    near, far = agree[0.3], agree[0.9]
+    assert near["r"] > 0.9 and 0.5 < near["slope"] < 1.2 and near["mae_rad"] < 0.4 * near["spread_rad"]
+    assert 0.1 < far["slope"] < 0.6 * near["slope"]
     wheel = np.array([r[2] for r in rows])
     t = np.arange(len(rows)) / world.fps
     path = human_path(wheel, throttle_speeds(np.array([r[3] for r in rows]), t, CAR), t, CAR)
-    rng = np.random.default_rng(0)
-    js = rng.choice(len(rows) - 40, 50, replace=False)
-    shift, yaw = np.zeros(len(rows)), np.zeros(len(rows))
-    shift[js], yaw[js] = rng.uniform(-0.15, 0.15, 50), rng.uniform(-15, 15, 50)
-    truth = []
-    for j in js:
-        state, s = rows[j][0], rows[j][1]
-        place(world, state, s, 0.0, 0.0)
-        on_path = world.expert_controls()[0]
-        place(world, state, s, shift[j], yaw[j])
-        truth.append(world.expert_controls()[0] - on_path)
-    truth = np.array(truth)
-    label = view_steering(path, shift, yaw, CAR, 0.3)[js] - wheel[js]
-    slope = np.polyfit(truth, label, 1)[0]
-    assert np.corrcoef(label, truth)[0, 1] > 0.9 and 0.5 < slope < 1.2
-    assert np.abs(label - truth).mean() < 0.4 * np.abs(truth).mean()
-    gentle = view_steering(path, shift, yaw, CAR)[js] - wheel[js]  # replay's 0.9 s
-    assert 0.1 < np.polyfit(truth, gentle, 1)[0] < 0.6 * slope
     on_path = view_steering(path, np.zeros(len(rows)), np.zeros(len(rows)), CAR, 0.3)
     assert np.allclose(on_path, wheel, atol=1e-12)  # on the path: the recorded steering itself
 

@@ -56,7 +56,8 @@ class TrainOptions(Options):
                                                help="e.g. [drift-out]: train on the recovery half of drift episodes")
     side_cameras: bool = option(False, help="side-camera recovery synthesis (paper 002 Eq. 3)")
     side_offset_m: float | None = option(None, Range(), help="side cameras' offset (default: the car's)")
-    recovery_s: float = option(1.0, POSITIVE, help="seconds in which a displaced car returns to its path")
+    recovery_s: float = option(1.0, POSITIVE, help="seconds in which a displaced car returns to its path (a small "
+                               "car's views: pursuing the point this many seconds of travel ahead on it)")
     steering_ratio: float | None = option(None, POSITIVE, help="for the recovery labels (default: the car's)")
     views: tuple[View, ...] = option(
         (), expected=VIEWS_EXPECTED,
