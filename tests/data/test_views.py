@@ -125,5 +125,26 @@ def test_training_warps_a_donkey_recordings_views_through_its_fisheye_and_labels
     assert np.ptp(shift) > 0.1 and np.ptp(yaw) > 10  # drawn for every frame
     labels = view_labels(prepare_dataset(cfg, progress=False, view=drawn), steering, drawn, cfg.train)
     assert np.all(np.abs(labels) <= 1.0)  # within the full lock
+
+
+@pytest.mark.parametrize("override, says", [
+    ("train.views=[[0.1, [2, 1]]]", r"train.views\[0\].yaw_deg must be a range \[lo, hi\] with lo <= hi"),
+    ("train.views=[[x, 0]]", r"train.views\[0\].shift_m must be a number or a range"),
+    ("train.views=[0.1]", r"train.views\[0\] must be a list of \[shift_m, yaw_deg\] pairs"),
+    ("train.calibration=calib.yaml", "train.calibration is the lens that train.views are warped through")])
+def test_a_config_with_views_that_cannot_be_drawn_or_a_lens_without_views_is_refused_in_one_line(override, says):
+    with pytest.raises(SteerlabError, match=says) as e:
+        load_config(None, ["data=x", override])
+    assert "\n" not in str(e.value)
+
+
+def test_a_calibration_for_a_pinhole_cameras_recording_is_refused_before_any_frame_is_warped(tmp_path):
+    from tests.inputs import sim_log
+
+    log = sim_log(tmp_path / "sim")
+    calib = tmp_path / "calib.yaml"
+    calib.write_text("image_size: [160, 120]\nK: [[80, 0, 79], [0, 80, 59], [0, 0, 1]]\nD: [0, 0, 0, 0]\n")
+    cfg = load_config(None, [f"data={log}", "train.views=[[0.1, 0]]", f"train.calibration={calib}",
+                             f"cache={tmp_path / 'cache'}"])
     with pytest.raises(SteerlabError, match="a fisheye calibration is for recordings of the 'donkey' camera"):
-        lens_of(type("Rec", (), {"geometry": "sim", "source": "x"})(), "calib.yaml")
+        prepare_dataset(cfg, progress=False, view=cfg.train.views[0])
