@@ -150,6 +150,19 @@ def tiny_recording(tmp_path_factory):
 
 
 @pytest.fixture(scope="session")
+def track_tub(tmp_path_factory):
+    """3.6 s of the racing expert (no drift episodes) on track 5 of the track world, as a tub (read, never written,
+    by the tests that share it)."""
+    from steerlab.cli import main
+
+    def make(folder):
+        assert main(["sim", "record", "--world", "track", "--seed", "5", "--minutes", "0.06", "--no-drift",
+                     "--out", str(folder / "tub")]) == 0
+
+    return once_per_session(tmp_path_factory, "track-tub", make) / "tub"
+
+
+@pytest.fixture(scope="session")
 def tiny_checkpoint(tiny_recording, tmp_path_factory):
     """PilotNet trained for one epoch on the tiny recording: a real checkpoint for the closed-loop tests."""
     from steerlab.train.config import load_config

@@ -8,7 +8,6 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from steerlab.cli import main
 from steerlab.data import fisheye
 from steerlab.data.car import CARS, throttle_speeds
 from steerlab.data.dataset import compile_recording
@@ -92,14 +91,6 @@ def test_a_small_cars_view_label_is_the_track_experts_steering_at_the_moved_came
     path = human_path(wheel, throttle_speeds(np.array([r[3] for r in rows]), t, CAR), t, CAR)
     on_path = view_steering(path, np.zeros(len(rows)), np.zeros(len(rows)), CAR, 0.3)
     assert np.allclose(on_path, wheel, atol=1e-12)  # on the path: the recorded steering itself
-
-
-@pytest.fixture(scope="module")
-def track_tub(tmp_path_factory):
-    out = tmp_path_factory.mktemp("views") / "tub"
-    assert main(["sim", "record", "--world", "track", "--seed", "5", "--minutes", "0.06", "--no-drift",
-                 "--out", str(out)]) == 0
-    return out
 
 
 def test_training_warps_a_donkey_recordings_views_through_its_fisheye_and_labels_them_by_replays_return(

@@ -131,15 +131,6 @@ def test_speed_from_a_constant_throttle_approaches_the_small_cars_steady_state()
     assert throttle_speeds(np.full(5, 0.5), t[:5], DONKEY) == pytest.approx(np.full(5, 2.43188), abs=1e-4)
 
 
-@pytest.fixture(scope="module")
-def track_tub(tmp_path_factory):
-    """3.6 s of the racing expert (no drift episodes) in the track world, as a tub."""
-    out = tmp_path_factory.mktemp("track") / "tub"
-    assert main(["sim", "record", "--world", "track", "--seed", "5", "--minutes", "0.06", "--no-drift",
-                 "--out", str(out)]) == 0
-    return out
-
-
 def open_tub(path, frames=None):
     return Source(str(path), frames, None, {"full_lock_deg": "25"}).open()
 
