@@ -73,10 +73,11 @@ UNIT = r"(?:%|x|ms|s|min|h|km|m|MB|GB|KB|rad|deg|frames/s|m/s|records/s)"
 QUANTITY = re.compile(rf"(?<![\w.,])(x?)(\d+(?:,\d{{3}})*(?:\.\d+)?)(?!\.?\d)( ?{UNIT}(?![\w/]))?")
 
 
-def quantities(text: str) -> set[str]:
+def quantities(text: str, integers: bool = False) -> set[str]:
     """The measured numbers of a Markdown text's prose (not its code): each with a decimal point, a unit or a
-    leading x, written without thousands commas and spaces ('1051frames/s', 'x1.39', '0.1500'); version numbers
-    (after Python, torch, donkeycar, ...) are not measurements."""
+    leading x, written without thousands commas and spaces ('1051frames/s', 'x1.39', '0.1500'), and with
+    `integers` every bare whole number of two digits or more too (a count: '110'); version numbers (after Python,
+    torch, donkeycar, ...) are not measurements."""
     text = _prose(text)
     out = set()
     for m in QUANTITY.finditer(text):
@@ -84,7 +85,7 @@ def quantities(text: str) -> set[str]:
         if VERSIONED.search(text[max(0, m.start() - 12): m.start()]):
             continue
         number = number.replace(",", "")
-        if x or unit or "." in number:
+        if x or unit or "." in number or (integers and len(number) > 1):
             out.add(x + number + (unit or "").strip())
     return out
 
@@ -92,11 +93,33 @@ def quantities(text: str) -> set[str]:
 def test_quantities_are_read_as_written():
     text = "1,051 frames/s and x1.39, 0.1500 rad; `3.5 s` in code; donkeycar 5.2 on Python 3.11;\n16 tubs, 4.6.1"
     assert quantities(text) == {"1051frames/s", "x1.39", "0.1500rad"}
+    assert quantities(text, integers=True) == {"1051frames/s", "x1.39", "0.1500rad", "16"}
 
 
-def test_every_number_of_the_readme_is_one_of_the_results():
-    """A number the README claims (a time, a ratio, an error, a share) is measured in docs/RESULTS.md or its pages,
-    written the same way there."""
-    results = set().union(*(quantities(p.read_text()) for p in RESULTS))
-    missing = sorted(quantities((ROOT / "README.md").read_text()) - results)
-    assert not missing, f"README numbers found nowhere in docs/RESULTS.md or docs/results/: {missing}"
+def claims(text: str) -> list[tuple[set[str], list[Path]]]:
+    """Each paragraph of a Markdown text with numbers in it: its numbers (counts included) and the results pages it
+    links (docs/RESULTS.md and every page when it links none)."""
+    out = []
+    for paragraph in re.split(r"\n\s*\n", text):
+        numbers = quantities(paragraph, integers=True)
+        if numbers:
+            links = sorted({ROOT / link for link in re.findall(r"\]\((docs/[^)#\s]+\.md)", paragraph)})
+            out.append((numbers, [p for p in links if p in RESULTS] or RESULTS))
+    return out
+
+
+def test_every_number_of_the_readme_is_measured_on_the_page_its_paragraph_links():
+    """A number the README claims (a time, a ratio, an error, a share, a count) is measured, written the same way,
+    on a results page its paragraph links (docs/RESULTS.md or any page where the paragraph links none)."""
+    missing = []
+    for numbers, pages in claims((ROOT / "README.md").read_text()):
+        found = set().union(*(quantities(p.read_text(), integers=True) for p in pages))
+        missing += [(n, [p.name for p in pages]) for n in sorted(numbers - found)]
+    assert not missing, f"README numbers not on the pages their paragraphs link: {missing}"
+
+
+def test_a_readme_number_on_another_page_than_its_paragraph_links_is_missing():
+    page = next(p for p in RESULTS if p.name == "install.md")
+    text = "Raced: 58.6 % clean ([install](docs/results/install.md)).\n\nElsewhere: 58.6 % again."
+    (numbers, pages), (_, everywhere) = claims(text)
+    assert numbers == {"58.6%"} and pages == [page] and everywhere == RESULTS
