@@ -5,6 +5,8 @@ scripts apart: no script edits sys.path, a study imports steerlab and `studies.c
 import ast
 from pathlib import Path
 
+import pytest
+
 from studies import common
 from studies.common import ROOT
 
@@ -99,3 +101,25 @@ def test_the_expert_is_recorded_on_every_place_of_a_suite_once(tmp_path):
     assert (first / "minutes.json").stat().st_mtime_ns == stamp and (tmp_path / "replay" / "country-9101").exists()
     common.record_expert("road", tmp_path, 0.02)  # other minutes: recorded anew, the old replays deleted
     assert len(open_recording(first)) == 24 and not (tmp_path / "replay" / "country-9101").exists()
+
+
+def test_the_lane_head_study_bins_by_the_true_pose_and_scores_against_the_spread_there():
+    """`studies.lane_head.by_bin` on hand-made values: a head that reads the offset exactly and the heading not at all
+    (it answers 0) has offset MAE 0 and heading MAE the bin's mean |heading|, and a bin's spread is the standard
+    deviation of its true values; the last bin holds its upper edge."""
+    import math
+
+    import numpy as np
+
+    from studies.lane_head import by_bin
+
+    true = np.array([[0.01, 0.1, 0.0], [0.03, -0.3, 0.0], [0.3, 0.2, 1.0], [0.45, -0.4, 1.0]])
+    predicted = true * np.array([1.0, 0.0, 1.0])
+    rows = by_bin(true, predicted, 0, (0.0, 0.5, 1.0), 0.45)  # |offset| over a half lane of 0.45 m
+    assert [(r["bin"], r["n"]) for r in rows] == [("0-0.5", 2), ("0.5-1", 2)]
+    near, far = rows
+    assert near["offset_mae_cm"] == 0 and far["offset_mae_cm"] == 0
+    assert near["heading_mae_deg"] == pytest.approx(math.degrees(0.2))  # (0.1 + 0.3) / 2
+    assert far["heading_mae_deg"] == pytest.approx(math.degrees(0.3))
+    assert near["offset_sd_cm"] == pytest.approx(1.0)  # std of 0.01 and 0.03 m
+    assert far["heading_sd_deg"] == pytest.approx(math.degrees(0.3))  # std of 0.2 and -0.4
