@@ -38,13 +38,22 @@ def test_a_view_is_a_number_or_a_range_for_each_of_shift_and_turn():
     assert "#1" in View(drawn.shift_m, drawn.yaw_deg, draw=1).name and fixed.name == "+0.1m-5deg"
 
 
-@pytest.mark.parametrize("bad, says", [([0.5], "a list of \\[shift_m, yaw_deg\\] pairs"),
-                                       ([0.1, 2, 3], "pairs"), ("0.1", "pairs"),
-                                       ([[0.2, -0.2], 0], "lo <= hi"), ([0, [1, 2, 3]], "a number or a range"),
-                                       (["left", 0], "a number or a range"), ([0, 95], "within \\(-90, 90\\)")])
+@pytest.mark.parametrize("bad, says", [([0.5], "must be a \\[shift_m, yaw_deg\\] pair"),
+                                       ([0.1, 2, 3], "pair"), ("0.1", "pair"),
+                                       ([[0.2, -0.2], 0], "lo <= hi"),
+                                       ([0, [1, 2, 3]], "yaw_deg must be a number or a range \\[lo, hi\\] of two "
+                                                        "numbers, got \\[1, 2, 3\\]"),
+                                       (["left", 0], "a number or a range"), ([0, 95], "within \\+-45 degrees"),
+                                       ([5, 0], "shift_m .* within \\+-2 m"), ([[-3, 0], 0], "within \\+-2 m")])
 def test_a_view_that_is_not_a_pair_of_numbers_or_ranges_is_refused(bad, says):
     with pytest.raises(SteerlabError, match=says):
         View.parse_option(bad, "train.views[0]")
+
+
+@pytest.mark.parametrize("shift, yaw", [((0.2, 0.1), (0, 0)), (0.1, (0, 0)), ((0, 0), (50, 50)), (("a", 1), (0, 0))])
+def test_a_view_made_in_python_is_checked_as_one_from_a_config(shift, yaw):
+    with pytest.raises(SteerlabError, match="a view's (shift_m|yaw_deg) must be a range"):
+        View(shift, yaw)
 
 
 @pytest.fixture(scope="module")
@@ -121,7 +130,7 @@ def test_training_warps_a_donkey_recordings_views_through_its_fisheye_and_labels
 @pytest.mark.parametrize("override, says", [
     ("train.views=[[0.1, [2, 1]]]", r"train.views\[0\].yaw_deg must be a range \[lo, hi\] with lo <= hi"),
     ("train.views=[[x, 0]]", r"train.views\[0\].shift_m must be a number or a range"),
-    ("train.views=[0.1]", r"train.views\[0\] must be a list of \[shift_m, yaw_deg\] pairs"),
+    ("train.views=[0.1]", r"train.views\[0\] must be a \[shift_m, yaw_deg\] pair"),
     ("train.calibration=calib.yaml", "train.calibration is the lens that train.views are warped through")])
 def test_a_config_with_views_that_cannot_be_drawn_or_a_lens_without_views_is_refused_in_one_line(override, says):
     with pytest.raises(SteerlabError, match=says) as e:
@@ -139,3 +148,19 @@ def test_a_calibration_for_a_pinhole_cameras_recording_is_refused_before_any_fra
                              f"cache={tmp_path / 'cache'}"])
     with pytest.raises(SteerlabError, match="a fisheye calibration is for recordings of the 'donkey' camera"):
         prepare_dataset(cfg, progress=False, view=cfg.train.views[0])
+
+
+@pytest.mark.parametrize("lock", [25, 40])
+def test_a_small_cars_view_label_corrects_the_target_by_the_recorded_path_within_the_readers_full_lock(
+        track_tub, tmp_path, lock):
+    """The path is rebuilt from the recorded steering whatever the target is (a target shifted ahead, a teacher's):
+    a view from the recorded camera itself keeps every target exactly, and the car's full lock is the reader's
+    (a lock of 40 degrees does not cap the labels at 25 / 40 of the servo's range)."""
+    cfg = load_config(None, [f"data={track_tub}", "model.name=donkey-linear", f"cache={tmp_path / 'cache'}",
+                             f"reader.full_lock_deg={lock}", "train.views=[[0, 0]]"])
+    view = cfg.train.views[0]
+    warped = prepare_dataset(cfg, progress=False, view=view)
+    target = np.clip(warped.steering[::-1] * 3, -1, 1)  # another target than the recorded steering, at full lock
+    assert np.abs(target).max() == 1.0
+    assert np.allclose(view_labels(warped, target, view, cfg.train), target, atol=1e-6)
+    assert np.array_equal(warped.labels["view_shift_m"], np.zeros(len(warped)))  # the draws the frames were made at

@@ -234,7 +234,7 @@ def test_config_errors(tmp_path):
     cfg = load_config(None, ["data=x", "train.epochs=3", "split.train=0:10", "split.val=10:20", "train.lr=1e-4"])
     assert cfg.train.epochs == 3 and cfg.train.batch_size == 100
     assert cfg.train.lr == 1e-4 and isinstance(cfg.train.lr, float)  # YAML 1.1 reads 1e-4 as text: parsed once
-    with pytest.raises(SteerlabError, match=r"train.views\[0\] must be a list of \[shift_m, yaw_deg\] pairs"):
+    with pytest.raises(SteerlabError, match=r"train.views\[0\] must be a \[shift_m, yaw_deg\] pair"):
         load_config(None, ["data=x", "train.views=[[0.5]]"])
     assert cfg.split.train == "0:10"
     (tmp_path / "c.yaml").write_text("data: x\nsplit: {train: 10:20, val: 20:30}\n")

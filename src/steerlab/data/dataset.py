@@ -30,7 +30,7 @@ from steerlab.data.geometry import CAMERAS
 from steerlab.data.modalities import frame_difference, optical_flow
 from steerlab.data.preprocess import PreprocessConfig, preprocess
 from steerlab.data.recording import Recording
-from steerlab.data.views import View, lens_name, warp
+from steerlab.data.views import View, lens_name, lens_of, warp
 from steerlab.errors import DataError, warn
 from steerlab.locks import pid_alive, waiting_lock
 
@@ -112,6 +112,8 @@ def compile_recording(rec: Recording, cfg: PreprocessConfig, cache_dir: str | Pa
     happens when batches are gathered, so the cache holds single frames whatever `cfg.stack` is; the returned
     dataset carries `cfg` itself."""
     user_cfg, cfg = cfg, replace(cfg, stack=1)
+    if view is not None and lens is None:
+        lens = lens_of(rec)  # the donkey camera's fisheye; None for a pinhole camera
     name = camera if view is None else f"{camera}@{view.name}" + (f"-lens{lens_name(lens)}" if lens else "")
     key = f"{rec.name}-{name}-{source_key(rec, camera)}-{cfg.key()}"
     final = cache_root(cache_dir) / key
@@ -221,7 +223,8 @@ def _build(rec: Recording, cfg: PreprocessConfig, camera: str, view: View | None
         for a in arrays.values():
             a.flush()
         arrays.clear()  # close the memory maps before the folder is renamed
-        np.savez(tmp / "labels.npz", **_labels(rec))
+        offsets = {} if view is None else {"view_shift_m": shifts, "view_yaw_deg": yaws}  # the frames' own draws
+        np.savez(tmp / "labels.npz", **_labels(rec), **offsets)
         meta = {"preprocess": cfg.as_dict(), "source": str(rec.source), "name": rec.name, "camera": camera,
                 "view": None if view is None else view.as_dict(), "lens": None if lens is None else lens_name(lens),
                 "frames": n, "convention": rec.convention.as_dict(), "geometry": rec.geometry,

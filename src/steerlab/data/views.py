@@ -5,8 +5,8 @@ A view is [shift_m, yaw_deg]: the camera moved `shift_m` to the left and turned 
 number or a range [lo, hi] drawn uniformly for every frame (`View.offsets`: the same draws every time, and another
 draw for every view of the list, so that a list of N equal ranges gives N views of every frame). Below the horizon
 everything is taken to lie on the flat floor or road; above it, infinitely far away (it only turns): walls, cars
-and trees beside the road are warped as if they were at the horizon, so they slide less than they should for a
-shift (a turn moves them right).
+and trees beside the road are warped as if they were at the horizon: a turn moves them as it should, a shift not
+at all. A view shifts at most MAX_SHIFT_M and turns at most MAX_YAW_DEG either way.
 
 The warp: a pinhole camera's frames by `geometry.shift_view`; the donkey camera's by `fisheye.shift_view` through
 its fisheye (`lens_of`: the one a recording carries, the track world's, else the 160-degree Raspberry Pi camera's
@@ -28,6 +28,8 @@ from steerlab.options import value_of
 
 FISHEYE_GEOMETRY = "donkey"  # the camera geometry whose lens is a fisheye
 EXPECTED = "a list of [shift_m, yaw_deg] pairs, each a number or a range [lo, hi]"
+MAX_SHIFT_M = 2.0   # half a full-size car's lane: a view farther off shows mostly what the frame does not hold
+MAX_YAW_DEG = 45.0  # a camera turned further sees mostly what the frame does not show
 
 
 @dataclass(frozen=True)
@@ -39,21 +41,37 @@ class View:
     yaw_deg: tuple[float, float]
     draw: int = 0
 
+    def __post_init__(self):
+        for name, limit, unit in (("shift_m", MAX_SHIFT_M, "m"), ("yaw_deg", MAX_YAW_DEG, "degrees")):
+            r = getattr(self, name)
+            if (not isinstance(r, tuple) or len(r) != 2
+                    or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in r)):
+                raise SteerlabError(f"a view's {name} must be a range (lo, hi) of two numbers, got {r!r}")
+            if not -limit <= r[0] <= r[1] <= limit:
+                raise SteerlabError(f"a view's {name} must be a range [lo, hi] with lo <= hi within +-{limit:g} "
+                                    f"{unit}, got {list(r)}")
+
     @classmethod
     def parse_option(cls, value, where: str) -> View:
+        if isinstance(value, View):
+            return value
         if not isinstance(value, (list, tuple)) or len(value) != 2:
-            raise SteerlabError(f"{where} must be {EXPECTED}, got {value!r}")
+            raise SteerlabError(f"{where} must be a [shift_m, yaw_deg] pair, each a number or a range [lo, hi], got "
+                                f"{value!r}")
         ranges = []
         for name, v in zip(("shift_m", "yaw_deg"), value):
-            lo, hi = (v, v) if not isinstance(v, (list, tuple)) else (v if len(v) == 2 else (None, None))
+            if isinstance(v, (list, tuple)) and len(v) != 2:
+                raise SteerlabError(f"{where}.{name} must be a number or a range [lo, hi] of two numbers, got {v!r}")
+            lo, hi = (v, v) if not isinstance(v, (list, tuple)) else v
             lo, hi = (value_of(float, x, f"{where}.{name}", expected=f"a number or a range [lo, hi] ({EXPECTED})")
                       for x in (lo, hi))
             if lo > hi:
                 raise SteerlabError(f"{where}.{name} must be a range [lo, hi] with lo <= hi, got {v!r}")
             ranges.append((lo, hi))
-        if not all(-90 < x < 90 for x in ranges[1]):
-            raise SteerlabError(f"{where}.yaw_deg must lie within (-90, 90) degrees, got {value[1]!r}")
-        return cls(*ranges)
+        try:
+            return cls(*ranges)
+        except SteerlabError as e:
+            raise SteerlabError(f"{where}: {e}") from None
 
     def as_dict(self) -> list:
         return [lo if lo == hi else [lo, hi] for lo, hi in (self.shift_m, self.yaw_deg)]

@@ -155,6 +155,9 @@ class TrainConfig(Options):
             raise SteerlabError("train.lane_weight: the lane values are the centre camera's, not those of side "
                                 "cameras or virtual views: set train.side_cameras and train.views off, or "
                                 "train.lane_weight to 0")
+        if not all(isinstance(v, View) for v in t.views):  # made in Python: each through the config's parse
+            object.__setattr__(t, "views", tuple(View.parse_option(v, f"train.views[{i}]")
+                                                 for i, v in enumerate(t.views)))
         if t.calibration is not None and not t.views:
             raise SteerlabError("train.calibration is the lens that train.views are warped through: set train.views "
                                 "too, or leave the calibration out")

@@ -42,8 +42,8 @@ from steerlab.train.config import LOSSES, TrainConfig, another_config, differenc
 from steerlab.train.distributed import Ranks, setup, wrap
 from steerlab.train.host import keep_freed_memory
 from steerlab.train.log import METRIC, EpochLog
-from steerlab.train.sources import (check_camera, check_extra_data, main_recording, prepare_dataset, steering_ahead,
-                                    throttle_learned, training_sources, usable_frames)
+from steerlab.train.sources import (check_camera, check_extra_data, check_views, main_recording, prepare_dataset,
+                                    steering_ahead, throttle_learned, training_sources, usable_frames)
 
 
 def _mean_error(error: torch.Tensor, loss: str) -> torch.Tensor:
@@ -175,6 +175,7 @@ def train(cfg: TrainConfig, progress: bool = True, on_epoch=None) -> dict:
     rec = main_recording(cfg)
     check_camera(cfg, rec)  # before the run folder is made
     check_extra_data(cfg, rec)
+    check_views(cfg, rec)
     car = car_of(rec.geometry)
     cfg = cfg.for_car(car)
     if not ranks.main:  # rank 0 holds the lock for all ranks

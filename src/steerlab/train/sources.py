@@ -5,6 +5,7 @@ their data with the same functions as `train`."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 from functools import partial
 
@@ -18,7 +19,7 @@ from steerlab.data.preprocess import CROP_PRESETS
 from steerlab.data.readers import open_recording
 from steerlab.data.recording import Recording, SteeringConvention
 from steerlab.data.views import FISHEYE_GEOMETRY, View, lens_of
-from steerlab.errors import SteerlabError
+from steerlab.errors import DataError, SteerlabError
 from steerlab.train.config import TrainConfig, TrainOptions
 
 
@@ -49,6 +50,7 @@ def check_extra_data(cfg: TrainConfig, main: Recording) -> None:
             raise SteerlabError(f"extra_data {path} holds frames of the {rec.geometry!r} camera and the config's "
                                 f"data of the {main.geometry!r} camera: a model sees one camera; give recordings of "
                                 "one camera geometry")
+        check_views(cfg, rec, main.convention)
 
 
 def prepare_dataset(cfg: TrainConfig, progress: bool = True, camera: str | None = None, view: View | None = None,
@@ -110,37 +112,55 @@ def recovery_labels(ds: CompiledDataset, steering: np.ndarray, shift_m, yaw_deg,
 
 def view_labels(ds: CompiledDataset, steering: np.ndarray, view: View, t: TrainOptions,
                 convention: SteeringConvention | None = None) -> np.ndarray:
-    """The steering that brings the car of every frame of a view back to the recorded path: for the donkey
-    camera (a small car), the label replay gives a car there (`path.view_steering`: the recorded path rebuilt from
-    the steering and the speed, or from the throttle through the small car's motor model as replay does, and pure
-    pursuit with the car's wheelbase of the point `recovery_s` of travel ahead on it), limited to the car's full
-    lock; for other cameras paper 002's Eq. 3 (`recovery_labels`, returning within `recovery_s`). `convention`:
-    the steering's (default the recording's; an extra recording's is the config's data's, whose reader options
-    give the full lock)."""
-    shift, yaw = view.offsets(len(ds))
+    """The targets of a view: the frame's target `steering` plus the correction that brings its car back to the
+    recorded path. For the donkey camera (a small car) the correction of `path.view_steering`: the path rebuilt
+    from the recorded steering and the speed (from the throttle through the small car's motor model where none is
+    recorded, as replay does), pure pursuit with the car's wheelbase of the point `recovery_s` of travel ahead on
+    it (replay's own return pursues 0.9 s ahead), the result within the full lock; for other cameras paper 002's
+    Eq. 3 (`recovery_labels`, returning within `recovery_s`). The frames' offsets are the ones their compile drew
+    (`view_shift_m`, `view_yaw_deg`). `convention`: the steering's (default the recording's; an extra recording's is
+    the config's data's, whose reader options give the full lock, which is the car's)."""
+    labels = ds.labels
+    shift, yaw = (labels["view_shift_m"], labels["view_yaw_deg"]) if "view_shift_m" in labels else view.offsets(len(ds))
     if ds.meta["geometry"] != FISHEYE_GEOMETRY:
         return recovery_labels(ds, steering, shift, yaw, t)
-    car, labels = CARS[FISHEYE_GEOMETRY], ds.labels
     conv = convention or SteeringConvention(**ds.meta["convention"])
     try:
-        wheel = conv.to_road_wheel_left(steering, t.steering_ratio)
+        recorded = conv.to_road_wheel_left(labels["steering"], t.steering_ratio)
+        target = conv.to_road_wheel_left(steering, t.steering_ratio)
     except SteerlabError as e:
         raise SteerlabError(f"{ds.meta['source']}: train.views of a small car rebuild its path from the steering: "
                             f"{e}") from None
+    car = CARS[FISHEYE_GEOMETRY]
+    if conv.full_lock is not None:  # the reader's full lock is this car's
+        car = replace(car, full_lock_deg=math.degrees(conv.full_lock))
     times = labels["timestamps_ns"] / 1e9
     out = np.empty(len(ds))
     seg = labels["segment"]
     for a, b in zip(np.flatnonzero(np.diff(seg, prepend=-1)), [*np.flatnonzero(np.diff(seg)) + 1, len(seg)]):
-        if "speed" in labels:
-            speed = labels["speed"][a:b]
-        elif "throttle" in labels:
-            speed = throttle_speeds(labels["throttle"][a:b], times[a:b], car)
-        else:
-            raise SteerlabError(f"{ds.meta['source']} records neither speed nor throttle: train.views of a small car "
-                                "need the speed the car drove at (from the throttle, as replay takes it)")
-        path = human_path(wheel[a:b], speed, times[a:b], car)
-        out[a:b] = view_steering(path, shift[a:b], yaw[a:b], car, t.recovery_s)
+        speed = labels["speed"][a:b] if "speed" in labels else throttle_speeds(labels["throttle"][a:b], times[a:b],
+                                                                                 car)
+        path = human_path(recorded[a:b], speed, times[a:b], car)
+        out[a:b] = target[a:b] + view_steering(path, shift[a:b], yaw[a:b], car, t.recovery_s) - path.wheel
     return conv.from_road_wheel_left(np.clip(out, -car.full_lock, car.full_lock), t.steering_ratio).astype(np.float32)
+
+
+def check_views(cfg: TrainConfig, rec: Recording, convention: SteeringConvention | None = None) -> None:
+    """What views of a recording need, refused before any frame is compiled: its lens (`views.lens_of`: a
+    calibration that reads and fits), and for a small car's recording the speed or throttle and a steering that
+    becomes an angle (the reader's full lock) to rebuild its path from."""
+    if not cfg.train.views:
+        return
+    lens_of(rec, cfg.train.calibration)
+    if rec.geometry != FISHEYE_GEOMETRY:
+        return
+    if rec.speed is None and rec.throttle is None:
+        raise DataError(rec.source, "records neither speed nor throttle: train.views of a small car need the speed "
+                                    "it drove at (from the throttle, as replay takes it); train without views")
+    try:
+        (convention or rec.convention).to_road_wheel_left(0.0, cfg.train.steering_ratio or 1.0)
+    except SteerlabError as e:
+        raise DataError(rec.source, f"train.views of a small car rebuild its path from the steering: {e}") from None
 
 
 def steering_ahead(ds: CompiledDataset, seconds: float, steering: np.ndarray | None = None) -> np.ndarray:
