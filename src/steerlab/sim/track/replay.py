@@ -25,10 +25,11 @@ from typing import Literal
 import numpy as np
 
 from steerlab.data.car import CARS, throttle_speeds
-from steerlab.data.fisheye import DONKEY_FISHEYE, FisheyeCamera, load_calibration, shift_view
+from steerlab.data.fisheye import DONKEY_FISHEYE, FisheyeCamera, shift_view
 from steerlab.data.geometry import CAMERAS
 from steerlab.data.path import HumanPath
 from steerlab.data.recording import Recording
+from steerlab.data.views import lens_of
 from steerlab.errors import DataError, SteerlabError
 from steerlab.options import Options, SPEED, WORKERS, option
 from steerlab.pilot import smoothing_option
@@ -74,9 +75,7 @@ class TrackReplayOptions(Options):
         if self.speed is None and rec.throttle is None:
             raise DataError(rec.source, "records no throttle to take the speed from: give one with steerlab replay "
                                         "--speed M/S")
-        fisheye = rec.fisheye or DONKEY_FISHEYE
-        if self.calibration is not None:
-            fisheye = load_calibration(self.calibration, fisheye)
+        fisheye = lens_of(rec, self.calibration)
         mount = {"mount_height": self.mount_height, "pitch_deg": self.pitch}
         fisheye = replace(fisheye, **{k: v for k, v in mount.items() if v is not None})
         source = ("given (--speed)" if self.speed is not None else
