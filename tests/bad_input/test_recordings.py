@@ -145,7 +145,22 @@ BAD_INPUTS = {
     "a label file whose time goes back": (
         _compile(lambda t: (tear(ch2(t / "ch2") / "labels.csv", 4, "1020000000,0.0,0\n"), t / "ch2")[1]),
         "labels.csv, row 4: the time goes back (1020000000 ns after 1050000000 ns in the row before)"),
+    # j) views of a tub refused before any frame is compiled or the run folder made
+    "views of a tub whose steering has no full lock": (
+        lambda t, s: ["train", str(config(t, tub(t / "tub"), views=[[0.1, 0]])), "model.name=donkey-linear"],
+        "train.views of a small car rebuild its path from the steering: normalized steering needs the car's "
+        "full-lock angle"),
+    "views of a tub through a calibration of another size": (
+        lambda t, s: ["train", str(config(t, tub(t / "tub"), views=[[0.1, 0]], calibration=str(_calibration(t)))),
+                      "model.name=donkey-linear", "reader.full_lock_deg=25"],
+        "calib.yaml: calibrated at 640x480, but the camera takes 160x120 frames"),
 }
+
+
+def _calibration(tmp_path):
+    path = tmp_path / "calib.yaml"
+    path.write_text("image_size: [640, 480]\nK: [[320, 0, 319], [0, 320, 239], [0, 0, 1]]\nD: [0, 0, 0, 0]\n")
+    return path
 
 
 @pytest.mark.parametrize("case", BAD_INPUTS)
