@@ -235,18 +235,21 @@ def test_postgres_killed_worker_trial_is_failed_and_retried(postgres, tmp_path, 
     a_out, b_out = tmp_path / "a", tmp_path / "b"
     hold = Hold(tmp_path)
     a = worker(tune_config(tmp_path, tiny_recording, a_out, epochs=2), url, "s", 3, "--no-pruning", seed=0, hold=hold)
-    b = worker(tune_config(tmp_path, tiny_recording, b_out, epochs=2), url, "s", 3, "--no-pruning", seed=1)
-    killed = None
+    killed, b = None, None
     try:
         if hold.wait(a):  # until a has trained an epoch (and holds), however busy
             [number] = trial_folders(a_out)  # the trial worker a trains
             killed = load(url, "s").trials[number]
+            # b starts only now: started with a, on a busy machine it could run the study's three trials before a
+            # had imported torch, and a would end without training one
+            b = worker(tune_config(tmp_path, tiny_recording, b_out, epochs=2), url, "s", 3, "--no-pruning", seed=1)
             a.send_signal(signal.SIGKILL)  # after its first epoch, one to go
     finally:
         if a.poll() is None:
             a.send_signal(signal.SIGKILL)
         a.wait()
-        assert b.wait(timeout=120) == 0, b.errors()
+        if b is not None:
+            assert b.wait(timeout=120) == 0, b.errors()
     assert killed is not None and a.returncode == -signal.SIGKILL, f"worker a never trained an epoch: {a.errors()}"
     assert killed.state == TrialState.RUNNING and killed.user_attrs["epochs_run"] == 1
     study = load(url, "s")
