@@ -63,6 +63,18 @@ def pytest_configure(config):
             server._forkserver_pid = server._forkserver_address = server._forkserver_alive_fd = None
 
 
+def pytest_report_header(config):
+    """The CPU the suite runs on (tolerances must hold on every CPU: a failure says which one it was seen on)."""
+    from steerlab.cpu import instruction_sets, model_name
+
+    limits = ", ".join(f"{k}={os.environ[k]}" for k in ("ATEN_CPU_CAPABILITY", "ONEDNN_MAX_CPU_ISA") if k in os.environ)
+    return f"cpu: {model_name()} ({instruction_sets()}){'; ' + limits if limits else ''}"
+
+
+def pytest_terminal_summary(terminalreporter):
+    terminalreporter.write_line(pytest_report_header(terminalreporter.config))
+
+
 def _run_cli(argv: list[str], env: dict, cwd: str, stderr: str, prelude: str) -> None:
     """In a forked worker: the caller's environment and folder, stderr into a file, `prelude` run first."""
     import torch

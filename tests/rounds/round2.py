@@ -19,7 +19,9 @@ from tests.rounds.places import name_of
 F, W, S = "{fx}", "{work}", "{shared}"
 CK, SIM, TUB, CH2, REC = f"{F}/a.pt", f"{F}/sim", f"{F}/tub", f"{F}/ch2", f"{F}/rec"
 JPG = f"{SIM}/IMG/center_2020_01_01_00_00_00_000.jpg"  # the driving log's first frame
-CUT, RUN_CUT = f"{F}/rec-cut", f"{F}/run-cut"  # what a killed `sim record` and a killed `train` leave (`setup`)
+# what a killed `sim record` and a killed `train` leave (`setup`): a recording is written into a hidden `.NAME.part`
+# folder and renamed to NAME once whole (data/writer.py), so a killed one leaves only that
+CUT, RUN_CUT = f"{F}/.rec-cut.part", f"{F}/run-cut"
 REAL_SIM, REAL_CH2, REAL_TUBS = f"{S}/udacity-sim-track1", f"{S}/udacity-ch2", f"{S}/donkeycar"
 LONG = f"{W}/long.yaml"  # a config whose training and tuning last (`setup`)
 CALIBRATION = {"image_size": [160, 120], "K": [[81.0, 0.0, 80.0], [0.0, 80.0, 61.0], [0.0, 0.0, 1.0]],
@@ -114,7 +116,9 @@ ON_WHAT_IS_LEFT = [["evaluate", CK, "--data", CUT, "--out", f"{W}/ev-cut"], ["co
                    ["ensemble", RUN_CUT, CK, "--out", f"{W}/e-run.pt"],
                    ["evaluate", f"{RUN_CUT}/best.pt", "--data", SIM, "--out", f"{W}/ev-best"]]
 AGAIN = [  # name, what the killed run left (copied), the command run again in the copy ({copy}), what may refuse
-    ("sim record again over a killed record's folder", CUT, "rec-again",
+    ("sim record again where a record was killed", CUT, ".rec-again.part",
+     ["sim", "record", "--minutes", "0.01", "--out", f"{W}/rec-again"], False),
+    ("sim record again into a killed record's folder", CUT, "rec-again2",
      ["sim", "record", "--minutes", "0.01", "--out", "{copy}"], True),
     ("train again into a killed train's folder", RUN_CUT, "run-again", ["train", f"{F}/c.yaml", "out={copy}"], True),
     ("train again with the killed train's own config", RUN_CUT, "run-again2",
@@ -259,7 +263,9 @@ def setup():
     made(F, "steering_wheel", "left", "ch2", name="ch2.pt")
     W.mkdir(parents=True, exist_ok=True)
     p = _steerlab(["sim", "record", "--minutes", "5", "--seed", "4", "--out", F / "rec-cut"])
-    _kill_when(p, lambda: len(list((F / "rec-cut").rglob("*.jpg"))) > 20, signal.SIGKILL, settle=0.5)
+    _kill_when(p, lambda: len(list(Path(CUT).rglob("*.jpg"))) > 20, signal.SIGKILL, settle=0.5)
+    if (F / "rec-cut").exists() or not Path(CUT).is_dir():
+        raise RuntimeError(f"sim record was not killed while it recorded: {CUT} is not what it left")
     cfg = F / "cut.yaml"
     cfg.write_text(f"data: {F / 'rec'}\ncache: {F / 'cache-cut'}\nout: {F / 'run-cut'}\n"
                    "split: {train: '0:40', val: '40:60'}\ntrain: {epochs: 100000, batch_size: 4}\n")
@@ -291,7 +297,8 @@ def again_in_a_copy(left, copy, argv):
 
 
 def grows(p):
-    return p.exists() and any(p.rglob("*"))
+    """`p` or the hidden folder a recording is written into before it becomes `p` holds files."""
+    return any(q.exists() and any(q.rglob("*")) for q in (p, p.parent / f".{p.name}.part"))
 
 
 _begun = {}
