@@ -114,8 +114,9 @@ bench: $(VENV)/.test  # the timings of benchmarks/ (the experiments of studies/ 
 	for b in benchmarks/bench_*.py; do $(BIN)/python -m benchmarks.$$(basename $$b .py) || exit 1; done
 
 # Mutation testing (docs/results/mutation.md) of the functions that decide results: lap timing and pace, the mirror
-# and augmentations, the throttle's scale and cap, the checkpoint's seal, option ranges, replay's interventions and
-# the leaderboard's scoring. pyproject.toml's [tool.mutmut] names their files and the tests that exercise them; the
+# and augmentations, the throttle's scale, cap and floor, the checkpoint's seal, option ranges, replay's interventions,
+# the leaderboard's scoring, the sim's part pilot, the training objective and its epoch's draws, the lane controller
+# and the rooms' looks. pyproject.toml's [tool.mutmut] names their files and the tests that exercise them; the
 # mutants live in mutants/. Not part of `make test`: hours on two shared cores.
 MUTATE := 'steerlab.sim.track.world.x?Laps?*' 'steerlab.sim.track.suite.x_drive_row__*' \
 	'steerlab.sim.track.suite.x_summarize__*' 'steerlab.sim.track.suite.x_round_columns__*' \
@@ -131,7 +132,11 @@ MUTATE := 'steerlab.sim.track.world.x?Laps?*' 'steerlab.sim.track.suite.x_drive_
 	'steerlab.evaluate.scoring.x_score__*' 'steerlab.evaluate.scoring.x_read_steering_csv__*' \
 	'steerlab.evaluate.scoring.x_spread_said__*' 'steerlab.evaluate.metrics.x_mse__*' \
 	'steerlab.evaluate.metrics.x_rmse__*' 'steerlab.evaluate.metrics.x_mae__*' 'steerlab.evaluate.metrics.x_mae_deg__*' \
-	'steerlab.evaluate.metrics.x_gamma_deg__*'
+	'steerlab.evaluate.metrics.x_gamma_deg__*' \
+	'steerlab.control.x_number__*' 'steerlab.control.x?Throttle?*' 'steerlab.control.x_lane_steering__*' \
+	'steerlab.sim.core.part.x?PartPilot?step__*' 'steerlab.train.loop.x__mean_error__*' \
+	'steerlab.train.loop.x_objective__*' 'steerlab.train.batches.x_epoch_repeats__*' \
+	'steerlab.sim.track.lane.x?LanePilot?step__*' 'steerlab.sim.track.look.*'
 
 mutation: $(VENV)/.test
 	$(INSTALL) mutmut==3.8.1

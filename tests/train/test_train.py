@@ -336,3 +336,16 @@ def test_training_on_a_tub_says_degrees_are_unknown(tmp_path, capsys):
     assert main(["train", str(cfg)]) == 0
     out = capsys.readouterr().out
     assert "nan" not in out.lower() and "degrees n/a: no full-lock angle" in out and "n/a (no full-lock angle" in out
+
+
+def test_epoch_repeats_hand_computed():
+    """At least `epoch_samples` an epoch: every count times ceil(epoch_samples / drawn); none added where an epoch
+    draws as many already, or where the option is 0 (unset)."""
+    from steerlab.train.batches import epoch_repeats
+
+    assert epoch_repeats(40, None, 100).tolist() == [3] * 40  # ceil(100 / 40)
+    assert epoch_repeats(40, None, 41).tolist() == [2] * 40
+    assert epoch_repeats(40, None, 40) is None and epoch_repeats(40, None, 0) is None
+    assert epoch_repeats(2, np.array([1, 3]), 10).tolist() == [3, 9]  # 4 drawn: ceil(10 / 4) = 3 times over
+    assert epoch_repeats(2, np.array([1, 3]), 4).tolist() == [1, 3]
+    assert epoch_repeats(0, None, 10) is None  # nothing to draw

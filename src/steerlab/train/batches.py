@@ -217,3 +217,13 @@ def recovery_repeats(samples: np.ndarray, episodes: np.ndarray, weight: int) -> 
     touch = np.isin(episodes[samples], "recover")
     touch = touch.any(axis=1) if samples.ndim == 2 else touch
     return np.where(touch, weight, 1)
+
+
+def epoch_repeats(n: int, repeats: np.ndarray | None, epoch_samples: int) -> np.ndarray | None:
+    """How often each of `n` samples is drawn per epoch (`repeats`, None: once each) so that an epoch draws at least
+    `epoch_samples` (`train.epoch_samples`): every count as many times over as it takes."""
+    drawn = n if repeats is None else int(repeats.sum())
+    if not 0 < drawn < epoch_samples:
+        return repeats
+    over = -(-epoch_samples // drawn)
+    return np.full(n, over) if repeats is None else repeats * over

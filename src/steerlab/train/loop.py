@@ -36,8 +36,8 @@ from steerlab.paths import check_outputs
 from steerlab.models import SteeringModel, create_model
 from steerlab.models.registry import predicted
 from steerlab.options import as_dict
-from steerlab.train.batches import (Batch, EpochSampler, FrameBatches, balance_weights, loader, recovery_repeats,
-                                    sequence_windows)
+from steerlab.train.batches import (Batch, EpochSampler, FrameBatches, balance_weights, epoch_repeats, loader,
+                                    recovery_repeats, sequence_windows)
 from steerlab.train.config import LOSSES, TrainConfig, another_config, differences, parse_config, unreadable
 from steerlab.train.distributed import Ranks, setup, wrap
 from steerlab.train.host import keep_freed_memory
@@ -293,10 +293,7 @@ def build(cfg: TrainConfig, ranks: Ranks, progress: bool, init: dict | None, tea
         if not np.isin(episodes, "recover").any():
             raise SteerlabError("recovery_weight needs recordings with recovery episodes (the road and track worlds')")
         repeats = recovery_repeats(samples, episodes, t.recovery_weight)
-    drawn = len(samples) if repeats is None else int(repeats.sum())
-    if 0 < drawn < t.epoch_samples:  # every sample as many times over as it takes to draw epoch_samples
-        over = -(-t.epoch_samples // drawn)
-        repeats = np.full(len(samples), over) if repeats is None else repeats * over
+    repeats = epoch_repeats(len(samples), repeats, t.epoch_samples)
     weights = balance_weights(data.steering(samples)) if t.balance else None
     sampler = EpochSampler(samples, t.batch_size, t.seed, t.flip, t.motion_dropout, weights, repeats, ranks.rank,
                            ranks.world)
