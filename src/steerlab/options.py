@@ -61,6 +61,20 @@ class Range:
         return f"a finite number{unit}"
 
 
+class OneOf:
+    """A name held by a registry (`mapping`, read when a value is checked, so that a name registered later is taken):
+    the check of an option whose choices grow (the cameras of `data.cameras`)."""
+
+    def __init__(self, mapping: Mapping, what: str):
+        self.mapping, self.what = mapping, what
+
+    def __call__(self, v) -> bool:
+        return isinstance(v, str) and v in self.mapping
+
+    def words(self, kind: type) -> str:
+        return f"one of the {self.what} {', '.join(self.mapping)}"
+
+
 CORES = os.cpu_count() or 1  # what "threads" may ask of this machine
 
 def _num(x: float) -> str:
@@ -219,7 +233,7 @@ def optional(kind) -> tuple[Any, bool]:
 def words(kind, check=None) -> str:
     """What a value of this type (and check) must be, in the words of an error message."""
     kind, _ = optional(kind)
-    if isinstance(check, Range):
+    if isinstance(check, (Range, OneOf)):
         return check.words(kind)
     if get_origin(kind) is Literal:
         choices = [str(c) for c in get_args(kind)]

@@ -30,9 +30,11 @@ def _wrong_values(o):
     """Values of the wrong kind for the option `o`: what no option of its type takes."""
     from typing import Literal, get_origin
 
-    from steerlab.options import optional
+    from steerlab.options import OneOf, optional
 
     kind = optional(o.kind)[0]
+    if isinstance(o.check, OneOf):  # a registered name: a camera
+        return ["no-such-choice", 7, [next(iter(o.check.mapping))]]
     if kind is bool:
         return ["maybe", 1, 0, "true", [True], None if not optional(o.kind)[1] else "no"]
     if kind in (int, float):
@@ -130,11 +132,13 @@ def _valid_value(o):
     from dataclasses import MISSING
     from typing import Literal, get_origin
 
-    from steerlab.options import optional
+    from steerlab.options import OneOf, optional
 
     kind = optional(o.kind)[0]
     if o.default not in (None, MISSING) and kind is not bool:
         return str(o.default)
+    if isinstance(o.check, OneOf):
+        return next(iter(o.check.mapping))
     if get_origin(kind) is Literal:
         return str(kind.__args__[0])
     if kind in (int, float):

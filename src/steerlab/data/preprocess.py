@@ -15,7 +15,7 @@ import cv2
 import numpy as np
 
 from steerlab.errors import SteerlabError
-from steerlab.options import Options, PIXELS, Range, as_dict, option
+from steerlab.options import OneOf, Options, PIXELS, Range, as_dict, option
 
 COLORS = {"gray": 1, "yuv": 3, "hsv": 3, "rgb": 3}
 MODALITIES = ("image", "diff", "flow")
@@ -92,7 +92,7 @@ class PreprocessOptions(Options):
     """The preprocess: section of a training config: `PreprocessConfig`'s fields, None where the default is
     taken, and `preset`, the crop preset (default: the recording's camera geometry; an explicit crop wins)."""
 
-    preset: Literal[tuple(CROP_PRESETS)] | None = None
+    preset: str | None = option(None, OneOf(CROP_PRESETS, "crop presets"))
     crop: tuple[int, int, int, int] | None = option(None, lambda c: min(c) >= 0,
                                                     "four non-negative integers (top, bottom, left, right)")
     width: int | None = option(None, PIXELS)

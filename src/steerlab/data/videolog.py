@@ -19,7 +19,7 @@ from typing import Literal
 import cv2
 import numpy as np
 
-from steerlab.data.preprocess import CROP_PRESETS
+from steerlab.data.cameras import GEOMETRY
 from steerlab.data.rows import Reader, apply_range, check_increasing, check_unique, csv_header, number, read_rows
 from steerlab.data.recording import FULL_LOCK_DEG, KINDS, Recording, SteeringConvention, VideoFrames, said_full_lock
 from steerlab.errors import DataError
@@ -36,7 +36,7 @@ class VideoOptions(Options):
                                       "or normalized")
     positive: Literal["left", "right"] = option("left", help="the side positive steering turns to")
     full_lock_deg: float | None = option(None, FULL_LOCK_DEG, help="normalized steering: the full-lock angle")
-    geometry: Literal[tuple(CROP_PRESETS)] = option("ch2", help="the camera geometry of the video")
+    geometry: str = option("ch2", GEOMETRY, help="the camera geometry of the video")
 
 
 OPTIONS = VideoOptions
@@ -55,8 +55,8 @@ def read_video(path: str | Path, frame_range=None, log: str | Path | None = None
     capture.release()
     if not ok or count <= 0:
         raise DataError(path, "cannot decode this video with OpenCV: convert it to MP4 (H.264)")
-    if geometry not in CROP_PRESETS:
-        raise DataError(path, f"unknown camera geometry {geometry!r}; choose one of {', '.join(CROP_PRESETS)}")
+    if not GEOMETRY(geometry):
+        raise DataError(path, f"unknown camera geometry {geometry!r}; choose {GEOMETRY.words(str)}")
     try:
         convention = SteeringConvention(steering, positive,
                                         None if full_lock_deg is None else math.radians(float(full_lock_deg)))

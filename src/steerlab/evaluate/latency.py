@@ -26,6 +26,7 @@ import cv2
 import numpy as np
 from tqdm import tqdm
 
+from steerlab.data.cameras import GEOMETRY
 from steerlab.data.geometry import camera
 from steerlab.data.readers import Source, a_source
 from steerlab.options import AT_LEAST_1, Options, THREADS, option
@@ -154,7 +155,7 @@ class LatencyOptions(Options):
 
     models: str | None = option(None, help="'all' or a comma list of registered models to time untrained (the "
                                 "weights do not change the cost); default: all when no checkpoint is given")
-    geometry: Literal["donkey", "ch2", "sim"] | None = option(None, help="camera geometry of the untrained models "
+    geometry: str | None = option(None, GEOMETRY, help="camera geometry of the untrained models "
                                                               "and the synthetic frames (default: the recording's "
                                                               "with --data, else donkey, 160x120)")
     threads: int = option(1, THREADS, help="threads of torch, OpenCV and ONNX Runtime (1: one core; at most the "
