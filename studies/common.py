@@ -196,7 +196,7 @@ class DonkeycarPart:
 TUBS = SHARED / "donkeycar"
 FULL_LOCK_DEG = 25.0  # assumed: the tubs do not record it
 READER = {"skip_missing": True, "full_lock_deg": FULL_LOCK_DEG}
-TUB_NAMES = ("hall", "taped-track")  # the tubs of ../shared/data/donkeycar
+TUB_NAMES = ("hall", "taped-track", "wood-tape")  # the tubs of ../shared/data/donkeycar
 
 
 @dataclass(frozen=True)

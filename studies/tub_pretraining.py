@@ -16,18 +16,19 @@ Every finished run is kept in runs/tub-pretraining/<tub>/results.json and reused
 """
 
 import json
+from dataclasses import dataclass
 
 import numpy as np
 
 from steerlab.cli import run_script, script_parser
 from steerlab.data.readers import Source
 from steerlab.evaluate.offline import evaluate
-from steerlab.options import names_from
+from steerlab.options import names_from, names_held, option
 from steerlab.sim.replay.run import run_replay
 from steerlab.sim.track.replay import TrackReplayOptions
 from steerlab.train.config import load_config
 from steerlab.train.loop import train
-from studies.common import (FULL_LOCK_DEG, READER, ROOT, TUB_NAMES, TUBS, TubStudy, blocks, donkey_or_skip, machine,
+from studies.common import (FULL_LOCK_DEG, READER, ROOT, TUBS, TubStudy, blocks, donkey_or_skip, machine,
                             run_donkey, spread, track_tubs)
 
 OUT = ROOT / "runs" / "tub-pretraining"
@@ -83,15 +84,25 @@ def rows(name: str, results: dict) -> list[str]:
     return out
 
 
+@dataclass(frozen=True)
+class Pretraining(TubStudy):
+    tubs: str = option(",".join(EPOCHS), help=f"comma list of the shared tubs to run on, of {', '.join(EPOCHS)} (the "
+                       "tubs whose epochs configs/donkey_best.yaml chose)")
+
+    @classmethod
+    def related(cls, v):
+        return names_held(v, "tubs", tuple(EPOCHS), "shared tubs whose epochs were chosen")
+
+
 def parser():
-    return script_parser(__spec__.name, __doc__, TubStudy)
+    return script_parser(__spec__.name, __doc__, Pretraining)
 
 
-def main(_, args: TubStudy) -> None:
+def main(_, args: Pretraining) -> None:
     python = donkey_or_skip(args.skip_donkey)
     lines = [f"machine: {machine()}", "", "| tub | model | runs | held-out steering MAE [deg] | vs donkeycar linear | "
              "held-out throttle MAE | replay: interventions |", "|---|---|---|---|---|---|---|"]
-    for name in names_from(args.tubs, TUB_NAMES, "shared tubs"):
+    for name in names_from(args.tubs, tuple(EPOCHS), "shared tubs whose epochs were chosen"):
         rec = Source(str(TUBS / name), reader=READER).open()
         n, work = len(rec), OUT / name
         work.mkdir(parents=True, exist_ok=True)

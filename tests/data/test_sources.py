@@ -32,6 +32,24 @@ def test_real_tub_hall():
 
 
 @needs_tubs
+def test_real_tub_wood_tape():
+    """A third car's tub (../shared/data's README): 8,000 records of one session with one gap longer than 0.5 s, the
+    steering in steps of 0.1 from -0.3 to 0.4 with float noise (3.7 % exactly 0), the throttle at 12 levels from
+    0.25 to 0.8, 0.35 and 0.45 the most common: read as written, nothing rounded."""
+    rec = open_recording(TUBS / "wood-tape")
+    assert len(rec) == 8000 and rec.geometry == "donkey" and len(rec.segments()) == 2
+    assert rec.convention == SteeringConvention("normalized", "right")
+    steps = np.round(rec.steering * 10)
+    np.testing.assert_array_equal(np.unique(steps), np.arange(-3, 5))
+    assert 0 < np.abs(rec.steering - steps / 10).max() < 1e-12  # the noise is kept (0.10000000000000003)
+    assert np.mean(rec.steering == 0) == pytest.approx(0.03675)
+    levels, counts = np.unique(rec.throttle, return_counts=True)
+    np.testing.assert_allclose(levels, np.arange(25, 81, 5) / 100)
+    assert list(levels[np.argsort(-counts)[:2]]) == pytest.approx([0.35, 0.45])
+    assert rec.load_frame(7999).shape == (120, 160, 3) and rec.fisheye is None
+
+
+@needs_tubs
 def test_real_tub_with_missing_images(capsys):
     with pytest.raises(DataError, match=r"catalog_0.catalog, row 1: record 10000: image .*10000_cam_image_array_"
                                         r".jpg is missing .*skip_missing"):

@@ -317,7 +317,7 @@ def test_donkey_part_forgets_the_past_after_a_gap(models):
 # ---------------------------------------------------------------- steerlab's tub reader against donkeycar's
 
 @needs_tubs
-@pytest.mark.parametrize("name", ["hall", "taped-track"])
+@pytest.mark.parametrize("name", ["hall", "taped-track", "wood-tape"])
 def test_donkey_tub_reader_matches_donkeycars_tub(name):
     path = TUBS / name
     before = {p: p.stat().st_mtime_ns for p in path.iterdir() if p.is_file()}
@@ -329,9 +329,9 @@ def test_donkey_tub_reader_matches_donkeycars_tub(name):
     assert {p: p.stat().st_mtime_ns for p in path.iterdir() if p.is_file()} == before  # donkeycar wrote nothing
     rec = open_recording(path, None, None, {"skip_missing": True})
     missing = [r["_index"] for r in records if not (path / "images" / r["cam/image_array"]).is_file()]
-    assert len(missing) == {"hall": 0, "taped-track": 2}[name]  # donkeycar's reader does not look at the images
+    assert len(missing) == {"hall": 0, "taped-track": 2, "wood-tape": 0}[name]  # donkeycar's does not look at images
     kept = [r for r in records if r["_index"] not in missing]
-    assert len(rec) == len(kept) == {"hall": 5015, "taped-track": 3076}[name]
+    assert len(rec) == len(kept) == {"hall": 5015, "taped-track": 3076, "wood-tape": 8000}[name]
     np.testing.assert_array_equal(rec.frame_ids, [r["_index"] for r in kept])
     np.testing.assert_array_equal(rec.steering, [r["user/angle"] for r in kept])
     np.testing.assert_array_equal(rec.throttle, [r["user/throttle"] for r in kept])

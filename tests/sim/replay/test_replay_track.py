@@ -206,7 +206,8 @@ def test_steerlab_replay_on_a_track_world_tub(track_tub, tmp_path, capsys):
 
 
 @needs_tubs
-@pytest.mark.parametrize("tub, frames", [("hall", "4012:4300"), ("taped-track", "2460:2700")])
+@pytest.mark.parametrize("tub, frames", [("hall", "4012:4300"), ("taped-track", "2460:2700"),
+                                         ("wood-tape", "7000:7300")])
 def test_the_shared_real_tubs_replay_the_humans_steering_without_intervention(tub, frames):
     """Real tubs get the default fisheye and the speed of their recorded throttle; the human's own steering
     needs no intervention, driving straight does."""

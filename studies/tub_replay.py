@@ -1,0 +1,193 @@
+"""Does replay on the real tubs tell models apart? The small cars' replay (`steerlab replay --world track`)
+validated on the three shared tubs before it is used to choose anything.
+
+Each tub (hall, taped-track, wood-tape) is cut into two folds of contiguous blocks: `last` trains on the first 70 %
+of its records, keeps the epoch of the best steering MAE on the next 10 % and is scored on the last 20 %; `first`
+is scored on the first 20 %, keeps its epoch on the next 10 % and trains on the last 70 %. So every tub has two
+scored blocks no model of that fold trained on, each several laps of its track. On every scored block:
+
+- open loop: the steering MAE in the tub's unit ([-1, 1] of the servo);
+- replay: the model drives a simulated small car along the human's path, rebuilt from the recorded steering
+  (full lock FULL_LOCK_DEG, assumed: the tubs do not record it) and the speed the recorded throttle gives through
+  the small car's motor model, seeing each recorded frame warped through the default Raspberry Pi fisheye to where
+  its car is. The intervention rule: a corner of the car's 0.42 x 0.20 m body outside a 0.9 m lane centred on the
+  human's path; the car is then put back on the path, heading along it, and the model's memory is cleared. The
+  count per 100 m of the human's path is the measure.
+
+The models: `zero` and `train-mean` (a model that learned nothing); `pilotnet` on the tub defaults (MAE loss, batch
+32, Adam 3e-4, the throttle learned where the tub varies it); `pilotnet-views`, the same with
+`train.views=[[[-0.15, 0.15], [-15, 15]]]` and `train.recovery_s=0.3` (every frame also seen from a car moved up
+to 15 cm and turned up to 15 degrees, labelled with the steering back to the path); and `other-track`: the
+`pilotnet-views` model of fold `last` of each other tub (a model of another track, car and lens). The check this
+study exists for: on every scored block the best trained model needs at most half the interventions of the best
+of the models that learned nothing and of the other tracks' models ("separates": yes / no in the table).
+
+python -m studies.tub_replay [--seeds 2] [--epochs 10] [--tubs hall,taped-track,wood-tape]
+Every finished run is kept in runs/tub-replay/epochs-N/results.json and reused by a later run of the same --epochs;
+table.md and table.png are written there from all the runs kept.
+"""
+
+import json
+from dataclasses import dataclass
+
+import numpy as np
+
+from steerlab.cli import run_script, script_parser
+from steerlab.data.readers import Source
+from steerlab.evaluate.offline import evaluate
+from steerlab.figures import COLORS, figure
+from steerlab.options import AT_LEAST_1, Options, names_from, names_held, option
+from steerlab.sim.replay.run import run_replay
+from steerlab.sim.track.replay import TrackReplayOptions
+from steerlab.train.config import load_config
+from steerlab.train.loop import train
+from studies.common import FULL_LOCK_DEG, READER, ROOT, TUB_NAMES, TUBS, machine, mean_min_max
+
+OUT = ROOT / "runs" / "tub-replay"
+VIEWS = {"views": [[[-0.15, 0.15], [-15, 15]]], "recovery_s": 0.3}
+TRAINED = {"pilotnet": {}, "pilotnet-views": VIEWS}  # the trained models: train: options beside the tub defaults
+NULL = ("zero", "train-mean")
+FOLDS = ("last", "first")
+
+
+def fold_blocks(fold: str, n: int) -> dict[str, str]:
+    """The train, validation (epoch) and scored blocks of a fold of `n` records, as frame ranges."""
+    a, b, c = int(0.2 * n), int(0.3 * n), int(0.7 * n)
+    if fold == "last":
+        return {"train": f"0:{c}", "val": f"{c}:{int(0.8 * n)}", "scored": f"{int(0.8 * n)}:{n}"}
+    return {"train": f"{b}:{n}", "val": f"{a}:{b}", "scored": f"0:{a}"}
+
+
+def checkpoint(work, tub: str, fold: str, model: str, seed: int, epochs: int, n: int):
+    """The model's best.pt for this fold (trained in `work` once; a null model trains in no time)."""
+    run = work / tub / fold / f"{model}-{seed}"
+    if (run / "best.pt").exists():
+        return run / "best.pt"
+    split = fold_blocks(fold, n)
+    name = model if model in NULL else "pilotnet"
+    cfg = load_config(None, base={
+        "data": str(TUBS / tub), "reader": READER, "cache": str(OUT / "cache"), "out": str(run),
+        "model": {"name": name}, "split": {"train": split["train"], "val": split["val"]},
+        "train": {**TRAINED.get(model, {}), "epochs": epochs, "patience": 3, "seed": seed}})
+    train(cfg, progress=False)
+    return run / "best.pt"
+
+
+def score(ckpt, tub: str, fold: str, n: int, where) -> dict:
+    """Open loop and replay of `ckpt` on the fold's scored block of `tub`."""
+    block = Source(str(TUBS / tub), fold_blocks(fold, n)["scored"], reader=READER)
+    m = evaluate(ckpt, block, where / "test", progress=False)
+    r = run_replay([ckpt], block, where / "replay", TrackReplayOptions(workers=1), progress=False)[0]
+    return {"mae": m["mae"], "interventions": r["interventions"], "m": 1000 * r["km"],
+            "per_100m": 100 * r["interventions"] / max(1000 * r["km"], 1e-9)}
+
+
+@dataclass(frozen=True)
+class TubReplay(Options):
+    seeds: int = option(2, AT_LEAST_1, help="runs of every trained model")
+    epochs: int = option(10, AT_LEAST_1, help="epochs at most (the best on the fold's validation block kept, "
+                         "patience 3)")
+    tubs: str = option(",".join(TUB_NAMES), help=f"comma list of the shared tubs to run on, of {', '.join(TUB_NAMES)}")
+
+    @classmethod
+    def related(cls, v):
+        return names_held(v, "tubs", TUB_NAMES, "shared tubs")
+
+
+def rows_of(results: dict, tubs: list[str]) -> tuple[list[str], dict]:
+    """The table's rows (one per tub, fold and model: its runs' mean and min-max) and each block's check."""
+    lines, checks = [], {}
+    for tub in tubs:
+        for fold in FOLDS:
+            runs = {}
+            for key, r in results.items():
+                t, f, model, _ = key.split(" ")
+                if (t, f) == (tub, fold):
+                    runs.setdefault(model, []).append(r)
+            if not runs:
+                continue
+            per = {m: float(np.mean([r["per_100m"] for r in rs])) for m, rs in runs.items()}
+            trained = min((per[m] for m in TRAINED if m in per), default=None)
+            nothing = min((per[m] for m in (*NULL, "other-track") if m in per), default=None)
+            ok = None if trained is None or nothing is None else nothing >= 2 * trained
+            checks[(tub, fold)] = (trained, nothing, ok)
+            metres = next(iter(runs.values()))[0]["m"]
+            for model, rs in runs.items():
+                lines.append(f"| {tub} | {fold} ({metres:.0f} m) | {model} | {len(rs)} | "
+                             f"{mean_min_max([r['mae'] for r in rs], '.4f')} | "
+                             f"{mean_min_max([r['interventions'] for r in rs], '.1f')} | "
+                             f"{mean_min_max([r['per_100m'] for r in rs], '.1f')} |")
+            said = "-" if ok is None else (f"{'yes' if ok else 'no'}: the best trained model {trained:.1f}, the best that "
+                                           f"learned nothing or another track {nothing:.1f}")
+            lines.append(f"| {tub} | {fold} | **separates** | | | | {said} |")
+    return lines, checks
+
+
+def plot(path, results: dict, tubs: list[str]) -> None:
+    """Interventions per 100 m of every model on every scored block, one group of bars a block."""
+    models = [*NULL, *TRAINED, "other-track"]
+    blocks = [(t, f) for t in tubs for f in FOLDS if any(k.startswith(f"{t} {f} ") for k in results)]
+    with figure(path, 1, 1, figsize=(1.8 * max(len(blocks), 1) + 2, 4.5)) as (fig, ax):
+        width = 0.8 / len(models)
+        for i, (model, color) in enumerate(zip(models, COLORS * 2)):
+            values = [np.mean([r["per_100m"] for k, r in results.items() if k.startswith(f"{t} {f} {model} ")] or
+                              [np.nan]) for t, f in blocks]
+            ax.bar(np.arange(len(blocks)) + (i - len(models) / 2 + 0.5) * width, values, width, color=color,
+                   label=model)
+        ax.set_xticks(np.arange(len(blocks)), [f"{t}\n{f} block" for t, f in blocks])
+        ax.set_ylabel("replay: interventions per 100 m")
+        ax.grid(alpha=0.3, axis="y")
+        ax.legend(fontsize=8)
+        ax.set_title(f"the small cars' replay on the shared tubs' scored blocks (full lock {FULL_LOCK_DEG:g} deg, "
+                     "0.9 m lane)", fontsize=9)
+
+
+def parser():
+    return script_parser(__spec__.name, __doc__, TubReplay)
+
+
+def main(_, args: TubReplay) -> None:
+    tubs = names_from(args.tubs, TUB_NAMES, "shared tubs")
+    if not (TUBS / "hall" / "manifest.json").exists():
+        print(f"skipped: {TUBS} not found")
+        return
+    print(f"machine: {machine()}", flush=True)
+    work = OUT / f"epochs-{args.epochs}"  # the runs of another --epochs are others
+    work.mkdir(parents=True, exist_ok=True)
+    file = work / "results.json"
+    results = json.loads(file.read_text()) if file.exists() else {}
+    sizes = {t: len(Source(str(TUBS / t), reader=READER).open()) for t in tubs}
+
+    def run(tub, fold, model, seed, ckpt):
+        key = f"{tub} {fold} {model} {seed}"
+        if key not in results:
+            results[key] = score(ckpt(), tub, fold, sizes[tub], work / tub / fold / f"scored-{model}-{seed}")
+            file.write_text(json.dumps(results, indent=1))
+            r = results[key]
+            print(f"  {key}: MAE {r['mae']:.4f}, {r['interventions']} interventions in {r['m']:.0f} m", flush=True)
+
+    for seed in range(args.seeds):
+        for tub in tubs:
+            for fold in FOLDS:
+                for model in (*NULL, *TRAINED):
+                    if model in NULL and seed > 0:
+                        continue  # a null model is the same every run
+                    run(tub, fold, model, seed, lambda: checkpoint(work, tub, fold, model, seed, args.epochs,
+                                                                     sizes[tub]))
+        for tub in tubs:  # the views model of each other tub's fold `last`
+            for other in tubs:
+                if other != tub:
+                    for fold in FOLDS:
+                        run(tub, fold, "other-track", f"{other}-{seed}", lambda: checkpoint(
+                            work, other, "last", "pilotnet-views", seed, args.epochs, sizes[other]))
+    lines, _ = rows_of(results, tubs)
+    table = "\n".join([f"machine: {machine()}", "", "| tub | scored block | model | runs | steering MAE (open loop) | "
+                       "replay: interventions | per 100 m |", "|---|---|---|---|---|---|---|", *lines]) + "\n"
+    (work / "table.md").write_text(table)
+    plot(work / "table.png", results, tubs)
+    print(table)
+    print(f"wrote {work / 'table.md'} and {work / 'table.png'}")
+
+
+if __name__ == "__main__":
+    run_script(parser(), main)
