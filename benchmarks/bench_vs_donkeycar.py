@@ -31,7 +31,7 @@ from pathlib import Path
 from benchmarks.common import CH2, ROOT, Report, arguments, machine, record_race_tubs
 from steerlab.cli import run_script
 from steerlab.options import Options, Range, option
-from studies.common import donkey_car, donkey_python
+from studies.common.donkeycar import donkey_car, donkey_python
 
 
 STEERLAB = [sys.executable, "-m", "steerlab", "train"]

@@ -49,8 +49,9 @@ from steerlab.train.config import load_config
 from steerlab.models import list_models
 from steerlab.options import AT_LEAST_1, names_from, names_held, option
 from steerlab.train.loop import train
-from studies.common import (FULL_LOCK_DEG, READER, ROOT, TUB_NAMES, TUBS, TubStudy, blocks, donkey_or_skip, machine,
-                            run_donkey, spread)
+from studies.common import ROOT, machine, spread
+from studies.common.donkeycar import (FULL_LOCK_DEG, READER, TUB_NAMES, TUBS, TubStudy, blocks, donkey_or_skip,
+                                      run_donkey)
 
 OUT = ROOT / "runs" / "donkeycar-tubs"
 STEERLAB_MODELS = ["pilotnet", "cg23", "multimodal-lstm", "train-mean"]

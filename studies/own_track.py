@@ -42,8 +42,9 @@ from steerlab.sim.core.part import PartPilot
 from steerlab.sim.core.suite import Planned, as_stored, file_sha256, run_drives
 from steerlab.sim.track import run
 from steerlab.sim.track.world import TrackDriveOptions, TrackRecordOptions, part_throttle, throttle_scale_option
-from studies.common import (ROOT, DonkeycarPart, NumberList, donkey_models, donkey_python, machine, mean_min_max,
-                            write_table)
+from studies.common import ROOT, NumberList, machine, mean_min_max
+from studies.common.donkeycar import DonkeycarPart, donkey_models, donkey_python
+from studies.common.truth import write_table
 
 RECIPE = ROOT / "configs" / "track_best.yaml"
 CLEAN = 95.0  # % of laps clean: the target

@@ -35,8 +35,9 @@ from steerlab.cli import run_script, script_parser
 from steerlab.options import MINUTES, WORKERS, Options, option
 from steerlab.sim.core.suite import labels_for
 from steerlab.sim.road.suite import SUITES
-from studies.common import (begin_study, correlation_table, correlations, record_expert, replay_missing, scatter_axes,
-                            train_baseline, train_snapshots, write_table)
+from studies.common import begin_study
+from studies.common.truth import (correlation_table, correlations, record_expert, replay_missing, scatter_axes,
+                                  train_baseline, train_snapshots, write_table)
 
 TRAIN_DATA = {"seed": 3, "minutes": 4.0, "road": "country,twisty,highway,twisty"}
 BASE_TRAIN = {"epochs": 1, "batch_size": 32, "lr": 3e-4, "patience": 99, "min_speed": 4.0}

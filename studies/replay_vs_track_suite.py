@@ -40,8 +40,9 @@ from steerlab.data.readers import open_recording
 from steerlab.options import MINUTES, WORKERS, Options, option
 from steerlab.sim.core.suite import labels_for
 from steerlab.sim.track.suite import TRACK_SUITES
-from studies.common import (ROOT, begin_study, correlation_table, correlations, record_expert, replay_missing, replayed,
-                            scatter_axes, train_baseline, train_snapshots, write_table)
+from studies.common import ROOT, begin_study
+from studies.common.truth import (correlation_table, correlations, record_expert, replay_missing, replayed,
+                                  scatter_axes, train_baseline, train_snapshots, write_table)
 
 SUITE = "t1"
 BASE_TRAIN = {"batch_size": 32, "lr": 3e-4, "patience": 99, "loss": "mae"}

@@ -45,8 +45,8 @@ from steerlab.data.readers import open_recording
 from steerlab.options import AT_LEAST_1, SEED, WORKERS, Options, Range, names_from, names_held, option
 from steerlab.sim.track.suite import TRACK_SUITES, TrackSuiteOptions, part_entrant, race, report, summarize
 from steerlab.sim.track.world import throttle_floor_option, throttle_scale_option
-from studies.common import (ROOT, DonkeycarPart, NumberList, donkey_models, donkey_python, machine, mean_min_max,
-                            track_tub, training_tub)
+from studies.common import ROOT, NumberList, machine, mean_min_max, track_tub
+from studies.common.donkeycar import DonkeycarPart, donkey_models, donkey_python, training_tub
 
 TUBS = [f"{style}-{seed}" for style in ("taped", "centre") for seed in (1, 2, 3, 4)]
 TUB_MINUTES = 2.0

@@ -28,8 +28,8 @@ from steerlab.sim.replay.run import run_replay
 from steerlab.sim.track.replay import TrackReplayOptions
 from steerlab.train.config import load_config
 from steerlab.train.loop import train
-from studies.common import (FULL_LOCK_DEG, READER, ROOT, TUBS, TubStudy, blocks, donkey_or_skip, machine,
-                            run_donkey, spread, track_tubs)
+from studies.common import ROOT, machine, spread, track_tubs
+from studies.common.donkeycar import FULL_LOCK_DEG, READER, TUBS, TubStudy, blocks, donkey_or_skip, run_donkey
 
 OUT = ROOT / "runs" / "tub-pretraining"
 EPOCHS = {"hall": 25, "taped-track": 12}  # configs/donkey_best.yaml, and its note for taped-track

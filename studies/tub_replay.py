@@ -41,7 +41,8 @@ from steerlab.sim.replay.run import run_replay
 from steerlab.sim.track.replay import TrackReplayOptions
 from steerlab.train.config import load_config
 from steerlab.train.loop import train
-from studies.common import FULL_LOCK_DEG, READER, ROOT, TUB_NAMES, TUBS, machine, mean_min_max
+from studies.common import ROOT, machine, mean_min_max
+from studies.common.donkeycar import FULL_LOCK_DEG, READER, TUB_NAMES, TUBS
 
 OUT = ROOT / "runs" / "tub-replay"
 VIEWS = {"views": [[[-0.15, 0.15], [-15, 15]]], "recovery_s": 0.3}

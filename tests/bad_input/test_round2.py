@@ -16,7 +16,7 @@ from typing import Literal, get_args, get_origin
 import numpy as np
 import pytest
 
-import studies.common  # noqa: F401  (the options a study makes in Python, TubStudy's, among those swept)
+import studies.common.donkeycar  # noqa: F401  (the options a study makes in Python, TubStudy's, among those swept)
 from steerlab.cli import main
 from steerlab.errors import SteerlabError
 from steerlab.options import FRACTION, Options, optional

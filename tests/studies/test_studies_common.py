@@ -1,4 +1,4 @@
-"""studies/ and benchmarks/ as packages: what the studies share (studies/common.py), and the rule that keeps the
+"""studies/ and benchmarks/ as packages: what the studies share (the package studies/common/), and the rule that keeps the
 scripts apart: no script edits sys.path, a study imports steerlab and `studies.common` (and its own private modules,
 `studies._NAME`), never another study nor the tests, and a timing imports no study and no test either."""
 
@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from studies import common
+from studies.common import truth as common
 from studies.common import ROOT
 
 TESTS = {p.stem for p in (ROOT / "tests").rglob("*.py")} | {"tests"}  # and every test_*, wherever it is
@@ -66,7 +66,7 @@ def test_no_script_edits_sys_path_and_no_study_imports_a_test_or_another_study()
     edits = {str(p.relative_to(ROOT)): lines for p in scripts if (lines := _edits_sys_path(p))}
     assert edits == {}, f"these scripts edit sys.path (run them as python -m PACKAGE.NAME instead): {edits}"
     wrong = {str(p.relative_to(ROOT)): w for p in scripts if (w := _wrong_imports(p))}
-    assert wrong == {}, f"a script imports a test or another study (share through studies/common.py): {wrong}"
+    assert wrong == {}, f"a script imports a test or another study (share through studies/common/): {wrong}"
 
 
 def test_the_rule_sees_each_way_of_breaking_it(tmp_path):
