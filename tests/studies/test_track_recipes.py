@@ -6,6 +6,7 @@ import json
 import numpy as np
 
 from steerlab.data.readers import open_recording
+from studies._recipes import Recipe
 from studies.track_recipes import merged_tub
 from tests.inputs import tub
 
@@ -69,12 +70,12 @@ def test_a_finished_recipe_run_of_another_config_is_refused_not_reused(tmp_path,
 
     monkeypatch.setitem(tr.AUGMENT, "taped-5-tiny", ["taped", "5", "--minutes", "0.05"])
     tiny = ("train.epochs=1", "train.batch_size=16", "train.epoch_samples=0", f"cache={tmp_path / 'cache'}")
-    monkeypatch.setitem(tr.RECIPES, "tiny", tr.Recipe("a tiny recipe", (*tiny, "train.lr=1.0e-3"),
+    monkeypatch.setitem(tr.RECIPES, "tiny", Recipe("a tiny recipe", (*tiny, "train.lr=1.0e-3"),
                                                       tubs=("taped-5-tiny",), only=20))
     best = tr.train_recipe("tiny", 0, tmp_path, tmp_path / "tubs")
     made = best.stat().st_mtime_ns
     assert tr.train_recipe("tiny", 0, tmp_path, tmp_path / "tubs") == best and best.stat().st_mtime_ns == made
-    monkeypatch.setitem(tr.RECIPES, "tiny", tr.Recipe("a tiny recipe", (*tiny, "train.lr=2.0e-3"),
+    monkeypatch.setitem(tr.RECIPES, "tiny", Recipe("a tiny recipe", (*tiny, "train.lr=2.0e-3"),
                                                       tubs=("taped-5-tiny",), only=20))
     with pytest.raises(SteerlabError, match=r"seed0 holds recipe tiny's run of another config \(train.lr: 0.001 -> "
                                             r"0.002\); choose a new out directory or delete it"):
