@@ -32,6 +32,8 @@ BAD_INPUTS = {
         "link.pt is named twice (as "),
     "extra data that is the training recording": (lambda t, s: _train(f"extra_data=[{t / 'sim'}]")(t, s),
                                                   "is the training recording itself (data)"),
+    "a fixed view given twice": (_train("train.views=[[0.5, 0], [0.2, 3], [0.5, 0.0]]"),
+                                 "train.views names the fixed view [0.5, 0.0] twice"),
 }
 
 

@@ -158,6 +158,11 @@ class TrainConfig(Options):
         if not all(isinstance(v, View) for v in t.views):  # made in Python: each through the config's parse
             object.__setattr__(t, "views", tuple(View.parse_option(v, f"train.views[{i}]")
                                                  for i, v in enumerate(t.views)))
+        fixed = [v.as_dict() for v in t.views if v.shift_m[0] == v.shift_m[1] and v.yaw_deg[0] == v.yaw_deg[1]]
+        again = next((v for i, v in enumerate(fixed) if v in fixed[:i]), None)
+        if again is not None:  # the same frames twice; a range given twice is two draws, two views
+            raise SteerlabError(f"train.views names the fixed view {again} twice: give each fixed view once (a range "
+                                "given N times gives N views of every frame)")
         if t.calibration is not None and not t.views:
             raise SteerlabError("train.calibration is the lens that train.views are warped through: set train.views "
                                 "too, or leave the calibration out")
