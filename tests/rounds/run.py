@@ -11,7 +11,7 @@ tiny inputs of the bad-input tests (tests/inputs.py), made in OUT_DIR/fx; every 
 its own with a 45 s limit; the counts are printed, and every input not handled is written to
 OUT_DIR/failures.txt.
 
-usage: PYTHONPATH=src python -m tests.rounds.run [--round 2] OUT_DIR    (from the repository root; PYTHONPATH
+usage: PYTHONPATH=src python -m tests.rounds.run [--round 2|3] OUT_DIR    (from the repository root; PYTHONPATH
 picks the build that is tried)"""
 
 import contextlib
@@ -38,7 +38,8 @@ TIMEOUT = 45  # s a case may take (a case's own "timeout" says more)
 
 @dataclass(frozen=True)
 class RoundOptions(Options):
-    round: int = option(1, Range(1, 2), help="the round: 1 (tests/rounds/round1.py), or 2 (tests/rounds/round2.py)")
+    round: int = option(1, Range(1, 3), help="the round: 1 (tests/rounds/round1.py), 2 (tests/rounds/round2.py) or 3 "
+                        "(tests/rounds/round3.py)")
 
 
 def setup():
@@ -243,7 +244,7 @@ def begin(out_dir) -> None:
     setup()
 
 
-TABLES = {1: "tests.rounds.round1", 2: "tests.rounds.round2"}  # each round's table of cases
+TABLES = {1: "tests.rounds.round1", 2: "tests.rounds.round2", 3: "tests.rounds.round3"}  # each round's table of cases
 
 
 def _call(spec: str, table):
