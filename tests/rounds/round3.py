@@ -601,12 +601,17 @@ def _images(size, pattern, which=None, gray=False):
     return f
 
 
-def _log(change):
-    """The driving log's lines changed by `change(lines) -> lines` (text)."""
+def _lines(name, change):
+    """The lines of the file `name` in the copy changed by `change(lines) -> lines` (text)."""
     def f(d):
-        p = d / "driving_log.csv"
+        p = d / name
         p.write_text("\n".join(change(p.read_text().splitlines())) + "\n")
     return f
+
+
+def _log(change):
+    """The driving log's lines changed by `change(lines) -> lines` (text)."""
+    return _lines("driving_log.csv", change)
 
 
 def _cols(fn):
@@ -619,10 +624,7 @@ def _set(col, value, rows=None):
 
 
 def _labels(change):
-    def f(d):
-        p = d / "labels.csv"
-        p.write_text("\n".join(change(p.read_text().splitlines())) + "\n")
-    return f
+    return _lines("labels.csv", change)
 
 
 def _png_as_jpg(d):
