@@ -19,6 +19,7 @@ over a distance that grows with the speed."""
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -47,6 +48,13 @@ def number(name: str, value, low: float, high: float, low_open: bool = False) ->
     return float(value)
 
 
+def throttle_held(cap: float, floor: float) -> Iterator[tuple[str, str]]:
+    """(option, what it must be) where a floor and a cap cannot shape one throttle: the floor lies within the cap
+    (options' `related`, and `Throttle`'s own check: one message)."""
+    if floor > cap:
+        yield "throttle_floor", f"at most max_throttle ({cap:g}): the floor lies within the cap"
+
+
 @dataclass(frozen=True)
 class Throttle:
     """What shapes a part's throttle on its way to the car, checked once when made (`number`'s one message):
@@ -71,6 +79,8 @@ class Throttle:
                                                  ("max_throttle", "cap", 0.0, 1.0, True),
                                                  ("throttle_floor", "floor", 0.0, 1.0, False)):
             object.__setattr__(self, field, number(name, getattr(self, field), low, high, low_open))
+        for name, expected in throttle_held(self.cap, self.floor):
+            raise SteerlabError(f"{name} must be {expected}, got {self.floor:g}")
 
     def for_model(self, learned: bool, name: str, kind: str = "constant") -> Throttle:
         """This shaping for model `name` (what messages call it): `learned`, its own throttle drives; else its
@@ -93,7 +103,7 @@ class Throttle:
         standing for good."""
         shaped = float(np.clip(self.scale * throttle, -self.cap, self.cap))
         if self.floor and speed is not None and speed < AT_REST:
-            return max(shaped, min(self.floor, self.cap))
+            return max(shaped, self.floor)  # within the cap: made so
         return shaped
 
 

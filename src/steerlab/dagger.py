@@ -25,7 +25,7 @@ import shutil
 from dataclasses import dataclass, fields, replace
 from pathlib import Path
 
-from steerlab.files import write_json
+from steerlab.files import exponents_read, write_json
 from steerlab.data.car import car_of
 from steerlab.errors import SteerlabError
 from steerlab.options import (AT_LEAST_0, AT_LEAST_1, MINUTES, Options, SEED, SPEED, UNIT, WORKERS, as_dict,
@@ -289,7 +289,7 @@ def _claim(out: Path, cfg: TrainConfig, o: DaggerOptions, car) -> None:
     path = out / "dagger.json"
     if path.exists() and any(out.glob("round*")):
         try:
-            stored = json.loads(path.read_text())
+            stored = exponents_read(json.loads(path.read_text()))  # an earlier version's texts: numbers
             earlier = _settings(parse_config({**stored, "dagger": None}).for_car(car),
                                 _parsed(_renamed(stored["dagger"]), earlier=True))
         except (OSError, ValueError, KeyError, TypeError, SteerlabError) as e:

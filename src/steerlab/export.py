@@ -63,6 +63,9 @@ def export_onnx(checkpoint: str | Path, out: str | Path, calib: str | Path | Non
     if calib is not None:
         from steerlab.data.readers import open_recording
 
+        from steerlab.data.rows import parse_range
+
+        parse_range(calib_range, "--calib-range")  # the option named where the frames are given wrongly
         calib_rec = open_recording(calib, calib_range)  # bad calibration data is refused before any work
     import torch
 

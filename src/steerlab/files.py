@@ -11,6 +11,7 @@ import io
 import json
 import math
 import os
+import re
 import secrets
 import zipfile
 from pathlib import Path
@@ -96,7 +97,22 @@ def csv_header(path: str | Path, row: list[str]) -> list[str]:
 
 class UniqueKeys(yaml.SafeLoader):
     """YAML's safe loader that refuses a mapping naming a key twice (YAML says keys are unique; PyYAML keeps the
-    last silently, dropping the first block)."""
+    last silently, dropping the first block) and reads 1e-3 as the number YAML 1.2 says it is (PyYAML's YAML 1.1
+    wants 1.0e-3 and reads 1e-3 as text), so that a number written as text ('0.3') is the one refused."""
+
+
+EXPONENT_FLOAT = re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$")  # 1e-3, 2.5E+4
+UniqueKeys.add_implicit_resolver("tag:yaml.org,2002:float", EXPONENT_FLOAT, list("-+0123456789."))
+
+
+def exponents_read(value):
+    """`value` (plain values) with every text that YAML 1.1 left a number in exponent form as text ('3e-4') read as
+    the number: what runs of earlier versions stored in their config.json before such texts were refused."""
+    if isinstance(value, dict):
+        return {k: exponents_read(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [exponents_read(v) for v in value]
+    return float(value.replace("_", "")) if isinstance(value, str) and EXPONENT_FLOAT.match(value) else value
 
 
 class KeyTwice(yaml.constructor.ConstructorError):

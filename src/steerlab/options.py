@@ -95,6 +95,7 @@ PIXELS = Range(1, 4096)  # an image's width or height
 FPS = Range(1, 240, unit="frames/s")  # a camera's frame rate
 MINUTES = Range(0, 24 * 60, lo_open=True, unit="min")  # a drive or recording of at most a day
 SPEED = Range(0, 100, lo_open=True, unit="m/s")  # a car's speed (100 m/s: 360 km/h, which no car here drives)
+OFF_PATH = Range(0, 5, lo_open=True, unit="m")  # how far off its path a car may drift: beyond 5 m it is off the road
 
 
 def frames_in(minutes: float, fps: float) -> int:
@@ -290,12 +291,9 @@ def value_of(kind, value, where: str, check=None, expected: str | None = None):
             raise _bad(where, expected, value)
         out = value
     elif inner is float:
-        if isinstance(value, bool) or not isinstance(value, (int, float, str)):
-            raise _bad(where, expected, value)
-        try:
-            out = float(value)
-        except ValueError:
-            raise _bad(where, expected, value) from None
+        if isinstance(value, bool) or not isinstance(value, numbers.Real):
+            raise _bad(where, expected, value)  # text ('0.3') too: a number quoted is a mistake an int refuses
+        out = float(value)
         if check is None and not math.isfinite(out):
             raise _bad(where, expected, value)
     elif inner is str:

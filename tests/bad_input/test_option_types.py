@@ -38,7 +38,7 @@ def _wrong_values(o):
     if kind is bool:
         return ["maybe", 1, 0, "true", [True], None if not optional(o.kind)[1] else "no"]
     if kind in (int, float):
-        return [[1], {"a": 1}, "abc", True, *(["nan", "inf"] if kind is float else [1.5, "2"])]
+        return [[1], {"a": 1}, "abc", True, "2", *(["nan", "inf", "0.3", "1e-3"] if kind is float else [1.5])]
     if get_origin(kind) is Literal:
         return ["no-such-choice", 7, [kind.__args__[0]]]
     if kind in (dict,):

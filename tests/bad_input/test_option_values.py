@@ -74,9 +74,9 @@ BAD_INPUTS = {
                            "--smoothing must be a number in (0, 1], got -1"),
     "replay workers 0": (_with("--workers", "0", command="replay"), f"--workers must be {WORKERS.words(int)}"),
     "replay smoothing 0": (_with("--smoothing", "0", command="replay"), "--smoothing must be a number in (0, 1], got 0"),
-    "replay limit -1": (_with("--limit", "-1", command="replay"), "--limit must be a positive finite number, got -1"),
+    "replay limit -1": (_with("--limit", "-1", command="replay"), "--limit must be a number in (0, 5] m, got -1"),
     "replay max heading inf": (_with("--max-heading", "inf", command="replay"),
-                               "--max-heading must be a number in (0, 90] degrees, got inf"),
+                               "--max-heading must be a number in [1, 90] degrees (not radians), got inf"),
     "replay speed -3": (_with("--speed", "-3", command="replay"), "--speed must be a number in (0, 100] m/s, got -3"),
     # the replay of small cars (a tub: the track world's replay)
     "replay lane width 0": (_tub_replay("--lane-width", "0"), "--lane-width must be a number in (0.2, 2] m, wider than "
@@ -104,7 +104,12 @@ BAD_INPUTS = {
                            "< GRACE"),
     # l) latency: models, threads and checkpoints checked before anything is timed
     "latency unknown model": (lambda t, s: ["latency", "--models", "pilotnet,pilot-net", "--out", str(t / "out")],
-                              "unknown model 'pilot-net'; available: cg23,"),
+                              "models pilotnet,pilot-net: steerlab has no pilot-net models; choose models of "
+                              "cg23,"),
+    "latency a model twice": (lambda t, s: ["latency", "--models", "zero,zero", "--out", str(t / "out")],
+                              "models zero,zero: zero named twice; choose models of cg23,"),
+    "latency all and a model": (lambda t, s: ["latency", "--models", "all,zero", "--out", str(t / "out")],
+                                "models all,zero: 'all' names every model already"),
     "latency threads 0": (lambda t, s: ["latency", "--models", "zero", "--threads", "0", "--out", str(t / "out")],
                           "--threads must be an integer in [1, "),
     "latency threads -1": (lambda t, s: ["latency", "--models", "zero", "--threads", "-1", "--out", str(t / "out")],

@@ -50,6 +50,14 @@ def _read_only_journal(tmp_path, stack):
     return ["tune", str(cfg), "--trials", "1", "--storage", str(journal)]
 
 
+def _best_without_last(tmp_path, stack):
+    """A run whose last.pt was removed (to save space, say): starting again would write over its best.pt."""
+    argv = _train()(tmp_path, stack)
+    (tmp_path / "run").mkdir()
+    made(tmp_path / "run", name="best.pt")
+    return argv
+
+
 def _a_file(tmp_path):
     (tmp_path / "afile").write_text("")
     return tmp_path / "afile"
@@ -80,6 +88,9 @@ BAD_INPUTS = {
                                                        "--out", str(t / "a.pt")],
                                          "a.pt: the output file (--out) is an input of this command"),
     "tune read-only journal": (_read_only_journal, "s.journal: cannot be written ("),
+    "train again into a run whose last.pt is gone": (_best_without_last, "run holds a run's best.pt but not the "
+                                                     "last.pt it resumes from (removed?): training there would start "
+                                                     "again and write over best.pt", ("run/.lock",)),
 }
 
 
@@ -133,6 +144,22 @@ def test_compile_removes_leftovers_of_killed_compiles_and_compiles_an_entry_once
         t.join()
     assert len(builds) == 1 and len(results) == 2 and results[0].path == results[1].path
     assert not left.exists() and alive.exists()
+
+
+def test_a_cache_entry_without_its_meta_json_is_compiled_again_and_said(tmp_path, capsys):
+    """An entry folder whose meta.json is gone (half removed by hand, a disk that filled) holds no checksums to
+    trust: it is compiled again, with a warning naming it, where the rename into place used to fail."""
+    from steerlab.data import dataset
+    from steerlab.data.preprocess import PreprocessConfig
+    from steerlab.data.readers import open_recording
+
+    rec, cfg = open_recording(sim_log(tmp_path / "sim")), PreprocessConfig.from_dict({"preset": "sim"})
+    first = dataset.compile_recording(rec, cfg, tmp_path / "cache", progress=False)
+    (first.path / "meta.json").unlink()
+    capsys.readouterr()
+    again = dataset.compile_recording(rec, cfg, tmp_path / "cache", progress=False)
+    assert f"warning: {first.path / 'meta.json'}: the compiled cache entry is damaged" in capsys.readouterr().err
+    assert again.path == first.path and (again.path / "meta.json").is_file() and len(again) == len(rec)
 
 
 def test_a_cache_named_by_the_environment_is_checked_as_an_output(tmp_path, monkeypatch, capsys):

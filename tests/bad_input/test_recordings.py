@@ -85,11 +85,19 @@ BAD_INPUTS = {
     "sim steering -7": (_compile(lambda t: sim_log(t / "sim", {0: "-7,0.5,0,10"})),
                         "driving_log.csv, row 1: column 'steering' is -7; a number in [-1, 1]"),
     "sim speed -40": (_compile(lambda t: sim_log(t / "sim", {4: "0,0.5,0,-40"})),
-                      "row 5: column 'speed' is -40; a number of at least 0 (mph) is expected"),
+                      "row 5: column 'speed' is -40; a number in [0, 101] (mph, as the simulator records it; not "
+                      "km/h) is expected"),
+    "sim speed 110 (km/h)": (_compile(lambda t: sim_log(t / "sim", {4: "0,0.5,0,110"})),
+                             "row 5: column 'speed' is 110; a number in [0, 101] (mph"),
     "sim throttle 7": (_compile(lambda t: sim_log(t / "sim", {1: "0,7,0,10"})),
                        "row 2: column 'throttle' is 7; a number in [0, 1] is expected"),
     "tub angle 1.5": (_compile(lambda t: tub(t / "tub", {3: {"user/angle": 1.5}})),
                       "catalog_0.catalog, row 4: record 3: user/angle is 1.5; a number in [-1, 1] is expected"),
+    "tub _index twice": (_compile(lambda t: tub(t / "tub", {4: {"_index": 2}})),
+                         "catalog_0.catalog, row 5: _index 2 is given twice (first in catalog_0.catalog row 3); a "
+                         "tub numbers each record once"),
+    "tub without its catalogs": (_compile(lambda t: _without_catalogs(tub(t / "tub"))),
+                                 "tub: not a recording: a donkeycar tub's manifest.json without its catalogs"),
     "tub throttle 7": (_compile(lambda t: tub(t / "tub", {5: {"user/throttle": 7}})),
                        "catalog_0.catalog, row 6: record 5: user/throttle is 7; a number in [-1, 1]"),
     # b) torn lines: read past with a warning, unless the reader is strict; a bad middle line stays an error
@@ -155,6 +163,12 @@ BAD_INPUTS = {
                       "model.name=donkey-linear", "reader.full_lock_deg=25"],
         "calib.yaml: calibrated at 640x480, but the camera takes 160x120 frames"),
 }
+
+
+def _without_catalogs(folder):
+    for f in folder.glob("catalog_*"):
+        f.unlink()
+    return folder
 
 
 def _calibration(tmp_path):

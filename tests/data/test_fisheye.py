@@ -103,11 +103,17 @@ def test_load_calibration_json_yaml_opencv_and_ros(tmp_path):
     ("a.json", {**GOOD, "K": [[81.0, 0.0, 80.0], [0.0, 80.0, 61.0], [0.0, 0.0, 2.0]]}, r"\[0, 0, 1\]"),
     ("a.json", {**GOOD, "K": [[-81.0, 0.0, 80.0], [0.0, 80.0, 61.0], [0.0, 0.0, 1.0]]}, "positive focal"),
     ("a.json", {**GOOD, "D": [0.0, 0.0, 0.0, -1.0]}, "do not map the image corners"),
+    ("a.json", {**GOOD, "D": ["-0.02", "-0.01", "0.0", "0.005"]}, r"D must be .* of numbers \(not text in quotes\)"),
+    ("a.yaml", "image_size: [160, 120]\nK: [[81, 0, 80], [0, 80, '61'], [0, 0, 1]]\nD: [0, 0, 0, 0]\n",
+     "K must be the 3x3 camera matrix of numbers"),
 ])
 def test_load_calibration_bad_input(tmp_path, name, content, message):
     path = _calib(tmp_path, name, content)
     with pytest.raises(SteerlabError, match=message) as e:
         load_calibration(path)
     assert str(path) in str(e.value) and "\n" not in str(e.value)
+    for path, base in ((123, DONKEY_FISHEYE), (path, None)):  # the API's own types, named
+        with pytest.raises(SteerlabError, match="must be a path|base must be a fisheye.FisheyeCamera"):
+            load_calibration(path, base)
     with pytest.raises(SteerlabError, match="calibration file not found"):
         load_calibration(tmp_path / "absent.json")

@@ -70,7 +70,8 @@ def test_sim_log_header_and_extra_columns(tmp_path):
     ("nan,0,0,10", "column 'steering' is 'nan'"),
     ("0,0", "expected at least 7 columns"),
     ("3.5,0,0,10", "column 'steering' is 3.5; a number in [-1, 1] is expected"),
-    ("0,0,0,-40", "column 'speed' is -40; a number of at least 0 (mph) is expected"),
+    ("0,0,0,-40", "column 'speed' is -40; a number in [0, 101] (mph, as the simulator records it; not km/h)"),
+    ("0,0,0,101", "column 'speed' is 101; a number in [0, 101] (mph"),  # 45.2 m/s: beyond the car's 45
 ])
 def test_sim_log_bad_rows(tmp_path, row, message):
     log = _sim_log(tmp_path, ["0,0,0,10", row])

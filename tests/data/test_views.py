@@ -44,7 +44,10 @@ def test_a_view_is_a_number_or_a_range_for_each_of_shift_and_turn():
                                        ([0, [1, 2, 3]], "yaw_deg must be a number or a range \\[lo, hi\\] of two "
                                                         "numbers, got \\[1, 2, 3\\]"),
                                        (["left", 0], "a number or a range"), ([0, 95], "within \\+-45 degrees"),
-                                       ([5, 0], "shift_m .* within \\+-2 m"), ([[-3, 0], 0], "within \\+-2 m")])
+                                       ([5, 0], "shift_m .* within \\+-2 m"), ([[-3, 0], 0], "within \\+-2 m"),
+                                       (["0.5", "10"], "a number or a range"),  # a number as text, as options
+                                       ([0, 0], "a view of \\[0, 0\\] .* is the frame itself"),
+                                       ([[0, 0], [0.0, 0]], "is the frame itself")])
 def test_a_view_that_is_not_a_pair_of_numbers_or_ranges_is_refused(bad, says):
     with pytest.raises(SteerlabError, match=says):
         View.parse_option(bad, "train.views[0]")
@@ -54,6 +57,15 @@ def test_a_view_that_is_not_a_pair_of_numbers_or_ranges_is_refused(bad, says):
 def test_a_view_made_in_python_is_checked_as_one_from_a_config(shift, yaw):
     with pytest.raises(SteerlabError, match="a view's (shift_m|yaw_deg) must be a range"):
         View(shift, yaw)
+
+
+@pytest.mark.parametrize("call, says", [(lambda: View((0.1, 0.1), (0, 0), draw="1"), "a view's draw must be an integer"),
+                                        (lambda: View((0.1, 0.1), (0, 0), draw=-1), "a view's draw must be an integer"),
+                                        (lambda: View((0.1, 0.2), (0, 0)).offsets(-1), r"View.offsets\(n\) must be"),
+                                        (lambda: View((0.1, 0.2), (0, 0)).offsets(2.5), r"View.offsets\(n\) must be")])
+def test_a_views_draw_and_count_are_whole_numbers_of_at_least_0(call, says):
+    with pytest.raises(SteerlabError, match=says):
+        call()
 
 
 @pytest.fixture(scope="module")
@@ -157,8 +169,8 @@ def test_a_small_cars_view_label_corrects_the_target_by_the_recorded_path_within
     a view from the recorded camera itself keeps every target exactly, and the car's full lock is the reader's
     (a lock of 40 degrees does not cap the labels at 25 / 40 of the servo's range)."""
     cfg = load_config(None, [f"data={track_tub}", "model.name=donkey-linear", f"cache={tmp_path / 'cache'}",
-                             f"reader.full_lock_deg={lock}", "train.views=[[0, 0]]"])
-    view = cfg.train.views[0]
+                             f"reader.full_lock_deg={lock}"])
+    view = View((0.0, 0.0), (0.0, 0.0))  # the frame itself (a config refuses it: it adds nothing to train on)
     warped = prepare_dataset(cfg, progress=False, view=view)
     target = np.clip(warped.steering[::-1] * 3, -1, 1)  # another target than the recorded steering, at full lock
     assert np.abs(target).max() == 1.0

@@ -251,3 +251,30 @@ def test_a_donkeycar_part_in_the_suite_cannot_steer_by_the_lane():
     with pytest.raises(SteerlabError, match=r"^model.h5: steer_by lane steers by a steerlab checkpoint's lane head; "
                                             r"a donkeycar part steers by its own angle: set steer_by to steering$"):
         race_part(Throttle, "theirs", "model.h5", TrackSuiteOptions(steer_by="lane"))
+
+
+def test_the_lane_pilot_steers_by_what_it_sees_within_the_full_lock_and_keeps_its_inner_pilots_throttle():
+    """By hand: the inner pilot answers the frame and the speed it is given, its throttle drives; the angle is the
+    lane controller's at the measured speed (0 without one), limited to the car's full lock both ways."""
+    from steerlab.pilot import Controls
+
+    class Inner:
+        name, geometry, source = "inner", "donkey", "inner"
+
+        def __init__(self):
+            self.calls = []
+
+        def step(self, frame, speed=None):
+            self.calls.append((frame, speed))
+            return Controls(0.0, throttle=0.37)
+
+    frame, seen = np.zeros((2, 2, 3), np.uint8), [(0.1, 0.05, 0.5)]
+    inner = Inner()
+    pilot = LanePilot(inner, lambda: seen[0], CAR)
+    for speed, at in ((None, 0.0), (2.0, 2.0)):
+        controls = pilot.step(frame, speed)
+        assert inner.calls[-1][0] is frame and inner.calls[-1][1] == speed and controls.throttle == 0.37
+        assert controls.steering == pytest.approx(lane_steering(0.1, 0.05, 0.5, at, CAR.wheelbase))
+    for offset, lock in ((10.0, -CAR.full_lock), (-10.0, CAR.full_lock)):  # far off: atan nears 90 degrees
+        seen[0] = (offset, 0.0, 0.0)
+        assert pilot.step(frame, 1.0).steering == pytest.approx(lock)

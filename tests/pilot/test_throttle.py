@@ -209,3 +209,49 @@ def test_the_simulated_car_and_the_real_one_get_the_same_controls_for_every_thro
     assert sum(k == "learned" for k, *_ in said) == 16
     assert sorted(c for c in said if c[0] == "constant" and c[2] == 1.0 and c[4] == 0.0) == [
         ("constant", 0.8, 1.0, 0.5, 0.0)]
+
+
+def test_a_floor_above_the_cap_is_refused_alike_by_the_sim_the_car_and_the_api(tmp_path):
+    """The floor lies within the cap: a floor of 0.6 under a cap of 0.5 is refused in one message by the throttle
+    itself, the track drive's and suite's options and the donkeycar part; a floor at the cap holds the car at it."""
+    from conftest import made
+    from steerlab.control import Throttle
+    from steerlab.sim.track.suite import TrackSuiteOptions
+    from steerlab.sim.track.world import TrackDriveOptions
+
+    ckpt = made(tmp_path, "normalized", "right", "donkey", full_lock_deg=25, throttle=True)
+    expected = r"throttle_floor must be at most max_throttle \(0.5\): the floor lies within the cap, got 0.6"
+    for make in (lambda: Throttle(cap=0.5, floor=0.6), lambda: TrackDriveOptions(max_throttle=0.5, throttle_floor=0.6),
+                 lambda: TrackSuiteOptions(max_throttle=0.5, throttle_floor=0.6),
+                 lambda: SteerlabPilot(ckpt, max_throttle=0.5, throttle_floor=0.6, full_lock_deg=25)):
+        with pytest.raises(SteerlabError, match=expected):
+            make()
+    at_cap = Throttle(cap=0.5, floor=0.5)
+    assert (at_cap.shaped(-1.0, 0.0), at_cap.shaped(-1.0, 1.0), at_cap.shaped(0.9, 0.0)) == (0.5, -0.5, 0.5)
+    for options, says in (({"reset_after_s": 0}, r"reset_after_s must be a number in \(0, 1e\+09\], got 0"),
+                          ({"smoothing": 0}, r"smoothing must be a number in \(0, 1\], got 0"),
+                          ({"kp": -1}, r"kp must be a number in \[0, 10\], got -1")):  # each bound as declared
+        with pytest.raises(SteerlabError, match=rf"^SteerlabPilot: {says}$"):
+            SteerlabPilot(ckpt, full_lock_deg=25, **options)
+
+
+def test_a_shaping_that_does_not_apply_to_the_model_is_refused_naming_the_option():
+    """`Throttle.for_model` by hand: on a model of a constant throttle a floor or a scale is refused naming it, in
+    the words of the throttle that drives; a constant throttle at the cap is taken, above it refused; `number`
+    takes its lower bound unless told the interval is open there."""
+    from steerlab.control import Throttle, number
+
+    for shaping, field in ((Throttle(floor=0.2), "throttle_floor"), (Throttle(scale=1.5), "throttle_scale")):
+        with pytest.raises(SteerlabError, match=rf"^{field} shapes a learned throttle; m.pt drives at a constant "
+                                                rf"throttle: leave {field} out$"):
+            shaping.for_model(False, "m.pt")
+        assert shaping.for_model(True, "m.pt") is shaping
+    with pytest.raises(SteerlabError, match="m.pt drives at a cruising throttle"):
+        Throttle(floor=0.2).for_model(False, "m.pt", "cruising")
+    at_cap = Throttle(constant=0.5, cap=0.5)
+    assert at_cap.for_model(False, "m.pt") is at_cap
+    with pytest.raises(SteerlabError, match=r"^the constant throttle 0.6 exceeds max_throttle 0.5"):
+        Throttle(constant=0.6, cap=0.5).for_model(False, "m.pt")
+    assert number("x", 0, 0.0, 1.0) == 0.0
+    with pytest.raises(SteerlabError, match=r"^x must be a number in \(0, 1\], got 0$"):
+        number("x", 0, 0.0, 1.0, low_open=True)

@@ -117,14 +117,14 @@ def test_two_pilots_of_one_label_and_a_part_out_of_range_are_refused(tmp_path):
 
 
 def test_a_throttle_floor_holds_only_while_the_car_stands():
-    """A part that brakes (-0.2): at rest (speed below 0.1 m/s) the car gets the floor 0.15, within the cap (0.1
-    under a cap of 0.1); moving, or with no floor, the brake as it was."""
+    """A part that brakes (-0.2): at rest (speed below 0.1 m/s) the car gets the floor 0.15 (a floor at the cap: the
+    cap); moving, or with no floor, the brake as it was."""
     frame = np.zeros((120, 160, 3), np.uint8)
 
     def throttle(speed, floor, cap=1.0):
         return PartPilot(Stub(0.0, -0.2), 25.0, throttle=Throttle(cap=cap, floor=floor)).step(frame, speed).throttle
 
-    assert throttle(0.0, 0.15) == 0.15 and throttle(0.099, 0.15) == 0.15 and throttle(0.0, 0.15, cap=0.1) == 0.1
+    assert throttle(0.0, 0.15) == 0.15 and throttle(0.099, 0.15) == 0.15 and throttle(0.0, 0.1, cap=0.1) == 0.1
     assert throttle(0.1, 0.15) == -0.2 and throttle(2.0, 0.15) == -0.2 and throttle(0.0, 0.0) == -0.2
     assert PartPilot(Stub(0.0, 0.4), 25.0, throttle=Throttle(cap=1.0, floor=0.15)).step(frame, 0.0).throttle == 0.4
     assert throttle(None, 0.15) == -0.2  # no speed measured: no floor
@@ -141,3 +141,25 @@ def test_a_part_that_brakes_at_rest_stands_and_the_floor_gets_it_going(tmp_path)
         race([stub(model, throttle=-0.1)], out, options(throttle_floor=floor), progress=False)
         distance[floor] = json.loads((out / "stub" / "centre-9451" / "drive.json").read_text())["distance_km"]
     assert distance[0.0] == 0.0 and distance[0.3] > 0.0
+
+
+def test_a_parts_answer_reaches_the_car_as_the_servo_and_the_esc_take_it():
+    """By hand: the part sees the frame as RGB, its angle is limited to [-1, 1] as the servo limits it and its own
+    throttle (no shaping given) to the ESC's [-1, 1]; an answer that is not finite is refused."""
+    from steerlab.sim.core.part import PartPilot
+
+    class Seeing(Stub):
+        def run(self, img_arr):
+            self.seen = img_arr
+            return self.answer
+
+    frame = np.arange(2 * 3 * 3, dtype=np.uint8).reshape(2, 3, 3)
+    part = Seeing(0.5, 0.2)
+    PartPilot(part, 25.0).step(frame, 1.0)
+    assert np.array_equal(part.seen, frame[..., ::-1])
+    for answer, expected in [((1.7, 1.7), (1.0, 1.0)), ((-1.7, -1.7), (-1.0, -1.0)), ((0.3, -0.4), (0.3, -0.4))]:
+        controls = PartPilot(Stub(*answer), 25.0).step(frame, 1.0)
+        assert (controls.steering, controls.throttle) == pytest.approx(expected)
+    for answer in ((float("nan"), 0.2), (0.1, float("inf"))):
+        with pytest.raises(SteerlabError, match="finite numbers are expected"):
+            PartPilot(Stub(*answer), 25.0).step(frame, 1.0)

@@ -255,3 +255,20 @@ def test_the_recipe_table_says_what_each_row_raced():
         recipes.RECIPES["mae-throttle-2"].what, "donkeycar's own trainer and part, on the tubs of rooms",
         "donkeycar's own trainer and part, on the tubs of rooms, its throttle times 2 before the cap"]
     assert lines[0].endswith("| 0.5 | 3 | 55.0 | 61.0 | 4.7 of 8 | 2.45 | 139.3 | 0.997 (3) |")
+
+
+def test_a_number_in_exponent_form_is_a_number_and_a_number_quoted_is_refused(tmp_path):
+    """YAML 1.2 reads 1e-3 as a number (PyYAML's YAML 1.1 reads it as text unless written 1.0e-3), so a config says
+    lr: 1e-3 as people write it; a number in quotes is text, refused by a number option as an integer one refuses
+    it, in the file and on the command line."""
+    from steerlab.errors import SteerlabError
+    from steerlab.train.config import load_config
+
+    cfg = tmp_path / "c.yaml"
+    cfg.write_text("data: x\ntrain: {lr: 1e-3, rotation_deg: 2E+0}\n")
+    loaded = load_config(cfg)
+    assert (loaded.train.lr, loaded.train.rotation_deg) == (0.001, 2.0)
+    assert load_config(cfg, ["train.lr=5e-4"]).train.lr == 5e-4
+    for given in (["train.lr='0.001'"], ['train.lr="1e-3"']):
+        with pytest.raises(SteerlabError, match=r"train\.lr must be .*got '(0\.001|1e-3)'"):
+            load_config(cfg, given)

@@ -87,6 +87,7 @@ def test_a_run_of_an_earlier_version_loads_and_resumes(tiny_recording, tmp_path,
     import json
     import shutil
 
+    from steerlab.files import exponents_read
     from steerlab.pilot import Pilot
 
     old = Path(__file__).parents[1] / "fixtures" / "run-0.1.0"
@@ -97,8 +98,10 @@ def test_a_run_of_an_earlier_version_loads_and_resumes(tiny_recording, tmp_path,
     assert np.isfinite(first.steering)
     user = {"data": "rec", "cache": "cache", "out": "run", "split": {"train": "0:240", "val": "240:300"},
             "model": {"name": "cg23", "dropout": 0.2}, "preprocess": {"width": 16, "height": 8},
-            "train": {"epochs": 2, "batch_size": 32, "lr": "3e-4", "side_cameras": True}}
-    assert parse_config(json.loads((old / "config.json").read_text())).identity() == load_config(
+            "train": {"epochs": 2, "batch_size": 32, "lr": 3e-4, "side_cameras": True}}
+    stored = json.loads((old / "config.json").read_text())
+    assert stored["train"]["lr"] == "3e-4"  # text: as YAML 1.1 read the 3e-4 of its config
+    assert parse_config(exponents_read(stored)).identity() == load_config(
         None, base=user).for_car(CH2_CAR).identity()
     best = loop.train(load_config(None, base=user), progress=False)
     rows = _log(tmp_path)

@@ -199,8 +199,9 @@ def test_min_speed_drops_slow_frames(tiny_recording, tmp_path):
     v = ds.labels["speed"]
     idx = sources.usable_frames(ds, np.arange(len(ds)), "training", min_speed=np.median(v))
     assert (v[idx] >= np.median(v)).all() and len(idx) < len(ds)
-    with pytest.raises(SteerlabError, match="split is empty once frames slower than 1000"):
-        sources.usable_frames(ds, np.arange(len(ds)), "validation", min_speed=1000)
+    with pytest.raises(SteerlabError, match=rf"validation split is empty once frames slower than train.min_speed=90 "
+                       rf"m/s are dropped \(.* drives at most {v.max():.3g} m/s\): lower train.min_speed"):
+        sources.usable_frames(ds, np.arange(len(ds)), "validation", min_speed=90)
 
 
 def test_balance_refuses_recurrent_models(tiny_recording, tmp_path):
@@ -349,3 +350,26 @@ def test_epoch_repeats_hand_computed():
     assert epoch_repeats(2, np.array([1, 3]), 10).tolist() == [3, 9]  # 4 drawn: ceil(10 / 4) = 3 times over
     assert epoch_repeats(2, np.array([1, 3]), 4).tolist() == [1, 3]
     assert epoch_repeats(0, None, 10) is None  # nothing to draw
+    assert epoch_repeats(1, None, 3).tolist() == [3]  # one sample: drawn three times
+
+
+def test_objective_hand_computed():
+    """The objective by hand: the MSE of the steering by default (and no throttle weight unless given), a model's
+    own loss given the outputs and targets in that order, and the smoothness term the error of the predicted
+    change against the recorded one."""
+    out = {"steering": torch.tensor([[0.0, 1.0, 3.0]]), "throttle": torch.tensor([0.5])}
+    targets = {"steering": torch.tensor([[1.0, 1.0, 1.0]]), "throttle": torch.tensor([0.0])}
+    # steering errors -1, 0, 2: MSE 5/3; predicted changes 1, 2 against 0, 0: MSE of (1, 2) = 5/2
+    assert loop.objective(object(), out, targets).item() == pytest.approx(5 / 3)
+    assert loop.objective(object(), out, targets, smoothness=2.0).item() == pytest.approx(5 / 3 + 2 * 5 / 2)
+    assert loop.objective(object(), out, targets, loss="mae", throttle_weight=4.0).item() == pytest.approx(1 + 2)
+    recorded_change = {"steering": torch.tensor([[0.0, 2.0, 2.0]]), "throttle": torch.tensor([0.0])}
+    # changes 1, 2 against 2, 0: errors -1, 2, MSE 5/2 (the sum of the changes would give 3, 2: 13/2)
+    assert loop.objective(object(), out, recorded_change, smoothness=1.0).item() == pytest.approx(
+        (0 + 1 + 1) / 3 + 5 / 2)
+
+    class OwnLoss:
+        def loss(self, out, targets):
+            return out["steering"].sum() - 10 * targets["steering"].sum()
+
+    assert loop.objective(OwnLoss(), out, targets, loss="mae").item() == pytest.approx(4 - 30)

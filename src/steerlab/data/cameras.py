@@ -6,6 +6,7 @@ option), preprocessing presets, replay, views and `steerlab latency --geometry` 
 
 from __future__ import annotations
 
+import numbers
 import re
 
 from steerlab.data.car import CARS, Car
@@ -26,9 +27,9 @@ def register_camera(name: str, camera: Camera, crop: tuple[int, int, int, int], 
         raise SteerlabError(f"camera {name!r} is registered already; choose another name")
     if not (isinstance(camera, Camera) and isinstance(car, Car)):
         raise SteerlabError(f"register_camera({name!r}): camera must be a geometry.Camera and car a car.Car")
-    crop = tuple(crop)
-    if (len(crop) != 4 or not all(isinstance(c, int) and c >= 0 for c in crop)
+    if (not isinstance(crop, (tuple, list)) or len(crop) != 4
+            or not all(isinstance(c, numbers.Integral) and not isinstance(c, bool) and c >= 0 for c in crop)
             or crop[0] + crop[1] >= camera.height or crop[2] + crop[3] >= camera.width):
         raise SteerlabError(f"register_camera({name!r}): crop must be four non-negative integers (top, bottom, left, "
-                            f"right) that leave some of the {camera.height}x{camera.width} frame, got {crop}")
-    CAMERAS[name], CROP_PRESETS[name], CARS[name] = camera, crop, car
+                            f"right) that leave some of the {camera.height}x{camera.width} frame, got {crop!r}")
+    CAMERAS[name], CROP_PRESETS[name], CARS[name] = camera, tuple(int(c) for c in crop), car

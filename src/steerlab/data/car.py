@@ -11,6 +11,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from steerlab.errors import SteerlabError
+from steerlab.options import SPEED, Range, value_of
+
+FULL_LOCK_DEG = (5.0, 60.0)  # a road wheel's largest angle: no car steers less or more (0.44: radians)
 
 
 @dataclass(frozen=True)
@@ -60,6 +63,23 @@ class Car:
     drag: float = 0.0004
     motor: Motor | None = None
     body: Body | None = None
+
+    def __post_init__(self):  # each field of its kind and plausible, named: a car is given in the Python API too
+        metres = Range(0, 10, lo_open=True, unit="m")
+        value_of(float, self.wheelbase, "car.wheelbase", metres)
+        value_of(float, self.steering_ratio, "car.steering_ratio", Range(0, 50, lo_open=True))
+        value_of(float, self.full_lock_deg, "car.full_lock_deg", Range(*FULL_LOCK_DEG),
+                 expected=f"a road-wheel angle in [{FULL_LOCK_DEG[0]:g}, {FULL_LOCK_DEG[1]:g}] degrees (not radians)")
+        if self.side_camera_offset_m is not None:
+            value_of(float, self.side_camera_offset_m, "car.side_camera_offset_m", metres)
+        value_of(float, self.lane_limit_m, "car.lane_limit_m", metres)
+        value_of(tuple[float, float], self.speeds, "car.speeds")
+        if not 0 <= self.speeds[0] < self.speeds[1] <= SPEED.hi:
+            raise SteerlabError(f"car.speeds must be (lowest, highest) m/s with 0 <= lowest < highest <= "
+                                f"{SPEED.hi:g}, got {self.speeds}")
+        for name in ("max_accel", "max_decel"):
+            value_of(float, getattr(self, name), f"car.{name}", Range(0, 100, lo_open=True, unit="m/s^2"))
+        value_of(float, self.drag, "car.drag", Range(0, 1, unit="1/m"))
 
     @property
     def full_lock(self) -> float:

@@ -119,10 +119,10 @@ def compile_recording(rec: Recording, cfg: PreprocessConfig, cache_dir: str | Pa
     final = cache_root(cache_dir) / key
     final.parent.mkdir(parents=True, exist_ok=True)
     with waiting_lock(final.parent / f".{key}.lock"):  # another process may be compiling or checking it
-        damage = _damage(final) if (final / "meta.json").exists() else None
+        damage = _damage(final) if final.is_dir() else None  # a folder without its meta.json: half removed
         if damage:
-            warn(f"{final / damage}: the compiled cache entry is damaged (not the bytes that were written); "
-                 "compiling it again")
+            warn(f"{final / damage}: the compiled cache entry is damaged (not the bytes that were written, or "
+                 "missing); compiling it again")
             shutil.rmtree(final)
         if not (final / "meta.json").exists():
             remove_leftovers(final.parent)

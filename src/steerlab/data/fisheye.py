@@ -37,6 +37,7 @@ import yaml
 from steerlab.data.geometry import CAMERAS
 from steerlab.errors import DataError, SteerlabError
 from steerlab.files import UniqueKeys, parse_json, read_text
+from steerlab.paths import a_path
 
 PINHOLE = CAMERAS["donkey"]  # the pinhole view `undistort` makes by default: the donkey geometry's focal length
 
@@ -317,8 +318,11 @@ def _matrix(path: Path, data: dict, names: tuple[str, ...], shapes: tuple[tuple[
         value = value.get("data")
     try:
         m = np.array(value, dtype=float)
+        text = np.array(value, dtype=object).ravel()  # a number written as text ('80.0') is refused, as options do
     except (TypeError, ValueError):
         raise DataError(path, f"{key} must be {what}, got {value!r}") from None
+    if any(isinstance(v, (str, bool)) for v in text):
+        raise DataError(path, f"{key} must be {what} of numbers (not text in quotes), got {value!r}")
     if m.shape not in shapes:
         raise DataError(path, f"{key} must be {what} ({' or '.join('x'.join(map(str, s)) for s in shapes)}), got "
                               f"shape {'x'.join(map(str, m.shape)) or 'scalar'}")
@@ -346,7 +350,10 @@ def load_calibration(path: str | Path, base: FisheyeCamera = DONKEY_FISHEYE) -> 
     [width, height], or `image_width` and `image_height`), `K` or `camera_matrix` (3x3, nested or flat, or
     {rows, cols, data} as OpenCV's FileStorage and ROS camera_info write it) and `D` or
     `distortion_coefficients` (k1..k4). The image size must be the camera's."""
-    path = Path(path)
+    if not isinstance(base, FisheyeCamera):
+        raise SteerlabError(f"load_calibration: base must be a fisheye.FisheyeCamera (the lens whose K and D the "
+                            f"file gives), got {base!r}")
+    path = a_path(path, "the calibration file")
     data = _parse(path)
     size = _size(path, data)
     if size != (base.width, base.height):

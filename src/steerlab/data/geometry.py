@@ -19,6 +19,9 @@ import cv2
 import numpy as np
 
 from steerlab.errors import SteerlabError
+from steerlab.options import PIXELS, Range, value_of
+
+MAX_MOUNT_M = 10.0  # a camera's mount height: higher than a bus's roof is a mistake of units
 
 
 @dataclass(frozen=True)
@@ -29,6 +32,15 @@ class Camera:
     cy: float            # principal point row
     mount_height: float  # m above the ground
     pitch_deg: float     # down positive
+
+    def __post_init__(self):  # each field of its kind and plausible, named: a camera is given in the Python API too
+        value_of(int, self.width, "camera.width", PIXELS)
+        value_of(int, self.height, "camera.height", PIXELS)
+        value_of(float, self.focal, "camera.focal", Range(0, lo_open=True, unit="px"))
+        value_of(float, self.cy, "camera.cy", Range(0, self.height, unit="px (a row of the frame)"))
+        value_of(float, self.mount_height, "camera.mount_height",
+                 Range(0, MAX_MOUNT_M, lo_open=True, unit="m above the ground (not cm)"))
+        value_of(float, self.pitch_deg, "camera.pitch_deg", Range(-90, 90, True, True, "degrees, down positive"))
 
     @property
     def horizon(self) -> float:

@@ -68,7 +68,7 @@ def open_recording(path: str | Path, frame_range: str | tuple | None = None, lab
     path = a_path(path, "the recording")
     if not path.exists():
         raise DataError(path, "recording not found: check the path")
-    rng = parse_range(frame_range)
+    rng = parse_range(frame_range, path)
     reader = reader_of(path)
     kind = reader.options
     known = [o.key for o in options_of(kind)] if kind else []
@@ -98,5 +98,7 @@ def reader_of(path: Path) -> Reader:
     for reader in READERS:
         if reader.recognises(path):
             return reader
+    for reader in READERS:
+        reader.near(path)
     raise DataError(path, "not a recording: expected " + ", ".join(r.expects for r in READERS[:-1])
                     + f" or {READERS[-1].expects}")

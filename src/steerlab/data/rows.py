@@ -19,8 +19,10 @@ class Reader:
     """A recording layout, as `readers.READERS` registers it: `name` (what the docs and messages call it),
     `expects` (what it recognises, in the words of the "not a recording" message), `recognises(path)` (whether a
     path is of this layout; tried in the registry's order), `read(path, frame_range, **options)` (the
-    `Recording`), `options` (the dataclass of its reader options, None: it takes none), and whether it takes a
-    label file (`labels`, CH2's) or the cache root (`cache`, where a ROS bag's frames are extracted)."""
+    `Recording`), `options` (the dataclass of its reader options, None: it takes none), whether it takes a
+    label file (`labels`, CH2's) or the cache root (`cache`, where a ROS bag's frames are extracted), and `near(path)`:
+    for a path nearly of this layout, the one-line error of what it lacks (else None: the "not a recording" message
+    lists every layout)."""
 
     name: str
     expects: str
@@ -29,26 +31,27 @@ class Reader:
     options: type | None = None
     labels: bool = False
     cache: bool = False
+    near: Callable[[Path], None] = lambda path: None
 
 
-def parse_range(text: str | tuple | None) -> tuple[int | None, int | None] | None:
+def parse_range(text: str | tuple | None, where: str | Path) -> tuple[int | None, int | None] | None:
     """Parse "a:b" (either side may be empty) into a tuple; None stays None, and a (start, stop) pair of
-    integers or None (the Python API's form) is taken as it is."""
+    integers or None (the Python API's form) is taken as it is. Errors name `where` (the recording, the option)."""
     if text is None:
         return None
     if isinstance(text, (tuple, list)) and len(text) == 2 and all(
             v is None or (isinstance(v, int) and not isinstance(v, bool)) for v in text):
         return tuple(text)  # type: ignore[return-value]
     if not isinstance(text, str):
-        raise DataError("<range>", f"frame range {text!r} must be text like \"0:1800\" (quote it in YAML files) or "
+        raise DataError(where, f"frame range {text!r} must be text like \"0:1800\" (quote it in YAML files) or "
                                    "a (start, stop) pair of integers")
     parts = str(text).split(":")
     if len(parts) != 2:
-        raise DataError("<range>", f"frame range {text!r} must look like START:STOP, e.g. 0:1800")
+        raise DataError(where, f"frame range {text!r} must look like START:STOP, e.g. 0:1800")
     try:
         return tuple(int(p) if p.strip() else None for p in parts)  # type: ignore[return-value]
     except ValueError:
-        raise DataError("<range>", f"frame range {text!r} must hold integers, e.g. 0:1800") from None
+        raise DataError(where, f"frame range {text!r} must hold integers, e.g. 0:1800") from None
 
 
 def apply_range(n: int, rng, source: Path) -> slice:

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from steerlab.data.car import CARS
 from steerlab.data.recording import Recording, SteeringConvention
 from steerlab.data.rows import (Reader, apply_range, check_images, check_increasing, check_unique, csv_header, ends_torn,
                                 number, read_rows)
@@ -49,9 +50,12 @@ class SimLogOptions(Options):
 
 
 SIM_OPTIONS = SimLogOptions
-# the physical range of each recorded value: steering +-1 = full lock, pedals 0..1, speed in mph
+# the physical range of each recorded value: steering +-1 = full lock, pedals 0..1, speed in mph up to the fastest
+# the road world's car drives (a log in km/h reads too fast)
+MAX_MPH = CARS["sim"].speeds[1] / MPH_TO_MS
 SIM_RANGES = {"steering": (-1.0, 1.0, "in [-1, 1]"), "throttle": (0.0, 1.0, "in [0, 1]"),
-              "brake": (0.0, 1.0, "in [0, 1]"), "speed": (0.0, math.inf, "of at least 0 (mph)")}
+              "brake": (0.0, 1.0, "in [0, 1]"),
+              "speed": (0.0, MAX_MPH, f"in [0, {MAX_MPH:.0f}] (mph, as the simulator records it; not km/h)")}
 
 
 def _sim_timestamp(name: str) -> int | None:

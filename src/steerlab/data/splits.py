@@ -17,7 +17,7 @@ from steerlab.options import AT_LEAST_1, Range, value_of
 
 def block(text: str, n: int, name: str) -> np.ndarray:
     """Frame indices of one "a:b" range, checked against the dataset length n."""
-    start, stop = parse_range(text)
+    start, stop = parse_range(text, f"split.{name}")
     start = 0 if start is None else start
     stop = n if stop is None else stop
     if not (0 <= start < stop <= n):

@@ -176,7 +176,7 @@ def read_tub(folder: str | Path, frame_range=None, full_lock_deg: float | None =
     """Read a tub. `frame_range` ("a:b" as a tuple) counts the records that remain after deletion."""
     folder = Path(folder)
     keys, catalogs, deleted, metadata = _manifest(folder)
-    records = []  # (catalog, line, record)
+    records, seen = [], {}  # (catalog, line, record); _index -> (catalog, line)
     torn_at, cut_at, lost = {}, {}, 0  # torn lines and lines cut off at the end by catalog, records lost
     for name in catalogs:
         torn: list[int] = []
@@ -205,6 +205,12 @@ def read_tub(folder: str | Path, frame_range=None, full_lock_deg: float | None =
                 raise DataError(folder / name, f"{bad} is {rec[bad]!r}; "
                                                f"{'a file name' if bad == 'cam/image_array' else 'an integer'} is "
                                                "expected", line)
+            if rec["_index"] in seen:  # two frames of one record: which is it?
+                first = seen[rec["_index"]]
+                raise DataError(folder / name, f"_index {rec['_index']} is given twice (first in {first[0]} row "
+                                               f"{first[1]}); a tub numbers each record once: remove one of them",
+                                line)
+            seen[rec["_index"]] = (name, line)
             if rec["_index"] not in deleted:
                 records.append((folder / name, line, rec))
     if torn_at or cut_at:
@@ -266,5 +272,11 @@ def _read(folder: Path, frame_range=None, **options) -> Recording:
     return read_tub(folder, frame_range, **options)
 
 
+def _near(path: Path) -> None:
+    if (path / "manifest.json").is_file() and not any(path.glob("catalog_*.catalog")):
+        raise DataError(path, "not a recording: a donkeycar tub's manifest.json without its catalogs "
+                              "(catalog_N.catalog, the records, beside it): copy them with the tub")
+
+
 READER = Reader("donkeycar-tub", "a donkeycar tub (manifest.json + catalogs)",
-                lambda path: path.is_dir() and (is_tub(path) or is_tub_v1(path)), _read, OPTIONS)
+                lambda path: path.is_dir() and (is_tub(path) or is_tub_v1(path)), _read, OPTIONS, near=_near)

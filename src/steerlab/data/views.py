@@ -24,7 +24,7 @@ import numpy as np
 from steerlab.data import fisheye, geometry
 from steerlab.data.fisheye import DONKEY_FISHEYE, FisheyeCamera, load_calibration
 from steerlab.errors import SteerlabError
-from steerlab.options import value_of
+from steerlab.options import AT_LEAST_0, value_of
 
 FISHEYE_GEOMETRY = "donkey"  # the camera geometry whose lens is a fisheye
 EXPECTED = "a list of [shift_m, yaw_deg] pairs, each a number or a range [lo, hi]"
@@ -42,6 +42,7 @@ class View:
     draw: int = 0
 
     def __post_init__(self):
+        value_of(int, self.draw, "a view's draw", AT_LEAST_0)
         for name, limit, unit in (("shift_m", MAX_SHIFT_M, "m"), ("yaw_deg", MAX_YAW_DEG, "degrees")):
             r = getattr(self, name)
             if (not isinstance(r, tuple) or len(r) != 2
@@ -68,6 +69,9 @@ class View:
             if lo > hi:
                 raise SteerlabError(f"{where}.{name} must be a range [lo, hi] with lo <= hi, got {v!r}")
             ranges.append((lo, hi))
+        if ranges == [(0, 0), (0, 0)]:
+            raise SteerlabError(f"{where}: a view of [0, 0] (no shift, no turn) is the frame itself, which training "
+                                "has already: leave it out")
         try:
             return cls(*ranges)
         except SteerlabError as e:
@@ -91,6 +95,7 @@ class View:
 
     def offsets(self, n: int) -> tuple[np.ndarray, np.ndarray]:
         """(shift m, yaw degrees) of each of n frames."""
+        value_of(int, n, "View.offsets(n)", AT_LEAST_0)
         rng = np.random.default_rng([self.draw, 71])
         return rng.uniform(*self.shift_m, n), rng.uniform(*self.yaw_deg, n)
 

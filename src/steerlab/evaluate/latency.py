@@ -29,7 +29,7 @@ from tqdm import tqdm
 from steerlab.data.cameras import GEOMETRY
 from steerlab.data.geometry import camera
 from steerlab.data.readers import Source, a_source
-from steerlab.options import AT_LEAST_1, Options, THREADS, option
+from steerlab.options import AT_LEAST_1, Options, THREADS, names_from, option
 from steerlab.errors import SteerlabError
 from steerlab.export import export_onnx
 from steerlab.paths import check_outputs
@@ -166,12 +166,18 @@ class LatencyOptions(Options):
     decode: bool = option(False, help="time JPEG decoding too (frames encoded once, quality 95)")
 
     def model_names(self, checkpoints) -> list[str]:
-        names = [m.strip() for m in (self.models or ("" if checkpoints else "all")).split(",") if m.strip()]
-        if names == ["all"]:
-            from steerlab.models import list_models
+        """The registered models to time untrained (beside the checkpoints, if any), each once."""
+        from steerlab.models import list_models
 
-            return list_models()
-        return names
+        if self.models is None:
+            return [] if checkpoints else list_models()
+        try:
+            names = names_from(self.models, [*list_models(), "all"], "models", "steerlab")
+        except SteerlabError as e:
+            raise SteerlabError(f"models {self.models}: {e}") from None
+        if "all" in names and len(names) > 1:
+            raise SteerlabError(f"models {self.models}: 'all' names every model already; give 'all' or a list")
+        return list_models() if names == ["all"] else names
 
 
 def run_latency(checkpoints=(), o: LatencyOptions = LatencyOptions(), source: Source | None = None,

@@ -19,7 +19,7 @@ import numpy as np
 import torch
 from tqdm import tqdm
 
-from steerlab.files import write_json
+from steerlab.files import exponents_read, write_json
 from steerlab.checkpoint import load_checkpoint, save_checkpoint
 from steerlab.cpu import bf16_instructions
 from steerlab.data.cache import cache_root
@@ -207,7 +207,7 @@ def run_changes(out: Path, cfg: TrainConfig, car=None, grows=()) -> list[tuple[s
     the recording's, found when not given."""
     car = car or car_of(main_recording(cfg).geometry)
     try:
-        earlier = parse_config(json.loads((out / "config.json").read_text())).for_car(car).identity()
+        earlier = parse_config(exponents_read(json.loads((out / "config.json").read_text()))).for_car(car).identity()
     except (OSError, ValueError, SteerlabError) as e:
         raise unreadable(out, "config.json", e) from None
     return [(key, a, b) for key, a, b in differences(earlier, cfg.for_car(car).identity())
@@ -219,6 +219,10 @@ def _claim(out: Path, cfg: TrainConfig, car) -> None:
     patience continues (fewer is another config: what was trained already went further)."""
     if (out / "last.pt").exists() and (changes := run_changes(out, cfg, car, grows=STOPPING)):
         raise another_config(out, changes)
+    if cfg.model.cls.trainable and (out / "best.pt").exists() and not (out / "last.pt").exists():
+        raise SteerlabError(f"{out} holds a run's best.pt but not the last.pt it resumes from (removed?): training "
+                            "there would start again and write over best.pt; choose a new out directory, or move "
+                            "best.pt away")
     write_json(out / "config.json", as_dict(cfg))
 
 

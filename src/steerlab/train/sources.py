@@ -78,15 +78,20 @@ def usable_frames(ds: CompiledDataset, idx: np.ndarray, name: str, min_speed: fl
     (paper 002 V-A drops frames slower than 4 m/s) and outside the excluded episodes."""
     if min_speed:
         if "speed" not in ds.labels:
-            raise SteerlabError(f"min_speed needs a recording with speed; {ds.meta['source']} has none")
+            raise SteerlabError(f"train.min_speed needs a recording with speed; {ds.meta['source']} has none")
         idx = idx[ds.labels["speed"][idx] >= min_speed]
     if exclude_episodes:
         if "episode" not in ds.labels:
-            raise SteerlabError("exclude_episodes needs a recording with episode labels (the road and track worlds')")
+            raise SteerlabError("train.exclude_episodes needs a recording with episode labels (the road and track worlds')")
         idx = idx[~np.isin(ds.labels["episode"][idx], list(exclude_episodes))]
     if len(idx) == 0:
-        raise SteerlabError(f"the {name} split is empty" + (f" once frames slower than {min_speed} m/s are dropped"
-                                                             if min_speed else "") + ": give it more frames")
+        if min_speed:
+            top = float(np.max(ds.labels["speed"])) if len(ds.labels["speed"]) else 0.0
+            raise SteerlabError(f"the {name} split is empty once frames slower than train.min_speed={min_speed:g} m/s "
+                                f"are dropped ({ds.meta['source']} drives at most {top:.3g} m/s): lower "
+                                "train.min_speed, or give the split more frames")
+        excluded = f" once the episodes {list(exclude_episodes)} are excluded" if exclude_episodes else ""
+        raise SteerlabError(f"the {name} split is empty{excluded}: give it more frames")
     return idx
 
 

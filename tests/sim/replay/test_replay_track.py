@@ -132,7 +132,7 @@ def test_speed_from_a_constant_throttle_approaches_the_small_cars_steady_state()
 
 
 def open_tub(path, frames=None):
-    return Source(str(path), frames, None, {"full_lock_deg": "25"}).open()
+    return Source(str(path), frames, None, {"full_lock_deg": 25}).open()
 
 
 def test_the_body_leaving_the_lane_is_an_intervention_and_a_turn_alone_is_not(track_tub):

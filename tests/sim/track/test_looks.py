@@ -72,6 +72,8 @@ def test_a_look_is_drawn_from_its_seed():
         "gradient": 0.2063675773280843, "light_from_deg": 314.16022958305786, "glare": 2.8284391465588308,
         "clutter": 0.09161203004200057, "people": 0, "noise": 5.188352290460025, "blur": 0.9728094014901241,
         "jpeg_quality": 69, "mount_dz": -0.01501595660946843, "pitch_ddeg": 0.01290877553271308}
+    # a plain floor (seed 0): its tape stands out from the one floor colour, not from a second it does not show
+    assert (Look.draw(0).pattern, Look.draw(0).floor2, Look.draw(0).tape) == ("plain", None, (68.2, 74.7, 108.8))
     looks = [Look.draw(seed) for seed in range(20)]
     for field in ("floor", "tape", "light", "noise", "mount_dz", "pitch_ddeg"):
         assert len({getattr(k, field) for k in looks}) == 20, field
@@ -90,6 +92,8 @@ def test_drawn_looks_stay_within_their_ranges():
                           ("people", 0, 6), ("jpeg_quality", 40, 95)):
         v = values(field)
         assert lo <= v.min() < lo + 0.05 * (hi - lo) and hi - 0.05 * (hi - lo) < v.max() <= hi, field
+        if field in ("marks", "people", "jpeg_quality"):  # whole numbers: both ends are drawn
+            assert (v.min(), v.max()) == (lo, hi), field
     assert {k.pattern for k in looks} == {"plain", "checker", "tiles"}
     assert all((k.floor2 is None) == (k.pattern == "plain") for k in looks)
     # floors: value 0.2-0.95 (the brightest channel 51-242.25), saturation up to 0.6 (the darkest channel at least
@@ -135,13 +139,14 @@ def test_the_floors_pattern_and_the_light_across_it():
     """A checker of 2-texel squares and tiles of 4 texels with 2-texel joints, texel by texel; the light from
     +x (0 degrees) rises from 0.6 to 1.4 along x, from 180 degrees it falls, from 90 degrees it rises along y."""
     a, b = (10.0, 20.0, 30.0), (200.0, 210.0, 220.0)
-    checker = Look(floor=a, floor2=b, pattern="checker", tile_m=0.02).floor_colours(4, 4, 0.01)
-    second = [[0, 0, 1, 1], [0, 0, 1, 1], [1, 1, 0, 0], [1, 1, 0, 0]]
-    np.testing.assert_array_equal(checker, np.where(np.array(second)[..., None] == 1, b, a))
+    checker = Look(floor=a, floor2=b, pattern="checker", tile_m=0.02).floor_colours(6, 6, 0.01)
+    second = np.kron([[0, 1, 0], [1, 0, 1], [0, 1, 0]], np.ones((2, 2), int))  # squares of 2 texels
+    np.testing.assert_array_equal(checker, np.where(second[..., None] == 1, b, a))
     tiles = Look(floor=a, floor2=b, pattern="tiles", tile_m=0.04).floor_colours(5, 5, 0.01)
     joint = np.array([1, 1, 0, 0, 1], bool)
     np.testing.assert_array_equal(tiles, np.where((joint[:, None] | joint[None])[..., None], b, a))
     ramp = [0.6, 0.8, 1.0, 1.2, 1.4]
+    assert Look(gradient=0.4).light_across(3, 5).dtype == np.float32 == checker.dtype
     np.testing.assert_allclose(Look(gradient=0.4).light_across(3, 5), [ramp] * 3, atol=1e-6)
     np.testing.assert_allclose(Look(gradient=0.4, light_from_deg=180).light_across(3, 5), [ramp[::-1]] * 3, atol=1e-6)
     np.testing.assert_allclose(Look(gradient=0.4, light_from_deg=90).light_across(5, 3), np.c_[ramp, ramp, ramp],
@@ -229,3 +234,15 @@ def test_a_varied_tub_trains(tmp_path):
         "preprocess": {"preset": "donkey"}, "model": {"name": "pilotnet"},
         "split": {"train": "0:45", "val": "45:60"}, "train": {"epochs": 1, "batch_size": 16}}), progress=False)
     assert best["frames"] == 15 and np.isfinite(best["mae"]) and (tmp_path / "run" / "best.pt").exists()
+
+
+def test_a_looks_mount_jitters_the_cameras_height_and_pitch_and_a_varied_look_is_kept():
+    """By hand: the mount adds its dz and its pitch to the camera (each alone too); the room's own look keeps the
+    camera as it is and writes nothing beside it, a varied look its every draw."""
+    cam = DONKEY_FISHEYE
+    both = Look(mount_dz=0.01, pitch_ddeg=2.0).mount(cam)
+    assert (both.mount_height, both.pitch_deg) == pytest.approx((cam.mount_height + 0.01, cam.pitch_deg + 2.0))
+    assert Look(mount_dz=-0.02).mount(cam).mount_height == pytest.approx(cam.mount_height - 0.02)
+    assert Look(pitch_ddeg=-3.0).mount(cam).pitch_deg == pytest.approx(cam.pitch_deg - 3.0)
+    assert LOOK.mount(cam) is cam and LOOK.metadata() == {}
+    assert Look.draw(5).metadata() == {"look": asdict(Look.draw(5))}

@@ -70,25 +70,28 @@ def test_the_learned_throttle_is_capped_both_ways_and_braking_is_scaled_too(tmp_
 
 def test_the_parts_throttle_floor_holds_only_while_the_measured_speed_says_the_car_stands(tmp_path):
     """`SteerlabPilot(throttle_floor=)` on a car, by hand: a learned brake (-0.2, scaled 1.5 to -0.3) becomes the
-    floor 0.25 below 0.1 m/s and stays a brake at 0.1 m/s and above; the floor within the cap; without the measured
-    speed, or on a model of a constant throttle, the part refuses in one line."""
+    floor 0.25 below 0.1 m/s and stays a brake at 0.1 m/s and above; a floor at the cap holds the car at the cap, one
+    above it is refused; without the measured speed, or on a model of a constant throttle, the part refuses in one
+    line."""
     from steerlab.donkey import SteerlabPilot
     from steerlab.sim.core.part import donkey_pilot
 
     ckpt = made(tmp_path, "normalized", "right", "donkey", full_lock_deg=25, throttle=True)
     frame = np.zeros((120, 160, 3), np.uint8)
     for speed, cap, expected in [(0.0, 1.0, 0.25), (0.09, 1.0, 0.25), (0.1, 1.0, -0.3), (2.0, 1.0, -0.3),
-                                 (0.0, 0.2, 0.2)]:
+                                 (0.0, 0.25, 0.25)]:
         part = SteerlabPilot(ckpt, throttle_scale=1.5, throttle_floor=0.25, max_throttle=cap)
         part.pilot.step = lambda image, speed=None: Controls(0.1, throttle=-0.2)
         assert part.run(frame, speed) == pytest.approx((0.1, expected))
     part = SteerlabPilot(ckpt, throttle_scale=1.5, throttle_floor=0.25, max_throttle=1.0)
     part.pilot.step = lambda image, speed=None: Controls(0.1, throttle=0.6)  # above the floor: as it is
     assert part.run(frame, 0.0) == pytest.approx((0.1, 0.9))
-    # in the track world the part's cap bounds the floor too: x 1 at a cap of 0.15, a floor of 0.5 gives 0.15
-    world_part = donkey_pilot(ckpt, 0.3, max_throttle=0.15, throttle_floor=0.5)
+    # in the track world the part's floor as on the car: at the cap of 0.15 it gives 0.15; above it, refused
+    world_part = donkey_pilot(ckpt, 0.3, max_throttle=0.15, throttle_floor=0.15)
     world_part.part.pilot.step = lambda image, speed=None: Controls(0.1, throttle=-0.2)
     assert world_part.step(frame, 0.0).throttle == pytest.approx(0.15)
+    with pytest.raises(SteerlabError, match=r"^SteerlabPilot: throttle_floor must be at most max_throttle \(0.15\)"):
+        donkey_pilot(ckpt, 0.3, max_throttle=0.15, throttle_floor=0.5)
     with pytest.raises(SteerlabError, match=r"^SteerlabPilot: the throttle floor needs the measured speed \(m/s\) "
                                             r"with every frame: add the car's odometry \(HAVE_ODOM = True\)"):
         part.run(frame)

@@ -20,7 +20,7 @@ from steerlab.data.recording import Recording
 from steerlab.data.writer import RecordingWriter
 from steerlab.errors import DataError, SteerlabError, warn
 from steerlab.files import write_json
-from steerlab.options import Options, POSITIVE, Range, SPEED, WORKERS, option
+from steerlab.options import OFF_PATH, Options, Range, SPEED, WORKERS, option
 from steerlab.paths import check_outputs
 from steerlab.pilot import smoothing_option
 from steerlab.sim.core.driving import Trajectory, autonomy, drive_loop, rollout
@@ -40,9 +40,9 @@ class ReplayOptions(Options):
 
     speed: float | None = option(None, SPEED, help="speed in m/s (default: the recorded one, else estimated from "
                                  "the frames)")
-    limit: float | None = option(None, POSITIVE, help="road: metres off the human's path that count as an "
+    limit: float | None = option(None, OFF_PATH, help="road: metres off the human's path that count as an "
                                  "intervention (default: the car's: 1 for cars, 0.3 for donkeycars)")
-    max_heading: float = option(MAX_HEADING_DEG, Range(0, 90, lo_open=True, unit="degrees"),
+    max_heading: float = option(MAX_HEADING_DEG, Range(1, 90, unit="degrees (not radians)"),
                                 help="road: degrees of heading error beyond which the warped view is not trusted: "
                                 "an intervention")
     mount_height: float | None = option(None, MOUNT_HEIGHT, help="camera height above the road, m (default: the "

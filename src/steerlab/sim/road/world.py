@@ -12,7 +12,7 @@ import numpy as np
 
 from steerlab.data.car import Vehicle, VehicleState, car_of
 from steerlab.errors import SteerlabError
-from steerlab.options import FPS, MINUTES, Options, POSITIVE, SEED, holds_frames, option
+from steerlab.options import FPS, MINUTES, OFF_PATH, Options, SEED, holds_frames, option
 from steerlab.sim.road.expert import cruise, pure_pursuit
 from steerlab.sim.road.render import Renderer
 from steerlab.sim.road.road import LANE_CENTER, ROAD_TYPES, Road
@@ -74,7 +74,7 @@ class DriveOptions(Options):
     road: str = option("country", _roads, ROADS, help=f"road type: {ROADS}")
     geometry: Literal["sim", "ch2"] | None = option(None, help="camera geometry (default: the checkpoint's)")
     fps: float = option(20.0, FPS, help="frames per second")
-    limit_m: float = option(1.0, POSITIVE, help="metres off the lane centre that count as an intervention")
+    limit_m: float = option(1.0, OFF_PATH, help="metres off the lane centre that count as an intervention")
 
     related = holds_frames("minutes")
 

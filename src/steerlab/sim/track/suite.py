@@ -31,7 +31,7 @@ from typing import Literal
 
 import numpy as np
 
-from steerlab.control import Throttle
+from steerlab.control import Throttle, throttle_held
 from steerlab.data.car import CARS
 from steerlab.errors import SteerlabError
 from steerlab.options import MINUTES, Options, WORKERS, frames_held, frames_in, names_from, names_held, option
@@ -86,6 +86,7 @@ class TrackSuiteOptions(Options):
     @classmethod
     def related(cls, v):
         yield from frames_held(v, "minutes", fps=FPS)
+        yield from throttle_held(v.max_throttle, v.throttle_floor)
         if v.suite in TRACK_SUITES:
             yield from names_held(v, "styles", TRACK_SUITES[v.suite]["tracks"], "track styles")
 

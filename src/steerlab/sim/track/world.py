@@ -28,11 +28,11 @@ from typing import Literal
 
 import numpy as np
 
-from steerlab.control import DEFAULT_THROTTLE, Throttle
+from steerlab.control import DEFAULT_THROTTLE, Throttle, throttle_held
 from steerlab.data.car import CARS, Car, VehicleState
 from steerlab.data.fisheye import DONKEY_FISHEYE, FisheyeCamera, load_calibration
 from steerlab.data.recording import SteeringConvention
-from steerlab.options import (AT_LEAST_0, FPS, MINUTES, Options, Range, SEED, UNIT, frames_held, holds_frames,
+from steerlab.options import (AT_LEAST_0, FPS, MINUTES, Options, Range, SEED, UNIT, frames_held,
                               option)
 from steerlab.pilot import Controls
 from steerlab.sim.track.expert import Racer, expert_controls, pursuit
@@ -184,7 +184,10 @@ class TrackDriveOptions(Options):
                                  "0.75-1.2): the same track at another time of day")
     steer_by: Literal["steering", "lane"] = steer_by_option()
 
-    related = holds_frames("minutes")
+    @classmethod
+    def related(cls, v):
+        yield from frames_held(v, "minutes")
+        yield from throttle_held(v.max_throttle, v.throttle_floor)
 
 
 def camera_of(calibration: str | None) -> FisheyeCamera:
