@@ -39,7 +39,7 @@ TIMEOUT = 45  # s a case may take (a case's own "timeout" says more)
 @dataclass(frozen=True)
 class RoundOptions(Options):
     round: int = option(1, Range(1, 3), help="the round: 1 (tests/rounds/round1.py), 2 (tests/rounds/round2.py) or 3 "
-                        "(tests/rounds/round3.py)")
+                        "(tests/rounds/round3/)")
 
 
 def setup():

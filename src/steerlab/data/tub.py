@@ -274,8 +274,12 @@ def _read(folder: Path, frame_range=None, **options) -> Recording:
 
 def _near(path: Path) -> None:
     if (path / "manifest.json").is_file() and not any(path.glob("catalog_*.catalog")):
-        raise DataError(path, "not a recording: a donkeycar tub's manifest.json without its catalogs "
-                              "(catalog_N.catalog, the records, beside it): copy them with the tub")
+        try:
+            listed = ", ".join(_manifest(path)[1])  # the catalogs the manifest names
+        except SteerlabError:  # a manifest that cannot be read either: its own error once the catalogs are back
+            listed = "catalog_N.catalog"
+        raise DataError(path, f"not a recording: a donkeycar tub's manifest.json without its catalogs ({listed}, the "
+                              "records, beside it): copy them with the tub")
 
 
 READER = Reader("donkeycar-tub", "a donkeycar tub (manifest.json + catalogs)",

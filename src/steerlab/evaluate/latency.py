@@ -154,7 +154,8 @@ class LatencyOptions(Options):
     """`steerlab latency`'s options."""
 
     models: str | None = option(None, help="'all' or a comma list of registered models to time untrained (the "
-                                "weights do not change the cost); default: all when no checkpoint is given")
+                                "weights do not change the cost), each once, in one table with any checkpoints "
+                                "given; default: all when no checkpoint is given")
     geometry: str | None = option(None, GEOMETRY, help="camera geometry of the untrained models "
                                                               "and the synthetic frames (default: the recording's "
                                                               "with --data, else donkey, 160x120)")
