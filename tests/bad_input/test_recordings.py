@@ -97,8 +97,8 @@ BAD_INPUTS = {
                          "catalog_0.catalog, row 5: _index 2 is given twice (first in catalog_0.catalog row 3); a "
                          "tub numbers each record once"),
     "tub without its catalogs": (_compile(lambda t: _without_catalogs(tub(t / "tub"))),
-                                 "tub: not a recording: a donkeycar tub's manifest.json without its catalogs (catalog_0.catalog, "
-                                 "the records, beside it)"),
+                                 "tub: not a recording: a donkeycar tub's manifest.json without its catalogs "
+                                 "(catalog_0.catalog, the records, beside it)"),
     "tub throttle 7": (_compile(lambda t: tub(t / "tub", {5: {"user/throttle": 7}})),
                        "catalog_0.catalog, row 6: record 5: user/throttle is 7; a number in [-1, 1]"),
     # b) torn lines: read past with a warning, unless the reader is strict; a bad middle line stays an error

@@ -59,8 +59,8 @@ def test_a_view_made_in_python_is_checked_as_one_from_a_config(shift, yaw):
         View(shift, yaw)
 
 
-@pytest.mark.parametrize("call, says", [(lambda: View((0.1, 0.1), (0, 0), draw="1"), "a view's draw must be an integer"),
-                                        (lambda: View((0.1, 0.1), (0, 0), draw=-1), "a view's draw must be an integer"),
+@pytest.mark.parametrize("call, says", [(lambda: View((0.1, 0.1), (0, 0), draw="1"), "a view's draw must be an"),
+                                        (lambda: View((0.1, 0.1), (0, 0), draw=-1), "a view's draw must be an"),
                                         (lambda: View((0.1, 0.2), (0, 0)).offsets(-1), r"View.offsets\(n\) must be"),
                                         (lambda: View((0.1, 0.2), (0, 0)).offsets(2.5), r"View.offsets\(n\) must be")])
 def test_a_views_draw_and_count_are_whole_numbers_of_at_least_0(call, says):

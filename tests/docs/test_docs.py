@@ -123,3 +123,42 @@ def test_a_readme_number_on_another_page_than_its_paragraph_links_is_missing():
     text = "Raced: 58.6 % clean ([install](docs/results/install.md)).\n\nElsewhere: 58.6 % again."
     (numbers, pages), (_, everywhere) = claims(text)
     assert numbers == {"58.6%"} and pages == [page] and everywhere == RESULTS
+
+
+def _doc_commands():
+    """Every `steerlab ...` line of the README's and the docs' bash blocks (continuations joined; a comment, a pipe
+    and what follows `&&` cut off), with a shell variable read as 1; lines that elide arguments (`...`) are not
+    commands to run."""
+    import re
+
+    found = []
+    for page in [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]:
+        for block in re.findall(r"```(?:bash|sh)\n(.*?)```", page.read_text(), re.S):
+            for line in block.replace("\\\n", " ").splitlines():
+                line = re.split(r"\s+#", line.strip())[0]
+                line = re.split(r"\s*(?:&&|\||;|>)\s*", line)[0]
+                if line.startswith("steerlab ") and "..." not in line:
+                    found.append((page.relative_to(ROOT).as_posix(), re.sub(r"\$\{?\w+\}?", "1", line)))
+    return found
+
+
+def test_every_command_the_docs_show_is_one_the_cli_takes():
+    """A command the README or a page shows parses as written (its subcommand, flags and arguments): a page that
+    shows `steerlab export X Y` where the command takes `--out Y` is a user's first error."""
+    import contextlib
+    import io
+    import shlex
+
+    from steerlab.cli import build_parser
+
+    commands, refused = _doc_commands(), []
+    assert len(commands) > 100
+    for page, line in commands:
+        err = io.StringIO()
+        try:
+            with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+                build_parser().parse_args(shlex.split(line)[1:])
+        except SystemExit as e:
+            if e.code:
+                refused.append(f"{page}: {line}: {err.getvalue().strip()}")
+    assert not refused, "\n".join(refused)

@@ -57,7 +57,8 @@ class TrainOptions(Options):
     side_cameras: bool = option(False, help="side-camera recovery synthesis (paper 002 Eq. 3)")
     side_offset_m: float | None = option(None, Range(0, 2, lo_open=True, unit="m"),
                                          help="side cameras' offset (default: the car's)")
-    recovery_s: float = option(1.0, Range(0, 10, lo_open=True, unit="s"), help="seconds in which a displaced car returns to its path (a small "
+    recovery_s: float = option(1.0, Range(0, 10, lo_open=True, unit="s"),
+                               help="seconds in which a displaced car returns to its path (a small "
                                "car's views: pursuing the point this many seconds of travel ahead on it)")
     steering_ratio: float | None = option(None, POSITIVE, help="for the recovery labels (default: the car's)")
     views: tuple[View, ...] = option(
@@ -67,8 +68,10 @@ class TrainOptions(Options):
     calibration: str | None = option(None, path="file", help="views of a donkey-camera recording: the fisheye "
                                      "calibration of its camera (JSON or YAML: image size, K, D; default: the one "
                                      "the recording carries, else a 160-degree Raspberry Pi camera)")
-    recovery_distance_m: float | None = option(None, Range(0, 200, lo_open=True, unit="m"), help="return distance without a speed signal")
-    min_speed: float = option(0.0, Range(0, 100, unit="m/s"), help="m/s; slower frames are dropped (paper 002 V-A uses 4)")
+    recovery_distance_m: float | None = option(None, Range(0, 200, lo_open=True, unit="m"),
+                                               help="return distance without a speed signal")
+    min_speed: float = option(0.0, Range(0, 100, unit="m/s"),
+                              help="m/s; slower frames are dropped (paper 002 V-A uses 4)")
     balance: bool = option(False, help="thin out straight driving, redrawn every epoch (paper 003)")
     rotation_deg: float = option(0.0, Range(0, 180, unit="degrees"), help="augmentation (paper 002 IV-B1)")
     brightness: float = option(0.0, Range(0, 1, hi_open=True), help="brightness scaled within 1 +- this")

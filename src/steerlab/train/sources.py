@@ -82,7 +82,8 @@ def usable_frames(ds: CompiledDataset, idx: np.ndarray, name: str, min_speed: fl
         idx = idx[ds.labels["speed"][idx] >= min_speed]
     if exclude_episodes:
         if "episode" not in ds.labels:
-            raise SteerlabError("train.exclude_episodes needs a recording with episode labels (the road and track worlds')")
+            raise SteerlabError("train.exclude_episodes needs a recording with episode labels (the road and track "
+                                "worlds')")
         idx = idx[~np.isin(ds.labels["episode"][idx], list(exclude_episodes))]
     if len(idx) == 0:
         if min_speed:
