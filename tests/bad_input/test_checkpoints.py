@@ -288,3 +288,22 @@ def test_rule5_only_earlier_versions_are_taken_as_earlier_versions(how, taken, t
         return
     with pytest.raises(SteerlabError, match=f"^{path}: a checkpoint that steerlab sealed, without its seal"):
         load_checkpoint(path)
+
+
+def test_an_unsealed_file_with_bytes_after_its_end_record_is_damaged_not_an_earlier_version(tmp_path):
+    """The seal by hand: torch.save's own file (no comment, its end record last) is an earlier version's (None); the
+    same with bytes after it (a copy that went wrong) is damaged (False), as is a sealed file with one byte more."""
+    import io
+
+    import torch
+
+    from steerlab.checkpoint import _seal_intact, save_payload
+
+    buf = io.BytesIO()
+    torch.save({"a": torch.zeros(2)}, buf)
+    plain = buf.getvalue()
+    assert _seal_intact(plain) is None and _seal_intact(plain + b"\0" * 5) is False
+    assert _seal_intact(plain + b"junk") is False
+    save_payload(tmp_path / "sealed.pt", {"a": torch.zeros(2)})
+    sealed = (tmp_path / "sealed.pt").read_bytes()
+    assert _seal_intact(sealed) is True and _seal_intact(sealed + b"\0") is False
