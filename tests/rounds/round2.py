@@ -263,8 +263,9 @@ def setup():
     made(F, "steering_wheel", "left", "ch2", name="ch2.pt")
     W.mkdir(parents=True, exist_ok=True)
     p = _steerlab(["sim", "record", "--minutes", "5", "--seed", "4", "--out", F / "rec-cut"])
-    _kill_when(p, lambda: len(list(Path(CUT).rglob("*.jpg"))) > 20, signal.SIGKILL, settle=0.5)
-    if (F / "rec-cut").exists() or not Path(CUT).is_dir():
+    cut = Path(places.fill(CUT))
+    _kill_when(p, lambda: len(list(cut.rglob("*.jpg"))) > 20, signal.SIGKILL, settle=0.5)
+    if (F / "rec-cut").exists() or not cut.is_dir():
         raise RuntimeError(f"sim record was not killed while it recorded: {CUT} is not what it left")
     cfg = F / "cut.yaml"
     cfg.write_text(f"data: {F / 'rec'}\ncache: {F / 'cache-cut'}\nout: {F / 'run-cut'}\n"
