@@ -85,6 +85,7 @@ def varied(n: int) -> tuple[str, ...]:
     taped, centre = [f"taped-{s}-vary" for s in range(200, 248)], [f"centre-{s}-vary" for s in range(248, 264)]
     return (*taped[: n * 3 // 4], *centre[: n // 4])
 COLOUR = ("train.hue_deg=180", "train.brightness=0.25")  # the colours and light of other rooms
+VIEWS = ("train.views=[[[-0.15, 0.15], [-15, 15]]]", "train.recovery_s=0.3")  # one view a frame, back in 0.3 s
 BEST = (*COLOUR, "train.flip=true", "train.loss=mae", "train.epoch_samples=3700")  # configs/track_best.yaml
 RACE_BEST = {"throttle_scale": 1.2}  # its scale uncapped (and its floor at rest: best-floor-0.2)
 
@@ -183,9 +184,11 @@ RECIPES = {
     # ahead as the expert does: docs/results/views.md) buying back the drift episodes' recovery
     "best-no-drift-views": Recipe("best-no-drift + one view of every frame, its camera moved within +-0.15 m and "
                                   "turned within +-15 degrees (train.views, train.recovery_s 0.3), driven as "
-                                  "best-floor-0.2", (*BEST, "train.views=[[[-0.15, 0.15], [-15, 15]]]",
-                                                     "train.recovery_s=0.3"),
+                                  "best-floor-0.2", (*BEST, *VIEWS),
                                   {**RACE_BEST, "throttle_floor": 0.2}, ROOMS_NO_DRIFT, only=240),
+    "best-views": Recipe("track_best + one view of every frame, its camera moved within +-0.15 m and turned within "
+                         "+-15 degrees (train.views, train.recovery_s 0.3), driven as best-floor-0.2",
+                         (*BEST, *VIEWS), {**RACE_BEST, "throttle_floor": 0.2}, ROOMS, only=240),
     "best-dagger": Recipe("track_best + DAgger in the track world: 3 rounds of 4 minutes of rollouts on fresh tracks, "
                           "uncapped, the expert's labels at the car's speed, 2 epochs a round",
                           dagger_rounds(2), RACE_BEST, ROOMS, only=240, starts="flip-mae"),

@@ -18,35 +18,54 @@ The models: `zero` and `train-mean` (a model that learned nothing); `pilotnet` o
 32, Adam 3e-4, the throttle learned where the tub varies it); `pilotnet-views`, the same with
 `train.views=[[[-0.15, 0.15], [-15, 15]]]` and `train.recovery_s=0.3` (every frame also seen from a car moved up
 to 15 cm and turned up to 15 degrees, labelled with the steering back to the path); and `other-track`: the
-`pilotnet-views` model of fold `last` of each other tub (a model of another track, car and lens). The check this
+`pilotnet-views` model of fold `last` of each other tub (a model of another track, car and lens). `--models` adds
+`tub-default` (the tub defaults as shipped: multimodal-lstm), `tub-default-views` (the same with those views) and
+`track-best` (configs/track_best.yaml's input, network and training); every trained model gets at most --epochs
+epochs, patience 3, and a finished run of another recipe is refused (delete its folder). The check this
 study exists for: on every scored block the best trained model needs at most half the interventions of the best
 of the models that learned nothing and of the other tracks' models ("separates": yes / no in the table).
 
 python -m studies.tub_replay [--seeds 2] [--epochs 10] [--tubs hall,taped-track,wood-tape]
+    [--models pilotnet,pilotnet-views,tub-default,tub-default-views,track-best]
 Every finished run is kept in runs/tub-replay/epochs-N/results.json and reused by a later run of the same --epochs;
 table.md and table.png are written there from all the runs kept.
 """
 
 import json
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from steerlab.cli import run_script, script_parser
+from steerlab.files import read_yaml
 from steerlab.data.readers import Source
 from steerlab.evaluate.offline import evaluate
 from steerlab.figures import COLORS, figure
 from steerlab.options import AT_LEAST_1, Options, names_from, names_held, option
 from steerlab.sim.replay.run import run_replay
 from steerlab.sim.track.replay import TrackReplayOptions
-from steerlab.train.config import load_config
-from steerlab.train.loop import train
+from steerlab.train.config import another_config, load_config
+from steerlab.train.loop import run_changes, train
 from studies.common import ROOT, machine, mean_min_max
 from studies.common.donkeycar import FULL_LOCK_DEG, READER, TUB_NAMES, TUBS
 
 OUT = ROOT / "runs" / "tub-replay"
 VIEWS = {"views": [[[-0.15, 0.15], [-15, 15]]], "recovery_s": 0.3}
-TRAINED = {"pilotnet": {}, "pilotnet-views": VIEWS}  # the trained models: train: options beside the tub defaults
+PILOTNET = {"model": {"name": "pilotnet"}}
+
+
+def track_best() -> dict:
+    """configs/track_best.yaml's input, network and training (the track world's closed loop chose them)."""
+    best = read_yaml(ROOT / "configs" / "track_best.yaml")
+    return {k: best[k] for k in ("preprocess", "model", "train")}
+
+
+# the trained models: their config sections beside the tub defaults (the tub default: multimodal-lstm); --epochs and
+# patience 3 for all
+TRAINED = {"pilotnet": lambda: PILOTNET, "pilotnet-views": lambda: {**PILOTNET, "train": VIEWS},
+           "tub-default": lambda: {}, "tub-default-views": lambda: {"train": VIEWS}, "track-best": track_best}
+MODELS = "pilotnet,pilotnet-views"  # --models by default
 NULL = ("zero", "train-mean")
 FOLDS = ("last", "first")
 
@@ -59,17 +78,24 @@ def fold_blocks(fold: str, n: int) -> dict[str, str]:
     return {"train": f"{b}:{n}", "val": f"{a}:{b}", "scored": f"0:{a}"}
 
 
+def fold_config(work, tub: str, fold: str, model: str, seed: int, epochs: int, n: int):
+    """The training config of the model for this fold of `tub` (of `n` records), its run in `work`."""
+    split = fold_blocks(fold, n)
+    recipe = {"model": {"name": model}} if model in NULL else TRAINED[model]()
+    return load_config(None, base={
+        **recipe, "data": str(TUBS / tub), "reader": READER, "cache": str(OUT / "cache"),
+        "out": str(work / tub / fold / f"{model}-{seed}"), "split": {"train": split["train"], "val": split["val"]},
+        "train": {**recipe.get("train", {}), "epochs": epochs, "patience": 3, "seed": seed}})
+
+
 def checkpoint(work, tub: str, fold: str, model: str, seed: int, epochs: int, n: int):
     """The model's best.pt for this fold (trained in `work` once; a null model trains in no time)."""
-    run = work / tub / fold / f"{model}-{seed}"
+    cfg = fold_config(work, tub, fold, model, seed, epochs, n)
+    run = Path(cfg.out)
     if (run / "best.pt").exists():
+        if changes := run_changes(run, cfg):  # a finished run of another recipe is not this model's
+            raise another_config(run, changes, f"{model}'s finished run")
         return run / "best.pt"
-    split = fold_blocks(fold, n)
-    name = model if model in NULL else "pilotnet"
-    cfg = load_config(None, base={
-        "data": str(TUBS / tub), "reader": READER, "cache": str(OUT / "cache"), "out": str(run),
-        "model": {"name": name}, "split": {"train": split["train"], "val": split["val"]},
-        "train": {**TRAINED.get(model, {}), "epochs": epochs, "patience": 3, "seed": seed}})
     train(cfg, progress=False)
     return run / "best.pt"
 
@@ -89,10 +115,13 @@ class TubReplay(Options):
     epochs: int = option(10, AT_LEAST_1, help="epochs at most (the best on the fold's validation block kept, "
                          "patience 3)")
     tubs: str = option(",".join(TUB_NAMES), help=f"comma list of the shared tubs to run on, of {', '.join(TUB_NAMES)}")
+    models: str = option(MODELS, help=f"comma list of the trained models, of {', '.join(TRAINED)} (the null "
+                         "models and other-track, pilotnet-views of the other tubs, always)")
 
     @classmethod
     def related(cls, v):
-        return names_held(v, "tubs", TUB_NAMES, "shared tubs")
+        yield from names_held(v, "tubs", TUB_NAMES, "shared tubs")
+        yield from names_held(v, "models", list(TRAINED), "trained models")
 
 
 def rows_of(results: dict, tubs: list[str]) -> tuple[list[str], dict]:
@@ -126,7 +155,7 @@ def rows_of(results: dict, tubs: list[str]) -> tuple[list[str], dict]:
 
 def plot(path, results: dict, tubs: list[str]) -> None:
     """Interventions per 100 m of every model on every scored block, one group of bars a block."""
-    models = [*NULL, *TRAINED, "other-track"]
+    models = [m for m in (*NULL, *TRAINED, "other-track") if any(k.split(" ")[2] == m for k in results)]
     blocks = [(t, f) for t in tubs for f in FOLDS if any(k.startswith(f"{t} {f} ") for k in results)]
     with figure(path, 1, 1, figsize=(1.8 * max(len(blocks), 1) + 2, 4.5)) as (fig, ax):
         width = 0.8 / len(models)
@@ -149,6 +178,7 @@ def parser():
 
 def main(_, args: TubReplay) -> None:
     tubs = names_from(args.tubs, TUB_NAMES, "shared tubs")
+    models = names_from(args.models, list(TRAINED), "trained models")
     if not (TUBS / "hall" / "manifest.json").exists():
         print(f"skipped: {TUBS} not found")
         return
@@ -170,7 +200,7 @@ def main(_, args: TubReplay) -> None:
     for seed in range(args.seeds):
         for tub in tubs:
             for fold in FOLDS:
-                for model in (*NULL, *TRAINED):
+                for model in (*NULL, *models):
                     if model in NULL and seed > 0:
                         continue  # a null model is the same every run
                     run(tub, fold, model, seed, lambda: checkpoint(work, tub, fold, model, seed, args.epochs,

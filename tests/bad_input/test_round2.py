@@ -282,6 +282,7 @@ SCRIPTS = [(module, argv, said) for module, argv, said in [
     ("studies.track_recipes", ["--caps", "2"], "--caps"),
     ("studies.speed_estimate", ["--minutes", "1"], "unrecognized arguments: --minutes 1"),
     ("studies.pruning_replay", ["{tmp}"], "study.journal"),
+    ("studies.tub_replay", ["--models", "pilotnet,pilotnet"], "--models must be a comma list of trained models"),
 ]]
 
 

@@ -1,6 +1,14 @@
 """studies/tub_replay.py: the folds' blocks and the check that replay separates models, on hand-made results."""
 
-from studies.tub_replay import fold_blocks, rows_of
+import json
+
+import pytest
+
+from steerlab.errors import SteerlabError
+from steerlab.options import as_dict
+from studies.common import ROOT
+from studies.common.donkeycar import TUBS
+from studies.tub_replay import checkpoint, fold_blocks, fold_config, rows_of
 
 
 def test_the_folds_score_blocks_no_model_of_the_fold_trained_on():
@@ -32,3 +40,41 @@ def test_replay_separates_a_block_where_the_best_trained_model_needs_half_of_wha
 def test_a_block_without_trained_or_null_models_is_not_judged():
     _, checks = rows_of({"hall last zero 0": _run(60)}, ["hall", "wood-tape"])
     assert checks == {("hall", "last"): (None, 60.0, None)}
+
+
+needs_tubs = pytest.mark.skipif(not (TUBS / "hall" / "manifest.json").exists(), reason="../shared/data absent")
+
+
+@needs_tubs
+def test_each_trained_model_is_its_recipe_on_the_fold_blocks(tmp_path):
+    from steerlab.files import read_yaml
+
+    def cfg(model):
+        return fold_config(tmp_path, "hall", "first", model, 1, 10, 1000)
+
+    assert (cfg("pilotnet").model.name, cfg("pilotnet").train.views) == ("pilotnet", ())
+    assert [(v.shift_m, v.yaw_deg) for v in cfg("pilotnet-views").train.views] == [((-0.15, 0.15), (-15, 15))]
+    assert (cfg("tub-default").model.name, cfg("tub-default").train.loss) == ("multimodal-lstm", "mae")  # as shipped
+    assert cfg("tub-default-views").train.recovery_s == 0.3
+    best, shipped = cfg("track-best"), read_yaml(ROOT / "configs" / "track_best.yaml")
+    assert (best.model.name, best.preprocess.width, best.train.hue_deg, best.train.flip) == (
+        shipped["model"]["name"], shipped["preprocess"]["width"], shipped["train"]["hue_deg"], True)
+    for model in ("zero", "track-best"):
+        c = cfg(model)
+        assert (c.split.train, c.split.val, c.train.epochs, c.train.patience, c.train.seed) == (
+            "300:1000", "200:300", 10, 3, 1)
+        assert c.out == str(tmp_path / "hall" / "first" / f"{model}-1")
+
+
+@needs_tubs
+def test_a_finished_run_of_another_recipe_is_refused_not_reused(tmp_path):
+    run = tmp_path / "hall" / "last" / "tub-default-0"
+    run.mkdir(parents=True)
+    other = fold_config(tmp_path, "hall", "last", "pilotnet", 0, 10, 1000)
+    (run / "config.json").write_text(json.dumps(as_dict(other)))
+    (run / "best.pt").write_bytes(b"")
+    with pytest.raises(SteerlabError, match="tub-default's finished run of another config .*model.name"):
+        checkpoint(tmp_path, "hall", "last", "tub-default", 0, 10, 1000)
+    (run / "config.json").write_text(json.dumps(as_dict(fold_config(tmp_path, "hall", "last", "tub-default", 0, 10,
+                                                                    1000))))
+    assert checkpoint(tmp_path, "hall", "last", "tub-default", 0, 10, 1000) == run / "best.pt"  # its own: reused

@@ -123,11 +123,11 @@ def test_the_selection_tracks_are_not_the_suites_and_are_never_recorded(tmp_path
     from steerlab.sim.track.suite import TRACK_SUITES, TrackSuiteOptions
     from steerlab.sim.track.world import TrackRecordOptions
 
-    seeds = {s: {t for ts in TRACK_SUITES[s]["tracks"].values() for t in ts} for s in ("t1", "s1", "t2")}
-    assert len(seeds["s1"]) == len(seeds["t1"]) == len(seeds["t2"]) == 8
-    assert not seeds["s1"] & seeds["t1"] and not seeds["t2"] & (seeds["s1"] | seeds["t1"])
+    seeds = {s: {t for ts in TRACK_SUITES[s]["tracks"].values() for t in ts} for s in ("t1", "s1", "t2", "t3")}
+    assert all(len(s) == 8 for s in seeds.values())
+    assert len(set().union(*seeds.values())) == 32  # no track in two suites
     assert [d[1] for d in TrackSuiteOptions(suite="s1").drives()] == sorted(seeds["s1"])
-    for seed in (9501, 9701, 9752):
+    for seed in (9501, 9701, 9752, 9801):
         with pytest.raises(SteerlabError, match="reserved for the track suites"):
             record(tmp_path / "r", TrackRecordOptions(seed=seed, minutes=0.01), progress=False)
 
@@ -142,7 +142,8 @@ def test_the_suites_that_results_are_scored_on_are_pinned():
     assert TRACK_SUITES == {
         "t1": {**two_minutes, "tracks": {"taped": [9401, 9402, 9403, 9404, 9405, 9406], "centre": [9451, 9452]}},
         "s1": {**two_minutes, "tracks": {"taped": [9501, 9502, 9503, 9504, 9505, 9506], "centre": [9551, 9552]}},
-        "t2": {**two_minutes, "tracks": {"taped": [9701, 9702, 9703, 9704, 9705, 9706], "centre": [9751, 9752]}}}
+        "t2": {**two_minutes, "tracks": {"taped": [9701, 9702, 9703, 9704, 9705, 9706], "centre": [9751, 9752]}},
+        "t3": {**two_minutes, "tracks": {"taped": [9801, 9802, 9803, 9804, 9805, 9806], "centre": [9851, 9852]}}}
     assert SUITES == {"v1": {"minutes": 3.0, "roads": {"country": [9101, 9102, 9103, 9104, 9105],
                                                        "highway": [9201, 9202, 9203], "twisty": [9301, 9302, 9303]}}}
 

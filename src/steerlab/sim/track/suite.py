@@ -60,6 +60,9 @@ TRACK_SUITES = {
     # when a recipe is chosen (docs/results/racing.md, "The suites and how often each was raced")
     "t2": {"minutes": 2.0, "lane_width": 0.9,
            "tracks": {"taped": [9701, 9702, 9703, 9704, 9705, 9706], "centre": [9751, 9752]}},
+    # the third scoring suite, for the choice after t2's: raced once, when that recipe is chosen
+    "t3": {"minutes": 2.0, "lane_width": 0.9,
+           "tracks": {"taped": [9801, 9802, 9803, 9804, 9805, 9806], "centre": [9851, 9852]}},
 }
 FPS = 20.0
 EXPERT = "expert"  # the label of the expert's reference laps (its drives: `expert_folder`)
