@@ -12,6 +12,7 @@ from steerlab.data.car import CARS
 TUBS = [f"{style}-{seed}" for style in ("taped", "centre") for seed in (1, 2, 3, 4)]
 TUB_MINUTES = 2.0
 DONKEYCAR = "donkeycar"          # the label of donkeycar's own runs
+DONKEYCAR_CV = "donkeycar-cv"    # the label of donkeycar's computer-vision line follower's
 
 
 def base(tubs: Path) -> dict:

@@ -44,9 +44,10 @@ from steerlab.data.readers import open_recording
 from steerlab.options import AT_LEAST_1, SEED, WORKERS, Options, Range, names_from, names_held, option
 from steerlab.sim.track.suite import TRACK_SUITES, TrackSuiteOptions, part_entrant, race, report, summarize
 from steerlab.sim.track.world import throttle_floor_option, throttle_scale_option
-from studies._recipes import AUGMENT, DONKEYCAR, RECIPES, TUB_MINUTES, TUBS, base
+from studies._recipes import AUGMENT, DONKEYCAR, DONKEYCAR_CV, RECIPES, TUB_MINUTES, TUBS, base
 from studies.common import ROOT, NumberList, machine, mean_min_max, track_tub
-from studies.common.donkeycar import DonkeycarPart, donkey_models, donkey_python, training_tub
+from studies.common.donkeycar import (DonkeycarLineFollower, DonkeycarPart, cv_car, donkey_models, donkey_python,
+                                      training_tub)
 
 
 def record_tubs(tubs: Path, names) -> None:
@@ -160,6 +161,16 @@ def race_donkeycar(car: Path, models: list[Path], out: Path, o: TrackSuiteOption
     return [replace(r, label=f"{label}/{r.label}") for r in race(racing, out, replace(o, workers=1))]
 
 
+def race_line_follower(work: Path, out: Path, o: TrackSuiteOptions) -> list:
+    """donkeycar's computer-vision line follower (`DonkeycarLineFollower`, its car folder in `work`) on every track
+    of the suite, as suite rows: one run (it learns nothing and draws nothing), its drives in `out/run0`."""
+    python = donkey_python()
+    car, settings = cv_car(python, work)
+    out.mkdir(parents=True, exist_ok=True)
+    racing = [part_entrant("run0", settings, partial(DonkeycarLineFollower, python, car, settings, out / "part.log"))]
+    return [replace(r, label=f"{DONKEYCAR_CV}/{r.label}") for r in race(racing, out, o)]
+
+
 def suite_options(name: str, suite: str, cap: float, workers: int) -> TrackSuiteOptions:
     """The suite a recipe races: `suite` under the throttle cap `cap`, with the recipe's own race options."""
     return TrackSuiteOptions(suite=suite, max_throttle=cap, workers=workers, **RECIPES[name].race)
@@ -187,6 +198,7 @@ def table(rows: list, cap: float) -> list[dict]:
 
 def markdown(rows: list[dict], suite: str) -> str:
     what = {**{n: r.what for n, r in RECIPES.items()}, DONKEYCAR: "donkeycar's own trainer and part",
+            DONKEYCAR_CV: "donkeycar's computer-vision line follower (cv_control), set for each track's tape colour",
             **{f"{DONKEYCAR}-{n}": f"donkeycar's own trainer and part, on the tubs of {n}" for n in RECIPES}}
     lines = [f"Track suite {suite}, every checkpoint over the same tracks (pace: over the tracks every checkpoint of "
              "the same cap finished, their number beside it). Means over the runs (seeds), their min-max beside.", "",
@@ -227,6 +239,9 @@ class Races(Options):
                         help="the track suite raced (s1: selection tracks; t1 scores)")
     caps: str = option("1,0.5", CAPS, CAPS.words, help="throttle caps (the learned throttle's and the expert's)")
     donkeycar: bool = option(False, help="also donkeycar's linear model (its own trainer)")
+    donkeycar_cv: bool = option(False, help="also donkeycar's computer-vision line follower (its cv_control "
+                                "template's LineFollower, set for each track's tape colour; no training), at "
+                                "--donkeycar-throttle-scale and --donkeycar-throttle-floor")
     donkeycar_runs: int = option(3, AT_LEAST_1, help="how many runs of donkeycar's trainer race")
     donkeycar_tubs: str = option("donkey", lambda v: v in RECIPES, "a recipe", help="the recipe whose tubs donkeycar's "
                                  "trainer trains on (default: the 8 tubs of donkeycar's recipe)")
@@ -241,7 +256,7 @@ class Races(Options):
 
     @classmethod
     def related(cls, v):
-        if v.recipes.strip() or not v.donkeycar:
+        if v.recipes.strip() or not (v.donkeycar or v.donkeycar_cv):
             yield from names_held(v, "recipes", RECIPES, "recipes")
         if v.donkeycar_ours and not (v.donkeycar_tubs in RECIPES and RECIPES[v.donkeycar_tubs].only):
             yield "donkeycar_ours", ("given with --donkeycar-tubs of a recipe that validates on a block of its first "
@@ -280,6 +295,10 @@ def main(_, a: Races) -> None:
         rows = [replace(r, label=f"{name}/{r.label}") for name in recipes
                 for r in race([train_recipe(name, seed, out, tubs) for seed in seeds],
                               suite / name, suite_options(name, a.suite, cap, a.workers))]
+        if a.donkeycar_cv:
+            rows += race_line_follower(out / "donkey-cv", suite / f"{DONKEYCAR_CV}{scaled}",
+                                       replace(o, throttle_scale=a.donkeycar_throttle_scale,
+                                               throttle_floor=a.donkeycar_throttle_floor))
         if donkey:
             rows += race_donkeycar(*donkey, suite / folder, replace(o, throttle_scale=a.donkeycar_throttle_scale,
                                                                   throttle_floor=a.donkeycar_throttle_floor),

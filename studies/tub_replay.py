@@ -6,7 +6,8 @@ of its records, keeps the epoch of the best steering MAE on the next 10 % and is
 is scored on the first 20 %, keeps its epoch on the next 10 % and trains on the last 70 %. So every tub has two
 scored blocks no model of that fold trained on, each several laps of its track. On every scored block:
 
-- open loop: the steering MAE in the tub's unit ([-1, 1] of the servo);
+- open loop: the steering MAE in the tub's unit ([-1, 1] of the servo), the throttle MAE where the model learns
+  it, and the steering's smoothness gamma (paper 000 Eq. 2, degrees at the assumed full lock) beside the human's;
 - replay: the model drives a simulated small car along the human's path, rebuilt from the recorded steering
   (full lock FULL_LOCK_DEG, assumed: the tubs do not record it) and the speed the recorded throttle gives through
   the small car's motor model, seeing each recorded frame warped through the default Raspberry Pi fisheye to where
@@ -21,12 +22,15 @@ to 15 cm and turned up to 15 degrees, labelled with the steering back to the pat
 `pilotnet-views` model of fold `last` of each other tub (a model of another track, car and lens). `--models` adds
 `tub-default` (the tub defaults as shipped: multimodal-lstm), `tub-default-views` (the same with those views) and
 `track-best` (configs/track_best.yaml's input, network and training); every trained model gets at most --epochs
-epochs, patience 3, and a finished run of another recipe is refused (delete its folder). The check this
+epochs, patience 3, and a finished run of another recipe is refused (delete its folder). `--donkeycar` adds
+donkeycar's linear model by its own trainer (`donkey train --type linear`, donkeycar 5.3.0 in its own environment)
+on each fold's training and validation blocks as one tub, which it splits 80/20 at random as its users train:
+the same records as steerlab's, `--seeds` runs (its trainer is not seeded). The check this
 study exists for: on every scored block the best trained model needs at most half the interventions of the best
 of the models that learned nothing and of the other tracks' models ("separates": yes / no in the table).
 
 python -m studies.tub_replay [--seeds 2] [--epochs 10] [--tubs hall,taped-track,wood-tape]
-    [--models pilotnet,pilotnet-views,tub-default,tub-default-views,track-best]
+    [--models pilotnet,pilotnet-views,tub-default,tub-default-views,track-best] [--donkeycar]
 Every finished run is kept in runs/tub-replay/epochs-N/results.json and reused by a later run of the same --epochs;
 table.md and table.png are written there from all the runs kept.
 """
@@ -48,7 +52,8 @@ from steerlab.sim.track.replay import TrackReplayOptions
 from steerlab.train.config import another_config, load_config
 from steerlab.train.loop import run_changes, train
 from studies.common import ROOT, machine, mean_min_max
-from studies.common.donkeycar import FULL_LOCK_DEG, READER, TUB_NAMES, TUBS
+from studies.common.donkeycar import (FULL_LOCK_DEG, READER, TUB_NAMES, TUBS, donkey_car, donkey_python, donkey_scores,
+                                      donkey_train, replay_donkey, training_tub)
 
 OUT = ROOT / "runs" / "tub-replay"
 VIEWS = {"views": [[[-0.15, 0.15], [-15, 15]]], "recovery_s": 0.3}
@@ -66,6 +71,7 @@ def track_best() -> dict:
 TRAINED = {"pilotnet": lambda: PILOTNET, "pilotnet-views": lambda: {**PILOTNET, "train": VIEWS},
            "tub-default": lambda: {}, "tub-default-views": lambda: {"train": VIEWS}, "track-best": track_best}
 MODELS = "pilotnet,pilotnet-views"  # --models by default
+DONKEY_LINEAR = "donkeycar-linear"  # donkeycar's linear model by its own trainer (--donkeycar)
 NULL = ("zero", "train-mean")
 FOLDS = ("last", "first")
 
@@ -105,8 +111,36 @@ def score(ckpt, tub: str, fold: str, n: int, where) -> dict:
     block = Source(str(TUBS / tub), fold_blocks(fold, n)["scored"], reader=READER)
     m = evaluate(ckpt, block, where / "test", progress=False)
     r = run_replay([ckpt], block, where / "replay", TrackReplayOptions(workers=1), progress=False)[0]
-    return {"mae": m["mae"], "interventions": r["interventions"], "m": 1000 * r["km"],
-            "per_100m": 100 * r["interventions"] / max(1000 * r["km"], 1e-9)}
+    return {**{k: m[k] for k in ("mae", "throttle_mae", "gamma_deg", "target_gamma_deg") if k in m},
+            **per_metre(r["interventions"], r["km"])}
+
+
+def per_metre(interventions: int, km: float) -> dict:
+    return {"interventions": interventions, "m": 1000 * km, "per_100m": 100 * interventions / max(1000 * km, 1e-9)}
+
+
+def span(blocks: str) -> tuple[int, int]:
+    start, stop = blocks.split(":")
+    return int(start), int(stop)
+
+
+def donkey_result(python, work, tub: str, fold: str, run: int, rec) -> dict | None:
+    """donkeycar's linear model of this fold, run `run` (its trainer draws its own split and initialisation),
+    trained by `donkey train` on the fold's training and validation blocks as one tub (donkeycar splits it 80/20 at
+    random, as its users train), scored on the scored block as `score` scores steerlab's models; None when
+    `donkey train` failed."""
+    where, blocks = work / tub / fold, fold_blocks(fold, len(rec))
+    car = donkey_car(python, work / "donkeycar-car")
+    keep = {int(rec.frame_ids[i]) for part in ("train", "val") for i in range(*span(blocks[part]))}
+    train_tub = training_tub(TUBS / tub, keep, where / "donkeycar-tub")
+    model = where / f"{DONKEY_LINEAR}-{run}.h5"
+    seconds = donkey_train(python, car, train_tub, model, "linear", where / f"{DONKEY_LINEAR}-{run}.log")
+    if seconds is None:
+        return None
+    start, stop = span(blocks["scored"])
+    scores = donkey_scores(python, car, model, "linear", rec, start, stop, where)
+    r = replay_donkey(python, car, model, "linear", TUBS / tub, start, stop, where / f"{DONKEY_LINEAR}-{run}.log")
+    return {**scores, "train_s": seconds, **per_metre(r["interventions"], r["km"])}
 
 
 @dataclass(frozen=True)
@@ -117,6 +151,8 @@ class TubReplay(Options):
     tubs: str = option(",".join(TUB_NAMES), help=f"comma list of the shared tubs to run on, of {', '.join(TUB_NAMES)}")
     models: str = option(MODELS, help=f"comma list of the trained models, of {', '.join(TRAINED)} (the null "
                          "models and other-track, pilotnet-views of the other tubs, always)")
+    donkeycar: bool = option(False, help="also donkeycar's linear model by its own trainer, in its own environment "
+                             "(runs/donkeycar-venv, made on first use)")
 
     @classmethod
     def related(cls, v):
@@ -137,7 +173,7 @@ def rows_of(results: dict, tubs: list[str]) -> tuple[list[str], dict]:
             if not runs:
                 continue
             per = {m: float(np.mean([r["per_100m"] for r in rs])) for m, rs in runs.items()}
-            trained = min((per[m] for m in TRAINED if m in per), default=None)
+            trained = min((per[m] for m in (*TRAINED, DONKEY_LINEAR) if m in per), default=None)
             nothing = min((per[m] for m in (*NULL, "other-track") if m in per), default=None)
             ok = None if trained is None or nothing is None else nothing >= 2 * trained
             checks[(tub, fold)] = (trained, nothing, ok)
@@ -145,17 +181,22 @@ def rows_of(results: dict, tubs: list[str]) -> tuple[list[str], dict]:
             for model, rs in runs.items():
                 lines.append(f"| {tub} | {fold} ({metres:.0f} m) | {model} | {len(rs)} | "
                              f"{mean_min_max([r['mae'] for r in rs], '.4f')} | "
+                             f"{mean_min_max([r.get('throttle_mae') for r in rs], '.4f')} | "
+                             f"{mean_min_max([r.get('gamma_deg') for r in rs], '.3f')} | "
                              f"{mean_min_max([r['interventions'] for r in rs], '.1f')} | "
                              f"{mean_min_max([r['per_100m'] for r in rs], '.1f')} |")
+            human = next((r["target_gamma_deg"] for rs in runs.values() for r in rs if "target_gamma_deg" in r), None)
+            if human is not None:
+                lines.append(f"| {tub} | {fold} | the human (recorded) | | | | {human:.3f} | | |")
             said = "-" if ok is None else (f"{'yes' if ok else 'no'}: the best trained model {trained:.1f}, the best that "
                                            f"learned nothing or another track {nothing:.1f}")
-            lines.append(f"| {tub} | {fold} | **separates** | | | | {said} |")
+            lines.append(f"| {tub} | {fold} | **separates** | | | | | | {said} |")
     return lines, checks
 
 
 def plot(path, results: dict, tubs: list[str]) -> None:
     """Interventions per 100 m of every model on every scored block, one group of bars a block."""
-    models = [m for m in (*NULL, *TRAINED, "other-track") if any(k.split(" ")[2] == m for k in results)]
+    models = [m for m in (*NULL, *TRAINED, DONKEY_LINEAR, "other-track") if any(k.split(" ")[2] == m for k in results)]
     blocks = [(t, f) for t in tubs for f in FOLDS if any(k.startswith(f"{t} {f} ") for k in results)]
     with figure(path, 1, 1, figsize=(1.8 * max(len(blocks), 1) + 2, 4.5)) as (fig, ax):
         width = 0.8 / len(models)
@@ -187,12 +228,18 @@ def main(_, args: TubReplay) -> None:
     work.mkdir(parents=True, exist_ok=True)
     file = work / "results.json"
     results = json.loads(file.read_text()) if file.exists() else {}
-    sizes = {t: len(Source(str(TUBS / t), reader=READER).open()) for t in tubs}
+    recs = {t: Source(str(TUBS / t), reader=READER).open() for t in tubs}
+    sizes = {t: len(rec) for t, rec in recs.items()}
+    python = donkey_python() if args.donkeycar else None
 
     def run(tub, fold, model, seed, ckpt):
         key = f"{tub} {fold} {model} {seed}"
         if key not in results:
-            results[key] = score(ckpt(), tub, fold, sizes[tub], work / tub / fold / f"scored-{model}-{seed}")
+            r = (donkey_result(python, work, tub, fold, seed, recs[tub]) if model == DONKEY_LINEAR else
+                 score(ckpt(), tub, fold, sizes[tub], work / tub / fold / f"scored-{model}-{seed}"))
+            if r is None:
+                return
+            results[key] = r
             file.write_text(json.dumps(results, indent=1))
             r = results[key]
             print(f"  {key}: MAE {r['mae']:.4f}, {r['interventions']} interventions in {r['m']:.0f} m", flush=True)
@@ -200,7 +247,7 @@ def main(_, args: TubReplay) -> None:
     for seed in range(args.seeds):
         for tub in tubs:
             for fold in FOLDS:
-                for model in (*NULL, *models):
+                for model in (*NULL, *models, *([DONKEY_LINEAR] if python else [])):
                     if model in NULL and seed > 0:
                         continue  # a null model is the same every run
                     run(tub, fold, model, seed, lambda: checkpoint(work, tub, fold, model, seed, args.epochs,
@@ -213,7 +260,8 @@ def main(_, args: TubReplay) -> None:
                             work, other, "last", "pilotnet-views", seed, args.epochs, sizes[other]))
     lines, _ = rows_of(results, tubs)
     table = "\n".join([f"machine: {machine()}", "", "| tub | scored block | model | runs | steering MAE (open loop) | "
-                       "replay: interventions | per 100 m |", "|---|---|---|---|---|---|---|", *lines]) + "\n"
+                       "throttle MAE | gamma [deg] | replay: interventions | per 100 m |",
+                       "|---|---|---|---|---|---|---|---|---|", *lines]) + "\n"
     (work / "table.md").write_text(table)
     plot(work / "table.png", results, tubs)
     print(table)

@@ -1,12 +1,13 @@
 """donkeycar's own environment, in which the studies run donkeycar's trainer and parts (steerlab never imports
-donkeycar): `donkey_python`, `donkey_car`, `donkey_models` (`donkey train`'s linear models), and `DonkeycarPart`,
-donkeycar's pilot part behind a pipe; donkeycar's trainer on the shared tubs (`studies/donkeycar_tubs.py`,
+donkeycar): `donkey_python`, `donkey_car`, `donkey_models` (`donkey train`'s linear models), `DonkeycarPart`,
+donkeycar's pilot part behind a pipe, and `DonkeycarLineFollower` (`cv_car`), its computer-vision line follower; donkeycar's trainer on the shared tubs (`studies/donkeycar_tubs.py`,
 `studies/tub_pretraining.py`): `TubStudy`, their options, `TUBS`, `READER`, `blocks`, `donkey_or_skip`,
-`run_donkey`, `replay_donkey`."""
+`donkey_train`, `donkey_scores`, `run_donkey`, `replay_donkey`."""
 
 from __future__ import annotations
 
 import json
+import math
 import os
 import shutil
 import subprocess
@@ -17,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
+from steerlab.evaluate.metrics import gamma_deg
 from steerlab.options import AT_LEAST_1, Options, names_held, option
 from studies.common import ROOT, SHARED
 
@@ -75,11 +77,11 @@ class DonkeycarPart:
     `throttle_scale` (as donkeycar's AI_THROTTLE_MULT, but before the cap) and capped."""
 
     def __init__(self, python: Path, car: Path, model: Path, log: Path, max_throttle: float,
-                 throttle_scale: float = 1.0, kind: str = "linear"):
+                 throttle_scale: float = 1.0, kind: str = "linear", more: tuple[str, ...] = ()):
         self.log, self.max_throttle, self.throttle_scale = log, max_throttle, throttle_scale
         self.stderr = open(log, "wb")
         self.process = subprocess.Popen([str(python), str(ROOT / "studies" / "_donkey_part.py"),
-                                         str(car / "config.py"), str(model), kind], cwd=car,
+                                         str(car / "config.py"), str(model), kind, *more], cwd=car,
                                         stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=self.stderr)
         if self.process.stdout.readline() != b"ready\n":
             raise RuntimeError(f"donkeycar's part did not start; see {log}")
@@ -97,6 +99,55 @@ class DonkeycarPart:
         self.process.stdin.close()
         self.process.wait()
         self.stderr.close()
+
+
+# donkeycar's computer-vision line follower: the colour thresholds (OpenCV HSV, hue 0-179) an owner sets for each
+# tape colour of the track world (sim/track/room.py TAPES): the cv_control template's own "yellow" range (hue 0-50)
+# for yellow and orange tape; for the others, the colour's hue (or, for white and black, its lightness)
+CV_THRESHOLDS = {"yellow": [[0, 50, 50], [50, 255, 255]], "orange": [[0, 50, 50], [50, 255, 255]],
+                 "red": [[0, 80, 60], [8, 255, 255]], "green": [[45, 80, 50], [90, 255, 255]],
+                 "blue": [[95, 80, 50], [130, 255, 255]], "white": [[0, 0, 150], [179, 60, 255]],
+                 "black": [[0, 0, 0], [179, 255, 70]]}
+
+
+def cv_car(python: Path, car: Path) -> tuple[Path, Path]:
+    """A car folder of donkeycar's `cv_control` template (`donkey createcar --template cv_control`, once) and the
+    line follower's settings file in it (CV_THRESHOLDS: the file whose sha256 names its drives)."""
+    if not car.exists():
+        subprocess.run([str(python.parent / "donkey"), "createcar", "--path", str(car), "--template", "cv_control"],
+                       check=True, stdout=subprocess.DEVNULL)
+    settings = car / "cv-thresholds.json"
+    settings.write_text(json.dumps({"thresholds": CV_THRESHOLDS}, indent=1))
+    return car, settings
+
+
+class DonkeycarLineFollower:
+    """donkeycar's computer-vision line follower (the `cv_control` template's LineFollower and PID, its config as
+    the template writes it) behind a pipe, set up for each track as its owner would (`on_track`: the colour
+    thresholds for the tape of the track's room, CV_THRESHOLDS), steering and throttling by itself (its throttle
+    between the template's THROTTLE_MIN and THROTTLE_MAX). The process starts once it is told its track."""
+
+    def __init__(self, python: Path, car: Path, settings: Path, log: Path):
+        self.python, self.car, self.settings, self.log, self.part = python, car, settings, log, None
+
+    def on_track(self, drive) -> None:
+        from steerlab.sim.track.world import LOOK, Look, camera_of, renderer_of
+
+        camera = camera_of(drive.calibration)
+        look = LOOK if drive.light is None else Look(light=drive.light)
+        tape = renderer_of(drive.seed, drive.lane_width, drive.style, camera, None, look).room.tape_name
+        log = self.log.with_name(f"{self.log.stem}-{drive.style}-{drive.seed}.log")  # a log a drive
+        self.part = DonkeycarPart(self.python, self.car, self.settings, log, math.inf, kind="cv",
+                                  more=(tape, str(camera.width), str(camera.height)))
+
+    def run(self, img_arr: np.ndarray):
+        if self.part is None:
+            raise RuntimeError("donkeycar's line follower drives a track it was told (on_track) only")
+        return self.part.run(img_arr)
+
+    def close(self) -> None:
+        if self.part is not None:
+            self.part.close()
 
 
 # donkeycar's trainer on the shared tubs
@@ -150,38 +201,53 @@ def training_tub(tub: Path, keep: set[int], out: Path) -> Path:
     return out
 
 
+def donkey_train(python: Path, car: Path, tub: Path, model: Path, kind: str, log: Path) -> float | None:
+    """`donkey train` of a `kind` model on `tub` (its deleted records left out, as donkeycar reads a tub) into
+    `model`, as its users run it; its wall-clock seconds, or None (said) when it failed."""
+    t = time.time()
+    with open(log, "w") as f:
+        done = subprocess.run([str(python.parent / "donkey"), "train", "--tub", str(tub), "--model", str(model),
+                               "--type", kind, "--framework", "tensorflow"], cwd=car, stdout=f, stderr=subprocess.STDOUT)
+    if done.returncode != 0 or not model.exists():
+        print(f"  donkey train of {model.name} failed, see {log}", flush=True)
+        return None
+    return time.time() - t
+
+
+def donkey_scores(python: Path, car: Path, model: Path, kind: str, rec, start: int, stop: int, work: Path) -> dict:
+    """Open loop: the steering and throttle MAE and the steering's smoothness gamma of donkeycar's `model` on the
+    records `start:stop` of `rec`, each frame through donkeycar's own model class as a car runs it
+    (`_donkey_eval.py`)."""
+    records, scores = work / f"{model.stem}-records.json", work / f"{model.stem}.json"
+    records.write_text(json.dumps({"images": [str(p) for p in rec.frames["center"][start:stop]],
+                                   "angles": rec.steering[start:stop].tolist(),
+                                   "throttles": rec.throttle[start:stop].tolist()}))
+    subprocess.run([str(python), str(Path(__file__).with_name("_donkey_eval.py")), str(car / "config.py"),
+                    str(model), kind, str(records), str(scores)], check=True, cwd=car, stdout=subprocess.DEVNULL,
+                   stderr=subprocess.DEVNULL)
+    r = json.loads(scores.read_text())
+    return {"mae": r["mae"], "throttle_mae": r["throttle_mae"],
+            "gamma_deg": gamma_deg(r["pred"], rec.convention.degrees_per_unit)}  # as `steerlab evaluate` gives it
+
+
 def run_donkey(python: Path, tub: Path, rec, a: int, n: int, work: Path, kinds: list[str], seeds: int,
                results: dict) -> None:
     """Train each donkeycar model `seeds` times on the first `a` records with `donkey train` and score it on the
     held-out block; runs already in `results` are kept."""
     car = donkey_car(python, work / "car")
     train_tub = training_tub(tub, set(int(i) for i in rec.frame_ids[:a]), work / "train-tub")
-    test = {"images": [str(p) for p in rec.frames["center"][a:n]], "angles": rec.steering[a:n].tolist(),
-            "throttles": rec.throttle[a:n].tolist()}
-    (work / "test.json").write_text(json.dumps(test))
     for kind in kinds:
         for seed in range(seeds):
             key = f"donkeycar {kind} {seed}"
             if "mae" in results.get(key, {}):
                 continue
-            model, log = work / f"{kind}-{seed}.h5", work / f"{kind}-{seed}.log"
-            t = time.time()
-            with open(log, "w") as f:
-                done = subprocess.run([str(python.parent / "donkey"), "train", "--tub", str(train_tub), "--model",
-                                       str(model), "--type", kind, "--framework", "tensorflow"], cwd=car, stdout=f,
-                                      stderr=subprocess.STDOUT)
-            seconds = time.time() - t
-            if done.returncode != 0 or not model.exists():
-                print(f"  donkeycar {kind} run {seed}: donkey train failed, see {log}", flush=True)
+            model = work / f"{kind}-{seed}.h5"
+            seconds = donkey_train(python, car, train_tub, model, kind, work / f"{kind}-{seed}.log")
+            if seconds is None:
                 continue
-            scores = work / f"{kind}-{seed}.json"
-            subprocess.run([str(python), str(Path(__file__).with_name("_donkey_eval.py")), str(car / "config.py"),
-                            str(model), kind, str(work / "test.json"), str(scores)], check=True, cwd=car,
-                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-            r = json.loads(scores.read_text())
-            results[key] = {"mae": r["mae"], "throttle_mae": r["throttle_mae"], "train_s": seconds}
-            print(f"  donkeycar {kind} run {seed}: held-out MAE {r['mae']:.4f}, throttle MAE "
-                  f"{r['throttle_mae']:.4f}, {seconds:.0f} s", flush=True)
+            results[key] = {**donkey_scores(python, car, model, kind, rec, a, n, work), "train_s": seconds}
+            print(f"  donkeycar {kind} run {seed}: held-out MAE {results[key]['mae']:.4f}, throttle MAE "
+                  f"{results[key]['throttle_mae']:.4f}, {seconds:.0f} s", flush=True)
             (work / "results.json").write_text(json.dumps(results, indent=1))
     for kind in kinds:  # then each run in replay, as steerlab's models are
         for seed in range(seeds):

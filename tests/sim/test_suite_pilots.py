@@ -163,3 +163,27 @@ def test_a_parts_answer_reaches_the_car_as_the_servo_and_the_esc_take_it():
     for answer in ((float("nan"), 0.2), (0.1, float("inf"))):
         with pytest.raises(SteerlabError, match="finite numbers are expected"):
             PartPilot(Stub(*answer), 25.0).step(frame, 1.0)
+
+
+class Told(Stub):
+    """A part set up for each track: it records the drive options it was told, and answers on that track alone."""
+
+    def __init__(self):
+        super().__init__(0.0, 0.3)
+        self.told = []
+
+    def on_track(self, drive):
+        self.told.append((drive.style, drive.seed, drive.lane_width))
+
+    def run(self, img_arr):
+        assert len(self.told) == 1, "driven before it was told its track"
+        return self.answer
+
+
+def test_a_part_with_on_track_is_told_each_drives_track_before_its_first_frame(tmp_path):
+    model = tmp_path / "settings.json"
+    model.write_text("{}")
+    before = len(MADE)
+    race([part_entrant("told", model, Told)], tmp_path / "suite", options(), progress=False)
+    assert sorted(p.told[0] for p in MADE[before:]) == [("centre", 9451, 0.9), ("centre", 9452, 0.9)]
+    assert [len(p.told) for p in MADE[before:]] == [1, 1]  # a part per drive, told once

@@ -4,8 +4,10 @@ records as donkeycar's trainer does (the recipe `mae-donkey-split`)."""
 import json
 
 import numpy as np
+import pytest
 
 from steerlab.data.readers import open_recording
+from steerlab.errors import SteerlabError
 from studies._recipes import Recipe
 from studies.track_recipes import merged_tub
 from tests.inputs import tub
@@ -80,3 +82,35 @@ def test_a_finished_recipe_run_of_another_config_is_refused_not_reused(tmp_path,
     with pytest.raises(SteerlabError, match=r"seed0 holds recipe tiny's run of another config \(train.lr: 0.001 -> "
                                             r"0.002\); choose a new out directory or delete it"):
         tr.train_recipe("tiny", 0, tmp_path, tmp_path / "tubs")
+
+
+def test_the_line_followers_thresholds_hold_every_tape_colour_of_the_track_world_and_not_its_floors():
+    """An owner sets donkeycar's line follower for their tape: every tape colour the rooms draw (TAPES, as rendered:
+    scaled by 0.9-1 and a room's light 0.75-1.2) lies inside its colour's HSV range; a grey floor lies in none of the
+    coloured ranges."""
+    import cv2
+
+    from steerlab.sim.track.room import TAPES
+    from studies.common.donkeycar import CV_THRESHOLDS
+
+    assert set(CV_THRESHOLDS) == set(TAPES)
+
+    def inside(bgr, name):
+        hsv = cv2.cvtColor(np.clip(np.array([[bgr]]), 0, 255).astype(np.uint8), cv2.COLOR_BGR2HSV)
+        low, high = (np.array(v, np.uint8) for v in CV_THRESHOLDS[name])
+        return bool(cv2.inRange(hsv, low, high)[0, 0])
+
+    for name, bgr in TAPES.items():
+        for light in (0.9 * 0.75, 1.0, 1.2):
+            assert inside(np.array(bgr) * light, name), (name, light)
+    grey = (128, 128, 128)
+    assert not any(inside(grey, name) for name in TAPES if name not in ("white", "black"))
+    assert not inside(grey, "white") and not inside(grey, "black")
+
+
+def test_the_line_follower_races_alone_or_beside_recipes():
+    from studies.track_recipes import Races
+
+    assert Races(recipes="", donkeycar_cv=True).donkeycar_cv
+    with pytest.raises(SteerlabError, match="recipes"):
+        Races(recipes="")

@@ -17,24 +17,33 @@ def test_the_folds_score_blocks_no_model_of_the_fold_trained_on():
     assert fold_blocks("first", 3076) == {"train": "922:3076", "val": "615:922", "scored": "0:615"}
 
 
-def _run(per_100m, mae=0.2, m=50.0):
-    return {"mae": mae, "interventions": per_100m * m / 100, "m": m, "per_100m": per_100m}
+def _run(per_100m, mae=0.2, m=50.0, **more):
+    return {"mae": mae, "interventions": per_100m * m / 100, "m": m, "per_100m": per_100m, **more}
 
 
 def test_replay_separates_a_block_where_the_best_trained_model_needs_half_of_what_learned_nothing_needs():
     results = {"hall last zero 0": _run(60), "hall last train-mean 0": _run(50), "hall last pilotnet 0": _run(40),
-               "hall last pilotnet-views 0": _run(20), "hall last pilotnet-views 1": _run(30),
+               "hall last pilotnet-views 0": _run(20, throttle_mae=0.1, gamma_deg=2.0, target_gamma_deg=3.5),
+               "hall last pilotnet-views 1": _run(30, throttle_mae=0.3, gamma_deg=1.0, target_gamma_deg=3.5),
                "hall last other-track taped-track-0": _run(90),
                "hall first zero 0": _run(60), "hall first pilotnet-views 0": _run(31),
                "hall first other-track taped-track-0": _run(70)}
     lines, checks = rows_of(results, ["hall"])
     assert checks[("hall", "last")] == (25.0, 50.0, True)  # the views model's two runs: 25; train-mean 50
     assert checks[("hall", "first")] == (31.0, 60.0, False)  # 60 < 2 x 31
-    assert "| hall | last (50 m) | pilotnet-views | 2 | 0.2000 (0.2000-0.2000) | 12.5 (10.0-15.0) | 25.0 (20.0-30.0) |" \
-        in lines
-    assert "| hall | last | **separates** | | | | yes: the best trained model 25.0, the best that learned nothing or " \
-        "another track 50.0 |" in lines
+    assert "| hall | last (50 m) | pilotnet-views | 2 | 0.2000 (0.2000-0.2000) | 0.2000 (0.1000-0.3000) | " \
+        "1.500 (1.000-2.000) | 12.5 (10.0-15.0) | 25.0 (20.0-30.0) |" in lines
+    assert "| hall | last (50 m) | zero | 1 | 0.2000 | - | - | 30.0 | 60.0 |" in lines
+    assert "| hall | last | the human (recorded) | | | | 3.500 | | |" in lines
+    assert "| hall | last | **separates** | | | | | | yes: the best trained model 25.0, the best that learned nothing " \
+        "or another track 50.0 |" in lines
     assert lines[-1].endswith("| no: the best trained model 31.0, the best that learned nothing or another track 60.0 |")
+
+
+def test_donkeycars_linear_model_counts_as_a_trained_model():
+    _, checks = rows_of({"hall last zero 0": _run(60), "hall last donkeycar-linear 0": _run(24),
+                         "hall last pilotnet 0": _run(40)}, ["hall"])
+    assert checks[("hall", "last")] == (24.0, 60.0, True)
 
 
 def test_a_block_without_trained_or_null_models_is_not_judged():

@@ -32,7 +32,8 @@ class PartPilot:
     limited to +-its cap, at least its floor at rest; donkeycar's AI_THROTTLE_MULT scales after its cap instead);
     `throttle=None` (the default) for a part that shapes its own (steerlab's, `donkey_pilot`), whose throttle passes
     as it is, within the ESC's [-1, 1]. `reset()` calls the part's own `reset` if it has one (after an off-track
-    event the pilot forgets its past), `close()` its `close` (a part behind a pipe). `name`, `geometry` (the camera
+    event the pilot forgets its past), `close()` its `close` (a part behind a pipe), `on_track(drive)` its
+    `on_track` (told the track before a suite's drive). `name`, `geometry` (the camera
     the part expects; "donkey" for donkeycar's 160x120 camera) and `source` (what messages name) describe it to
     the loop."""
 
@@ -76,6 +77,13 @@ class PartPilot:
         close = getattr(self.part, "close", None)
         if callable(close):
             close()
+
+    def on_track(self, drive) -> None:
+        """Before a suite's drive: the part's own `on_track(drive)` if it has one (`drive`: the world's drive
+        options), for a part its owner sets up for each track, as a line follower for its tape's colour."""
+        on_track = getattr(self.part, "on_track", None)
+        if callable(on_track):
+            on_track(drive)
 
 
 def learns_throttle(checkpoint: str | Path) -> bool:

@@ -218,6 +218,8 @@ def _job(entrant: Entrant | None, o: TrackSuiteOptions, style: str, seed: int, o
         return drive_expert(out, d, on_tick=tick_reporter(), meta={"cache_key": key})
     pilot = entrant.make(o)
     try:
+        if callable(getattr(pilot, "on_track", None)):  # a part set up for the track it drives (PartPilot.on_track)
+            pilot.on_track(d)
         return run.drive(pilot, out, d, progress=False, on_tick=tick_reporter(), plot=False, meta={"cache_key": key})
     finally:
         close(pilot)
