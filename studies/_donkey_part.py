@@ -4,10 +4,11 @@ stdout with the part's (angle, throttle) as two float64.
 
 python _donkey_part.py CONFIG.py MODEL TYPE
     a model trained by `donkey train` (TYPE linear, rnn, ...); frames of the config's IMAGE_H x IMAGE_W
-python _donkey_part.py CONFIG.py SETTINGS.json cv TAPE W H
+python _donkey_part.py CONFIG.py RULE.json cv [LOW,HIGH] W H
     the `cv_control` template's line follower (donkeycar.parts.line_follower.LineFollower and its PID, the
-    template's config): its COLOR_THRESHOLD_LOW/HIGH those SETTINGS.json gives for the colour TAPE, frames of W x H
-    resized to the config's camera size; its PID's clock is the vehicle loop's (DRIVE_LOOP_HZ), one tick a frame
+    template's config): its COLOR_THRESHOLD_LOW/HIGH the HSV triples [LOW,HIGH] (JSON; RULE.json, the rule they
+    were set by, is only named), frames of W x H resized to the config's camera size; its PID's clock is the vehicle
+    loop's (DRIVE_LOOP_HZ), one tick a frame
 """
 
 import json
@@ -30,12 +31,12 @@ def model_part(cfg, model_path: str, model_type: str):
     return shape, lambda img: part.run(img)
 
 
-def line_follower(cfg, settings_path: str, tape: str, width: int, height: int):
+def line_follower(cfg, thresholds: str, width: int, height: int):
     import cv2
     from donkeycar.parts.line_follower import LineFollower
     from simple_pid import PID
 
-    low, high = json.loads(open(settings_path).read())["thresholds"][tape]
+    low, high = json.loads(thresholds)
     cfg.COLOR_THRESHOLD_LOW, cfg.COLOR_THRESHOLD_HIGH, cfg.OVERLAY_IMAGE = tuple(low), tuple(high), False
     ticks = [0]
     pid = PID(Kp=cfg.PID_P, Ki=cfg.PID_I, Kd=cfg.PID_D, time_fn=lambda: ticks[0] / cfg.DRIVE_LOOP_HZ)
@@ -54,7 +55,7 @@ def main() -> None:
     answers = ANSWERS
     cfg = load_config(config_path)
     if model_type == "cv":
-        shape, run = line_follower(cfg, model_path, sys.argv[4], int(sys.argv[5]), int(sys.argv[6]))
+        shape, run = line_follower(cfg, sys.argv[4], int(sys.argv[5]), int(sys.argv[6]))
     else:
         shape, run = model_part(cfg, model_path, model_type)
     size = int(np.prod(shape))

@@ -165,9 +165,9 @@ def race_line_follower(work: Path, out: Path, o: TrackSuiteOptions) -> list:
     """donkeycar's computer-vision line follower (`DonkeycarLineFollower`, its car folder in `work`) on every track
     of the suite, as suite rows: one run (it learns nothing and draws nothing), its drives in `out/run0`."""
     python = donkey_python()
-    car, settings = cv_car(python, work)
+    car, rule = cv_car(python, work)
     out.mkdir(parents=True, exist_ok=True)
-    racing = [part_entrant("run0", settings, partial(DonkeycarLineFollower, python, car, settings, out / "part.log"))]
+    racing = [part_entrant("run0", rule, partial(DonkeycarLineFollower, python, car, rule, out / "part.log"))]
     return [replace(r, label=f"{DONKEYCAR_CV}/{r.label}") for r in race(racing, out, o)]
 
 

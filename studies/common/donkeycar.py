@@ -101,44 +101,63 @@ class DonkeycarPart:
         self.stderr.close()
 
 
-# donkeycar's computer-vision line follower: the colour thresholds (OpenCV HSV, hue 0-179) an owner sets for each
-# tape colour of the track world (sim/track/room.py TAPES): the cv_control template's own "yellow" range (hue 0-50)
-# for yellow and orange tape; for the others, the colour's hue (or, for white and black, its lightness)
-CV_THRESHOLDS = {"yellow": [[0, 50, 50], [50, 255, 255]], "orange": [[0, 50, 50], [50, 255, 255]],
-                 "red": [[0, 80, 60], [8, 255, 255]], "green": [[45, 80, 50], [90, 255, 255]],
-                 "blue": [[95, 80, 50], [130, 255, 255]], "white": [[0, 0, 150], [179, 60, 255]],
-                 "black": [[0, 0, 0], [179, 255, 70]]}
+# donkeycar's computer-vision line follower: the colour thresholds (OpenCV HSV: hue 0-179) its owner sets for the tape
+# on their floor, as read off a picture of both: a coloured tape by its hue +- HUE, with at least FROM of its
+# saturation and of its value (a room's light and its drift along the lap darken it to about 0.6 of its colour),
+# its saturation cut halfway to the floor's where the floor's hue lies in that window; a grey one (saturation under
+# GREY: white, black) by its value, cut halfway between the tape's and the floor's
+CV_RULE = {"hue": 10, "from": 0.6, "grey": 60}
+
+
+def cv_thresholds(tape_bgr, floor_bgr) -> tuple[list[int], list[int]]:
+    """The HSV range (low, high) an owner sets donkeycar's line follower to for a tape of the colour `tape_bgr` on a
+    floor of the colour `floor_bgr` (CV_RULE)."""
+    import cv2
+
+    def hsv(bgr):
+        pixel = np.clip(np.round(np.asarray(bgr, float)), 0, 255).astype(np.uint8).reshape(1, 1, 3)
+        return (int(x) for x in cv2.cvtColor(pixel, cv2.COLOR_BGR2HSV)[0, 0])
+
+    (h, s, v), (floor_h, floor_s, floor_v) = hsv(tape_bgr), hsv(floor_bgr)
+    if s < CV_RULE["grey"]:
+        cut = (v + floor_v) // 2
+        return ([0, 0, cut + 1], [179, CV_RULE["grey"], 255]) if v > floor_v else ([0, 0, 0], [179, 255, cut])
+    low = [max(h - CV_RULE["hue"], 0), int(CV_RULE["from"] * s), int(CV_RULE["from"] * v)]
+    if low[0] <= floor_h <= h + CV_RULE["hue"] and floor_s >= low[1]:  # a floor of the tape's hue: by saturation
+        low[1] = (s + floor_s) // 2 + 1
+    return low, [min(h + CV_RULE["hue"], 179), 255, 255]
 
 
 def cv_car(python: Path, car: Path) -> tuple[Path, Path]:
     """A car folder of donkeycar's `cv_control` template (`donkey createcar --template cv_control`, once) and the
-    line follower's settings file in it (CV_THRESHOLDS: the file whose sha256 names its drives)."""
+    file of the thresholds' rule in it (CV_RULE: the file whose sha256 names the line follower's drives)."""
     if not car.exists():
         subprocess.run([str(python.parent / "donkey"), "createcar", "--path", str(car), "--template", "cv_control"],
                        check=True, stdout=subprocess.DEVNULL)
-    settings = car / "cv-thresholds.json"
-    settings.write_text(json.dumps({"thresholds": CV_THRESHOLDS}, indent=1))
-    return car, settings
+    rule = car / "cv-thresholds-rule.json"
+    rule.write_text(json.dumps(CV_RULE, indent=1))
+    return car, rule
 
 
 class DonkeycarLineFollower:
     """donkeycar's computer-vision line follower (the `cv_control` template's LineFollower and PID, its config as
     the template writes it) behind a pipe, set up for each track as its owner would (`on_track`: the colour
-    thresholds for the tape of the track's room, CV_THRESHOLDS), steering and throttling by itself (its throttle
+    thresholds for the tape of the track's room, `cv_thresholds`), steering and throttling by itself (its throttle
     between the template's THROTTLE_MIN and THROTTLE_MAX). The process starts once it is told its track."""
 
-    def __init__(self, python: Path, car: Path, settings: Path, log: Path):
-        self.python, self.car, self.settings, self.log, self.part = python, car, settings, log, None
+    def __init__(self, python: Path, car: Path, rule: Path, log: Path):
+        self.python, self.car, self.rule, self.log, self.part = python, car, rule, log, None
 
     def on_track(self, drive) -> None:
         from steerlab.sim.track.world import LOOK, Look, camera_of, renderer_of
 
         camera = camera_of(drive.calibration)
         look = LOOK if drive.light is None else Look(light=drive.light)
-        tape = renderer_of(drive.seed, drive.lane_width, drive.style, camera, None, look).room.tape_name
+        room = renderer_of(drive.seed, drive.lane_width, drive.style, camera, None, look).room
+        low, high = cv_thresholds(room.tape_bgr, room.floor_bgr)
         log = self.log.with_name(f"{self.log.stem}-{drive.style}-{drive.seed}.log")  # a log a drive
-        self.part = DonkeycarPart(self.python, self.car, self.settings, log, math.inf, kind="cv",
-                                  more=(tape, str(camera.width), str(camera.height)))
+        self.part = DonkeycarPart(self.python, self.car, self.rule, log, math.inf, kind="cv",
+                                  more=(json.dumps([low, high]), str(camera.width), str(camera.height)))
 
     def run(self, img_arr: np.ndarray):
         if self.part is None:

@@ -84,28 +84,41 @@ def test_a_finished_recipe_run_of_another_config_is_refused_not_reused(tmp_path,
         tr.train_recipe("tiny", 0, tmp_path, tmp_path / "tubs")
 
 
-def test_the_line_followers_thresholds_hold_every_tape_colour_of_the_track_world_and_not_its_floors():
-    """An owner sets donkeycar's line follower for their tape: every tape colour the rooms draw (TAPES, as rendered:
-    scaled by 0.9-1 and a room's light 0.75-1.2) lies inside its colour's HSV range; a grey floor lies in none of the
-    coloured ranges."""
+def _inside(bgr, thresholds) -> bool:
     import cv2
 
-    from steerlab.sim.track.room import TAPES
-    from studies.common.donkeycar import CV_THRESHOLDS
+    pixel = np.clip(np.round(np.asarray(bgr, float)), 0, 255).astype(np.uint8).reshape(1, 1, 3)
+    low, high = (np.array(t, np.uint8) for t in thresholds)
+    return bool(cv2.inRange(cv2.cvtColor(pixel, cv2.COLOR_BGR2HSV), low, high)[0, 0])
 
-    assert set(CV_THRESHOLDS) == set(TAPES)
 
-    def inside(bgr, name):
-        hsv = cv2.cvtColor(np.clip(np.array([[bgr]]), 0, 255).astype(np.uint8), cv2.COLOR_BGR2HSV)
-        low, high = (np.array(v, np.uint8) for v in CV_THRESHOLDS[name])
-        return bool(cv2.inRange(hsv, low, high)[0, 0])
+def test_the_line_followers_thresholds_take_the_tape_and_leave_the_floor_of_every_room():
+    """An owner sets donkeycar's line follower for their tape on their floor (`cv_thresholds`): for every floor colour
+    the rooms draw (FLOORS, scaled 0.85-1.1) and every tape colour that stands out from it (as a room picks its
+    tape; TAPES scaled 0.9-1), the tape lies inside the range, darkened to 0.6 of it too where it is coloured, and
+    the floor outside."""
+    from steerlab.sim.track.look import stands_out
+    from steerlab.sim.track.room import FLOORS, TAPES
+    from studies.common.donkeycar import CV_RULE, cv_thresholds
 
-    for name, bgr in TAPES.items():
-        for light in (0.9 * 0.75, 1.0, 1.2):
-            assert inside(np.array(bgr) * light, name), (name, light)
-    grey = (128, 128, 128)
-    assert not any(inside(grey, name) for name in TAPES if name not in ("white", "black"))
-    assert not inside(grey, "white") and not inside(grey, "black")
+    pairs = 0
+    for floor in (np.array(c) * k for colours in FLOORS.values() for c in colours for k in (0.85, 1.1)):
+        for name, tape in TAPES.items():
+            for tape in (np.array(tape) * k for k in (0.9, 1.0)):
+                if not stands_out(tape, floor):
+                    continue
+                pairs += 1
+                t = cv_thresholds(tape, floor)
+                assert _inside(tape, t) and not _inside(floor, t), (name, tape, floor, t)
+                if name not in ("white", "black"):
+                    assert _inside(tape * CV_RULE["from"] * 1.05, t), (name, tape, t)
+    assert pairs > 300
+    # by hand: yellow tape (BGR 40, 200, 235: hue 25, saturation 212, value 235) on grey concrete, and on a wood of
+    # its hue (BGR 77, 116, 154: hue 15, saturation 127), whose saturation is cut halfway: (212 + 127) // 2 + 1
+    assert cv_thresholds((40, 200, 235), (150, 152, 150)) == ([15, 127, 141], [35, 255, 255])
+    assert cv_thresholds((40, 200, 235), (77, 116, 154)) == ([15, 170, 141], [35, 255, 255])
+    # white tape (value 240) on a floor of value 152 (its largest channel): cut at 196, the tape from 197
+    assert cv_thresholds((240, 240, 240), (150, 152, 150)) == ([0, 0, 197], [179, 60, 255])
 
 
 def test_the_line_follower_races_alone_or_beside_recipes():
