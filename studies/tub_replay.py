@@ -22,16 +22,18 @@ to 15 cm and turned up to 15 degrees, labelled with the steering back to the pat
 `pilotnet-views` model of fold `last` of each other tub (a model of another track, car and lens). `--models` adds
 `tub-default` (the tub defaults as shipped: multimodal-lstm), `tub-default-views` (the same with those views) and
 `track-best` (configs/track_best.yaml's input, network and training); every trained model gets at most --epochs
-epochs, patience 3, and a finished run of another recipe is refused (delete its folder). `--donkeycar` adds
+epochs and --patience (the runs of other values in a folder of their own), and a finished run of another recipe is
+refused (delete its folder). `--donkeycar` adds
 donkeycar's linear model by its own trainer (`donkey train --type linear`, donkeycar 5.3.0 in its own environment)
 on each fold's training and validation blocks as one tub, which it splits 80/20 at random as its users train:
 the same records as steerlab's, `--seeds` runs (its trainer is not seeded). The check this
 study exists for: on every scored block the best trained model needs at most half the interventions of the best
 of the models that learned nothing and of the other tracks' models ("separates": yes / no in the table).
 
-python -m studies.tub_replay [--seeds 2] [--epochs 10] [--tubs hall,taped-track,wood-tape]
+python -m studies.tub_replay [--seeds 2] [--epochs 10] [--patience 3] [--tubs hall,taped-track,wood-tape]
     [--models pilotnet,pilotnet-views,tub-default,tub-default-views,track-best] [--donkeycar]
-Every finished run is kept in runs/tub-replay/epochs-N/results.json and reused by a later run of the same --epochs;
+Every finished run is kept in runs/tub-replay/epochs-N[-patience-P]/results.json and reused by a later run of the same
+--epochs and --patience;
 table.md and table.png are written there from all the runs kept.
 """
 
@@ -67,7 +69,7 @@ def track_best() -> dict:
 
 
 # the trained models: their config sections beside the tub defaults (the tub default: multimodal-lstm); --epochs and
-# patience 3 for all
+# --patience for all
 TRAINED = {"pilotnet": lambda: PILOTNET, "pilotnet-views": lambda: {**PILOTNET, "train": VIEWS},
            "tub-default": lambda: {}, "tub-default-views": lambda: {"train": VIEWS}, "track-best": track_best}
 MODELS = "pilotnet,pilotnet-views"  # --models by default
@@ -84,19 +86,19 @@ def fold_blocks(fold: str, n: int) -> dict[str, str]:
     return {"train": f"{b}:{n}", "val": f"{a}:{b}", "scored": f"0:{a}"}
 
 
-def fold_config(work, tub: str, fold: str, model: str, seed: int, epochs: int, n: int):
+def fold_config(work, tub: str, fold: str, model: str, seed: int, epochs: int, n: int, patience: int = 3):
     """The training config of the model for this fold of `tub` (of `n` records), its run in `work`."""
     split = fold_blocks(fold, n)
     recipe = {"model": {"name": model}} if model in NULL else TRAINED[model]()
     return load_config(None, base={
         **recipe, "data": str(TUBS / tub), "reader": READER, "cache": str(OUT / "cache"),
         "out": str(work / tub / fold / f"{model}-{seed}"), "split": {"train": split["train"], "val": split["val"]},
-        "train": {**recipe.get("train", {}), "epochs": epochs, "patience": 3, "seed": seed}})
+        "train": {**recipe.get("train", {}), "epochs": epochs, "patience": patience, "seed": seed}})
 
 
-def checkpoint(work, tub: str, fold: str, model: str, seed: int, epochs: int, n: int):
+def checkpoint(work, tub: str, fold: str, model: str, seed: int, epochs: int, n: int, patience: int = 3):
     """The model's best.pt for this fold (trained in `work` once; a null model trains in no time)."""
-    cfg = fold_config(work, tub, fold, model, seed, epochs, n)
+    cfg = fold_config(work, tub, fold, model, seed, epochs, n, patience)
     run = Path(cfg.out)
     if (run / "best.pt").exists():
         if changes := run_changes(run, cfg):  # a finished run of another recipe is not this model's
@@ -146,8 +148,9 @@ def donkey_result(python, work, tub: str, fold: str, run: int, rec) -> dict | No
 @dataclass(frozen=True)
 class TubReplay(Options):
     seeds: int = option(2, AT_LEAST_1, help="runs of every trained model")
-    epochs: int = option(10, AT_LEAST_1, help="epochs at most (the best on the fold's validation block kept, "
-                         "patience 3)")
+    epochs: int = option(10, AT_LEAST_1, help="epochs at most (the best on the fold's validation block kept)")
+    patience: int = option(3, AT_LEAST_1, help="epochs without a better validation MAE before training stops (the "
+                           "tub defaults as shipped: --epochs 30 --patience 5)")
     tubs: str = option(",".join(TUB_NAMES), help=f"comma list of the shared tubs to run on, of {', '.join(TUB_NAMES)}")
     models: str = option(MODELS, help=f"comma list of the trained models, of {', '.join(TRAINED)} (the null "
                          "models and other-track, pilotnet-views of the other tubs, always)")
@@ -224,7 +227,7 @@ def main(_, args: TubReplay) -> None:
         print(f"skipped: {TUBS} not found")
         return
     print(f"machine: {machine()}", flush=True)
-    work = OUT / f"epochs-{args.epochs}"  # the runs of another --epochs are others
+    work = OUT / (f"epochs-{args.epochs}" + (f"-patience-{args.patience}" if args.patience != 3 else ""))  # others
     work.mkdir(parents=True, exist_ok=True)
     file = work / "results.json"
     results = json.loads(file.read_text()) if file.exists() else {}
@@ -251,13 +254,13 @@ def main(_, args: TubReplay) -> None:
                     if model in NULL and seed > 0:
                         continue  # a null model is the same every run
                     run(tub, fold, model, seed, lambda: checkpoint(work, tub, fold, model, seed, args.epochs,
-                                                                     sizes[tub]))
+                                                                     sizes[tub], args.patience))
         for tub in tubs:  # the views model of each other tub's fold `last`
             for other in tubs:
                 if other != tub:
                     for fold in FOLDS:
                         run(tub, fold, "other-track", f"{other}-{seed}", lambda: checkpoint(
-                            work, other, "last", "pilotnet-views", seed, args.epochs, sizes[other]))
+                            work, other, "last", "pilotnet-views", seed, args.epochs, sizes[other], args.patience))
     lines, _ = rows_of(results, tubs)
     table = "\n".join([f"machine: {machine()}", "", "| tub | scored block | model | runs | steering MAE (open loop) | "
                        "throttle MAE | gamma [deg] | replay: interventions | per 100 m |",

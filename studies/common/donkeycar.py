@@ -222,15 +222,21 @@ def training_tub(tub: Path, keep: set[int], out: Path) -> Path:
 
 def donkey_train(python: Path, car: Path, tub: Path, model: Path, kind: str, log: Path) -> float | None:
     """`donkey train` of a `kind` model on `tub` (its deleted records left out, as donkeycar reads a tub) into
-    `model`, as its users run it; its wall-clock seconds, or None (said) when it failed."""
+    `model`, as its users run it; its wall-clock seconds, or None (said) when it failed. A model whose training
+    finished (`model`.done, holding its seconds) is kept: a rerun goes on where an interrupted one stopped."""
+    done = model.with_suffix(".done")
+    if done.exists() and model.exists():
+        return float(done.read_text())
     t = time.time()
     with open(log, "w") as f:
-        done = subprocess.run([str(python.parent / "donkey"), "train", "--tub", str(tub), "--model", str(model),
-                               "--type", kind, "--framework", "tensorflow"], cwd=car, stdout=f, stderr=subprocess.STDOUT)
-    if done.returncode != 0 or not model.exists():
+        finished = subprocess.run([str(python.parent / "donkey"), "train", "--tub", str(tub), "--model", str(model),
+                                   "--type", kind, "--framework", "tensorflow"], cwd=car, stdout=f,
+                                  stderr=subprocess.STDOUT)
+    if finished.returncode != 0 or not model.exists():
         print(f"  donkey train of {model.name} failed, see {log}", flush=True)
         return None
-    return time.time() - t
+    done.write_text(f"{time.time() - t:.1f}\n")
+    return float(done.read_text())
 
 
 def donkey_scores(python: Path, car: Path, model: Path, kind: str, rec, start: int, stop: int, work: Path) -> dict:
@@ -241,7 +247,7 @@ def donkey_scores(python: Path, car: Path, model: Path, kind: str, rec, start: i
     records.write_text(json.dumps({"images": [str(p) for p in rec.frames["center"][start:stop]],
                                    "angles": rec.steering[start:stop].tolist(),
                                    "throttles": rec.throttle[start:stop].tolist()}))
-    subprocess.run([str(python), str(Path(__file__).with_name("_donkey_eval.py")), str(car / "config.py"),
+    subprocess.run([str(python), str(ROOT / "studies" / "_donkey_eval.py"), str(car / "config.py"),
                     str(model), kind, str(records), str(scores)], check=True, cwd=car, stdout=subprocess.DEVNULL,
                    stderr=subprocess.DEVNULL)
     r = json.loads(scores.read_text())
