@@ -32,7 +32,7 @@ BAD_INPUTS = {
         "dagger.world: track renders the donkey camera, and"),
     "sim dagger in the track world with a road suite": (
         lambda t, s: ["sim", "dagger", str(config(t, tub(t / "tub"))), "dagger.world=track", "dagger.suite=v1"],
-        "dagger.suite: v1 is a road suite; world track drives a track suite (t1, s1, t2) or none (null)"),
+        "dagger.suite: v1 is a road suite; world track drives a track suite (t1, s1, t2, t3) or none (null)"),
     "sim dagger in replay on a tub without its full-lock angle": (
         lambda t, s: ["sim", "dagger", str(config(t, tub(t / "tub"))), "dagger.world=replay"],
         "tub: replay cannot turn its steering into a wheel angle: normalized steering needs the car's full-lock angle"),

@@ -138,7 +138,7 @@ def test_closed_loop_drives_the_suite_of_either_world(tmp_path, saved_figures):
     assert closed_loop(None) == (WORLDS["road"], SuiteOptions())
     assert closed_loop({"suite": "t1", "minutes": 0.5}) == (WORLDS["track"], TrackSuiteOptions(minutes=0.5))
     assert closed_loop({"world": "track", "suite": "s1"}) == (WORLDS["track"], TrackSuiteOptions(suite="s1"))
-    with pytest.raises(SteerlabError, match=r"^closed_loop.suite must be t1 or s1 or t2, got 'v1'$"):
+    with pytest.raises(SteerlabError, match=r"^closed_loop.suite must be t1 or s1 or t2 or t3, got 'v1'$"):
         closed_loop({"world": "track", "suite": "v1"})
     with pytest.raises(SteerlabError, match=r"^closed_loop.world must be one of road, track, got 'boat'$"):
         closed_loop({"world": "boat"})
