@@ -1,8 +1,9 @@
 """donkeycar's own environment, in which the studies run donkeycar's trainer and parts (steerlab never imports
 donkeycar): `donkey_python`, `donkey_car`, `donkey_models` (`donkey train`'s linear models), `DonkeycarPart`,
-donkeycar's pilot part behind a pipe, and `DonkeycarLineFollower` (`cv_car`), its computer-vision line follower; donkeycar's trainer on the shared tubs (`studies/donkeycar_tubs.py`,
-`studies/tub_pretraining.py`): `TubStudy`, their options, `TUBS`, `READER`, `blocks`, `donkey_or_skip`,
-`donkey_train`, `donkey_scores`, `run_donkey`, `replay_donkey`."""
+donkeycar's pilot part behind a pipe, and `DonkeycarLineFollower` (`cv_car`, `cv_thresholds`), its computer-vision
+line follower; donkeycar's trainer on the shared tubs (`studies/donkeycar_tubs.py`, `studies/tub_pretraining.py`,
+`studies/tub_replay.py`): `TubStudy`, their options, `TUBS`, `READER`, `blocks`, `donkey_or_skip`, `donkey_train`,
+`donkey_scores`, `run_donkey`, `replay_donkey`."""
 
 from __future__ import annotations
 
