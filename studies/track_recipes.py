@@ -13,7 +13,9 @@ default config: a random 80/20 split, early stopping; `--donkeycar-runs` runs, t
 seeded), races the same tracks behind a pipe (`_donkey_part.py`). Like with like on the same records both ways:
 `--donkeycar-ours` trains donkeycar's model on the records steerlab's recipe trains on (the first tub's validation
 block deleted), and the recipe `mae-donkey-split` trains steerlab's on donkeycar's split (the tubs merged into one,
-a random 20 % of all records validating).
+a random 20 % of all records validating). `--donkeycar-cv` races donkeycar's computer-vision line follower beside
+them, which needs no training (its `cv_control` template, set for each track's tape colour as its owner sets it:
+`studies/common/donkeycar.py` `cv_thresholds`).
 
 Per cap, every checkpoint is summarised over the same tracks (`track.suite.summarize`): laps, clean laps and their
 share, tracks finished, off-track events per lap and the pace over the tracks that every checkpoint compared
@@ -23,7 +25,7 @@ rerun trains and drives only what is missing.
 
 python -m studies.track_recipes [--recipes donkey,gray,...] [--seeds 0,1] [--suite s1] [--caps 1,0.5]
     [--donkeycar [--donkeycar-runs 3] [--donkeycar-tubs donkey] [--donkeycar-throttle-scale 1]
-    [--donkeycar-throttle-floor 0] [--donkeycar-ours]]
+    [--donkeycar-throttle-floor 0] [--donkeycar-ours]] [--donkeycar-cv]
     [--workers 2] [--out runs/race] [--table table]
 """
 
@@ -236,7 +238,7 @@ class Races(Options):
                           "donkeycar's model alone)")
     seeds: str = option("0,1", SEEDS, SEEDS.words, help="training seeds (train.seed) of every recipe")
     suite: str = option("s1", lambda v: v in TRACK_SUITES, " or ".join(TRACK_SUITES),
-                        help="the track suite raced (s1: selection tracks; t1 scores)")
+                        help="the track suite raced (s1: selection tracks; t2 and t3 score)")
     caps: str = option("1,0.5", CAPS, CAPS.words, help="throttle caps (the learned throttle's and the expert's)")
     donkeycar: bool = option(False, help="also donkeycar's linear model (its own trainer)")
     donkeycar_cv: bool = option(False, help="also donkeycar's computer-vision line follower (its cv_control "
