@@ -4,6 +4,7 @@ few `section.key=value` overrides of it (`RECIPES`, `Recipe`)."""
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -86,7 +87,10 @@ def varied(n: int) -> tuple[str, ...]:
     taped, centre = [f"taped-{s}-vary" for s in range(200, 248)], [f"centre-{s}-vary" for s in range(248, 264)]
     return (*taped[: n * 3 // 4], *centre[: n // 4])
 COLOUR = ("train.hue_deg=180", "train.brightness=0.25")  # the colours and light of other rooms
-VIEWS = ("train.views=[[[-0.15, 0.15], [-15, 15]]]", "train.recovery_s=0.3")  # one view a frame, back in 0.3 s
+# one view of every frame, the camera moved within +-0.15 m and turned within +-15 degrees, back on the path in 0.3 s:
+# the train: section's options (the tub studies) and the same as overrides (the recipes)
+VIEW = {"views": [[[-0.15, 0.15], [-15, 15]]], "recovery_s": 0.3}
+VIEWS = tuple(f"train.{key}={json.dumps(value)}" for key, value in VIEW.items())
 BEST = (*COLOUR, "train.flip=true", "train.loss=mae", "train.epoch_samples=3700")  # configs/track_best.yaml
 RACE_BEST = {"throttle_scale": 1.2}  # its scale uncapped (and its floor at rest: best-floor-0.2)
 

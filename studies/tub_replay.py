@@ -53,12 +53,12 @@ from steerlab.sim.replay.run import run_replay
 from steerlab.sim.track.replay import TrackReplayOptions
 from steerlab.train.config import another_config, load_config
 from steerlab.train.loop import run_changes, train
+from studies._recipes import VIEW
 from studies.common import ROOT, machine, mean_min_max
 from studies.common.donkeycar import (FULL_LOCK_DEG, READER, TUB_NAMES, TUBS, donkey_car, donkey_python, donkey_scores,
                                       donkey_train, replay_donkey, training_tub)
 
 OUT = ROOT / "runs" / "tub-replay"
-VIEWS = {"views": [[[-0.15, 0.15], [-15, 15]]], "recovery_s": 0.3}
 PILOTNET = {"model": {"name": "pilotnet"}}
 
 
@@ -70,8 +70,8 @@ def track_best() -> dict:
 
 # the trained models: their config sections beside the tub defaults (the tub default: multimodal-lstm); --epochs and
 # --patience for all
-TRAINED = {"pilotnet": lambda: PILOTNET, "pilotnet-views": lambda: {**PILOTNET, "train": VIEWS},
-           "tub-default": lambda: {}, "tub-default-views": lambda: {"train": VIEWS}, "track-best": track_best}
+TRAINED = {"pilotnet": lambda: PILOTNET, "pilotnet-views": lambda: {**PILOTNET, "train": VIEW},
+           "tub-default": lambda: {}, "tub-default-views": lambda: {"train": VIEW}, "track-best": track_best}
 MODELS = "pilotnet,pilotnet-views"  # --models by default
 DONKEY_LINEAR = "donkeycar-linear"  # donkeycar's linear model by its own trainer (--donkeycar)
 NULL = ("zero", "train-mean")
@@ -212,7 +212,7 @@ def plot(path, results: dict, tubs: list[str]) -> None:
         ax.set_ylabel("replay: interventions per 100 m")
         ax.grid(alpha=0.3, axis="y")
         ax.legend(fontsize=8)
-        ax.set_title(f"the small cars' replay on the shared tubs' scored blocks (full lock {FULL_LOCK_DEG:g} deg, "
+        ax.set_title(f"the small cars' replay on the shared tubs' scored blocks\n(full lock {FULL_LOCK_DEG:g} deg, "
                      "0.9 m lane)", fontsize=9)
 
 
