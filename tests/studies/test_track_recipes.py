@@ -114,9 +114,10 @@ def test_the_line_followers_thresholds_take_the_tape_and_leave_the_floor_of_ever
                     assert _inside(tape * CV_RULE["from"] * 1.05, t), (name, tape, t)
     assert pairs > 300
     # by hand: yellow tape (BGR 40, 200, 235: hue 25, saturation 212, value 235) on grey concrete, and on a wood of
-    # its hue (BGR 77, 116, 154: hue 15, saturation 127), whose saturation is cut halfway: (212 + 127) // 2 + 1
+    # its hue (BGR 70, 110, 150: hue 15, saturation 136), whose saturation is cut halfway: (212 + 136) // 2 + 1 (no
+    # value here lies on a rounding boundary of the conversion, whose kernels differ by CPU)
     assert cv_thresholds((40, 200, 235), (150, 152, 150)) == ([15, 127, 141], [35, 255, 255])
-    assert cv_thresholds((40, 200, 235), (77, 116, 154)) == ([15, 170, 141], [35, 255, 255])
+    assert cv_thresholds((40, 200, 235), (70, 110, 150)) == ([15, 175, 141], [35, 255, 255])
     # white tape (value 240) on a floor of value 152 (its largest channel): cut at 196, the tape from 197
     assert cv_thresholds((240, 240, 240), (150, 152, 150)) == ([0, 0, 197], [179, 60, 255])
 
