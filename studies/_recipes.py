@@ -92,6 +92,7 @@ COLOUR = ("train.hue_deg=180", "train.brightness=0.25")  # the colours and light
 VIEW = {"views": [[[-0.15, 0.15], [-15, 15]]], "recovery_s": 0.3}
 VIEWS = tuple(f"train.{key}={json.dumps(value)}" for key, value in VIEW.items())
 BEST = (*COLOUR, "train.flip=true", "train.loss=mae", "train.epoch_samples=3700")  # configs/track_best.yaml
+LANE_PACE = (2.0, 3.5, 5.0, 8.0)  # m/s^2: the lateral accelerations of the pace from the lane, chosen on s1
 RACE_BEST = {"throttle_scale": 1.2}  # its scale uncapped (and its floor at rest: best-floor-0.2)
 
 
@@ -222,6 +223,12 @@ RECIPES = {
     **{f"{name}-by-lane": Recipe(f"{name} steering by the lane it sees (--steer-by lane: the lane controller, "
                                  "Stanley's law)", race={**RACE_BEST, "throttle_floor": 0.2, "steer_by": "lane"},
                                  starts=name) for name in ("best-lane", "best-poses-0.5-lane")},
+    # the pace from the lane (--throttle-by lane: the speed the curvature its lane head sees allows at a lateral
+    # acceleration, control.lane_throttle) instead of its learned throttle, steering by the lane it sees
+    **{f"lane-pace-{a:g}": Recipe(f"best-poses-0.5-lane steering by the lane it sees at the pace of that lane's "
+                                  f"curvature, lateral acceleration {a:g} m/s^2 (--throttle-by lane --lat-acc {a:g}), "
+                                  "uncapped", race={"steer_by": "lane", "throttle_by": "lane", "lat_acc": a},
+                                  starts="best-poses-0.5-lane") for a in LANE_PACE},
     # the data-scale curve of varied rooms (docs/results/racing.md, "Rooms that cannot be memorised")
     **{f"vary-{n}": Recipe(f"track_best on {n} tracks in {n} varied rooms (sim record --vary), a minute each",
                            BEST, RACE_BEST, varied(n), only=240) for n in (16, 32, 64)},

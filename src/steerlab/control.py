@@ -1,9 +1,9 @@
 """The one speed controller: the throttle that drives a measured speed to a target (the Udacity simulator
 server's set speed, a donkeycar part's predicted speed), the one shaping of a part's throttle on its way to the
 car (`Throttle`: a constant throttle, or a learned one scaled, capped and floored at rest), which the car's part
-(`donkey.SteerlabPilot`) and every pilot of the simulated car (`sim.core.part.PartPilot`) apply alike, and the
-one lane controller (`lane_steering`), which steers by the lane a model's lane head sees, on the car and in the
-simulated track world alike.
+(`donkey.SteerlabPilot`) and every pilot of the simulated car (`sim.core.part.PartPilot`) apply alike, the one
+lane controller (`lane_steering`), which steers by the lane a model's lane head sees, and the pace from that lane
+(`lane_throttle`: the speed its curvature allows), on the car and in the simulated track world alike.
 
 The lane controller's law is Stanley's (Thrun et al. 2006, "Stanley: the robot that won the DARPA Grand
 Challenge"), with the lane's curvature as a feed-forward: road-wheel angle (rad, positive left) =
@@ -14,7 +14,16 @@ for the lateral offset of the rear axle (m, positive left), the heading to the l
 the lane's curvature (1/m, positive turning left) and the speed v (m/s), limited to the car's full lock by its
 caller. The first term is the angle that follows the lane's curve (a kinematic car turns with curvature
 tan(angle) / wheelbase), the second turns the wheels back along the lane, the third steers towards the centre line
-over a distance that grows with the speed."""
+over a distance that grows with the speed.
+
+The pace from the lane slows for the curve as the track world's expert does (`sim/track/expert.py`), from the
+curvature a lane head sees where the car is: the speed at which the lateral acceleration v^2 |curvature| is
+`lat_acc`, at most the car's top speed,
+
+    v* = min(top_speed, sqrt(lat_acc / |curvature|)),
+
+is reached by the throttle v* / top_speed (what holds v* on a motor whose throttle u approaches u x top_speed)
+plus LANE_KP x (v* - v), which brakes (a negative throttle) where the car is faster, limited to +-cap."""
 
 from __future__ import annotations
 
@@ -36,6 +45,11 @@ K_OFFSET = 2.0
 V0 = 0.5
 AT_REST = 0.1  # m/s: slower than this, the car stands (or creeps) as far as a throttle floor is concerned
 DEFAULT_THROTTLE = 0.3  # the constant throttle of a model that predicts none when none is given
+# throttle per m/s of speed above or below the lane's: 1 m/s too fast takes 0.5 off the throttle that holds the
+# speed, which brakes above 2.5 m/s on a 5 m/s car (on the track world's true lane: docs/results/racing.md, "Pace
+# from the lane")
+LANE_KP = 0.5
+LAT_ACC = 3.5  # m/s^2: the lateral acceleration the pace from the lane allows by default, the track expert's
 
 
 def number(name: str, value, low: float, high: float, low_open: bool = False) -> float:
@@ -84,14 +98,15 @@ class Throttle:
 
     def for_model(self, learned: bool, name: str, kind: str = "constant") -> Throttle:
         """This shaping for model `name` (what messages call it): `learned`, its own throttle drives; else its
-        `kind` ("constant" or "cruising") throttle. Returns itself; refuses a shaping that would not apply."""
+        `kind` ("constant", "cruising" or "lane-paced": `lane_throttle`) throttle. Returns itself; refuses a shaping
+        that would not apply."""
         if learned:
             return self
         for field, value, default in (("throttle_floor", self.floor, 0.0), ("throttle_scale", self.scale, 1.0)):
             if value != default:
                 raise SteerlabError(f"{field} shapes a learned throttle; {name} drives at a {kind} throttle: "
                                     f"leave {field} out")
-        if self.constant > self.cap:
+        if kind != "lane-paced" and self.constant > self.cap:
             raise SteerlabError(f"the {kind} throttle {self.constant:g} exceeds max_throttle {self.cap:g}: lower "
                                 "the throttle or raise max_throttle")
         return self
@@ -130,3 +145,16 @@ def lane_steering(offset: float, heading: float, curvature: float, speed: float,
     """The road-wheel angle (rad, positive left) of the lane controller (see the module's docstring), unlimited."""
     return (math.atan(wheelbase * curvature) - K_HEADING * heading
             - math.atan(K_OFFSET * offset / (max(speed, 0.0) + V0)))
+
+
+def lane_speed(curvature: float, lat_acc: float, top_speed: float) -> float:
+    """The speed (m/s) a lane of `curvature` (1/m) allows: lateral acceleration `lat_acc` (m/s^2), at most
+    `top_speed`."""
+    return min(top_speed, math.sqrt(lat_acc / max(abs(curvature), 1e-9)))
+
+
+def lane_throttle(curvature: float, speed: float, lat_acc: float, top_speed: float, cap: float) -> float:
+    """The throttle of the pace from the lane (see the module's docstring) at the measured `speed` (m/s) on a car
+    whose throttle 1 approaches `top_speed` (m/s), limited to +-`cap`."""
+    target = lane_speed(curvature, lat_acc, top_speed)
+    return float(np.clip(target / top_speed + LANE_KP * (target - speed), -cap, cap))

@@ -28,7 +28,12 @@ deliver) and, optionally, the measured speed (`enc/speed`, m/s, from donkeycar's
 With `steer_by="lane"` a model with a lane head (`train.lane_weight`) steers by the lane it sees, not by its
 steering head: the lane controller (`control.lane_steering`, Stanley's law on the offset, heading and curvature,
 at the measured speed, which it needs with every frame; the car's wheelbase is its camera's car's) gives the
-road-wheel angle, which the car's full lock makes a servo command; the throttle is as above.
+road-wheel angle, which the car's full lock makes a servo command; the throttle is as above. With
+`throttle_by="lane"` its throttle is the pace from that lane instead (`control.lane_throttle`): the speed the
+curvature it sees allows at the lateral acceleration `lat_acc`, reached from the measured speed on a car whose
+throttle 1 approaches `top_speed` (the car model's, 5 m/s for a donkeycar, unless given), capped at
++-`max_throttle` (a negative throttle brakes, as a learned one may); neither the learned throttle nor a scale or a
+floor shapes it.
 
 The streaming state lives in the steerlab `Pilot` (previous frame for difference and flow, frame stack, speed
 history, recurrent state): the same code `steerlab evaluate` runs, so what was evaluated is what drives. The
@@ -55,7 +60,8 @@ from typing import Callable
 
 import numpy as np
 
-from steerlab.control import DEFAULT_THROTTLE, SpeedControl, Throttle, lane_steering, number
+from steerlab.control import (DEFAULT_THROTTLE, LAT_ACC, SpeedControl, Throttle, lane_steering, lane_throttle,
+                               number)
 from steerlab.data.car import car_of
 from steerlab.data.geometry import CAMERAS
 from steerlab.data.recording import SteeringConvention, said_full_lock
@@ -113,6 +119,11 @@ class SteerlabPilot:
     as `steerlab sim drive --steering-step`.
     steer_by: "steering" (the model's steering head) or "lane" (the lane controller on the lane its lane head
         sees; needs the measured speed, and the full lock from `full_lock_deg` or the checkpoint's).
+    throttle_by: "model" (the throttle above: learned, constant or cruising) or "lane" (the pace from the lane its
+        lane head sees; needs the measured speed).
+    lat_acc: with throttle_by lane, the lateral acceleration (m/s^2) the pace allows (default 3.5, the track
+        expert's).
+    top_speed: with throttle_by lane, the speed (m/s) the car approaches at throttle 1 (default: its car model's).
     reset_after_s: a longer gap between frames starts a new segment (None: never).
     clock: seconds, for the gap (`time.monotonic`).
     """
@@ -121,7 +132,8 @@ class SteerlabPilot:
                  throttle_scale: float = 1.0, throttle_floor: float = 0.0, full_lock_deg: float | None = None,
                  max_throttle: float = 0.5, kp: float = 0.1, ki: float = 0.01, command_step: float = 0.01,
                  smoothing: float | None = None, steering_step: float | None = None, threads: int | None = None,
-                 steer_by: str = "steering", reset_after_s: float | None = 0.5,
+                 steer_by: str = "steering", throttle_by: str = "model", lat_acc: float | None = None,
+                 top_speed: float | None = None, reset_after_s: float | None = 0.5,
                  clock: Callable[[], float] = time.monotonic):
         forced = throttle is not None
         with _said_by_the_part():
@@ -137,13 +149,15 @@ class SteerlabPilot:
         self.source = a_path(model, "SteerlabPilot: model")
         self.pilot = Pilot(model, smoothing=smoothing, steering_step=steering_step,
                            threads=max(1, (os.cpu_count() or 2) // 2) if threads is None else threads)
-        self.learned = learned_throttle and "throttle" in self.pilot.targets
+        self.throttle_by = self._lane_pace(throttle_by, lat_acc, top_speed, forced)
+        self.learned = learned_throttle and "throttle" in self.pilot.targets and self.throttle_by == "model"
         if self.learned and forced:
             raise SteerlabError(f"SteerlabPilot: {self.source.name} learned the throttle; throttle={throttle!r} "
                                 "would override it: pass learned_throttle=False to drive at a constant throttle, or "
                                 "leave throttle out (throttle_scale, max_throttle and throttle_floor shape the learned "
                                 "one)")
-        kind = "cruising" if {"speed", "command"} & set(self.pilot.targets) else "constant"
+        kind = ("lane-paced" if self.throttle_by == "lane" else
+                "cruising" if {"speed", "command"} & set(self.pilot.targets) else "constant")
         with _said_by_the_part():
             self.shaping = given.for_model(self.learned, self.source.name, kind)
         conv = self.pilot.convention
@@ -164,6 +178,12 @@ class SteerlabPilot:
         self.clock = clock
         car = car_of(self.pilot.geometry)  # the car its angles were recorded on
         self.steering_ratio, self.wheelbase = car.steering_ratio, car.wheelbase
+        if self.throttle_by == "lane":
+            self.lat_acc = LAT_ACC if lat_acc is None else lat_acc
+            self.top_speed = top_speed or (car.motor.top_speed if car.motor else None)
+            if self.top_speed is None:
+                raise SteerlabError(f"SteerlabPilot: throttle_by lane needs the speed the car approaches at "
+                                    f"throttle 1, which the {self.pilot.geometry!r} car does not say: give top_speed")
         cam = CAMERAS.get(self.pilot.geometry)
         self.shape = None if cam is None else (cam.height, cam.width, 3)  # the frames the model was trained on
         self.frames = 0
@@ -192,6 +212,30 @@ class SteerlabPilot:
                                 f"servo command with the car's full lock, which {self.source.name} does not know: "
                                 "give full_lock_deg")
         return steer_by
+
+    def _lane_pace(self, throttle_by, lat_acc, top_speed, forced: bool) -> str:
+        """`throttle_by` checked against the model and the other options: "lane" needs a lane head, and the
+        constant throttle does not drive; `lat_acc` and `top_speed` shape the lane's pace only."""
+        if throttle_by not in ("model", "lane"):
+            raise SteerlabError(f"SteerlabPilot: throttle_by must be 'model' or 'lane', got {throttle_by!r}")
+        for name, value, high in (("lat_acc", lat_acc, 20.0), ("top_speed", top_speed, 20.0)):
+            if value is None:
+                continue
+            if throttle_by != "lane":
+                raise SteerlabError(f"SteerlabPilot: {name} shapes the pace from the lane: leave it out, or set "
+                                    "throttle_by to lane")
+            _check(name, value, 0.0, high, low_open=True)
+        if throttle_by == "model":
+            return throttle_by
+        if "lane" not in self.pilot.targets:
+            raise SteerlabError(f"{self.source}: throttle_by lane drives at the pace of the lane a model's lane head "
+                                f"sees; model {self.pilot.name!r} has none: train it with train.lane_weight > 0 on "
+                                "tubs with lane values (steerlab sim record --world track), or set throttle_by to "
+                                "model")
+        if forced:
+            raise SteerlabError("SteerlabPilot: throttle is the constant throttle of a model that predicts none; "
+                                "throttle_by lane drives at the lane's pace instead: leave throttle out")
+        return throttle_by
 
     def reset(self) -> None:
         """Forget the past: the next frame starts a segment (previous frame, histories, recurrent state)."""
@@ -229,10 +273,11 @@ class SteerlabPilot:
             got = "x".join(map(str, img.shape)) or "a scalar"
             raise SteerlabError(f"SteerlabPilot: the camera frame is {got} {img.dtype}; {self.source.name} "
                                 f"(model {self.pilot.name!r}) expects {self.expected()}")
-        lane = self.steer_by == "lane"
-        if (self.pilot.speed_history or "speed" in self.pilot.targets or self.shaping.floor or lane) and speed is None:
+        lane, pace = self.steer_by == "lane", self.throttle_by == "lane"
+        if (self.pilot.speed_history or "speed" in self.pilot.targets or self.shaping.floor or lane or pace) \
+                and speed is None:
             needs = ("the throttle floor needs" if self.shaping.floor else "steer_by lane needs" if lane
-                     else f"model {self.pilot.name!r} needs")
+                     else "throttle_by lane needs" if pace else f"model {self.pilot.name!r} needs")
             raise SteerlabError(f"SteerlabPilot: {needs} the measured speed (m/s) with every frame: add the car's "
                                 "odometry (HAVE_ODOM = True) and inputs=['cam/image_array', 'enc/speed']")
         if gap:
@@ -250,6 +295,8 @@ class SteerlabPilot:
     def _throttle(self, out: Controls, speed: float | None) -> float:
         """The throttle of the model's answer `out` (see the module's docstring): the learned one shaped
         (`control.Throttle.shaped`), the speed controller's, the speed command's step, or the constant one."""
+        if self.throttle_by == "lane":
+            return lane_throttle(out.lane[2], speed, self.lat_acc, self.top_speed, self.shaping.cap)
         if self.learned:
             return self.shaping.shaped(out.throttle, speed)
         if out.speed is not None:

@@ -1,5 +1,6 @@
 """Models that read the lane: the lane values of the track world's tubs, the auxiliary lane head (its targets, loss,
-mirroring and errors), the Pilot's lane, and steering by the lane (`--steer-by lane`) with a Stanley controller."""
+mirroring and errors), the Pilot's lane, steering by the lane (`--steer-by lane`) with a Stanley controller, and
+the pace from the lane (`--throttle-by lane`)."""
 
 import json
 import math
@@ -19,7 +20,7 @@ from steerlab.models import create_model, list_models
 from steerlab.models.registry import learns_lane
 from steerlab.pilot import Controls
 from steerlab.sim.core.driving import drive_loop
-from steerlab.control import K_OFFSET, V0, lane_steering
+from steerlab.control import K_OFFSET, LANE_KP, V0, lane_speed, lane_steering, lane_throttle
 from steerlab.donkey import SteerlabPilot
 from steerlab.sim.track.lane import LanePilot
 from steerlab.sim.track.world import TrackDriveOptions, TrackWorld
@@ -150,21 +151,30 @@ def test_training_data_without_lane_values_is_refused(tmp_path):
         train_on(tub, tmp_path, lane_weight=0.5)
 
 
-def test_a_lane_model_trains_and_its_pilot_sees_the_lane_but_drives_by_steering(tmp_path):
-    from steerlab.checkpoint import load_checkpoint
+@pytest.fixture(scope="module")
+def lane_model(tmp_path_factory):
+    """A donkey-linear with a lane head trained on `write_tub`'s frames: (training's best, run folder, its .onnx,
+    a frame of the tub)."""
     from steerlab.export import export_onnx
-    from steerlab.pilot import Pilot
 
+    tmp_path = tmp_path_factory.mktemp("lane")
     tub = write_tub(tmp_path / "tub")
     best, run = train_on(tub, tmp_path, lane_weight=0.5)
+    onnx = export_onnx(run / "best.pt", tmp_path / "model.onnx")  # the lane head is exported with the rest
+    return best, run, onnx, cv2.imread(str(tub / "images" / "70_cam_image_array_.jpg"))
+
+
+def test_a_lane_model_trains_and_its_pilot_sees_the_lane_but_drives_by_steering(lane_model):
+    from steerlab.checkpoint import load_checkpoint
+    from steerlab.pilot import Pilot
+
+    best, run, onnx, frame = lane_model
     assert load_checkpoint(run / "best.pt")["model_cfg"]["lane"] is True
     header = (run / "log.csv").read_text().splitlines()[0].split(",")
     assert "val_lane_mae" in header and best["lane_mae"] > 0
-    frame = cv2.imread(str(tub / "images" / "70_cam_image_array_.jpg"))
     pilot = Pilot(run / "best.pt")
     controls = pilot.step(frame)
     assert "lane" in pilot.targets and len(controls.lane) == 3 and all(math.isfinite(v) for v in controls.lane)
-    onnx = export_onnx(run / "best.pt", tmp_path / "model.onnx")  # the lane head is exported with the rest
     exported = Pilot(onnx)
     assert "lane" in exported.targets
     assert exported.step(frame).lane == pytest.approx(controls.lane, abs=1e-4)
@@ -199,6 +209,109 @@ def test_a_lane_model_trains_and_its_pilot_sees_the_lane_but_drives_by_steering(
         got = lane.step(frame, 1.5)
         assert got.steering == car.run(np.ascontiguousarray(frame[..., ::-1]), 1.5)[0]
         assert lane.name == "donkey-linear" and lane.part.steer_by == "lane"
+
+
+def test_the_pace_from_the_lane_against_hand_computed_throttles():
+    # lateral acceleration 3.5 m/s^2 on a curve of 0.875 /m: 2 m/s; on a 5 m/s car the throttle 0.4 holds it
+    assert lane_speed(0.875, 3.5, 5.0) == pytest.approx(2.0) and lane_speed(-0.875, 3.5, 5.0) == pytest.approx(2.0)
+    assert lane_speed(0.0, 3.5, 5.0) == 5.0 and lane_speed(0.01, 3.5, 5.0) == 5.0  # a straight: the top speed
+    assert LANE_KP == 0.5
+    assert lane_throttle(0.875, 2.0, 3.5, 5.0, 1.0) == pytest.approx(0.4)
+    assert lane_throttle(0.875, 3.0, 3.5, 5.0, 1.0) == pytest.approx(-0.1)  # 1 m/s too fast: it brakes
+    assert lane_throttle(0.875, 1.0, 3.5, 5.0, 1.0) == pytest.approx(0.9)
+    assert lane_throttle(0.875, 0.0, 3.5, 5.0, 0.5) == 0.5 and lane_throttle(2.0, 5.0, 3.5, 5.0, 0.5) == -0.5
+
+
+class TrueLanePace:
+    """A pilot at the pace of the world's true lane (what a perfect lane head would give the part)."""
+
+    name, geometry, source, convention = "true-lane-pace", None, "the world's lane", None
+
+    def reset(self):
+        pass
+
+    def __init__(self, world, lat_acc):
+        self.world, self.lat_acc = world, lat_acc
+
+    def step(self, frame, speed=None):
+        return Controls(0.0, throttle=lane_throttle(self.world.lane_curvature(), speed or 0.0, self.lat_acc,
+                                                    CAR.motor.top_speed, 1.0))
+
+
+def test_the_pace_from_the_true_lane_laps_cleanly_faster_than_the_expert_and_slows_for_the_curves(tmp_path):
+    from steerlab.sim.track.run import drive_expert
+
+    times, in_bends = {}, {}
+    for lat_acc in (2.0, 3.5):
+        world = TrackWorld(3, camera=None)
+        pilot = LanePilot(TrueLanePace(world, lat_acc), lambda: (*world.observe(), world.lane_curvature()))
+        t = drive_loop(world, pilot, 900, 0.0, 20.0, progress=False)  # 45 s
+        laps = world.laps.result()
+        assert laps["laps"] >= 2 and laps["clean_laps"] == laps["laps"] and not t.intervention.any()
+        times[lat_acc] = laps["mean_lap_s"]
+        bends = np.abs(world.track.curvature(t.s)) > 1.0
+        in_bends[lat_acc] = t.speed[bends].mean()
+        # slower in the bends than on the straights: it reads the curvature where the car is, so it slows within a
+        # bend, not before it
+        assert in_bends[lat_acc] < t.speed[~bends].mean() - 0.5
+    expert = drive_expert(tmp_path, TrackDriveOptions(seed=3, minutes=0.75, max_throttle=1.0))
+    assert in_bends[2.0] < in_bends[3.5] - 0.3 and times[3.5] < times[2.0] and times[3.5] < expert.mean_lap_s
+
+
+def test_a_lane_model_drives_at_the_pace_of_the_lane_it_sees(lane_model):
+    from steerlab.sim.track.run import checkpoint_pilot
+
+    _, run, onnx, frame = lane_model
+    rgb = np.ascontiguousarray(frame[..., ::-1])
+    for model in (run / "best.pt", onnx):
+        for given, lat_acc in (({}, 3.5), ({"lat_acc": 0.01}, 0.01)):
+            part = SteerlabPilot(model, throttle_by="lane", full_lock_deg=25, max_throttle=1.0, reset_after_s=None,
+                                 **given)
+            for speed in (0.0, 1.5, 4.0):
+                _, throttle = part.run(rgb, speed)
+                assert throttle == lane_throttle(part.controls.lane[2], speed, lat_acc, 5.0, 1.0)
+        assert lane_speed(part.controls.lane[2], 0.01, 5.0) < 5.0  # the curvature it sees sets the pace
+        with pytest.raises(SteerlabError, match="throttle_by lane needs the measured speed"):
+            part.run(rgb)
+        sim = checkpoint_pilot(model, TrackDriveOptions(throttle_by="lane", lat_acc=2.0, max_throttle=1.0))
+        world_frame = TrackWorld(1).render()
+        car = SteerlabPilot(model, throttle_by="lane", lat_acc=2.0, full_lock_deg=25, max_throttle=1.0,
+                            reset_after_s=None)
+        assert sim.step(world_frame, 1.5).throttle == car.run(np.ascontiguousarray(world_frame[..., ::-1]), 1.5)[1]
+    for given, match in (({"throttle_by": "speed"}, r"throttle_by must be 'model' or 'lane', got 'speed'"),
+                         ({"lat_acc": 3.0}, r"lat_acc shapes the pace from the lane: leave it out, or set "
+                                            r"throttle_by to lane"),
+                         ({"throttle_by": "lane", "lat_acc": 0}, r"lat_acc must be a number in \(0, 20\], got 0"),
+                         ({"throttle_by": "lane", "top_speed": -1.0}, r"top_speed must be a number in \(0, 20\]"),
+                         ({"throttle_by": "lane", "throttle": 0.3}, r"throttle is the constant throttle of a model "
+                                                                    r"that predicts none; throttle_by lane"),
+                         ({"throttle_by": "lane", "throttle_scale": 1.2},
+                          r"throttle_scale shapes a learned throttle; model.onnx drives at a lane-paced throttle"),
+                         ({"throttle_by": "lane", "throttle_floor": 0.2}, r"throttle_floor shapes a learned throttle")):
+        with pytest.raises(SteerlabError, match=r"^SteerlabPilot: " + match):
+            SteerlabPilot(onnx, **given)
+
+
+def test_the_pace_from_the_lane_needs_a_lane_head_and_is_refused_beside_a_learned_throttles_shaping(tmp_path,
+                                                                                                      capsys):
+    from conftest import made
+
+    ckpt = made(tmp_path, "normalized", "right", "donkey", full_lock_deg=25)
+    with pytest.raises(SteerlabError, match=rf"^{ckpt}: throttle_by lane drives at the pace of the lane a model's "
+                                            r"lane head sees; model 'pilotnet' has none"):
+        SteerlabPilot(ckpt, throttle_by="lane")
+    for args, message in ((["--throttle-by", "lane", "--throttle-floor", "0.2"], "--throttle-floor must be 0 with "
+                           "throttle_by lane (--throttle-by lane: the lane sets the pace; it shapes a learned "
+                           "throttle), got 0.2"),
+                          (["--lat-acc", "2"], "--lat-acc must be given only with throttle_by lane (--throttle-by "
+                           "lane: it shapes the pace from the lane), got 2"),
+                          (["--throttle-by", "lane", "--throttle", "0.3"], "--throttle must be left out with "
+                           "throttle_by lane (--throttle-by lane: the lane sets the pace), got 0.3")):
+        for command in (["drive", "--minutes", "0.01", "--out", str(tmp_path / "drive")],
+                        ["bench", "--suite", "s1", "--out", str(tmp_path / "bench")]):
+            assert main(["sim", command[0], str(ckpt), "--world", "track", *command[1:], *args]) == 2
+            err = capsys.readouterr().err.strip().splitlines()
+            assert err == [f"error: {message}"]
 
 
 def test_steering_by_the_lane_is_refused_for_a_model_without_the_head(tmp_path, capsys):
@@ -251,6 +364,9 @@ def test_a_donkeycar_part_in_the_suite_cannot_steer_by_the_lane():
     with pytest.raises(SteerlabError, match=r"^model.h5: steer_by lane steers by a steerlab checkpoint's lane head; "
                                             r"a donkeycar part steers by its own angle: set steer_by to steering$"):
         race_part(Throttle, "theirs", "model.h5", TrackSuiteOptions(steer_by="lane"))
+    with pytest.raises(SteerlabError, match=r"^model.h5: throttle_by lane paces by a steerlab checkpoint's lane head; "
+                                            r"a donkeycar part drives at its own throttle: set throttle_by to model$"):
+        race_part(Throttle, "theirs", "model.h5", TrackSuiteOptions(throttle_by="lane"))
 
 
 def test_the_lane_pilot_steers_by_what_it_sees_within_the_full_lock_and_keeps_its_inner_pilots_throttle():

@@ -128,3 +128,16 @@ def test_the_line_follower_races_alone_or_beside_recipes():
     assert Races(recipes="", donkeycar_cv=True).donkeycar_cv
     with pytest.raises(SteerlabError, match="recipes"):
         Races(recipes="")
+
+
+def test_every_recipe_races_with_options_the_suite_takes():
+    """Each recipe's race options make the suite's options (their checks pass), and a recipe that only races
+    another's checkpoint starts from a recipe that exists; the pace from the lane races its lateral accelerations."""
+    import studies.track_recipes as tr
+
+    for name, recipe in tr.RECIPES.items():
+        o = tr.suite_options(name, "s1", 1.0, 2)
+        assert recipe.starts is None or recipe.starts in tr.RECIPES
+        if recipe.race.get("throttle_by") == "lane":
+            assert (o.throttle_by, o.steer_by, o.throttle_scale, o.throttle_floor) == ("lane", "lane", 1.0, 0.0)
+    assert [tr.RECIPES[f"lane-pace-{a:g}"].race["lat_acc"] for a in (2, 3.5, 5, 8)] == [2.0, 3.5, 5.0, 8.0]

@@ -93,19 +93,22 @@ def learns_throttle(checkpoint: str | Path) -> bool:
 
 def donkey_pilot(checkpoint: str | Path, throttle: float, smoothing: float | None = None, max_throttle: float = 0.5,
                  car: Car = CARS["donkey"], steering_step: float | None = None,
-                 throttle_scale: float = 1.0, throttle_floor: float = 0.0, steer_by: str = "steering") -> PartPilot:
+                 throttle_scale: float = 1.0, throttle_floor: float = 0.0, steer_by: str = "steering",
+                 throttle_by: str = "model", lat_acc: float | None = None) -> PartPilot:
     """steerlab's donkeycar part on `checkpoint` driving `car`, made as on the car (`donkey.SteerlabPilot`, which
     shapes its own throttle: the sim and the car drive alike): its full lock turns the angles of models trained
     on angles into servo commands, `throttle` is the part's constant throttle for models that predict none (a
     model that learned the throttle drives with its own times `throttle_scale`, capped at `max_throttle`, at least
     `throttle_floor` at rest; a scale or a floor on a model of a constant throttle is refused, as on the car),
     `smoothing` and `steering_step` shape its steering as the Pilot's do (`steer_by` lane: it steers by the lane
-    its model's lane head sees instead), the measured speed is its second input (speed models and the lane
-    controller need it), and it forgets the past when the world puts the car back, not after a gap in
-    wall-clock time (a simulation keeps no wall-clock pace)."""
-    constant = None if learns_throttle(checkpoint) else throttle  # the learned throttle of a model that learned one
+    its model's lane head sees instead; `throttle_by` lane: it drives at that lane's pace, `lat_acc`), the measured
+    speed is its second input (speed models and the lane controller need it), and it forgets the past when the
+    world puts the car back, not after a gap in wall-clock time (a simulation keeps no wall-clock pace)."""
+    # the learned throttle of a model that learned one, or the lane's pace: no constant throttle
+    constant = None if throttle_by == "lane" or learns_throttle(checkpoint) else throttle
     part = SteerlabPilot(checkpoint, constant, full_lock_deg=car.full_lock_deg, smoothing=smoothing,
                          steering_step=steering_step, max_throttle=max_throttle, reset_after_s=None,
-                         throttle_scale=throttle_scale, throttle_floor=throttle_floor, steer_by=steer_by)
+                         throttle_scale=throttle_scale, throttle_floor=throttle_floor, steer_by=steer_by,
+                         throttle_by=throttle_by, lat_acc=lat_acc)
     return PartPilot(part, car.full_lock_deg, name=part.pilot.name, geometry=part.pilot.geometry,
                      source=str(checkpoint), with_speed=True, throttle=None)

@@ -20,13 +20,13 @@ import math
 
 import numpy as np
 
+from steerlab.control import LAT_ACC  # m/s^2, a small car's lateral acceleration limit on a hall floor
 from steerlab.data.car import Car, VehicleState, throttle_for
 from steerlab.sim.track.track import Track
 
 DRIFT_TARGET = 0.6   # of the room beside the lane centre: where a drift aims
 DRIFT_TURN = 0.45    # the driver notices and steers back
 RECOVERED = 0.15     # normal driving again
-LAT_ACC = 3.5        # m/s^2, a small car's lateral acceleration limit on a hall floor
 DECEL = 3.0          # m/s^2, the braking the speed profile plans with (the car brakes up to 6)
 PREVIEW_S = 0.3      # s of travel: the pursuit point's distance and how far ahead the speed profile is read
 

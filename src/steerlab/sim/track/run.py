@@ -187,12 +187,13 @@ def checkpoint_pilot(checkpoint: str | Path, o, w: DriveWith = DriveWith()):
     race it: the constant throttle `o.throttle` for a model that predicts none (refused for one that learned the
     throttle), its learned throttle times `o.throttle_scale` capped at `o.max_throttle` (at least `o.throttle_floor`
     while the car stands), its steering shaped as `w` says; with `o.steer_by` lane, steering by the lane its model's
-    lane head sees (`donkey.SteerlabPilot(steer_by="lane")`)."""
+    lane head sees (`donkey.SteerlabPilot(steer_by="lane")`); with `o.throttle_by` lane, at that lane's pace."""
     from steerlab.sim.core.part import donkey_pilot
 
     pilot = donkey_pilot(checkpoint, constant_throttle(o.throttle), w.smoothing, o.max_throttle,
                          steering_step=w.steering_step, throttle_scale=o.throttle_scale,
-                         throttle_floor=o.throttle_floor, steer_by=o.steer_by)
+                         throttle_floor=o.throttle_floor, steer_by=o.steer_by, throttle_by=o.throttle_by,
+                         lat_acc=o.lat_acc)
     if o.throttle is not None and pilot.part.learned:
         raise SteerlabError(f"{checkpoint} learned the throttle; the throttle {o.throttle:g} (steerlab sim drive "
                             "--throttle) is the constant throttle of a model that predicts none: leave it out "

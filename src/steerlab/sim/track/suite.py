@@ -45,8 +45,9 @@ from steerlab.sim.core.suite import (Entrant, Planned, as_stored, check_world_of
 from steerlab.sim.track import run
 from steerlab.sim.track.run import TrackDrive, drive_expert
 from steerlab.sim.track.world import (TrackDriveOptions, TrackRecordOptions, calibration_option, camera_of,
-                                      constant_throttle, latency_option, max_throttle_option, part_throttle,
-                                      steer_by_option, throttle_floor_option, throttle_option, throttle_scale_option)
+                                      constant_throttle, lat_acc_option, latency_option, max_throttle_option,
+                                      pace_held, part_throttle, steer_by_option, throttle_by_option,
+                                      throttle_floor_option, throttle_option, throttle_scale_option)
 
 TRACK_SUITES = {
     # 8 tracks of 2 minutes, 0.9 m lanes: six taped, two with a painted centre line (28-54 m laps; the expert
@@ -85,11 +86,14 @@ class TrackSuiteOptions(Options):
     latency: int = latency_option()
     calibration: str | None = calibration_option()
     steer_by: Literal["steering", "lane"] = steer_by_option()
+    throttle_by: Literal["model", "lane"] = throttle_by_option()
+    lat_acc: float | None = lat_acc_option()
 
     @classmethod
     def related(cls, v):
         yield from frames_held(v, "minutes", fps=FPS)
         yield from throttle_held(v.max_throttle, v.throttle_floor)
+        yield from pace_held(v)
         if v.suite in TRACK_SUITES:
             yield from names_held(v, "styles", TRACK_SUITES[v.suite]["tracks"], "track styles")
 
@@ -108,7 +112,8 @@ class TrackSuiteOptions(Options):
                                  lane_width=TRACK_SUITES[self.suite]["lane_width"], style=style,
                                  calibration=self.calibration, throttle=self.throttle, max_throttle=self.max_throttle,
                                  latency=self.latency, throttle_scale=self.throttle_scale,
-                                 throttle_floor=self.throttle_floor, steer_by=self.steer_by)
+                                 throttle_floor=self.throttle_floor, steer_by=self.steer_by,
+                                 throttle_by=self.throttle_by, lat_acc=self.lat_acc)
 
     def expert_folder(self) -> str:
         """The folder of the expert's drives under this cap."""
@@ -125,14 +130,15 @@ class TrackSuiteOptions(Options):
     def key(self, entrant: Entrant) -> dict:
         """Everything that changes a drive's result besides its track: the pilot's identity, the suite
         version, minutes, smoothing, the constant throttle, the learned throttle's cap, the camera's calibration
-        (its K and D), and where set the steering step, the latency, the throttle's scale and floor and what it
-        steers by (drives made before they existed stay reusable)."""
+        (its K and D), and where set the steering step, the latency, the throttle's scale and floor, what it
+        steers by and what sets its throttle (drives made before they existed stay reusable)."""
         camera = None if self.calibration is None else list(astuple(camera_of(self.calibration)))
         return as_stored({**entrant.identity, "suite": self.suite,
                           "minutes": self.place_minutes, "smoothing": self.smoothing,
                           "throttle": constant_throttle(self.throttle),
                           "max_throttle": self.max_throttle, "camera": camera,
-                          **when_set(self, "steering_step", "latency", "throttle_scale", "throttle_floor", "steer_by")})
+                          **when_set(self, "steering_step", "latency", "throttle_scale", "throttle_floor", "steer_by",
+                                     "throttle_by", "lat_acc")})
 
 
 @dataclass(frozen=True)
@@ -207,6 +213,9 @@ def race_part(make_part: Callable, name: str, source: str, o: TrackSuiteOptions)
     if o.steer_by != "steering":
         raise SteerlabError(f"{source}: steer_by {o.steer_by} steers by a steerlab checkpoint's lane head; a "
                             "donkeycar part steers by its own angle: set steer_by to steering")
+    if o.throttle_by != "model":
+        raise SteerlabError(f"{source}: throttle_by {o.throttle_by} paces by a steerlab checkpoint's lane head; a "
+                            "donkeycar part drives at its own throttle: set throttle_by to model")
     return PartPilot(make_part(), CARS["donkey"].full_lock_deg, name=name, source=source,
                      throttle=part_throttle(o))
 

@@ -22,13 +22,14 @@ reference laps are driven by it through `drive_loop` too. What is done in the wo
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass, replace
 from functools import lru_cache
 from typing import Literal
 
 import numpy as np
 
-from steerlab.control import DEFAULT_THROTTLE, Throttle, throttle_held
+from steerlab.control import DEFAULT_THROTTLE, LAT_ACC, Throttle, throttle_held
 from steerlab.data.car import CARS, Car, VehicleState
 from steerlab.data.fisheye import DONKEY_FISHEYE, FisheyeCamera, load_calibration
 from steerlab.data.recording import SteeringConvention
@@ -101,6 +102,32 @@ def steer_by_option():
     """The option of every track command that drives a model: what it steers by."""
     return option("steering", help="steering: the model's steering head; lane: a Stanley controller on the lane its "
                   "lane head sees (train.lane_weight; sim/track/lane.py), with its learned throttle as usual")
+
+
+def throttle_by_option():
+    """The option of every track command that drives a model: what sets its throttle."""
+    return option("model", help="model: its own throttle (learned, or the constant one); lane: the pace from the "
+                  "lane its lane head sees, the speed the curvature allows at --lat-acc (control.lane_throttle)")
+
+
+def lat_acc_option():
+    """The option of every track command that drives a model: the lateral acceleration of the pace from the lane."""
+    return option(None, Range(0, 20, lo_open=True, unit="m/s^2"), help="with --throttle-by lane: the lateral "
+                  f"acceleration the pace allows, m/s^2 (default {LAT_ACC:g}, the racing expert's)")
+
+
+def pace_held(v) -> Iterator[tuple[str, str]]:
+    """(option, what it must be) where the pace from the lane and the shaping of a learned throttle meet: one sets
+    the throttle or the other (options' `related`)."""
+    if v.throttle_by == "lane":
+        for name, default in (("throttle_scale", 1.0), ("throttle_floor", 0.0)):
+            if getattr(v, name) != default:
+                yield name, (f"{default:g} with throttle_by lane (--throttle-by lane: the lane sets the pace; it "
+                             "shapes a learned throttle)")
+        if v.throttle is not None:
+            yield "throttle", "left out with throttle_by lane (--throttle-by lane: the lane sets the pace)"
+    elif v.lat_acc is not None:
+        yield "lat_acc", "given only with throttle_by lane (--throttle-by lane: it shapes the pace from the lane)"
 
 
 def latency_option():
@@ -183,11 +210,14 @@ class TrackDriveOptions(Options):
     light: float | None = option(None, Range(0.2, 2), help="the room's light level (default: its own, drawn in "
                                  "0.75-1.2): the same track at another time of day")
     steer_by: Literal["steering", "lane"] = steer_by_option()
+    throttle_by: Literal["model", "lane"] = throttle_by_option()
+    lat_acc: float | None = lat_acc_option()
 
     @classmethod
     def related(cls, v):
         yield from frames_held(v, "minutes")
         yield from throttle_held(v.max_throttle, v.throttle_floor)
+        yield from pace_held(v)
 
 
 def camera_of(calibration: str | None) -> FisheyeCamera:
