@@ -218,13 +218,13 @@ class SteerlabPilot:
         constant throttle does not drive; `lat_acc` and `top_speed` shape the lane's pace only."""
         if throttle_by not in ("model", "lane"):
             raise SteerlabError(f"SteerlabPilot: throttle_by must be 'model' or 'lane', got {throttle_by!r}")
-        for name, value, high in (("lat_acc", lat_acc, 20.0), ("top_speed", top_speed, 20.0)):
+        for name, value in (("lat_acc", lat_acc), ("top_speed", top_speed)):
             if value is None:
                 continue
             if throttle_by != "lane":
                 raise SteerlabError(f"SteerlabPilot: {name} shapes the pace from the lane: leave it out, or set "
                                     "throttle_by to lane")
-            _check(name, value, 0.0, high, low_open=True)
+            _check(name, value, 0.0, 20.0, low_open=True)
         if throttle_by == "model":
             return throttle_by
         if "lane" not in self.pilot.targets:
