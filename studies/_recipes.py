@@ -92,7 +92,7 @@ COLOUR = ("train.hue_deg=180", "train.brightness=0.25")  # the colours and light
 VIEW = {"views": [[[-0.15, 0.15], [-15, 15]]], "recovery_s": 0.3}
 VIEWS = tuple(f"train.{key}={json.dumps(value)}" for key, value in VIEW.items())
 BEST = (*COLOUR, "train.flip=true", "train.loss=mae", "train.epoch_samples=3700")  # configs/track_best.yaml
-LANE_PACE = (2.0, 3.5, 5.0, 8.0)  # m/s^2: the lateral accelerations of the pace from the lane, chosen on s1
+LANE_PACE = (2.0, 3.5, 5.0, 8.0, 12.0, 20.0)  # m/s^2: the lateral accelerations of the pace from the lane, chosen on s1
 RACE_BEST = {"throttle_scale": 1.2}  # its scale uncapped (and its floor at rest: best-floor-0.2)
 
 
@@ -229,6 +229,9 @@ RECIPES = {
                                   f"curvature, lateral acceleration {a:g} m/s^2 (--throttle-by lane --lat-acc {a:g}), "
                                   "uncapped", race={"steer_by": "lane", "throttle_by": "lane", "lat_acc": a},
                                   starts="best-poses-0.5-lane") for a in LANE_PACE},
+    "steering-lane-pace-3.5": Recipe("best-poses-0.5-lane steering by its steering head at the pace of the lane's "
+                                     "curvature, lateral acceleration 3.5 m/s^2 (--throttle-by lane), uncapped",
+                                     race={"throttle_by": "lane", "lat_acc": 3.5}, starts="best-poses-0.5-lane"),
     # the data-scale curve of varied rooms (docs/results/racing.md, "Rooms that cannot be memorised")
     **{f"vary-{n}": Recipe(f"track_best on {n} tracks in {n} varied rooms (sim record --vary), a minute each",
                            BEST, RACE_BEST, varied(n), only=240) for n in (16, 32, 64)},

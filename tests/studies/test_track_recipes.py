@@ -139,5 +139,6 @@ def test_every_recipe_races_with_options_the_suite_takes():
         o = tr.suite_options(name, "s1", 1.0, 2)
         assert recipe.starts is None or recipe.starts in tr.RECIPES
         if recipe.race.get("throttle_by") == "lane":
-            assert (o.throttle_by, o.steer_by, o.throttle_scale, o.throttle_floor) == ("lane", "lane", 1.0, 0.0)
-    assert [tr.RECIPES[f"lane-pace-{a:g}"].race["lat_acc"] for a in (2, 3.5, 5, 8)] == [2.0, 3.5, 5.0, 8.0]
+            assert (o.throttle_by, o.throttle_scale, o.throttle_floor) == ("lane", 1.0, 0.0)
+            assert o.steer_by == recipe.race.get("steer_by", "steering")
+    assert [tr.RECIPES[f"lane-pace-{a:g}"].race["lat_acc"] for a in (2, 3.5, 5, 8, 12, 20)] == [2.0, 3.5, 5.0, 8.0, 12.0, 20.0]
