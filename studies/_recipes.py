@@ -92,7 +92,7 @@ COLOUR = ("train.hue_deg=180", "train.brightness=0.25")  # the colours and light
 VIEW = {"views": [[[-0.15, 0.15], [-15, 15]]], "recovery_s": 0.3}
 VIEWS = tuple(f"train.{key}={json.dumps(value)}" for key, value in VIEW.items())
 BEST = (*COLOUR, "train.flip=true", "train.loss=mae", "train.epoch_samples=3700")  # configs/track_best.yaml
-LANE_PACE = (2.0, 3.5, 5.0, 8.0, 12.0, 20.0)  # m/s^2: the lateral accelerations of the pace from the lane, chosen on s1
+LANE_PACE = (2.0, 3.5, 5.0, 8.0, 12.0, 20.0)  # m/s^2: the pace from the lane's lateral accelerations, chosen on s1
 RACE_BEST = {"throttle_scale": 1.2}  # its scale uncapped (and its floor at rest: best-floor-0.2)
 
 

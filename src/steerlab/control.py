@@ -50,6 +50,7 @@ DEFAULT_THROTTLE = 0.3  # the constant throttle of a model that predicts none wh
 # from the lane")
 LANE_KP = 0.5
 LAT_ACC = 3.5  # m/s^2: the lateral acceleration the pace from the lane allows by default, the track expert's
+PACE_MAX = 20.0  # m/s^2 and m/s: the largest lat_acc and top_speed the pace from the lane takes
 
 
 def number(name: str, value, low: float, high: float, low_open: bool = False) -> float:

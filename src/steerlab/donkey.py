@@ -60,7 +60,7 @@ from typing import Callable
 
 import numpy as np
 
-from steerlab.control import (DEFAULT_THROTTLE, LAT_ACC, SpeedControl, Throttle, lane_steering, lane_throttle,
+from steerlab.control import (DEFAULT_THROTTLE, LAT_ACC, PACE_MAX, SpeedControl, Throttle, lane_steering, lane_throttle,
                                number)
 from steerlab.data.car import car_of
 from steerlab.data.geometry import CAMERAS
@@ -224,7 +224,7 @@ class SteerlabPilot:
             if throttle_by != "lane":
                 raise SteerlabError(f"SteerlabPilot: {name} shapes the pace from the lane: leave it out, or set "
                                     "throttle_by to lane")
-            _check(name, value, 0.0, 20.0, low_open=True)
+            _check(name, value, 0.0, PACE_MAX, low_open=True)
         if throttle_by == "model":
             return throttle_by
         if "lane" not in self.pilot.targets:

@@ -142,4 +142,4 @@ def test_every_recipe_races_with_options_the_suite_takes():
             assert (o.throttle_by, o.throttle_scale, o.throttle_floor) == ("lane", 1.0, 0.0)
             assert o.steer_by == recipe.race.get("steer_by", "steering")
     paces = (2.0, 3.5, 5.0, 8.0, 12.0, 20.0)
-    assert [tr.RECIPES[f"lane-pace-{a:g}"].race["lat_acc"] for a in (2, 3.5, 5, 8, 12, 20)] == list(paces)
+    assert tuple(tr.RECIPES[f"lane-pace-{a:g}"].race["lat_acc"] for a in paces) == paces

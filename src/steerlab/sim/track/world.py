@@ -29,7 +29,7 @@ from typing import Literal
 
 import numpy as np
 
-from steerlab.control import DEFAULT_THROTTLE, LAT_ACC, Throttle, throttle_held
+from steerlab.control import DEFAULT_THROTTLE, LAT_ACC, PACE_MAX, Throttle, throttle_held
 from steerlab.data.car import CARS, Car, VehicleState
 from steerlab.data.fisheye import DONKEY_FISHEYE, FisheyeCamera, load_calibration
 from steerlab.data.recording import SteeringConvention
@@ -112,7 +112,7 @@ def throttle_by_option():
 
 def lat_acc_option():
     """The option of every track command that drives a model: the lateral acceleration of the pace from the lane."""
-    return option(None, Range(0, 20, lo_open=True, unit="m/s^2"), help="with --throttle-by lane: the lateral "
+    return option(None, Range(0, PACE_MAX, lo_open=True, unit="m/s^2"), help="with --throttle-by lane: the lateral "
                   f"acceleration the pace allows, m/s^2 (default {LAT_ACC:g}, the racing expert's)")
 
 
