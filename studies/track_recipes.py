@@ -146,6 +146,20 @@ def train_recipe(name: str, seed: int, out: Path, tubs: Path) -> Path:
     return run / "best.pt"
 
 
+def training_minutes(name: str, seed: int, out: Path) -> float | None:
+    """The minutes the recipe's checkpoint for `seed` took to train, with the recipe it starts from: the seconds of
+    its epochs (each run's log.csv; recording its tubs and DAgger's rollouts not counted); None if not trained here."""
+    recipe = RECIPES[name]
+    if recipe.starts and not recipe.overrides and not recipe.tubs:
+        return training_minutes(recipe.starts, seed, out)
+    log = out / "recipes" / name / f"seed{seed}" / "log.csv"
+    before = training_minutes(recipe.starts, seed, out) if recipe.starts else 0.0
+    if not log.exists() or before is None:
+        return None
+    with open(log, newline="") as f:
+        return before + sum(float(row["seconds"]) for row in csv.DictReader(f)) / 60
+
+
 def recipe_tubs(name: str) -> tuple[str, ...]:
     """The tubs a recipe trains on."""
     recipe = RECIPES[name]
@@ -178,8 +192,9 @@ def suite_options(name: str, suite: str, cap: float, workers: int) -> TrackSuite
     return TrackSuiteOptions(suite=suite, max_throttle=cap, workers=workers, **RECIPES[name].race)
 
 
-def table(rows: list, cap: float) -> list[dict]:
-    """Per recipe (the label's first part): the mean over its runs of each overall summary value, and the runs'."""
+def table(rows: list, cap: float, minutes: dict) -> list[dict]:
+    """Per recipe (the label's first part): the mean over its runs of each overall summary value, and the runs';
+    `minutes`: each recipe's training minutes, a run's each (`training_minutes`)."""
     overall = [s for s in summarize(rows) if s.style == "all"]
     by_recipe = {}
     for s in overall:
@@ -187,15 +202,21 @@ def table(rows: list, cap: float) -> list[dict]:
     out = []
     for name, runs in by_recipe.items():
         def mean(key):
-            values = [getattr(r, key) for r in runs if getattr(r, key) is not None]
-            return float(np.mean(values)) if values else None
+            return mean_of([getattr(r, key) for r in runs])
 
         out.append({"recipe": name, "cap": cap, "runs": len(runs), "laps": mean("laps"),
                     "clean_pct": mean("clean_pct"), "finished": mean("finished"), "tracks": runs[0].tracks,
                     "off_track_per_lap": mean("off_track_per_lap"), "off_track": mean("off_track"),
                     "pace": mean("pace"), "pace_tracks": runs[0].pace_tracks,
+                    "training_min": mean_of(minutes.get(name, [])), "training_each": minutes.get(name, []),
                     "each": [asdict(r) for r in runs]})
     return out
+
+
+def mean_of(values: list) -> float | None:
+    """The mean of the values that are not None; None without any."""
+    got = [v for v in values if v is not None]
+    return float(np.mean(got)) if got else None
 
 
 def markdown(rows: list[dict], suite: str) -> str:
@@ -203,9 +224,10 @@ def markdown(rows: list[dict], suite: str) -> str:
             DONKEYCAR_CV: "donkeycar's computer-vision line follower (cv_control), set for each track's tape colour",
             **{f"{DONKEYCAR}-{n}": f"donkeycar's own trainer and part, on the tubs of {n}" for n in RECIPES}}
     lines = [f"Track suite {suite}, every checkpoint over the same tracks (pace: over the tracks every checkpoint of "
-             "the same cap finished, their number beside it). Means over the runs (seeds), their min-max beside.", "",
+             "the same cap finished, their number beside it). Means over the runs (seeds), their min-max beside. "
+             "Training: the minutes of its epochs (log.csv), on the machine and load it was trained under.", "",
              "| recipe | what differs from donkeycar's recipe | cap | runs | laps | clean laps [%] | finished | "
-             "off track / lap | off track | pace (tracks) |", "|---" * 10 + "|"]
+             "off track / lap | off track | pace (tracks) | training [min] |", "|---" * 11 + "|"]
 
     def describe(recipe):  # donkeycar's runs: ...[-ours][-throttle-K][-floor-F] (--donkeycar-ours, its scale, floor)
         if not recipe.startswith(DONKEYCAR):
@@ -224,7 +246,7 @@ def markdown(rows: list[dict], suite: str) -> str:
         lines.append(f"| {r['recipe']} | {describe(r['recipe'])} | {r['cap']:g} | {r['runs']} | "
                      f"{f('laps', '.1f')} | {f('clean_pct', '.1f')} | {f('finished', '.1f')} of "
                      f"{r['tracks']} | {f('off_track_per_lap', '.2f')} | {f('off_track', '.1f')} | "
-                     f"{f('pace', '.3f')} ({r['pace_tracks']}) |")
+                     f"{f('pace', '.3f')} ({r['pace_tracks']}) | {mean_min_max(r['training_each'], '.1f')} |")
     return "\n".join(lines) + "\n"
 
 
@@ -306,13 +328,14 @@ def main(_, a: Races) -> None:
                                                                   throttle_floor=a.donkeycar_throttle_floor),
                                    folder)
         report(rows, suite, o, plots=False)
-        results += table(rows, cap)
+        results += table(rows, cap, {name: [training_minutes(name, seed, out) for seed in seeds]
+                                     for name in recipes})
     (out / f"{a.table}.md").write_text(f"machine: {machine()}\n\n" + markdown(results, a.suite))
     (out / f"{a.table}.json").write_text(json.dumps(results, indent=1))
     with open(out / f"{a.table}.csv", "w", newline="") as f:
-        w = csv.DictWriter(f, [k for k in results[0] if k != "each"])
+        w = csv.DictWriter(f, [k for k in results[0] if k not in ("each", "training_each")])
         w.writeheader()
-        w.writerows([{k: v for k, v in r.items() if k != "each"} for r in results])
+        w.writerows([{k: v for k, v in r.items() if k not in ("each", "training_each")} for r in results])
     print((out / f"{a.table}.md").read_text())
 
 

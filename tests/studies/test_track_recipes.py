@@ -56,10 +56,32 @@ def test_the_table_gives_the_runs_min_max_beside_every_mean():
     each = [{"laps": 70, "clean_pct": 80.0, "finished": 7, "off_track_per_lap": 0.1, "off_track": 9, "pace": 0.9},
             {"laps": 64, "clean_pct": 76.6, "finished": 6, "off_track_per_lap": 0.2, "off_track": 16, "pace": None}]
     row = {"recipe": "flip-mae", "cap": 1, "runs": 2, "laps": 67, "clean_pct": 78.3, "finished": 6.5, "tracks": 8,
-           "off_track_per_lap": 0.15, "off_track": 12.5, "pace": 0.9, "pace_tracks": 6, "each": each}
+           "off_track_per_lap": 0.15, "off_track": 12.5, "pace": 0.9, "pace_tracks": 6, "each": each,
+           "training_min": 5.0, "training_each": [4.5, 5.5]}
     cells = markdown([row], "s1").splitlines()[-1].split(" | ")
     assert cells[4:] == ["67.0 (64.0-70.0)", "78.3 (76.6-80.0)", "6.5 (6.0-7.0) of 8", "0.15 (0.10-0.20)",
-                         "12.5 (9.0-16.0)", "0.900 (6) |"]  # one run's pace: no spread
+                         "12.5 (9.0-16.0)", "0.900 (6)", "5.0 (4.5-5.5) |"]  # one run's pace: no spread
+    donkeycar = {**row, "recipe": "donkeycar", "training_min": None, "training_each": []}
+    assert markdown([donkeycar], "s1").splitlines()[-1].endswith("| - |")  # not trained by the study
+
+
+def test_a_recipes_training_time_adds_the_recipe_it_starts_from(tmp_path, monkeypatch):
+    """The minutes of a recipe's epochs (log.csv's `seconds`) with those of the recipe it starts from: a run of
+    30 + 90 s started from, 60 s on top: 3 minutes; racing a recipe as it is, its start's; not trained: None."""
+    import studies.track_recipes as tr
+
+    monkeypatch.setitem(tr.RECIPES, "first", Recipe("a recipe"))
+    monkeypatch.setitem(tr.RECIPES, "then", Recipe("on it", ("train.epochs=1",), starts="first"))
+    monkeypatch.setitem(tr.RECIPES, "as-is", Recipe("raced otherwise", race={"latency": 1}, starts="first"))
+    for name, seconds in (("first", (30, 90)), ("then", (60,))):
+        run = tmp_path / "recipes" / name / "seed0"
+        run.mkdir(parents=True)
+        (run / "log.csv").write_text("epoch,train_seconds,seconds\n" +
+                                     "".join(f"{k},{s - 1},{s}\n" for k, s in enumerate(seconds, 1)))
+    assert tr.training_minutes("first", 0, tmp_path) == pytest.approx(2.0)
+    assert tr.training_minutes("then", 0, tmp_path) == pytest.approx(3.0)
+    assert tr.training_minutes("as-is", 0, tmp_path) == pytest.approx(2.0)
+    assert tr.training_minutes("then", 1, tmp_path) is None
 
 
 def test_a_finished_recipe_run_of_another_config_is_refused_not_reused(tmp_path, monkeypatch):
