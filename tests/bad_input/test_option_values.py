@@ -98,7 +98,8 @@ BAD_INPUTS = {
                                                    "model.pt predicts no throttle: steerlab replay --throttle model "
                                                    "needs a model that learned it"),
     "replay the model's throttle at a given speed": (_tub_replay("--throttle", "model", "--speed", "2"),
-                                                     "--speed and --throttle model exclude each other"),
+                                                     "--speed must be left out when the throttle is the "
+                                                     "model's (it sets the speed), got 2"),
     "tune heartbeat 5,2": (_tune_storage("sqlite:///{tmp}/s.db", heartbeat="5,2"),
                            "STEERLAB_TUNE_HEARTBEAT='5,2': expected INTERVAL,GRACE in whole seconds with 0 < INTERVAL "
                            "< GRACE"),

@@ -58,6 +58,11 @@ class TrackReplayOptions(Options):
     workers: int = option(2, WORKERS, help="checkpoints replayed in parallel")
     smoothing: float | None = smoothing_option()
 
+    @classmethod
+    def related(cls, v):
+        if v.speed is not None and v.throttle == "model":
+            yield "speed", "left out when the throttle is the model's (it sets the speed)"
+
     def setup(self, rec: Recording) -> ReplaySetup:
         """The small cars' replay of `rec` (its fisheye, with these options' calibration and mount), or a one-line
         error for what cannot be replayed so."""
@@ -66,12 +71,6 @@ class TrackReplayOptions(Options):
             raise SteerlabError(f"{rec.source}: the track replay is for the donkey camera (donkeycar tubs, the track "
                                 f"world's recordings), not the {rec.geometry!r} camera: replay it with steerlab "
                                 "replay --world road")
-        if self.lane_width <= car.body.width:
-            raise SteerlabError(f"steerlab replay --lane-width {self.lane_width:g} m leaves no room for the car's "
-                                f"{car.body.width:g} m wide body: give a wider lane")
-        if self.speed is not None and self.throttle == "model":
-            raise SteerlabError("steerlab replay --speed and --throttle model exclude each other: the model's "
-                                "throttle sets the speed; leave --speed out")
         if self.speed is None and rec.throttle is None:
             raise DataError(rec.source, "records no throttle to take the speed from: give one with steerlab replay "
                                         "--speed M/S")
