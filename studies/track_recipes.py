@@ -7,9 +7,10 @@ each (configs/track_best.yaml's header records these), or tracks 21-52, 30 s eac
 config `BASE` (donkeycar linear's recipe written as a steerlab config) with a few `section.key=value` overrides
 (`RECIPES`): one factor at a time from donkeycar's recipe towards steerlab's tub default, and the levers of
 small-car racing. Each trains with every `--seeds` seed (`train.seed`) and races the track suite `--suite` (default
-s1, the selection tracks; t1 scores) at every `--caps` throttle cap, through the donkeycar part. donkeycar's linear
+s1, the selection tracks; t2 and t3 score) at every `--caps` throttle cap, through the donkeycar part. donkeycar's linear
 model, trained by donkeycar's own trainer on the same tubs in its own environment (`donkey train --type linear`, its
-default config: a random 80/20 split, early stopping; `--donkeycar-runs` runs, three by default: they are not
+default config: a random 80/20 split, early stopping; its own levers, at most `--donkeycar-epochs` epochs and
+`--donkeycar-patience`, in its car's myconfig.py; `--donkeycar-runs` runs, three by default: they are not
 seeded), races the same tracks behind a pipe (`_donkey_part.py`). Like with like on the same records both ways:
 `--donkeycar-ours` trains donkeycar's model on the records steerlab's recipe trains on (the first tub's validation
 block deleted), and the recipe `mae-donkey-split` trains steerlab's on donkeycar's split (the tubs merged into one,
@@ -25,7 +26,8 @@ rerun trains and drives only what is missing.
 
 python -m studies.track_recipes [--recipes donkey,gray,...] [--seeds 0,1] [--suite s1] [--caps 1,0.5]
     [--donkeycar [--donkeycar-runs 3] [--donkeycar-tubs donkey] [--donkeycar-throttle-scale 1]
-    [--donkeycar-throttle-floor 0] [--donkeycar-ours]] [--donkeycar-cv]
+    [--donkeycar-throttle-floor 0] [--donkeycar-ours] [--donkeycar-epochs 100] [--donkeycar-patience 5]]
+    [--donkeycar-cv]
     [--workers 2] [--out runs/race] [--table table]
 """
 
@@ -34,6 +36,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import re
 import shutil
 from dataclasses import asdict, dataclass, replace
 from functools import partial
@@ -48,8 +51,8 @@ from steerlab.sim.track.suite import TRACK_SUITES, TrackSuiteOptions, part_entra
 from steerlab.sim.track.world import throttle_floor_option, throttle_scale_option
 from studies._recipes import AUGMENT, DONKEYCAR, DONKEYCAR_CV, RECIPES, TUB_MINUTES, TUBS, base
 from studies.common import ROOT, NumberList, machine, mean_min_max, track_tub
-from studies.common.donkeycar import (DonkeycarLineFollower, DonkeycarPart, cv_car, donkey_models, donkey_python,
-                                      training_tub)
+from studies.common.donkeycar import (DONKEY_TRAINING, DonkeycarLineFollower, DonkeycarPart, cv_car, donkey_models,
+                                      donkey_python, training_suffix, training_tub)
 
 
 def record_tubs(tubs: Path, names) -> None:
@@ -229,15 +232,16 @@ def markdown(rows: list[dict], suite: str) -> str:
              "| recipe | what differs from donkeycar's recipe | cap | runs | laps | clean laps [%] | finished | "
              "off track / lap | off track | pace (tracks) | training [min] |", "|---" * 11 + "|"]
 
-    def describe(recipe):  # donkeycar's runs: ...[-ours][-throttle-K][-floor-F] (--donkeycar-ours, its scale, floor)
+    def describe(recipe):  # donkeycar's runs: donkeycar[-TUBS][-ours][-epochs-E][-patience-P][-throttle-K][-floor-F]
         if not recipe.startswith(DONKEYCAR):
             return what.get(recipe, "")
-        recipe, _, floor = recipe.partition("-floor-")
-        base, _, scale = recipe.partition("-throttle-")
-        ours = base.endswith("-ours")
-        return (what.get(base.removesuffix("-ours"), "") + (", on steerlab's training records" if ours else "") +
-                (f", its throttle times {scale} before the cap" if scale else "") +
-                (f", at least {floor} while the car stands" if floor else ""))
+        m = re.fullmatch(r"(?P<base>.+?)(?P<ours>-ours)?(-epochs-(?P<epochs>[\d.]+))?(-patience-(?P<patience>[\d.]+))?"
+                         r"(-throttle-(?P<scale>[\d.]+))?(-floor-(?P<floor>[\d.]+))?", recipe)
+        return (what.get(m["base"], "") + (", on steerlab's training records" if m["ours"] else "") +
+                (f", at most {m['epochs']} epochs" if m["epochs"] else "") +
+                (f", early stopping after {m['patience']} epochs without a better loss" if m["patience"] else "") +
+                (f", its throttle times {m['scale']} before the cap" if m["scale"] else "") +
+                (f", at least {m['floor']} while the car stands" if m["floor"] else ""))
 
     for r in rows:
         def f(key, fmt):  # the mean, and the runs' min-max beside it
@@ -271,6 +275,11 @@ class Races(Options):
                                  "trainer trains on (default: the 8 tubs of donkeycar's recipe)")
     donkeycar_throttle_scale: float = throttle_scale_option()
     donkeycar_throttle_floor: float = throttle_floor_option()
+    donkeycar_epochs: int = option(DONKEY_TRAINING["MAX_EPOCHS"], AT_LEAST_1, help="donkeycar's trainer's most "
+                                   "epochs (its MAX_EPOCHS; default its own)")
+    donkeycar_patience: int = option(DONKEY_TRAINING["EARLY_STOP_PATIENCE"], AT_LEAST_1, help="donkeycar's trainer "
+                                     "stops after this many epochs without a better validation loss (its "
+                                     "EARLY_STOP_PATIENCE; default its own)")
     donkeycar_ours: bool = option(False, help="donkeycar's trainer on the records steerlab's recipe trains on: the "
                                   "first tub's validation records (--donkeycar-tubs' recipe's `only`) deleted")
     workers: int = option(2, WORKERS, help="tracks driven in parallel")
@@ -301,8 +310,9 @@ def main(_, a: Races) -> None:
         ckpts = [train_recipe(name, seed, out, tubs) for seed in seeds]
         for cap in caps:
             race(ckpts, out / f"{a.suite}-max{cap:g}" / name, suite_options(name, a.suite, cap, a.workers))
+    training = {"MAX_EPOCHS": a.donkeycar_epochs, "EARLY_STOP_PATIENCE": a.donkeycar_patience}
     suffix = "" if a.donkeycar_tubs == "donkey" else f"-{a.donkeycar_tubs}"  # donkeycar on another recipe's tubs
-    suffix += "-ours" if a.donkeycar_ours else ""
+    suffix += ("-ours" if a.donkeycar_ours else "") + training_suffix(training)
     scaled = "" if a.donkeycar_throttle_scale == 1 else f"-throttle-{a.donkeycar_throttle_scale:g}"
     scaled += f"-floor-{a.donkeycar_throttle_floor:g}" if a.donkeycar_throttle_floor else ""
     folder, donkey = f"{DONKEYCAR}{suffix}{scaled}", None
@@ -311,7 +321,7 @@ def main(_, a: Races) -> None:
         names = recipe_tubs(a.donkeycar_tubs)
         if a.donkeycar_ours:
             names = (without_validation(tubs, names[0], RECIPES[a.donkeycar_tubs].only).name, *names[1:])
-        donkey = donkey_models(out, tubs, a.donkeycar_runs, names, f"donkey{suffix}")
+        donkey = donkey_models(out, tubs, a.donkeycar_runs, names, f"donkey{suffix}", training)
     results = []
     for cap in caps:
         o = TrackSuiteOptions(suite=a.suite, max_throttle=cap, workers=a.workers)

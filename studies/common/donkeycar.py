@@ -40,24 +40,39 @@ def donkey_python() -> Path:
     return python
 
 
-def donkey_car(python: Path, car: Path) -> Path:
+# donkeycar's trainer's own levers as its template sets them (cfg_complete.py): at most 100 epochs, early stopping
+# after 5 without a better validation loss
+DONKEY_TRAINING = {"MAX_EPOCHS": 100, "EARLY_STOP_PATIENCE": 5}
+
+
+def donkey_car(python: Path, car: Path, training: dict | None = None) -> Path:
     """A donkeycar car folder (`donkey createcar`, made once) whose config trains without plots and saves .h5
-    models, as `donkey train` and donkeycar's parts read them."""
+    models, as `donkey train` and donkeycar's parts read them; `training`: settings of its trainer written into
+    its myconfig.py (`DONKEY_TRAINING`'s names), its own defaults otherwise."""
     if not car.exists():
         subprocess.run([str(python.parent / "donkey"), "createcar", "--path", str(car)], check=True,
                        stdout=subprocess.DEVNULL)
         with open(car / "myconfig.py", "a") as f:
-            f.write("\nSHOW_PLOT = False\nCREATE_TF_LITE = False\nSAVE_MODEL_AS_H5 = True\n")
+            f.write("\nSHOW_PLOT = False\nCREATE_TF_LITE = False\nSAVE_MODEL_AS_H5 = True\n" +
+                    "".join(f"{k} = {v!r}\n" for k, v in (training or {}).items()))
     return car
 
 
+def training_suffix(training: dict) -> str:
+    """The folder suffix of donkeycar's runs trained with `training` (the settings that differ from its
+    defaults): "" or e.g. "-epochs-20-patience-3"."""
+    names = {"MAX_EPOCHS": "epochs", "EARLY_STOP_PATIENCE": "patience"}
+    return "".join(f"-{names[k]}-{v:g}" for k, v in training.items() if v != DONKEY_TRAINING[k])
+
+
 def donkey_models(out: Path, tubs: Path, runs: int, names: tuple[str, ...],
-                  work: str = "donkey") -> tuple[Path, list[Path]]:
+                  work: str = "donkey", training: dict | None = None) -> tuple[Path, list[Path]]:
     """donkeycar's car folder and its first `runs` linear models, trained by `donkey train` on the tubs `names`
-    (folders of `tubs`; once each: a model counts once `donkey train` has finished), in out/`work`."""
+    (folders of `tubs`; once each: a model counts once `donkey train` has finished), in out/`work`; `training`:
+    its trainer's settings (`donkey_car`), the same for every run in that folder."""
     python = donkey_python()
     work = out / work
-    car = donkey_car(python, work / "car")
+    car = donkey_car(python, work / "car", training)
     models = []
     for k in range(runs):
         model, done = work / f"linear-{k}.h5", work / f"linear-{k}.done"  # donkey train saves every better epoch

@@ -165,3 +165,23 @@ def test_every_recipe_races_with_options_the_suite_takes():
             assert o.steer_by == recipe.race.get("steer_by", "steering")
     paces = (2.0, 3.5, 5.0, 8.0, 12.0, 20.0)
     assert tuple(tr.RECIPES[f"lane-pace-{a:g}"].race["lat_acc"] for a in paces) == paces
+
+
+def test_donkeycars_runs_are_named_and_described_by_the_levers_they_were_trained_and_driven_with():
+    """donkeycar's trainer at its own defaults (100 epochs, patience 5) keeps its folder's name; another setting
+    names it, and the table reads every lever back from the name."""
+    from studies.common.donkeycar import DONKEY_TRAINING, training_suffix
+    from studies.track_recipes import markdown
+
+    assert training_suffix(DONKEY_TRAINING) == ""
+    assert training_suffix({"MAX_EPOCHS": 20, "EARLY_STOP_PATIENCE": 5}) == "-epochs-20"
+    assert training_suffix({"MAX_EPOCHS": 100, "EARLY_STOP_PATIENCE": 3}) == "-patience-3"
+    row = {"recipe": "donkeycar-rooms-ours-epochs-20-patience-3-throttle-1.5-floor-0.2", "cap": 1, "runs": 1,
+           "laps": 1, "clean_pct": 1.0, "finished": 1, "tracks": 8, "off_track_per_lap": 0.1, "off_track": 1,
+           "pace": 1.0, "pace_tracks": 1, "each": [], "training_min": None, "training_each": []}
+    said = markdown([row], "s1").splitlines()[-1].split(" | ")[1]
+    assert said == ("donkeycar's own trainer and part, on the tubs of rooms, on steerlab's training records, at most 20 "
+                    "epochs, early stopping after 3 epochs without a better loss, its throttle times 1.5 before the "
+                    "cap, at least 0.2 while the car stands")
+    plain = markdown([{**row, "recipe": "donkeycar-throttle-1.5"}], "s1").splitlines()[-1].split(" | ")[1]
+    assert plain == "donkeycar's own trainer and part, its throttle times 1.5 before the cap"
