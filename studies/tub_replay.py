@@ -30,6 +30,12 @@ the same records as steerlab's, `--seeds` runs (its trainer is not seeded). The 
 study exists for: on every scored block the best trained model needs at most half the interventions of the best
 of the models that learned nothing and of the other tracks' models ("separates": yes / no in the table).
 
+Choosing among the trained models is done on other blocks: every null and trained steerlab model is also scored,
+open loop and in replay, on each fold's validation block (the selection blocks: the table's second part), and the
+choice is the trained model with the fewest interventions per 100 m there (on each tub over its best's, averaged
+over the tubs); the scored blocks only report. donkeycar's trainer trains on the validation blocks (its own 80/20
+split), so it has no selection score, and it chooses nothing.
+
 python -m studies.tub_replay [--seeds 2] [--epochs 10] [--patience 3] [--tubs hall,taped-track,wood-tape]
     [--models pilotnet,pilotnet-views,tub-default,tub-default-views,track-best] [--donkeycar]
 Every finished run is kept in runs/tub-replay/epochs-N[-patience-P]/results.json and reused by a later run of the same
@@ -76,6 +82,9 @@ MODELS = "pilotnet,pilotnet-views"  # --models by default
 DONKEY_LINEAR = "donkeycar-linear"  # donkeycar's linear model by its own trainer (--donkeycar)
 NULL = ("zero", "train-mean")
 FOLDS = ("last", "first")
+SELECTED = (*NULL, *TRAINED)  # the models also scored on the selection blocks (donkeycar's trainer trains on them)
+SELECTION_RULE = ("the fewest replay interventions per 100 m on the selection blocks, each tub's count over its "
+                  "best trained model's, averaged over the tubs")
 
 
 def fold_blocks(fold: str, n: int) -> dict[str, str]:
@@ -108,9 +117,10 @@ def checkpoint(work, tub: str, fold: str, model: str, seed: int, epochs: int, n:
     return run / "best.pt"
 
 
-def score(ckpt, tub: str, fold: str, n: int, where) -> dict:
-    """Open loop and replay of `ckpt` on the fold's scored block of `tub`."""
-    block = Source(str(TUBS / tub), fold_blocks(fold, n)["scored"], reader=READER)
+def score(ckpt, tub: str, fold: str, n: int, where, block: str = "scored") -> dict:
+    """Open loop and replay of `ckpt` on the fold's `block` of `tub` (its scored block, or `val`: the selection
+    block)."""
+    block = Source(str(TUBS / tub), fold_blocks(fold, n)[block], reader=READER)
     m = evaluate(ckpt, block, where / "test", progress=False)
     r = run_replay([ckpt], block, where / "replay", TrackReplayOptions(workers=1), progress=False)[0]
     return {**{k: m[k] for k in ("mae", "throttle_mae", "gamma_deg", "target_gamma_deg") if k in m},
@@ -197,6 +207,35 @@ def rows_of(results: dict, tubs: list[str]) -> tuple[list[str], dict]:
     return lines, checks
 
 
+def selection_rows(results: dict, tubs: list[str]) -> tuple[list[str], str]:
+    """The selection blocks' table (per tub and trained model: the mean over both folds and its runs of the
+    steering MAE and the interventions per 100 m on the folds' validation blocks, and those over the tub's best) and
+    the choice: the trained model of the lowest mean over the tubs of that ratio (`SELECTION_RULE`)."""
+    lines, ratios = [], {}
+    for tub in tubs:
+        runs = {}
+        for key, r in results.items():
+            t, _, model, _ = key.split(" ")
+            if t == tub and model in TRAINED and "selection" in r:
+                runs.setdefault(model, []).append(r["selection"])
+        if not runs:
+            continue
+        per = {m: float(np.mean([r["per_100m"] for r in rs])) for m, rs in runs.items()}
+        best = min(per.values())
+        for model, rs in runs.items():
+            ratios.setdefault(model, {})[tub] = per[model] / max(best, 1e-9)
+            lines.append(f"| {tub} | {model} | {len(rs)} | {mean_min_max([r['mae'] for r in rs], '.4f')} | "
+                         f"{mean_min_max([r['per_100m'] for r in rs], '.1f')} | {ratios[model][tub]:.2f} |")
+    every = [t for t in tubs if any(t in r for r in ratios.values())]
+    complete = {m: float(np.mean([r[t] for t in every])) for m, r in ratios.items() if all(t in r for t in every)}
+    if not complete:
+        return lines, "Chosen: - (no trained model has selection scores on every tub)"
+    pick = min(complete, key=complete.get)
+    return lines, (f"Chosen ({SELECTION_RULE}): **{pick}**, {complete[pick]:.2f}x the best on average over "
+                   f"{', '.join(every)}; " + ", ".join(f"{m} {v:.2f}x" for m, v in sorted(complete.items(),
+                                                                                          key=lambda kv: kv[1])))
+
+
 def plot(path, results: dict, tubs: list[str]) -> None:
     """Interventions per 100 m of every model on every scored block, one group of bars a block."""
     models = [m for m in (*NULL, *TRAINED, DONKEY_LINEAR, "other-track") if any(k.split(" ")[2] == m for k in results)]
@@ -244,8 +283,13 @@ def main(_, args: TubReplay) -> None:
                 return
             results[key] = r
             file.write_text(json.dumps(results, indent=1))
-            r = results[key]
             print(f"  {key}: MAE {r['mae']:.4f}, {r['interventions']} interventions in {r['m']:.0f} m", flush=True)
+        if model in SELECTED and "selection" not in results[key]:  # the block the recipe is chosen on
+            r = results[key]["selection"] = score(ckpt(), tub, fold, sizes[tub], work / tub / fold /
+                                                  f"selection-{model}-{seed}", "val")
+            file.write_text(json.dumps(results, indent=1))
+            print(f"  {key}, selection block: MAE {r['mae']:.4f}, {r['interventions']} interventions in "
+                  f"{r['m']:.0f} m", flush=True)
 
     for seed in range(args.seeds):
         for tub in tubs:
@@ -265,6 +309,10 @@ def main(_, args: TubReplay) -> None:
     table = "\n".join([f"machine: {machine()}", "", "| tub | scored block | model | runs | steering MAE (open loop) | "
                        "throttle MAE | gamma [deg] | replay: interventions | per 100 m |",
                        "|---|---|---|---|---|---|---|---|---|", *lines]) + "\n"
+    picked, chosen = selection_rows(results, tubs)
+    table += "\n".join(["", "Selection blocks (each fold's validation block: the recipe is chosen here, never on the "
+                         "scored blocks):", "", "| tub | model | runs | steering MAE (open loop) | replay: per 100 m | "
+                         "/ the tub's best |", "|---|---|---|---|---|---|", *picked, "", chosen]) + "\n"
     (work / "table.md").write_text(table)
     plot(work / "table.png", results, tubs)
     print(table)

@@ -87,3 +87,29 @@ def test_a_finished_run_of_another_recipe_is_refused_not_reused(tmp_path):
     (run / "config.json").write_text(json.dumps(as_dict(fold_config(tmp_path, "hall", "last", "tub-default", 0, 10,
                                                                     1000))))
     assert checkpoint(tmp_path, "hall", "last", "tub-default", 0, 10, 1000) == run / "best.pt"  # its own: reused
+
+
+def test_the_recipe_is_chosen_on_the_selection_blocks_by_its_interventions_over_each_tubs_best():
+    """Per tub the mean over both folds and the runs of the selection blocks' interventions per 100 m, over the tub's
+    best trained model's; the choice the lowest mean ratio over the tubs. hall: pilotnet (10 + 30) / 2 = 20,
+    pilotnet-views (25 + 35) / 2 = 30, track-best 12 (the best): 1.67x, 2.50x, 1x; wood-tape: pilotnet 30,
+    pilotnet-views 20 (the best): 1.5x, 1x. Over both tubs pilotnet 1.58x, pilotnet-views 1.75x; track-best, without
+    a wood-tape score, is not compared. The scored blocks (track-best's 1 per 100 m), null models and donkeycar's
+    model (no selection score) do not count."""
+    from studies.tub_replay import selection_rows
+
+    def run(scored, selection):
+        return {**_run(scored), "selection": _run(selection)}
+
+    results = {"hall last pilotnet 0": run(50, 10), "hall first pilotnet 0": run(50, 30),
+               "hall last pilotnet-views 0": run(50, 25), "hall last pilotnet-views 1": run(50, 35),
+               "hall last track-best 0": run(1, 12), "hall last zero 0": run(90, 1),
+               "hall last donkeycar-linear 0": _run(5),
+               "wood-tape last pilotnet 0": run(40, 30), "wood-tape last pilotnet-views 0": run(40, 20)}
+    lines, chosen = selection_rows(results, ["hall", "wood-tape"])
+    assert "| hall | pilotnet-views | 2 | 0.2000 (0.2000-0.2000) | 30.0 (25.0-35.0) | 2.50 |" in lines
+    assert "| hall | track-best | 1 | 0.2000 | 12.0 | 1.00 |" in lines
+    assert "| wood-tape | pilotnet | 1 | 0.2000 | 30.0 | 1.50 |" in lines
+    assert chosen.startswith("Chosen (the fewest replay interventions per 100 m on the selection blocks, each tub's "
+                             "count over its best trained model's, averaged over the tubs): **pilotnet**, 1.58x")
+    assert chosen.endswith("pilotnet 1.58x, pilotnet-views 1.75x")
