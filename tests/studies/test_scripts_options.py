@@ -152,9 +152,9 @@ def test_the_sweeps_reach_every_script():
     numeric = {(script, name) for script, name, *_ in _numeric_options()}
     assert {("studies.replay_vs_road_suite", "minutes"), ("studies.replay_references", "lane_width"),
             ("studies.replay_references", "speed"), ("studies.pruning_replay", "factors"),
-            ("studies.track_recipes", "seeds"), ("studies.track_recipes", "caps"),
+            ("studies.track_recipes", "seeds"), ("studies.track_recipes", "caps"), ("studies.lane_drive", "seed"),
             ("benchmarks.bench_track_drive", "minutes"), ("benchmarks.bench_vs_donkeycar", "epochs")} <= numeric
-    assert len(SCRIPTS) == 30 and len(_single_value_flags()) >= len(SCRIPTS)
+    assert len(SCRIPTS) == 31 and len(_single_value_flags()) >= len(SCRIPTS)
 
 
 def test_what_a_script_refuses_once_it_runs_ends_in_one_line_too(tmp_path, capsys):

@@ -1,0 +1,152 @@
+"""Where a model that reads the lane leaves it, frame by frame: one drive of a checkpoint with a lane head on a track
+of the track world (`steerlab sim drive --world track`, the same options), each frame's lane as its head sees it
+beside the world's true lane there.
+
+Per frame (`OUT/frames.csv`): the place on the lap, the speed, the true lane (the rear axle's offset from the lane
+centre, m, left positive; the heading error, rad; the lane's curvature, 1/m, positive turning left), the lane the
+head sees, the steering sent and whether the car was put back after it. `OUT/lane_drive.md`: where on the lap the
+car was put back, and per 2 m of the lap the mean absolute true offset, heading and curvature beside the head's
+errors; `OUT/before.png`: the frames of the last second before the second put-back (the first may come from the
+start), every fourth, each with its place, true and seen offset; the drive's own files (`trajectory.csv`,
+`drive.json`, `frames.png`) beside them.
+
+python -m studies.lane_drive CHECKPOINT --seed 9505 [--style taped] [--minutes 2] [--max-throttle 1]
+    [--throttle-scale 1.2] [--throttle-floor 0.2] [--steer-by lane] [--out runs/lane-drive]
+"""
+
+from __future__ import annotations
+
+import csv
+from collections import deque
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from steerlab.cli import path_option, run_script, script_parser
+from steerlab.errors import SteerlabError
+from steerlab.options import option
+from steerlab.sim.track.run import checkpoint_pilot, drive
+from steerlab.sim.track.track import Track
+from steerlab.sim.track.world import TrackDriveOptions
+from studies.common import ROOT, machine
+
+BIN_M = 2.0  # the lap's stretches the errors are averaged over
+BEFORE_S = 1.0  # the frames shown before a put-back
+
+
+@dataclass(frozen=True)
+class LaneDrive(TrackDriveOptions):
+    out: str = option(str(ROOT / "runs" / "lane-drive"), path="folder", help="the study's folder")
+
+
+class Seeing:
+    """The pilot of `checkpoint_pilot`, its every answer's lane (its head's) kept, and the frames of the last
+    BEFORE_S seconds before each put-back (the drive resets the pilot then)."""
+
+    def __init__(self, inner, fps: float):
+        self.inner, self.seen, self.before = inner, [], []
+        self.recent = deque(maxlen=int(BEFORE_S * fps))
+        for name in ("name", "geometry", "source", "convention", "car"):
+            if hasattr(inner, name):
+                setattr(self, name, getattr(inner, name))
+
+    def step(self, frame, speed=None):
+        controls = self.inner.step(frame, speed)
+        lane = self.inner.part.controls.lane
+        self.seen.append((*(float(v) for v in lane), float(controls.steering)))
+        self.recent.append((len(self.seen) - 1, frame.copy()))
+        return controls
+
+    def reset(self) -> None:
+        if self.recent:
+            self.before.append(list(self.recent))
+            self.recent.clear()
+        self.inner.reset()
+
+    def close(self) -> None:
+        close = getattr(self.inner, "close", None)
+        if callable(close):
+            close()
+
+
+def stretch_rows(rows: list[dict], lap_m: float) -> list[str]:
+    """Per BIN_M of the lap: frames, the mean |true| offset, heading, curvature and the head's mean absolute errors."""
+    lines = []
+    for lo in np.arange(0.0, lap_m, BIN_M):
+        here = [r for r in rows if lo <= r["place_m"] < lo + BIN_M]
+        if not here:
+            continue
+
+        def mean(key, minus=None):  # the mean |value| (or |value - minus|: the head's error) over the stretch
+            return float(np.mean([abs(r[key] - (r[minus] if minus else 0.0)) for r in here]))
+
+        lines.append(f"| {lo:.0f}-{min(lo + BIN_M, lap_m):.0f} | {len(here)} | {mean('offset_m'):.3f} | "
+                     f"{mean('seen_offset_m', 'offset_m'):.3f} | {mean('heading_rad'):.3f} | "
+                     f"{mean('seen_heading_rad', 'heading_rad'):.3f} | {mean('curvature'):.3f} | "
+                     f"{mean('seen_curvature', 'curvature'):.3f} | {sum(r['put_back'] for r in here)} |")
+    return lines
+
+
+def strip(frames: list, rows: list[dict], path: Path) -> None:
+    """Every fourth frame of `frames` ((index, BGR) pairs), twice its size, with its place and offsets written on."""
+    tiles = []
+    for k, frame in frames[::4][-6:]:
+        tile = cv2.resize(frame, (frame.shape[1] * 2, frame.shape[0] * 2), interpolation=cv2.INTER_NEAREST)
+        r = rows[k]
+        for line, text in enumerate((f"{r['place_m']:.1f} m  {r['speed']:.1f} m/s",
+                                     f"offset {100 * r['offset_m']:+.0f} cm, seen {100 * r['seen_offset_m']:+.0f}")):
+            for colour, width in (((0, 0, 0), 3), ((255, 255, 255), 1)):  # white on a black outline
+                cv2.putText(tile, text, (4, 16 + 16 * line), cv2.FONT_HERSHEY_SIMPLEX, 0.45, colour, width,
+                            cv2.LINE_AA)
+        tiles.append(tile)
+    tiles += [np.zeros_like(tiles[0])] * (-len(tiles) % 3)
+    cv2.imwrite(str(path), np.concatenate([np.concatenate(tiles[i:i + 3], 1) for i in range(0, len(tiles), 3)], 0))
+
+
+def parser():
+    p = script_parser(__spec__.name, __doc__, LaneDrive)
+    path_option(p, "checkpoint", kind="file", help="a checkpoint with a lane head (train.lane_weight; .pt or .onnx)")
+    return p
+
+
+def main(a, o: LaneDrive) -> None:
+    pilot = checkpoint_pilot(a.checkpoint, o)
+    if "lane" not in pilot.part.pilot.targets:
+        raise SteerlabError(f"{a.checkpoint}: model {pilot.part.pilot.name!r} has no lane head to look at: train one "
+                            "with train.lane_weight > 0")
+    out = Path(o.out)
+    seeing = Seeing(pilot, o.fps)
+    result = drive(seeing, out, o, progress=True, plot=False)
+    with open(out / "trajectory.csv", newline="") as f:
+        ticks = list(csv.DictReader(f))
+    track = Track(o.seed, style=o.style, lane_width=o.lane_width)
+    rows = []
+    for k, (tick, seen) in enumerate(zip(ticks, seeing.seen)):
+        s = float(tick["s"])
+        rows.append({"tick": k, "place_m": s % track.length, "speed": float(tick["speed"]),
+                     "offset_m": float(tick["lateral_offset_m"]), "heading_rad": float(tick["heading_error_rad"]),
+                     "curvature": float(track.curvature(s)), "seen_offset_m": seen[0], "seen_heading_rad": seen[1],
+                     "seen_curvature": seen[2], "steering": seen[3],
+                     "put_back": int(k + 1 < len(ticks) and int(ticks[k + 1]["intervention"]))})
+    with open(out / "frames.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    places = [f"{r['place_m']:.1f}" for r in rows if r["put_back"]]
+    lines = [f"machine: {machine()}", "", f"{a.checkpoint} on {o.style} track {o.seed} ({track.length:.1f} m lap), "
+             f"{o.minutes:g} min, steering by its {o.steer_by}: {result.laps} laps, {result.clean_laps} clean, "
+             f"{result.off_track} put back, at {', '.join(places) or '-'} m of the lap.", "",
+             "| lap [m] | frames | offset [m] | seen offset error [m] | heading [rad] | seen heading error [rad] | "
+             "curvature [1/m] | seen curvature error [1/m] | put back |", "|" + "---|" * 9,
+             *stretch_rows(rows, track.length)]
+    (out / "lane_drive.md").write_text("\n".join(lines) + "\n")
+    if len(seeing.before) >= 2:
+        strip(seeing.before[1], rows, out / "before.png")
+    print("\n".join(lines))
+    print(f"wrote {out / 'frames.csv'}, {out / 'lane_drive.md'}" + (", before.png" if len(seeing.before) >= 2 else ""))
+
+
+if __name__ == "__main__":
+    run_script(parser(), main)
