@@ -191,19 +191,21 @@ def rows_of(results: dict, tubs: list[str]) -> tuple[list[str], dict]:
             ok = None if trained is None or nothing is None else nothing >= 2 * trained
             checks[(tub, fold)] = (trained, nothing, ok)
             metres = next(iter(runs.values()))[0]["m"]
+            linear = float(np.mean([r["mae"] for r in runs[DONKEY_LINEAR]])) if DONKEY_LINEAR in runs else None
             for model, rs in runs.items():
+                ratio = "-" if linear is None else f"{float(np.mean([r['mae'] for r in rs])) / linear:.2f}x"
                 lines.append(f"| {tub} | {fold} ({metres:.0f} m) | {model} | {len(rs)} | "
-                             f"{mean_min_max([r['mae'] for r in rs], '.4f')} | "
+                             f"{mean_min_max([r['mae'] for r in rs], '.4f')} | {ratio} | "
                              f"{mean_min_max([r.get('throttle_mae') for r in rs], '.4f')} | "
                              f"{mean_min_max([r.get('gamma_deg') for r in rs], '.3f')} | "
                              f"{mean_min_max([r['interventions'] for r in rs], '.1f')} | "
                              f"{mean_min_max([r['per_100m'] for r in rs], '.1f')} |")
             human = next((r["target_gamma_deg"] for rs in runs.values() for r in rs if "target_gamma_deg" in r), None)
             if human is not None:
-                lines.append(f"| {tub} | {fold} | the human (recorded) | | | | {human:.3f} | | |")
+                lines.append(f"| {tub} | {fold} | the human (recorded) | | | | | {human:.3f} | | |")
             said = "-" if ok is None else (f"{'yes' if ok else 'no'}: the best trained model {trained:.1f}, the best that "
                                            f"learned nothing or another track {nothing:.1f}")
-            lines.append(f"| {tub} | {fold} | **separates** | | | | | | {said} |")
+            lines.append(f"| {tub} | {fold} | **separates** | | | | | | | {said} |")
     return lines, checks
 
 
@@ -307,8 +309,8 @@ def main(_, args: TubReplay) -> None:
                             work, other, "last", "pilotnet-views", seed, args.epochs, sizes[other], args.patience))
     lines, _ = rows_of(results, tubs)
     table = "\n".join([f"machine: {machine()}", "", "| tub | scored block | model | runs | steering MAE (open loop) | "
-                       "throttle MAE | gamma [deg] | replay: interventions | per 100 m |",
-                       "|---|---|---|---|---|---|---|---|---|", *lines]) + "\n"
+                       "/ donkeycar linear's | throttle MAE | gamma [deg] | replay: interventions | per 100 m |",
+                       "|---|---|---|---|---|---|---|---|---|---|", *lines]) + "\n"
     picked, chosen = selection_rows(results, tubs)
     table += "\n".join(["", "Selection blocks (each fold's validation block: the recipe is chosen here, never on the "
                          "scored blocks):", "", "| tub | model | runs | steering MAE (open loop) | replay: per 100 m | "

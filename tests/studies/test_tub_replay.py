@@ -31,19 +31,22 @@ def test_replay_separates_a_block_where_the_best_trained_model_needs_half_of_wha
     lines, checks = rows_of(results, ["hall"])
     assert checks[("hall", "last")] == (25.0, 50.0, True)  # the views model's two runs: 25; train-mean 50
     assert checks[("hall", "first")] == (31.0, 60.0, False)  # 60 < 2 x 31
-    assert "| hall | last (50 m) | pilotnet-views | 2 | 0.2000 (0.2000-0.2000) | 0.2000 (0.1000-0.3000) | " \
+    assert "| hall | last (50 m) | pilotnet-views | 2 | 0.2000 (0.2000-0.2000) | - | 0.2000 (0.1000-0.3000) | " \
         "1.500 (1.000-2.000) | 12.5 (10.0-15.0) | 25.0 (20.0-30.0) |" in lines
-    assert "| hall | last (50 m) | zero | 1 | 0.2000 | - | - | 30.0 | 60.0 |" in lines
-    assert "| hall | last | the human (recorded) | | | | 3.500 | | |" in lines
-    assert "| hall | last | **separates** | | | | | | yes: the best trained model 25.0, the best that learned nothing " \
-        "or another track 50.0 |" in lines
+    assert "| hall | last (50 m) | zero | 1 | 0.2000 | - | - | - | 30.0 | 60.0 |" in lines
+    assert "| hall | last | the human (recorded) | | | | | 3.500 | | |" in lines
+    assert "| hall | last | **separates** | | | | | | | yes: the best trained model 25.0, the best that learned " \
+        "nothing or another track 50.0 |" in lines
     assert lines[-1].endswith("| no: the best trained model 31.0, the best that learned nothing or another track 60.0 |")
 
 
-def test_donkeycars_linear_model_counts_as_a_trained_model():
-    _, checks = rows_of({"hall last zero 0": _run(60), "hall last donkeycar-linear 0": _run(24),
-                         "hall last pilotnet 0": _run(40)}, ["hall"])
+def test_donkeycars_linear_model_counts_as_a_trained_model_and_every_mae_is_given_over_its():
+    lines, checks = rows_of({"hall last zero 0": _run(60), "hall last donkeycar-linear 0": _run(24, mae=0.25),
+                             "hall last pilotnet 0": _run(40, mae=0.2), "hall last pilotnet 1": _run(40, mae=0.1)},
+                            ["hall"])
     assert checks[("hall", "last")] == (24.0, 60.0, True)
+    assert "| hall | last (50 m) | pilotnet | 2 | 0.1500 (0.1000-0.2000) | 0.60x | - | - | 20.0 (20.0-20.0) | " \
+        "40.0 (40.0-40.0) |" in lines
 
 
 def test_a_block_without_trained_or_null_models_is_not_judged():
