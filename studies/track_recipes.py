@@ -7,10 +7,10 @@ each (configs/track_best.yaml's header records these), or tracks 21-52, 30 s eac
 config `BASE` (donkeycar linear's recipe written as a steerlab config) with a few `section.key=value` overrides
 (`RECIPES`): one factor at a time from donkeycar's recipe towards steerlab's tub default, and the levers of
 small-car racing. Each trains with every `--seeds` seed (`train.seed`) and races the track suite `--suite` (default
-s1, the selection tracks; t2 and t3 score) at every `--caps` throttle cap, through the donkeycar part. donkeycar's linear
-model, trained by donkeycar's own trainer on the same tubs in its own environment (`donkey train --type linear`, its
-default config: a random 80/20 split, early stopping; its own levers, at most `--donkeycar-epochs` epochs and
-`--donkeycar-patience`, in its car's myconfig.py; `--donkeycar-runs` runs, three by default: they are not
+s1, the selection tracks; t2 and t3 score) at every `--caps` throttle cap, through the donkeycar part. donkeycar's
+linear model, trained by donkeycar's own trainer on the same tubs in its own environment (`donkey train --type
+linear`, its default config: a random 80/20 split, early stopping; its own levers, at most `--donkeycar-epochs`
+epochs and `--donkeycar-patience`, in its car's myconfig.py; `--donkeycar-runs` runs, three by default: they are not
 seeded), races the same tracks behind a pipe (`_donkey_part.py`). Like with like on the same records both ways:
 `--donkeycar-ours` trains donkeycar's model on the records steerlab's recipe trains on (the first tub's validation
 block deleted), and the recipe `mae-donkey-split` trains steerlab's on donkeycar's split (the tubs merged into one,
