@@ -235,6 +235,9 @@ RECIPES = {
     # the data-scale curve of varied rooms (docs/results/racing.md, "Rooms that cannot be memorised")
     **{f"vary-{n}": Recipe(f"track_best on {n} tracks in {n} varied rooms (sim record --vary), a minute each",
                            BEST, RACE_BEST, varied(n), only=240) for n in (16, 32, 64)},
+    **{f"vary-{n}-floor-0.2": Recipe(f"vary-{n} driven with a throttle of at least 0.2 while the car stands "
+                                     "(--throttle-floor 0.2), as track_best", race={**RACE_BEST, "throttle_floor": 0.2},
+                                     starts=f"vary-{n}") for n in (16, 32, 64)},
     "rooms-dagger": Recipe("rooms + DAgger in the track world: 3 rounds of 4 minutes of rollouts on fresh tracks, "
                            "uncapped, the expert's labels at the car's speed, 2 epochs a round",
                            dagger_rounds(2), tubs=ROOMS, only=240, starts="rooms"),
