@@ -6,9 +6,9 @@ Per frame (`OUT/frames.csv`): the place on the lap, the speed, the true lane (th
 centre, m, left positive; the heading error, rad; the lane's curvature, 1/m, positive turning left), the lane the
 head sees, the steering sent and whether the car was put back after it. `OUT/lane_drive.md`: where on the lap the
 car was put back, and per 2 m of the lap the mean absolute true offset, heading and curvature beside the head's
-errors; `OUT/before.png`: the frames of the last second before the second put-back (the first may come from the
-start), every fourth, each with its place, true and seen offset; the drive's own files (`trajectory.csv`,
-`drive.json`, `frames.png`) beside them.
+errors; `OUT/before.png`: the frames of the last second before the first put-back, every fourth up to the last,
+each with its place, true and seen offset; the drive's own files (`trajectory.csv`, `drive.json`, `frames.png`)
+beside them. The head's lane is compared with the lane of the frame it saw: a drive with `--latency` is refused.
 
 python -m studies.lane_drive CHECKPOINT --seed 9505 [--style taped] [--minutes 2] [--max-throttle 1]
     [--throttle-scale 1.2] [--throttle-floor 0.2] [--steer-by lane] [--out runs/lane-drive]
@@ -39,6 +39,12 @@ BEFORE_S = 1.0  # the frames shown before a put-back
 @dataclass(frozen=True)
 class LaneDrive(TrackDriveOptions):
     out: str = option(str(ROOT / "runs" / "lane-drive"), path="folder", help="the study's folder")
+
+    @classmethod
+    def related(cls, v):
+        yield from super().related(v)
+        if v.latency:
+            yield "latency", "0 here (the head's lane is compared with the true lane of the frame it saw)"
 
 
 class Seeing:
@@ -92,7 +98,7 @@ def stretch_rows(rows: list[dict], lap_m: float) -> list[str]:
 def strip(frames: list, rows: list[dict], path: Path) -> None:
     """Every fourth frame of `frames` ((index, BGR) pairs), twice its size, with its place and offsets written on."""
     tiles = []
-    for k, frame in frames[::4][-6:]:
+    for k, frame in frames[::-4][:6][::-1]:  # the last frame, and every fourth before it
         tile = cv2.resize(frame, (frame.shape[1] * 2, frame.shape[0] * 2), interpolation=cv2.INTER_NEAREST)
         r = rows[k]
         for line, text in enumerate((f"{r['place_m']:.1f} m  {r['speed']:.1f} m/s",
@@ -142,10 +148,11 @@ def main(a, o: LaneDrive) -> None:
              "curvature [1/m] | seen curvature error [1/m] | put back |", "|" + "---|" * 9,
              *stretch_rows(rows, track.length)]
     (out / "lane_drive.md").write_text("\n".join(lines) + "\n")
-    if len(seeing.before) >= 2:
-        strip(seeing.before[1], rows, out / "before.png")
+    if seeing.before:
+        strip(seeing.before[0], rows, out / "before.png")
+    seeing.close()
     print("\n".join(lines))
-    print(f"wrote {out / 'frames.csv'}, {out / 'lane_drive.md'}" + (", before.png" if len(seeing.before) >= 2 else ""))
+    print(f"wrote {out / 'frames.csv'}, {out / 'lane_drive.md'}" + (", before.png" if seeing.before else ""))
 
 
 if __name__ == "__main__":

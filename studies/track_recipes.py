@@ -50,7 +50,7 @@ from steerlab.options import AT_LEAST_1, SEED, WORKERS, Options, Range, names_fr
 from steerlab.sim.track.suite import TRACK_SUITES, TrackSuiteOptions, part_entrant, race, report, summarize
 from steerlab.sim.track.world import throttle_floor_option, throttle_scale_option
 from studies._recipes import AUGMENT, DONKEYCAR, DONKEYCAR_CV, RECIPES, TUB_MINUTES, TUBS, base
-from studies.common import ROOT, NumberList, machine, mean_min_max, track_tub
+from studies.common import ROOT, NumberList, machine, mean_min_max, mean_of, track_tub
 from studies.common.donkeycar import (DONKEY_TRAINING, DonkeycarLineFollower, DonkeycarPart, cv_car, donkey_models,
                                       donkey_python, training_suffix, training_tub)
 
@@ -151,16 +151,21 @@ def train_recipe(name: str, seed: int, out: Path, tubs: Path) -> Path:
 
 def training_minutes(name: str, seed: int, out: Path) -> float | None:
     """The minutes the recipe's checkpoint for `seed` took to train, with the recipe it starts from: the seconds of
-    its epochs (each run's log.csv; recording its tubs and DAgger's rollouts not counted); None if not trained here."""
+    its epochs (each run's log.csv, every DAgger round's; recording its tubs and DAgger's rollouts not counted);
+    None if not trained here."""
     recipe = RECIPES[name]
     if recipe.starts and not recipe.overrides and not recipe.tubs:
         return training_minutes(recipe.starts, seed, out)
-    log = out / "recipes" / name / f"seed{seed}" / "log.csv"
+    run = out / "recipes" / name / f"seed{seed}"
+    logs = sorted(run.glob("round*/log.csv")) or [run / "log.csv"]  # DAgger's rounds each train
     before = training_minutes(recipe.starts, seed, out) if recipe.starts else 0.0
-    if not log.exists() or before is None:
+    if not all(log.exists() for log in logs) or before is None:
         return None
-    with open(log, newline="") as f:
-        return before + sum(float(row["seconds"]) for row in csv.DictReader(f)) / 60
+    seconds = 0.0
+    for log in logs:
+        with open(log, newline="") as f:
+            seconds += sum(float(row["seconds"]) for row in csv.DictReader(f))
+    return before + seconds / 60
 
 
 def recipe_tubs(name: str) -> tuple[str, ...]:
@@ -216,12 +221,6 @@ def table(rows: list, cap: float, minutes: dict) -> list[dict]:
     return out
 
 
-def mean_of(values: list) -> float | None:
-    """The mean of the values that are not None; None without any."""
-    got = [v for v in values if v is not None]
-    return float(np.mean(got)) if got else None
-
-
 def markdown(rows: list[dict], suite: str) -> str:
     what = {**{n: r.what for n, r in RECIPES.items()}, DONKEYCAR: "donkeycar's own trainer and part",
             DONKEYCAR_CV: "donkeycar's computer-vision line follower (cv_control), set for each track's tape colour",
@@ -235,8 +234,12 @@ def markdown(rows: list[dict], suite: str) -> str:
     def describe(recipe):  # donkeycar's runs: donkeycar[-TUBS][-ours][-epochs-E][-patience-P][-throttle-K][-floor-F]
         if not recipe.startswith(DONKEYCAR):
             return what.get(recipe, "")
-        m = re.fullmatch(r"(?P<base>.+?)(?P<ours>-ours)?(-epochs-(?P<epochs>[\d.]+))?(-patience-(?P<patience>[\d.]+))?"
-                         r"(-throttle-(?P<scale>[\d.]+))?(-floor-(?P<floor>[\d.]+))?", recipe)
+        names = "|".join(re.escape(n) for n in sorted(what, key=len, reverse=True))
+        number = r"[\d.e+-]+"
+        m = re.fullmatch(rf"(?P<base>{names})(?P<ours>-ours)?(-epochs-(?P<epochs>{number}))?(-patience-(?P<patience>"
+                         rf"{number}))?(-throttle-(?P<scale>{number}))?(-floor-(?P<floor>{number}))?", recipe)
+        if m is None:
+            return ""
         return (what.get(m["base"], "") + (", on steerlab's training records" if m["ours"] else "") +
                 (f", at most {m['epochs']} epochs" if m["epochs"] else "") +
                 (f", early stopping after {m['patience']} epochs without a better loss" if m["patience"] else "") +
@@ -322,7 +325,7 @@ def main(_, a: Races) -> None:
         if a.donkeycar_ours:
             names = (without_validation(tubs, names[0], RECIPES[a.donkeycar_tubs].only).name, *names[1:])
         donkey = donkey_models(out, tubs, a.donkeycar_runs, names, f"donkey{suffix}", training)
-    results = []
+    results, minutes = [], {name: [training_minutes(name, seed, out) for seed in seeds] for name in recipes}
     for cap in caps:
         o = TrackSuiteOptions(suite=a.suite, max_throttle=cap, workers=a.workers)
         suite = out / f"{a.suite}-max{cap:g}"
@@ -338,8 +341,7 @@ def main(_, a: Races) -> None:
                                                                   throttle_floor=a.donkeycar_throttle_floor),
                                    folder)
         report(rows, suite, o, plots=False)
-        results += table(rows, cap, {name: [training_minutes(name, seed, out) for seed in seeds]
-                                     for name in recipes})
+        results += table(rows, cap, minutes)
     (out / f"{a.table}.md").write_text(f"machine: {machine()}\n\n" + markdown(results, a.suite))
     (out / f"{a.table}.json").write_text(json.dumps(results, indent=1))
     with open(out / f"{a.table}.csv", "w", newline="") as f:

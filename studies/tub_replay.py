@@ -30,11 +30,11 @@ the same records as steerlab's, `--seeds` runs (its trainer is not seeded). The 
 study exists for: on every scored block the best trained model needs at most half the interventions of the best
 of the models that learned nothing and of the other tracks' models ("separates": yes / no in the table).
 
-Choosing among the trained models is done on other blocks: every null and trained steerlab model is also scored,
-open loop and in replay, on each fold's validation block (the selection blocks: the table's second part), and the
-choice is the trained model with the fewest interventions per 100 m there (on each tub over its best's, averaged
-over the tubs); the scored blocks only report. donkeycar's trainer trains on the validation blocks (its own 80/20
-split), so it has no selection score, and it chooses nothing.
+Choosing among the trained models is done on other blocks: every trained steerlab model is also scored, open loop
+and in replay, on each fold's validation block (the selection blocks: the table's second part), and the choice is
+the trained model with the fewest interventions per 100 m there (on each tub, both folds, over its best's, each
+plus one; averaged over the tubs); the scored blocks only report. donkeycar's trainer trains on the validation
+blocks (its own 80/20 split), so it has no selection score, and it chooses nothing.
 
 python -m studies.tub_replay [--seeds 2] [--epochs 10] [--patience 3] [--tubs hall,taped-track,wood-tape]
     [--models pilotnet,pilotnet-views,tub-default,tub-default-views,track-best] [--donkeycar]
@@ -82,9 +82,9 @@ MODELS = "pilotnet,pilotnet-views"  # --models by default
 DONKEY_LINEAR = "donkeycar-linear"  # donkeycar's linear model by its own trainer (--donkeycar)
 NULL = ("zero", "train-mean")
 FOLDS = ("last", "first")
-SELECTED = (*NULL, *TRAINED)  # the models also scored on the selection blocks (donkeycar's trainer trains on them)
+SELECTED = tuple(TRAINED)  # the models also scored on the selection blocks (donkeycar's trainer trains on them)
 SELECTION_RULE = ("the fewest replay interventions per 100 m on the selection blocks, each tub's count over its "
-                  "best trained model's, averaged over the tubs")
+                  "best trained model's (both plus one), averaged over the tubs")
 
 
 def fold_blocks(fold: str, n: int) -> dict[str, str]:
@@ -210,31 +210,40 @@ def rows_of(results: dict, tubs: list[str]) -> tuple[list[str], dict]:
 
 
 def selection_rows(results: dict, tubs: list[str]) -> tuple[list[str], str]:
-    """The selection blocks' table (per tub and trained model: the mean over both folds and its runs of the
-    steering MAE and the interventions per 100 m on the folds' validation blocks, and those over the tub's best) and
-    the choice: the trained model of the lowest mean over the tubs of that ratio (`SELECTION_RULE`)."""
+    """The selection blocks' table (per tub and trained model scored on both folds' validation blocks: the mean over
+    the folds of the mean over its runs of the steering MAE and of the interventions per 100 m, and that count over
+    the tub's best, each plus one: a best of 0 stays a number) and the choice: the trained model of the lowest mean
+    over the tubs of that ratio (`SELECTION_RULE`), among those scored on every tub."""
     lines, ratios = [], {}
     for tub in tubs:
         runs = {}
         for key, r in results.items():
-            t, _, model, _ = key.split(" ")
+            t, fold, model, _ = key.split(" ")
             if t == tub and model in TRAINED and "selection" in r:
-                runs.setdefault(model, []).append(r["selection"])
+                runs.setdefault(model, {}).setdefault(fold, []).append(r["selection"])
+        runs = {m: folds for m, folds in runs.items() if set(folds) == set(FOLDS)}
         if not runs:
             continue
-        per = {m: float(np.mean([r["per_100m"] for r in rs])) for m, rs in runs.items()}
+
+        def over_folds(folds, key):
+            return float(np.mean([np.mean([r[key] for r in folds[f]]) for f in FOLDS]))
+
+        per = {m: over_folds(folds, "per_100m") for m, folds in runs.items()}
         best = min(per.values())
-        for model, rs in runs.items():
-            ratios.setdefault(model, {})[tub] = per[model] / max(best, 1e-9)
-            lines.append(f"| {tub} | {model} | {len(rs)} | {mean_min_max([r['mae'] for r in rs], '.4f')} | "
-                         f"{mean_min_max([r['per_100m'] for r in rs], '.1f')} | {ratios[model][tub]:.2f} |")
-    every = [t for t in tubs if any(t in r for r in ratios.values())]
-    complete = {m: float(np.mean([r[t] for t in every])) for m, r in ratios.items() if all(t in r for t in every)}
+        for model, folds in runs.items():
+            ratios.setdefault(model, {})[tub] = (per[model] + 1) / (best + 1)
+            every = [r for f in FOLDS for r in folds[f]]
+            lines.append(f"| {tub} | {model} | {len(every)} | {over_folds(folds, 'mae'):.4f} "
+                         f"({min(r['mae'] for r in every):.4f}-{max(r['mae'] for r in every):.4f}) | "
+                         f"{per[model]:.1f} ({min(r['per_100m'] for r in every):.1f}-"
+                         f"{max(r['per_100m'] for r in every):.1f}) | {ratios[model][tub]:.2f} |")
+    scored = [t for t in tubs if any(t in r for r in ratios.values())]
+    complete = {m: float(np.mean([r[t] for t in scored])) for m, r in ratios.items() if all(t in r for t in scored)}
     if not complete:
         return lines, "Chosen: - (no trained model has selection scores on every tub)"
     pick = min(complete, key=complete.get)
     return lines, (f"Chosen ({SELECTION_RULE}): **{pick}**, {complete[pick]:.2f}x the best on average over "
-                   f"{', '.join(every)}; " + ", ".join(f"{m} {v:.2f}x" for m, v in sorted(complete.items(),
+                   f"{', '.join(scored)}; " + ", ".join(f"{m} {v:.2f}x" for m, v in sorted(complete.items(),
                                                                                           key=lambda kv: kv[1])))
 
 

@@ -113,12 +113,18 @@ def spread(values: list[float], digits: int = 4) -> str:
     return mean if len(values) == 1 else f"{mean} +- {np.std(values, ddof=1):.{digits}f}"
 
 
+def mean_of(values: list) -> float | None:
+    """The mean of the values that are not None (a run without one); None without any."""
+    got = [v for v in values if v is not None]
+    return float(np.mean(got)) if got else None
+
+
 def mean_min_max(values: list, fmt: str) -> str:
     """The mean of the values given (None: a run without one) and, over more than one, their min-max: "0.90
     (0.85-0.95)"; "-" without any."""
     got = [v for v in values if v is not None]
     if not got:
         return "-"
-    return format(float(np.mean(got)), fmt) + (f" ({min(got):{fmt}}-{max(got):{fmt}})" if len(got) > 1 else "")
+    return format(mean_of(got), fmt) + (f" ({min(got):{fmt}}-{max(got):{fmt}})" if len(got) > 1 else "")
 
 

@@ -62,7 +62,7 @@ def test_the_table_gives_the_runs_min_max_beside_every_mean():
     assert cells[4:] == ["67.0 (64.0-70.0)", "78.3 (76.6-80.0)", "6.5 (6.0-7.0) of 8", "0.15 (0.10-0.20)",
                          "12.5 (9.0-16.0)", "0.900 (6)", "5.0 (4.5-5.5) |"]  # one run's pace: no spread
     donkeycar = {**row, "recipe": "donkeycar", "training_min": None, "training_each": []}
-    assert markdown([donkeycar], "s1").splitlines()[-1].endswith("| - |")  # not trained by the study
+    assert markdown([donkeycar], "s1").splitlines()[-1].endswith("| - |")  # donkeycar's trainer is not timed
 
 
 def test_a_recipes_training_time_adds_the_recipe_it_starts_from(tmp_path, monkeypatch):
@@ -82,6 +82,10 @@ def test_a_recipes_training_time_adds_the_recipe_it_starts_from(tmp_path, monkey
     assert tr.training_minutes("then", 0, tmp_path) == pytest.approx(3.0)
     assert tr.training_minutes("as-is", 0, tmp_path) == pytest.approx(2.0)
     assert tr.training_minutes("then", 1, tmp_path) is None
+    for k, seconds in enumerate((120, 60)):  # DAgger trains a run a round: every round counts
+        (tmp_path / "recipes" / "then" / "seed0" / f"round{k}").mkdir()
+        (tmp_path / "recipes" / "then" / "seed0" / f"round{k}" / "log.csv").write_text(f"epoch,seconds\n1,{seconds}\n")
+    assert tr.training_minutes("then", 0, tmp_path) == pytest.approx(2.0 + 3.0)
 
 
 def test_a_finished_recipe_run_of_another_config_is_refused_not_reused(tmp_path, monkeypatch):
@@ -180,8 +184,12 @@ def test_donkeycars_runs_are_named_and_described_by_the_levers_they_were_trained
            "laps": 1, "clean_pct": 1.0, "finished": 1, "tracks": 8, "off_track_per_lap": 0.1, "off_track": 1,
            "pace": 1.0, "pace_tracks": 1, "each": [], "training_min": None, "training_each": []}
     said = markdown([row], "s1").splitlines()[-1].split(" | ")[1]
-    assert said == ("donkeycar's own trainer and part, on the tubs of rooms, on steerlab's training records, at most 20 "
+    assert said == ("donkeycar's own trainer and part, on the tubs of rooms, on steerlab's training records, "
+                    "at most 20 "
                     "epochs, early stopping after 3 epochs without a better loss, its throttle times 1.5 before the "
                     "cap, at least 0.2 while the car stands")
     plain = markdown([{**row, "recipe": "donkeycar-throttle-1.5"}], "s1").splitlines()[-1].split(" | ")[1]
     assert plain == "donkeycar's own trainer and part, its throttle times 1.5 before the cap"
+    named = markdown([{**row, "recipe": "donkeycar-best-floor-0.2-floor-0.2"}], "s1").splitlines()[-1].split(" | ")[1]
+    assert named == ("donkeycar's own trainer and part, on the tubs of best-floor-0.2, at least 0.2 while the car "
+                     "stands")  # a recipe whose name holds "-floor-" is its tubs' name

@@ -93,12 +93,12 @@ def test_a_finished_run_of_another_recipe_is_refused_not_reused(tmp_path):
 
 
 def test_the_recipe_is_chosen_on_the_selection_blocks_by_its_interventions_over_each_tubs_best():
-    """Per tub the mean over both folds and the runs of the selection blocks' interventions per 100 m, over the tub's
-    best trained model's; the choice the lowest mean ratio over the tubs. hall: pilotnet (10 + 30) / 2 = 20,
-    pilotnet-views (25 + 35) / 2 = 30, track-best 12 (the best): 1.67x, 2.50x, 1x; wood-tape: pilotnet 30,
-    pilotnet-views 20 (the best): 1.5x, 1x. Over both tubs pilotnet 1.58x, pilotnet-views 1.75x; track-best, without
-    a wood-tape score, is not compared. The scored blocks (track-best's 1 per 100 m), null models and donkeycar's
-    model (no selection score) do not count."""
+    """Per tub and model scored on both folds: the mean over the folds (of the mean over its runs) of the selection
+    blocks' interventions per 100 m, plus one, over the tub's best's plus one; the choice the lowest mean ratio over
+    the tubs. hall: pilotnet (10 + 30) / 2 = 20 (the best), pilotnet-views ((25 + 35) / 2 + 30) / 2 = 30: 1, 31/21;
+    track-best scored on `last` alone is left out. wood-tape: pilotnet 30, pilotnet-views 0 (the best): 31, 1. Over
+    both tubs pilotnet-views (1.476 + 1) / 2 = 1.24x, pilotnet (1 + 31) / 2 = 16.00x. The scored blocks, null models
+    and donkeycar's model (no selection score) do not count."""
     from studies.tub_replay import selection_rows
 
     def run(scored, selection):
@@ -106,13 +106,16 @@ def test_the_recipe_is_chosen_on_the_selection_blocks_by_its_interventions_over_
 
     results = {"hall last pilotnet 0": run(50, 10), "hall first pilotnet 0": run(50, 30),
                "hall last pilotnet-views 0": run(50, 25), "hall last pilotnet-views 1": run(50, 35),
-               "hall last track-best 0": run(1, 12), "hall last zero 0": run(90, 1),
-               "hall last donkeycar-linear 0": _run(5),
-               "wood-tape last pilotnet 0": run(40, 30), "wood-tape last pilotnet-views 0": run(40, 20)}
+               "hall first pilotnet-views 0": run(50, 30), "hall last track-best 0": run(1, 1),
+               "hall last zero 0": run(90, 1), "hall last donkeycar-linear 0": _run(5),
+               "wood-tape last pilotnet 0": run(40, 30), "wood-tape first pilotnet 0": run(40, 30),
+               "wood-tape last pilotnet-views 0": run(40, 0), "wood-tape first pilotnet-views 0": run(40, 0)}
     lines, chosen = selection_rows(results, ["hall", "wood-tape"])
-    assert "| hall | pilotnet-views | 2 | 0.2000 (0.2000-0.2000) | 30.0 (25.0-35.0) | 2.50 |" in lines
-    assert "| hall | track-best | 1 | 0.2000 | 12.0 | 1.00 |" in lines
-    assert "| wood-tape | pilotnet | 1 | 0.2000 | 30.0 | 1.50 |" in lines
+    assert "| hall | pilotnet-views | 3 | 0.2000 (0.2000-0.2000) | 30.0 (25.0-35.0) | 1.48 |" in lines
+    assert "| hall | pilotnet | 2 | 0.2000 (0.2000-0.2000) | 20.0 (10.0-30.0) | 1.00 |" in lines
+    assert "| wood-tape | pilotnet | 2 | 0.2000 (0.2000-0.2000) | 30.0 (30.0-30.0) | 31.00 |" in lines
+    assert not any("track-best" in line for line in lines)
     assert chosen.startswith("Chosen (the fewest replay interventions per 100 m on the selection blocks, each tub's "
-                             "count over its best trained model's, averaged over the tubs): **pilotnet**, 1.58x")
-    assert chosen.endswith("pilotnet 1.58x, pilotnet-views 1.75x")
+                             "count over its best trained model's (both plus one), averaged over the tubs): "
+                             "**pilotnet-views**, 1.24x")
+    assert chosen.endswith("pilotnet-views 1.24x, pilotnet 16.00x")

@@ -248,13 +248,13 @@ def test_the_recipe_table_says_what_each_row_raced():
     from studies import track_recipes as recipes
 
     row = dict(cap=0.5, runs=3, laps=55.0, clean_pct=61.0, finished=4.7, tracks=8, off_track_per_lap=2.45,
-               off_track=139.3, pace=0.997, pace_tracks=3, each=[])
+               off_track=139.3, pace=0.997, pace_tracks=3, each=[], training_min=None, training_each=[])
     names = ("mae-throttle-2", "donkeycar-rooms", "donkeycar-rooms-throttle-2")
     lines = recipes.markdown([dict(row, recipe=name) for name in names], "t1").splitlines()[-3:]
     assert [line.split(" | ")[1] for line in lines] == [
         recipes.RECIPES["mae-throttle-2"].what, "donkeycar's own trainer and part, on the tubs of rooms",
         "donkeycar's own trainer and part, on the tubs of rooms, its throttle times 2 before the cap"]
-    assert lines[0].endswith("| 0.5 | 3 | 55.0 | 61.0 | 4.7 of 8 | 2.45 | 139.3 | 0.997 (3) |")
+    assert lines[0].endswith("| 0.5 | 3 | 55.0 | 61.0 | 4.7 of 8 | 2.45 | 139.3 | 0.997 (3) | - |")
 
 
 def test_a_number_in_exponent_form_is_a_number_and_a_number_quoted_is_refused(tmp_path):
