@@ -82,7 +82,6 @@ MODELS = "pilotnet,pilotnet-views"  # --models by default
 DONKEY_LINEAR = "donkeycar-linear"  # donkeycar's linear model by its own trainer (--donkeycar)
 NULL = ("zero", "train-mean")
 FOLDS = ("last", "first")
-SELECTED = tuple(TRAINED)  # the models also scored on the selection blocks (donkeycar's trainer trains on them)
 SELECTION_RULE = ("the fewest replay interventions per 100 m on the selection blocks, each tub's count over its "
                   "best trained model's (both plus one), averaged over the tubs")
 
@@ -117,10 +116,10 @@ def checkpoint(work, tub: str, fold: str, model: str, seed: int, epochs: int, n:
     return run / "best.pt"
 
 
-def score(ckpt, tub: str, fold: str, n: int, where, block: str = "scored") -> dict:
-    """Open loop and replay of `ckpt` on the fold's `block` of `tub` (its scored block, or `val`: the selection
+def score(ckpt, tub: str, fold: str, n: int, where, part: str = "scored") -> dict:
+    """Open loop and replay of `ckpt` on the fold's block `part` of `tub` (its scored block, or `val`: the selection
     block)."""
-    block = Source(str(TUBS / tub), fold_blocks(fold, n)[block], reader=READER)
+    block = Source(str(TUBS / tub), fold_blocks(fold, n)[part], reader=READER)
     m = evaluate(ckpt, block, where / "test", progress=False)
     r = run_replay([ckpt], block, where / "replay", TrackReplayOptions(workers=1), progress=False)[0]
     return {**{k: m[k] for k in ("mae", "throttle_mae", "gamma_deg", "target_gamma_deg") if k in m},
@@ -295,7 +294,7 @@ def main(_, args: TubReplay) -> None:
             results[key] = r
             file.write_text(json.dumps(results, indent=1))
             print(f"  {key}: MAE {r['mae']:.4f}, {r['interventions']} interventions in {r['m']:.0f} m", flush=True)
-        if model in SELECTED and "selection" not in results[key]:  # the block the recipe is chosen on
+        if model in TRAINED and "selection" not in results[key]:  # the block the recipe is chosen on
             r = results[key]["selection"] = score(ckpt(), tub, fold, sizes[tub], work / tub / fold /
                                                   f"selection-{model}-{seed}", "val")
             file.write_text(json.dumps(results, indent=1))
