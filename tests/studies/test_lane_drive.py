@@ -34,13 +34,15 @@ def test_the_frames_of_the_last_second_before_each_put_back_are_kept():
         return SimpleNamespace(steering=0.1)
 
     inner.step = step
-    seeing = Seeing(inner, fps=4)
+    seeing, frame = Seeing(inner, fps=4), np.zeros((2, 2), np.uint8)  # one buffer, drawn over every frame
     for k in range(6):
-        seeing.step(np.full((2, 2), k, np.uint8))
+        frame[:] = k
+        seeing.step(frame)
     seeing.reset()
     for k in range(6, 8):
-        seeing.step(np.full((2, 2), k, np.uint8))
+        frame[:] = k
+        seeing.step(frame)
     seeing.reset()
     assert [[i for i, _ in before] for before in seeing.before] == [[2, 3, 4, 5], [6, 7]]
-    assert int(seeing.before[1][1][1][0, 0]) == 7  # the frame itself, copied
+    assert [int(f[0, 0]) for _, f in seeing.before[0]] == [2, 3, 4, 5]  # each frame as it was, copied
     assert seeing.seen[7] == pytest.approx((0.07, 0.0, 0.5, 0.1))

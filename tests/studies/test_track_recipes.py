@@ -190,6 +190,8 @@ def test_donkeycars_runs_are_named_and_described_by_the_levers_they_were_trained
                     "cap, at least 0.2 while the car stands")
     plain = markdown([{**row, "recipe": "donkeycar-throttle-1.5"}], "s1").splitlines()[-1].split(" | ")[1]
     assert plain == "donkeycar's own trainer and part, its throttle times 1.5 before the cap"
-    named = markdown([{**row, "recipe": "donkeycar-best-floor-0.2-floor-0.2"}], "s1").splitlines()[-1].split(" | ")[1]
-    assert named == ("donkeycar's own trainer and part, on the tubs of best-floor-0.2, at least 0.2 while the car "
-                     "stands")  # a recipe whose name holds "-floor-" is its tubs' name
+    for name, said in (("donkeycar-best-floor-0.2", ""), ("donkeycar-best-floor-0.2-floor-0.2",
+                                                        ", at least 0.2 while the car stands")):
+        # a recipe whose name holds "-floor-" is its tubs' name, not a floor
+        got = markdown([{**row, "recipe": name}], "s1").splitlines()[-1].split(" | ")[1]
+        assert got == "donkeycar's own trainer and part, on the tubs of best-floor-0.2" + said
