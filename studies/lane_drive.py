@@ -6,9 +6,9 @@ Per frame (`OUT/frames.csv`): the place on the lap, the speed, the true lane (th
 centre, m, left positive; the heading error, rad; the lane's curvature, 1/m, positive turning left), the lane the
 head sees, the steering sent and whether the car was put back after it. `OUT/lane_drive.md`: where on the lap the
 car was put back, and per 2 m of the lap the mean absolute true offset, heading and curvature beside the head's
-errors; `OUT/before.png`: the frames of the last second before the first put-back, every fourth up to the last,
-each with its place, true and seen offset; the drive's own files (`trajectory.csv`, `drive.json`, `frames.png`)
-beside them. The head's lane is compared with the lane of the frame it saw: a drive with `--latency` is refused.
+errors; `OUT/before.png`: the frames of the last second before the second put-back (the first lap starts from
+rest; the first where there is one only), every fourth up to the last, each with its place, true and seen offset;
+the drive's own files (`trajectory.csv`, `drive.json`, `frames.png`) beside them. The head's lane is compared with the lane of the frame it saw: a drive with `--latency` is refused.
 
 python -m studies.lane_drive CHECKPOINT --seed 9505 [--style taped] [--minutes 2] [--max-throttle 1]
     [--throttle-scale 1.2] [--throttle-floor 0.2] [--steer-by lane] [--out runs/lane-drive]
@@ -149,7 +149,7 @@ def main(a, o: LaneDrive) -> None:
              *stretch_rows(rows, track.length)]
     (out / "lane_drive.md").write_text("\n".join(lines) + "\n")
     if seeing.before:
-        strip(seeing.before[0], rows, out / "before.png")
+        strip(seeing.before[min(1, len(seeing.before) - 1)], rows, out / "before.png")
     seeing.close()
     print("\n".join(lines))
     print(f"wrote {out / 'frames.csv'}, {out / 'lane_drive.md'}" + (", before.png" if seeing.before else ""))
