@@ -26,7 +26,9 @@ epochs and --patience (the runs of other values in a folder of their own), and a
 refused (delete its folder). `--donkeycar` adds
 donkeycar's linear model by its own trainer (`donkey train --type linear`, donkeycar 5.3.0 in its own environment)
 on each fold's training and validation blocks as one tub, which it splits 80/20 at random as its users train:
-the same records as steerlab's, `--seeds` runs (its trainer is not seeded). The check this
+the same records as steerlab's, `--seeds` runs (its trainer is not seeded); `--donkeycar-views` adds it trained on
+pilotnet-views's views of those records as well, written as a second tub it reads (`views_tub`: the extra frames
+steerlab's views models see, so that what the frames give and what the trainer gives are apart). The check this
 study exists for: on every scored block the best trained model needs at most half the interventions of the best
 of the models that learned nothing and of the other tracks' models ("separates": yes / no in the table).
 
@@ -37,10 +39,12 @@ plus one; averaged over the tubs); the scored blocks only report. donkeycar's tr
 blocks (its own 80/20 split), so it has no selection score, and it chooses nothing.
 
 python -m studies.tub_replay [--seeds 2] [--epochs 10] [--patience 3] [--tubs hall,taped-track,wood-tape]
-    [--models pilotnet,pilotnet-views,tub-default,tub-default-views,track-best] [--donkeycar]
+    [--models pilotnet,pilotnet-views,tub-default,tub-default-views,track-best] [--donkeycar] [--donkeycar-views]
 Every finished run is kept in runs/tub-replay/epochs-N[-patience-P]/results.json and reused by a later run of the same
 --epochs and --patience;
-table.md and table.png are written there from all the runs kept.
+table.md and table.png are written there from all the runs kept. Runs on other --tubs may go at once, one a core
+(`taskset -c 0 ... --tubs hall,taped-track` beside `taskset -c 1 ... --tubs wood-tape`): each keeps its runs in
+that one file without losing the other's; a last run over all the tubs adds the other tracks' models and the table.
 """
 
 import json
@@ -60,9 +64,9 @@ from steerlab.sim.track.replay import TrackReplayOptions
 from steerlab.train.config import another_config, load_config
 from steerlab.train.loop import run_changes, train
 from studies._recipes import VIEW
-from studies.common import ROOT, machine, mean_min_max
+from studies.common import ROOT, keep_result, machine, mean_min_max
 from studies.common.donkeycar import (FULL_LOCK_DEG, READER, TUB_NAMES, TUBS, donkey_car, donkey_python, donkey_scores,
-                                      donkey_train, replay_donkey, training_tub)
+                                      donkey_train, replay_donkey, training_tub, views_tub)
 
 OUT = ROOT / "runs" / "tub-replay"
 PILOTNET = {"model": {"name": "pilotnet"}}
@@ -80,6 +84,7 @@ TRAINED = {"pilotnet": lambda: PILOTNET, "pilotnet-views": lambda: {**PILOTNET, 
            "tub-default": lambda: {}, "tub-default-views": lambda: {"train": VIEW}, "track-best": track_best}
 MODELS = "pilotnet,pilotnet-views"  # --models by default
 DONKEY_LINEAR = "donkeycar-linear"  # donkeycar's linear model by its own trainer (--donkeycar)
+DONKEY_VIEWS = "donkeycar-linear-views"  # the same, trained on pilotnet-views's views as well (--donkeycar-views)
 NULL = ("zero", "train-mean")
 FOLDS = ("last", "first")
 SELECTION_RULE = ("the fewest replay interventions per 100 m on the selection blocks, each tub's count over its "
@@ -135,22 +140,27 @@ def span(blocks: str) -> tuple[int, int]:
     return int(start), int(stop)
 
 
-def donkey_result(python, work, tub: str, fold: str, run: int, rec) -> dict | None:
+def donkey_result(python, work, tub: str, fold: str, run: int, rec, views: bool = False) -> dict | None:
     """donkeycar's linear model of this fold, run `run` (its trainer draws its own split and initialisation),
     trained by `donkey train` on the fold's training and validation blocks as one tub (donkeycar splits it 80/20 at
-    random, as its users train), scored on the scored block as `score` scores steerlab's models; None when
-    `donkey train` failed."""
+    random, as its users train) and, with `views`, beside it pilotnet-views's views of the same records as a second
+    tub (`views_tub`), scored on the scored block as `score` scores steerlab's models; None when `donkey train`
+    failed."""
     where, blocks = work / tub / fold, fold_blocks(fold, len(rec))
     car = donkey_car(python, work / "donkeycar-car")
     keep = {int(rec.frame_ids[i]) for part in ("train", "val") for i in range(*span(blocks[part]))}
-    train_tub = training_tub(TUBS / tub, keep, where / "donkeycar-tub")
-    model = where / f"{DONKEY_LINEAR}-{run}.h5"
-    seconds = donkey_train(python, car, train_tub, model, "linear", where / f"{DONKEY_LINEAR}-{run}.log")
+    tubs = str(training_tub(TUBS / tub, keep, where / "donkeycar-tub"))
+    if views:
+        cfg = fold_config(work, tub, fold, "pilotnet-views", 0, 1, len(rec))  # its data and views: no run of it
+        tubs += f",{views_tub(cfg, keep, where / 'donkeycar-views-tub')}"
+    name = DONKEY_VIEWS if views else DONKEY_LINEAR
+    model = where / f"{name}-{run}.h5"
+    seconds = donkey_train(python, car, tubs, model, "linear", where / f"{name}-{run}.log")
     if seconds is None:
         return None
     start, stop = span(blocks["scored"])
     scores = donkey_scores(python, car, model, "linear", rec, start, stop, where)
-    r = replay_donkey(python, car, model, "linear", TUBS / tub, start, stop, where / f"{DONKEY_LINEAR}-{run}.log")
+    r = replay_donkey(python, car, model, "linear", TUBS / tub, start, stop, where / f"{name}-{run}.log")
     return {**scores, "train_s": seconds, **per_metre(r["interventions"], r["km"])}
 
 
@@ -165,6 +175,8 @@ class TubReplay(Options):
                          "models and other-track, pilotnet-views of the other tubs, always)")
     donkeycar: bool = option(False, help="also donkeycar's linear model by its own trainer, in its own environment "
                              "(runs/donkeycar-venv, made on first use)")
+    donkeycar_views: bool = option(False, help="also donkeycar's linear model trained on pilotnet-views's views of "
+                                   "its records as well, written as a second tub (the same extra frames)")
 
     @classmethod
     def related(cls, v):
@@ -185,7 +197,7 @@ def rows_of(results: dict, tubs: list[str]) -> tuple[list[str], dict]:
             if not runs:
                 continue
             per = {m: float(np.mean([r["per_100m"] for r in rs])) for m, rs in runs.items()}
-            trained = min((per[m] for m in (*TRAINED, DONKEY_LINEAR) if m in per), default=None)
+            trained = min((per[m] for m in (*TRAINED, DONKEY_LINEAR, DONKEY_VIEWS) if m in per), default=None)
             nothing = min((per[m] for m in (*NULL, "other-track") if m in per), default=None)
             ok = None if trained is None or nothing is None else nothing >= 2 * trained
             checks[(tub, fold)] = (trained, nothing, ok)
@@ -202,8 +214,8 @@ def rows_of(results: dict, tubs: list[str]) -> tuple[list[str], dict]:
             human = next((r["target_gamma_deg"] for rs in runs.values() for r in rs if "target_gamma_deg" in r), None)
             if human is not None:
                 lines.append(f"| {tub} | {fold} | the human (recorded) | | | | | {human:.3f} | | |")
-            said = "-" if ok is None else (f"{'yes' if ok else 'no'}: the best trained model {trained:.1f}, the best that "
-                                           f"learned nothing or another track {nothing:.1f}")
+            said = "-" if ok is None else (f"{'yes' if ok else 'no'}: the best trained model {trained:.1f}, the best "
+                                           f"that learned nothing or another track {nothing:.1f}")
             lines.append(f"| {tub} | {fold} | **separates** | | | | | | | {said} |")
     return lines, checks
 
@@ -248,7 +260,8 @@ def selection_rows(results: dict, tubs: list[str]) -> tuple[list[str], str]:
 
 def plot(path, results: dict, tubs: list[str]) -> None:
     """Interventions per 100 m of every model on every scored block, one group of bars a block."""
-    models = [m for m in (*NULL, *TRAINED, DONKEY_LINEAR, "other-track") if any(k.split(" ")[2] == m for k in results)]
+    models = [m for m in (*NULL, *TRAINED, DONKEY_LINEAR, DONKEY_VIEWS, "other-track")
+              if any(k.split(" ")[2] == m for k in results)]
     blocks = [(t, f) for t in tubs for f in FOLDS if any(k.startswith(f"{t} {f} ") for k in results)]
     with figure(path, 1, 1, figsize=(1.8 * max(len(blocks), 1) + 2, 4.5)) as (fig, ax):
         width = 0.8 / len(models)
@@ -282,29 +295,29 @@ def main(_, args: TubReplay) -> None:
     results = json.loads(file.read_text()) if file.exists() else {}
     recs = {t: Source(str(TUBS / t), reader=READER).open() for t in tubs}
     sizes = {t: len(rec) for t, rec in recs.items()}
-    python = donkey_python() if args.donkeycar else None
+    python = donkey_python() if args.donkeycar or args.donkeycar_views else None
 
     def run(tub, fold, model, seed, ckpt):
         key = f"{tub} {fold} {model} {seed}"
         if key not in results:
-            r = (donkey_result(python, work, tub, fold, seed, recs[tub]) if model == DONKEY_LINEAR else
+            r = (donkey_result(python, work, tub, fold, seed, recs[tub], model == DONKEY_VIEWS)
+                 if model in (DONKEY_LINEAR, DONKEY_VIEWS) else
                  score(ckpt(), tub, fold, sizes[tub], work / tub / fold / f"scored-{model}-{seed}"))
             if r is None:
                 return
-            results[key] = r
-            file.write_text(json.dumps(results, indent=1))
+            results.update(keep_result(file, key, r))
             print(f"  {key}: MAE {r['mae']:.4f}, {r['interventions']} interventions in {r['m']:.0f} m", flush=True)
         if model in TRAINED and "selection" not in results[key]:  # the block the recipe is chosen on
-            r = results[key]["selection"] = score(ckpt(), tub, fold, sizes[tub], work / tub / fold /
-                                                  f"selection-{model}-{seed}", "val")
-            file.write_text(json.dumps(results, indent=1))
+            r = score(ckpt(), tub, fold, sizes[tub], work / tub / fold / f"selection-{model}-{seed}", "val")
+            results.update(keep_result(file, key, {**results[key], "selection": r}))
             print(f"  {key}, selection block: MAE {r['mae']:.4f}, {r['interventions']} interventions in "
                   f"{r['m']:.0f} m", flush=True)
 
     for seed in range(args.seeds):
         for tub in tubs:
             for fold in FOLDS:
-                for model in (*NULL, *models, *([DONKEY_LINEAR] if python else [])):
+                donkey = [m for m, on in ((DONKEY_LINEAR, args.donkeycar), (DONKEY_VIEWS, args.donkeycar_views)) if on]
+                for model in (*NULL, *models, *donkey):
                     if model in NULL and seed > 0:
                         continue  # a null model is the same every run
                     run(tub, fold, model, seed, lambda: checkpoint(work, tub, fold, model, seed, args.epochs,

@@ -14,6 +14,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -24,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from steerlab.errors import SteerlabError
+from steerlab.locks import waiting_lock
 from steerlab.options import Range
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -103,6 +105,19 @@ def begin_study(out: Path, workers: int) -> tuple[float, float]:
     out.mkdir(parents=True, exist_ok=True)
     print(f"machine: {machine()}; workers {workers}", flush=True)
     return time.time(), time.process_time()
+
+
+def keep_result(file: Path, key: str, value: dict) -> dict:
+    """Write one finished run into a study's results file and return all the runs it holds: read, updated and
+    replaced under a lock, so studies run at once (on other tubs, one a core) into one file lose none of each
+    other's runs, and a killed study never leaves half a file."""
+    with waiting_lock(file.with_name(file.name + ".lock")):
+        results = json.loads(file.read_text()) if file.exists() else {}
+        results[key] = value
+        tmp = file.with_name(file.name + f".{os.getpid()}.tmp")
+        tmp.write_text(json.dumps(results, indent=1))
+        os.replace(tmp, file)
+    return results
 
 
 def spread(values: list[float], digits: int = 4) -> str:

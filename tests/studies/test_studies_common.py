@@ -123,3 +123,31 @@ def test_the_lane_head_study_bins_by_the_true_pose_and_scores_against_the_spread
     assert far["heading_mae_deg"] == pytest.approx(math.degrees(0.3))
     assert near["offset_sd_cm"] == pytest.approx(1.0)  # std of 0.01 and 0.03 m
     assert far["heading_sd_deg"] == pytest.approx(math.degrees(0.3))  # std of 0.2 and -0.4
+
+
+def _keep_many(file, start: int) -> None:
+    from studies.common import keep_result
+
+    for i in range(start, start + 40, 2):
+        keep_result(file, f"run {i}", {"i": i})
+
+
+def test_studies_run_at_once_into_one_results_file_lose_none_of_each_others_runs(tmp_path):
+    import json
+    import multiprocessing
+
+    from studies.common import keep_result
+
+    file = tmp_path / "results.json"
+    keep_result(file, "run a", {"mae": 0.1})
+    assert keep_result(file, "run b", {"mae": 0.2}) == {"run a": {"mae": 0.1}, "run b": {"mae": 0.2}}  # a's kept
+    assert keep_result(file, "run a", {"mae": 0.3})["run a"] == {"mae": 0.3}  # a run redone replaces its own
+    ctx = multiprocessing.get_context("spawn")
+    studies = [ctx.Process(target=_keep_many, args=(file, start)) for start in (0, 1)]  # even and odd runs at once
+    for p in studies:
+        p.start()
+    for p in studies:
+        p.join()
+    held = json.loads(file.read_text())
+    assert {f"run {i}" for i in range(40)} <= set(held) and held["run b"] == {"mae": 0.2}
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["results.json", "results.json.lock"]  # no half file left

@@ -119,3 +119,36 @@ def test_the_recipe_is_chosen_on_the_selection_blocks_by_its_interventions_over_
                              "count over its best trained model's (both plus one), averaged over the tubs): "
                              "**pilotnet-views**, 1.24x")
     assert chosen.endswith("pilotnet-views 1.24x, pilotnet 16.00x")
+
+
+def test_the_views_written_as_a_tub_are_the_frames_and_labels_steerlab_trains_on(track_tub, tmp_path):
+    """donkeycar's trainer gets the same extra frames: each kept record warped to the view steerlab draws for it,
+    labelled as steerlab labels it (`view_labels`), its throttle kept; the records outside `keep` left out."""
+    import numpy as np
+
+    from steerlab.data.readers import open_recording
+    from steerlab.data.recording import SteeringConvention
+    from steerlab.data.views import lens_of, warp
+    from steerlab.train.config import load_config
+    from steerlab.train.sources import main_recording, prepare_dataset, view_labels
+    from studies.common.donkeycar import READER, views_tub
+
+    cfg = load_config(None, base={"data": str(track_tub), "reader": READER, "cache": str(tmp_path / "cache"),
+                                  "out": str(tmp_path),
+                                  "train": {"views": [[[0.05, 0.15], [-10, 10]]], "recovery_s": 0.3}})
+    rec = main_recording(cfg)
+    keep = {int(i) for i in rec.frame_ids[10:30]}
+    tub = open_recording(views_tub(cfg, keep, tmp_path / "views"))
+    view = cfg.train.views[0]
+    warped = prepare_dataset(cfg, progress=False, view=view)
+    ds = prepare_dataset(cfg, progress=False)
+    labels = view_labels(warped, ds.steering, view, cfg.train, SteeringConvention(**ds.meta["convention"]))
+    assert len(tub) == 20 and np.ptp(labels[10:30]) > 0.05
+    np.testing.assert_allclose(tub.steering, labels[10:30], atol=1e-6)
+    np.testing.assert_allclose(tub.throttle, rec.throttle[10:30], atol=1e-6)
+    shift, yaw = warped.labels["view_shift_m"], warped.labels["view_yaw_deg"]
+    for k in (0, 19):
+        want = warp(rec.load_frame(10 + k), rec.geometry, lens_of(rec), float(shift[10 + k]), float(yaw[10 + k]))
+        other = warp(rec.load_frame(10 + k), rec.geometry, lens_of(rec), float(-shift[10 + k]), 0.0)
+        got = tub.load_frame(k).astype(float)
+        assert np.abs(got - want).mean() < 3 < np.abs(got - other).mean()  # its own draw, through the JPEG
