@@ -21,7 +21,9 @@ The models: `zero` and `train-mean` (a model that learned nothing); `pilotnet` o
 to 15 cm and turned up to 15 degrees, labelled with the steering back to the path); and `other-track`: the
 `pilotnet-views` model of fold `last` of each other tub (a model of another track, car and lens). `--models` adds
 `tub-default` (the tub defaults as shipped: multimodal-lstm), `tub-default-views` (the same with those views) and
-`track-best` (configs/track_best.yaml's input, network and training); every trained model gets at most --epochs
+`track-best` (configs/track_best.yaml's input, network and training) and `linear-views` (donkeycar linear's layout
+written in steerlab, `donkey-linear`, on the whole 160 x 120 RGB frame as donkeycar feeds it, on the tub defaults'
+training with the views: steerlab's trainer beside donkeycar's on the same frames); every trained model gets at most --epochs
 epochs and --patience (the runs of other values in a folder of their own), and a finished run of another recipe is
 refused (delete its folder). `--donkeycar` adds
 donkeycar's linear model by its own trainer (`donkey train --type linear`, donkeycar 5.3.0 in its own environment)
@@ -70,6 +72,7 @@ from studies.common.donkeycar import (FULL_LOCK_DEG, READER, TUB_NAMES, TUBS, do
 
 OUT = ROOT / "runs" / "tub-replay"
 PILOTNET = {"model": {"name": "pilotnet"}}
+WHOLE_FRAME = {"preprocess": {"crop": [0, 0, 0, 0], "width": 160, "height": 120, "color": "rgb"}}  # as donkeycar
 
 
 def track_best() -> dict:
@@ -81,7 +84,8 @@ def track_best() -> dict:
 # the trained models: their config sections beside the tub defaults (the tub default: multimodal-lstm); --epochs and
 # --patience for all
 TRAINED = {"pilotnet": lambda: PILOTNET, "pilotnet-views": lambda: {**PILOTNET, "train": VIEW},
-           "tub-default": lambda: {}, "tub-default-views": lambda: {"train": VIEW}, "track-best": track_best}
+           "tub-default": lambda: {}, "tub-default-views": lambda: {"train": VIEW}, "track-best": track_best,
+           "linear-views": lambda: {**WHOLE_FRAME, "model": {"name": "donkey-linear"}, "train": VIEW}}
 MODELS = "pilotnet,pilotnet-views"  # --models by default
 DONKEY_LINEAR = "donkeycar-linear"  # donkeycar's linear model by its own trainer (--donkeycar)
 DONKEY_VIEWS = "donkeycar-linear-views"  # the same, trained on pilotnet-views's views as well (--donkeycar-views)

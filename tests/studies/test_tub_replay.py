@@ -68,6 +68,9 @@ def test_each_trained_model_is_its_recipe_on_the_fold_blocks(tmp_path):
     assert [(v.shift_m, v.yaw_deg) for v in cfg("pilotnet-views").train.views] == [((-0.15, 0.15), (-15, 15))]
     assert (cfg("tub-default").model.name, cfg("tub-default").train.loss) == ("multimodal-lstm", "mae")  # as shipped
     assert cfg("tub-default-views").train.recovery_s == 0.3
+    linear = cfg("linear-views")
+    assert (linear.model.name, linear.preprocess.width, linear.preprocess.height, linear.preprocess.color,
+            linear.train.loss, len(linear.train.views)) == ("donkey-linear", 160, 120, "rgb", "mae", 1)
     best, shipped = cfg("track-best"), read_yaml(ROOT / "configs" / "track_best.yaml")
     assert (best.model.name, best.preprocess.width, best.train.hue_deg, best.train.flip) == (
         shipped["model"]["name"], shipped["preprocess"]["width"], shipped["train"]["hue_deg"], True)
