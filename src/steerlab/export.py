@@ -65,7 +65,7 @@ def export_onnx(checkpoint: str | Path, out: str | Path, calib: str | Path | Non
 
         from steerlab.data.rows import parse_range
 
-        parse_range(calib_range, "calib_range (--calib-range)")  # the option named, as the API and the CLI call it
+        parse_range(calib_range, "--calib-range")  # the option named where the frames are given wrongly
         calib_rec = open_recording(calib, calib_range)  # bad calibration data is refused before any work
     import torch
 
@@ -73,7 +73,7 @@ def export_onnx(checkpoint: str | Path, out: str | Path, calib: str | Path | Non
 
     ckpt = load_checkpoint(checkpoint)
     if calib is not None and ckpt.get("geometry") not in (None, calib_rec.geometry):
-        raise SteerlabError(f"calib {calib} (--calib): the recording's camera geometry "
+        raise SteerlabError(f"steerlab export --calib {calib}: the recording's camera geometry "
                             f"({calib_rec.geometry}) is not the model's ({ckpt['geometry']}): calibrate on frames of "
                             f"the camera {checkpoint} was trained on")
     model, pre, convention = model_from_checkpoint(ckpt)

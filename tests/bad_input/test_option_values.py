@@ -95,7 +95,7 @@ BAD_INPUTS = {
     "replay a road recording with a track option": (_with("--lane-width", "0.5", command="replay"),
                                                     "--lane-width is an option of the track world (--world track)"),
     "replay the throttle of a model without one": (_tub_replay("--throttle", "model"),
-                                                   "model.pt predicts no throttle: throttle 'model' (--throttle model) "
+                                                   "model.pt predicts no throttle: steerlab replay --throttle model "
                                                    "needs a model that learned it"),
     "replay the model's throttle at a given speed": (_tub_replay("--throttle", "model", "--speed", "2"),
                                                      "--speed must be left out when the throttle is the "

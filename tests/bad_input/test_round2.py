@@ -159,8 +159,6 @@ def _api(tmp_path, ckpt):
         (lambda: run_latency(source=str(sim)), "run_latency: the recording must be given as a"),
         (lambda: score(None, labels), "the predictions file must be a path"),
         (lambda: export_onnx(str(ckpt), None), "export_onnx: out must be a path"),
-        (lambda: export_onnx(str(ckpt), tmp_path / "m.onnx", calib=str(sim), calib_range=5),
-         "calib_range (--calib-range): frame range 5 must be text like"),  # named as the API and the CLI call it
         (lambda: save_ensemble(str(ckpt), tmp_path / "e.pt"), "save_ensemble: checkpoints must be a list"),
         (lambda: load_config(123), "load_config: path must be a path"),
         (lambda: load_config(cfg, overrides="train.lr=1"), "load_config: overrides must be a list of"),

@@ -114,7 +114,7 @@ def test_a_model_that_learned_the_throttle_drives_the_track_with_its_own(tmp_pat
         assert main(["sim", *argv, "--world", "track", "--minutes", "0.02", "--throttle", "0.6", "--out",
                      str(tmp_path / "refused")]) == 2
         err = capsys.readouterr().err
-        assert err.count("\n") == 1 and "learned" in err and "the throttle 0.6 (throttle, --throttle) " \
+        assert err.count("\n") == 1 and "learned" in err and f"the throttle 0.6 (steerlab sim {argv[0]} --throttle) " \
             "is the constant throttle of a model that predicts none" in err and "leave it out" in err, err
     assert not (tmp_path / "refused").exists()
     out = tmp_path / "own"

@@ -89,7 +89,7 @@ class TrackReplayOptions(Options):
     def check_pilot(self, pilot, checkpoint, rec: Recording) -> None:
         """A checkpoint that `--throttle model` cannot replay (it learned no throttle) is refused."""
         if self.throttle == "model" and "throttle" not in pilot.targets:
-            raise SteerlabError(f"{checkpoint} predicts no throttle: throttle 'model' (--throttle model) needs a model "
+            raise SteerlabError(f"{checkpoint} predicts no throttle: steerlab replay --throttle model needs a model "
                                 "that learned it (train.throttle_weight)")
 
 

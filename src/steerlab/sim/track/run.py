@@ -195,7 +195,7 @@ def checkpoint_pilot(checkpoint: str | Path, o, w: DriveWith = DriveWith()):
                          throttle_floor=o.throttle_floor, steer_by=o.steer_by, throttle_by=o.throttle_by,
                          lat_acc=o.lat_acc)
     if o.throttle is not None and pilot.part.learned:
-        raise SteerlabError(f"{checkpoint} learned the throttle; the throttle {o.throttle:g} (throttle, "
+        raise SteerlabError(f"{checkpoint} learned the throttle; the throttle {o.throttle:g} (steerlab sim drive "
                             "--throttle) is the constant throttle of a model that predicts none: leave it out "
                             "(throttle_scale, max_throttle and throttle_floor shape a learned throttle)")
     return pilot

@@ -255,7 +255,7 @@ def race(pilots, out: str | Path, o: TrackSuiteOptions, progress: bool = True) -
                             "name it otherwise (its run folder)")
     checkpoints = {e.source: learns_throttle(e.source) for e in racing if "checkpoint_sha256" in e.identity}
     if o.throttle is not None and checkpoints and all(checkpoints.values()):
-        raise SteerlabError(f"the throttle {o.throttle:g} (throttle, --throttle) is the constant throttle "
+        raise SteerlabError(f"the throttle {o.throttle:g} (steerlab sim bench --throttle) is the constant throttle "
                             "of a model that predicts none; every checkpoint here learned its own: leave it out "
                             "(throttle_scale, max_throttle and throttle_floor shape a learned throttle)")
     shaping = Throttle(constant_throttle(o.throttle), o.throttle_scale, o.max_throttle, o.throttle_floor)
