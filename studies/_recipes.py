@@ -119,8 +119,8 @@ RECIPES = {
     "throttle-0.5": Recipe("the throttle's weight 0.5", ("train.throttle_weight=0.5",)),
     "batch-32": Recipe("batches of 32, Adam 3e-4", ("train.batch_size=32", "train.lr=3.0e-4")),
     "lstm": Recipe("recurrent: the CNN-LSTM", ("model.name=lstm",)),
-    "tub-default": Recipe("steerlab's tub default (multimodal-lstm, gray 200x66 crop, MAE, batch 32, Adam 3e-4, "
-                          "throttle weight 0.5)",
+    "tub-default": Recipe("steerlab's earlier tub default (multimodal-lstm, gray 200x66 crop, MAE, batch 32, Adam "
+                          "3e-4, throttle weight 0.5)",
                           ("model.name=multimodal-lstm", "preprocess.crop=[40,0,0,0]", *GRAY_200x66,
                            "preprocess.color=gray", "train.loss=mae", "train.batch_size=32", "train.lr=3.0e-4",
                            "train.throttle_weight=0.5")),

@@ -20,10 +20,11 @@ The models: `zero` and `train-mean` (a model that learned nothing); `pilotnet` o
 `train.views=[[[-0.15, 0.15], [-15, 15]]]` and `train.recovery_s=0.3` (every frame also seen from a car moved up
 to 15 cm and turned up to 15 degrees, labelled with the steering back to the path); and `other-track`: the
 `pilotnet-views` model of fold `last` of each other tub (a model of another track, car and lens). `--models` adds
-`tub-default` (the tub defaults as shipped: multimodal-lstm), `tub-default-views` (the same with those views) and
+`tub-default` (the tub default of earlier builds: multimodal-lstm), `tub-default-views` (the same with those views),
 `track-best` (configs/track_best.yaml's input, network and training) and `linear-views` (donkeycar linear's layout
 written in steerlab, `donkey-linear`, on the whole 160 x 120 RGB frame as donkeycar feeds it, on the tub defaults'
-training with the views: steerlab's trainer beside donkeycar's on the same frames); every trained model gets at most --epochs
+training with the views: steerlab's trainer beside donkeycar's on the same frames; chosen here, it is the tub defaults
+now, `TUB_DEFAULTS`); every trained model gets at most --epochs
 epochs and --patience (the runs of other values in a folder of their own), and a finished run of another recipe is
 refused (delete its folder). `--donkeycar` adds
 donkeycar's linear model by its own trainer (`donkey train --type linear`, donkeycar 5.3.0 in its own environment)
@@ -41,7 +42,8 @@ plus one; averaged over the tubs); the scored blocks only report. donkeycar's tr
 blocks (its own 80/20 split), so it has no selection score, and it chooses nothing.
 
 python -m studies.tub_replay [--seeds 2] [--epochs 10] [--patience 3] [--tubs hall,taped-track,wood-tape]
-    [--models pilotnet,pilotnet-views,tub-default,tub-default-views,track-best] [--donkeycar] [--donkeycar-views]
+    [--models pilotnet,pilotnet-views,tub-default,tub-default-views,track-best,linear-views] [--donkeycar]
+    [--donkeycar-views]
 Every finished run is kept in runs/tub-replay/epochs-N[-patience-P]/results.json and reused by a later run of the same
 --epochs and --patience;
 table.md and table.png are written there from all the runs kept. Runs on other --tubs may go at once, one a core
@@ -81,10 +83,12 @@ def track_best() -> dict:
     return {k: best[k] for k in ("preprocess", "model", "train")}
 
 
-# the trained models: their config sections beside the tub defaults (the tub default: multimodal-lstm); --epochs and
-# --patience for all
+# the trained models: their config sections beside the tub defaults' training settings (a model named: no input or
+# views of the defaults'); linear-views is the tub defaults, written out; --epochs and --patience for all
+MULTIMODAL = {"model": {"name": "multimodal-lstm"}}  # the tub default of earlier builds
 TRAINED = {"pilotnet": lambda: PILOTNET, "pilotnet-views": lambda: {**PILOTNET, "train": VIEW},
-           "tub-default": lambda: {}, "tub-default-views": lambda: {"train": VIEW}, "track-best": track_best,
+           "tub-default": lambda: MULTIMODAL, "tub-default-views": lambda: {**MULTIMODAL, "train": VIEW},
+           "track-best": track_best,
            "linear-views": lambda: {**WHOLE_FRAME, "model": {"name": "donkey-linear"}, "train": VIEW}}
 MODELS = "pilotnet,pilotnet-views"  # --models by default
 DONKEY_LINEAR = "donkeycar-linear"  # donkeycar's linear model by its own trainer (--donkeycar)

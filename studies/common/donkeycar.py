@@ -237,34 +237,12 @@ def training_tub(tub: Path, keep: set[int], out: Path) -> Path:
 
 
 def views_tub(cfg, keep: set[int], out: Path) -> Path:
-    """The views steerlab trains on (`cfg.train.views`: each frame warped through the tub's fisheye to the view
-    of a car moved and turned, labelled with the steering back to the recorded path, `sources.view_labels`)
-    of the records `keep` (record `_index` values), written at the tub's own resolution as a tub donkeycar's
-    trainer reads beside the tub itself: the same extra frames for both trainers. Written once (the draws are
+    """The views steerlab trains on of the records `keep` (record `_index` values) as a tub donkeycar's trainer reads
+    beside the tub itself (`write_views_tub`: the same extra frames for both trainers). Written once (the draws are
     fixed by the view's place in the list); a finished tub is kept."""
-    from dataclasses import replace
+    from steerlab.train.views_tub import write_views_tub
 
-    from steerlab.data.recording import SteeringConvention
-    from steerlab.data.views import lens_of, warp
-    from steerlab.data.writer import TubWriter
-    from steerlab.train.sources import main_recording, prepare_dataset, steering_ahead, view_labels
-
-    if (out / "manifest.json").exists():
-        return out
-    rec, ds = main_recording(cfg), prepare_dataset(cfg, progress=False)
-    lens, conv = lens_of(rec, cfg.train.calibration), SteeringConvention(**ds.meta["convention"])
-    ahead = steering_ahead(ds, cfg.train.target_shift_s)
-    writer = TubWriter(out, FULL_LOCK_DEG)
-    for k, view in enumerate(cfg.train.views):
-        view = replace(view, draw=k)
-        warped = prepare_dataset(cfg, progress=False, view=view)
-        angle = view_labels(warped, ahead, view, cfg.train, conv)  # the tub's unit: the servo, positive right
-        shift, yaw = warped.labels["view_shift_m"], warped.labels["view_yaw_deg"]
-        for i in (i for i in range(len(rec)) if int(rec.frame_ids[i]) in keep):
-            frame = warp(rec.load_frame(i), rec.geometry, lens, float(shift[i]), float(yaw[i]))
-            writer.add(frame, int(rec.timestamps_ns[i] - rec.timestamps_ns[0]),
-                       -float(angle[i]) * math.radians(FULL_LOCK_DEG), float(rec.throttle[i]))
-    return writer.close()
+    return out if (out / "manifest.json").exists() else write_views_tub(cfg, out, keep, progress=False)
 
 
 def donkey_train(python: Path, car: Path, tub: Path | str, model: Path, kind: str, log: Path) -> float | None:

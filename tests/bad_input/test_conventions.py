@@ -38,6 +38,20 @@ BAD_INPUTS = {
         "tub: replay cannot turn its steering into a wheel angle: normalized steering needs the car's full-lock angle"),
     "sim dagger on roads with a tub": (lambda t, s: ["sim", "dagger", str(config(t, tub(t / "tub")))],
                                        "holds 'donkey' frames: choose world track"),
+    "views of a recording that is not a tub": (
+        lambda t, s: ["views", str(config(t, sim_log(t / "sim"), views=[[0.1, 0]])), "--out", str(t / "v")],
+        "the views are written as a donkeycar tub, for donkeycar's trainer; the config's data must be a donkeycar tub"),
+    "views of a config without views": (
+        lambda t, s: ["views", str(config(t, tub(t / "tub"))), "--out", str(t / "v")],
+        "tub: the config has no train.views to write: give train.views (the tub defaults have them when"),
+    "views of a tub without its full-lock angle": (
+        lambda t, s: ["views", str(config(t, tub(t / "tub"), views=[[0.1, 0]])), "--out", str(t / "v")],
+        "tub: train.views of a small car rebuild its path from the steering: normalized steering needs the car's "
+        "full-lock angle"),
+    "views with out=": (
+        lambda t, s: ["views", str(config(t, tub(t / "tub"))), "out=elsewhere", "--out", str(t / "v")],
+        "out=elsewhere: steerlab views writes the tub --out names; a config's out (its training run's folder) is not "
+        "used here: leave it out"),
     "train init of another geometry": (lambda t, s: _train(f"train.init={made(t, geometry='ch2')}")(t, s),
                                        "model.pt: train.init was trained on the 'ch2' camera geometry and ",
                                        ("run/", "cache/")),  # known once the data is compiled (kept for reuse)

@@ -23,7 +23,7 @@ def _subcommands(parser, prefix=()):
 
 def test_every_subcommand_has_help_with_an_example(capsys):
     commands = list(_subcommands(build_parser()))
-    assert len(commands) == 17 and ("sim", "dagger") in commands and ("latency",) in commands
+    assert len(commands) == 18 and ("sim", "dagger") in commands and ("latency",) in commands
     for argv in [(), *commands]:
         assert main([*argv, "--help"]) == 0
         out = capsys.readouterr().out

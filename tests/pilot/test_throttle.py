@@ -159,6 +159,28 @@ def test_the_tub_default_learns_the_throttle_only_with_a_model_that_can(tmp_path
         load_config(None, base={**base, "model": {"name": "two-stream-flow"}}, overrides=["train.throttle_weight=1"])
 
 
+def test_the_tub_defaults_train_on_views_where_the_reader_gives_the_full_lock(tmp_path, capsys):
+    """Trained on a tub with no model named: donkey-linear with one view of every frame when the reader gives the
+    full-lock angle; without it, no views, and training says why, once a process."""
+    tub = write_tub(tmp_path / "tub", lambda i: 0.3, n=40)
+
+    def run(name, reader):
+        loop.train(load_config(None, base={"data": str(tub), "reader": reader, "cache": str(tmp_path / "cache"),
+                                           "out": str(tmp_path / name), "split": {"train": "0:30", "val": "30:40"},
+                                           "train": {"epochs": 1}}), progress=False)
+        return json.loads((tmp_path / name / "config.json").read_text())
+
+    capsys.readouterr()
+    for name in ("a", "b"):
+        cfg = run(name, {})
+        assert (cfg["model"]["name"], cfg["train"]["views"]) == ("donkey-linear", [])
+    err = capsys.readouterr().err
+    assert err.count("tub: trains without the tub defaults' views") == 1 and "full_lock_deg=25" in err, err
+    cfg = run("c", {"full_lock_deg": 25})
+    assert (cfg["model"]["name"], len(cfg["train"]["views"])) == ("donkey-linear", 1)
+    assert "views" not in capsys.readouterr().err
+
+
 def test_the_simulated_car_and_the_real_one_get_the_same_controls_for_every_throttle_option(tmp_path):
     """One throttle (control.Throttle): `steerlab sim drive --world track`'s pilot (track.run.checkpoint_pilot,
     the part as the sim makes it) and `SteerlabPilot` on a car, given the same checkpoint, options and frames,

@@ -6,8 +6,9 @@ import pytest
 
 from steerlab.errors import SteerlabError
 from steerlab.options import as_dict
+from steerlab.train.config import load_config
 from studies.common import ROOT
-from studies.common.donkeycar import TUBS
+from studies.common.donkeycar import READER, TUBS
 from studies.tub_replay import checkpoint, fold_blocks, fold_config, rows_of
 
 
@@ -66,7 +67,7 @@ def test_each_trained_model_is_its_recipe_on_the_fold_blocks(tmp_path):
 
     assert (cfg("pilotnet").model.name, cfg("pilotnet").train.views) == ("pilotnet", ())
     assert [(v.shift_m, v.yaw_deg) for v in cfg("pilotnet-views").train.views] == [((-0.15, 0.15), (-15, 15))]
-    assert (cfg("tub-default").model.name, cfg("tub-default").train.loss) == ("multimodal-lstm", "mae")  # as shipped
+    assert (cfg("tub-default").model.name, cfg("tub-default").train.loss) == ("multimodal-lstm", "mae")  # of then
     assert cfg("tub-default-views").train.recovery_s == 0.3
     linear = cfg("linear-views")
     assert (linear.model.name, linear.preprocess.width, linear.preprocess.height, linear.preprocess.color,
@@ -79,6 +80,18 @@ def test_each_trained_model_is_its_recipe_on_the_fold_blocks(tmp_path):
         assert (c.split.train, c.split.val, c.train.epochs, c.train.patience, c.train.seed) == (
             "300:1000", "200:300", 10, 3, 1)
         assert c.out == str(tmp_path / "hall" / "first" / f"{model}-1")
+
+
+@needs_tubs
+def test_the_tub_defaults_are_the_recipe_the_study_chose(tmp_path):
+    """A tub's config that names no model trains what the study's chosen `linear-views` trains: the same input,
+    network and training (`TUB_DEFAULTS`, docs/results/donkeycar.md "The tub defaults: linear-views")."""
+    chosen = fold_config(tmp_path, "hall", "last", "linear-views", 0, 30, 1000, patience=5)
+    shipped = load_config(None, base={"data": chosen.data, "reader": dict(READER)},
+                          overrides=["train.epochs=30", "train.patience=5"])
+    assert (as_dict(shipped.preprocess), as_dict(shipped.model)) == (as_dict(chosen.preprocess),
+                                                                     as_dict(chosen.model))
+    assert as_dict(shipped.train) == as_dict(chosen.train) | {"seed": shipped.train.seed}
 
 
 @needs_tubs
@@ -122,36 +135,3 @@ def test_the_recipe_is_chosen_on_the_selection_blocks_by_its_interventions_over_
                              "count over its best trained model's (both plus one), averaged over the tubs): "
                              "**pilotnet-views**, 1.24x")
     assert chosen.endswith("pilotnet-views 1.24x, pilotnet 16.00x")
-
-
-def test_the_views_written_as_a_tub_are_the_frames_and_labels_steerlab_trains_on(track_tub, tmp_path):
-    """donkeycar's trainer gets the same extra frames: each kept record warped to the view steerlab draws for it,
-    labelled as steerlab labels it (`view_labels`), its throttle kept; the records outside `keep` left out."""
-    import numpy as np
-
-    from steerlab.data.readers import open_recording
-    from steerlab.data.recording import SteeringConvention
-    from steerlab.data.views import lens_of, warp
-    from steerlab.train.config import load_config
-    from steerlab.train.sources import main_recording, prepare_dataset, view_labels
-    from studies.common.donkeycar import READER, views_tub
-
-    cfg = load_config(None, base={"data": str(track_tub), "reader": READER, "cache": str(tmp_path / "cache"),
-                                  "out": str(tmp_path),
-                                  "train": {"views": [[[0.05, 0.15], [-10, 10]]], "recovery_s": 0.3}})
-    rec = main_recording(cfg)
-    keep = {int(i) for i in rec.frame_ids[10:30]}
-    tub = open_recording(views_tub(cfg, keep, tmp_path / "views"))
-    view = cfg.train.views[0]
-    warped = prepare_dataset(cfg, progress=False, view=view)
-    ds = prepare_dataset(cfg, progress=False)
-    labels = view_labels(warped, ds.steering, view, cfg.train, SteeringConvention(**ds.meta["convention"]))
-    assert len(tub) == 20 and np.ptp(labels[10:30]) > 0.05
-    np.testing.assert_allclose(tub.steering, labels[10:30], atol=1e-6)
-    np.testing.assert_allclose(tub.throttle, rec.throttle[10:30], atol=1e-6)
-    shift, yaw = warped.labels["view_shift_m"], warped.labels["view_yaw_deg"]
-    for k in (0, 19):
-        want = warp(rec.load_frame(10 + k), rec.geometry, lens_of(rec), float(shift[10 + k]), float(yaw[10 + k]))
-        other = warp(rec.load_frame(10 + k), rec.geometry, lens_of(rec), float(-shift[10 + k]), 0.0)
-        got = tub.load_frame(k).astype(float)
-        assert np.abs(got - want).mean() < 3 < np.abs(got - other).mean()  # its own draw, through the JPEG

@@ -47,6 +47,10 @@ EXPECTED = {
         "32, lr 0.0003, mae, throttle weight 0.5",
         "dagger in replay: 2 rounds of 4 epochs, beta 0.5 x 0.5 a round, at 2 m/s, workers 1",
     ],
+    "donkey_tub.yaml": [
+        "donkey-linear() 3@160x120 rgb, split 0:3510/3510:4012, epochs 30 with patience 5, batch 32, lr 0.0003, mae, "
+        "throttle weight 0.5, views -0.15..+0.15 m -15..+15 deg, back on the path in 0.3 s",
+    ],
     "experiment_batch16.yaml": [
         "pilotnet: pilotnet(dropout=0.3) 1@200x66 gray, split 0:7680/7680:9600, epochs 5 with patience 3, batch 16, "
         "lr 0.0003, mse, flips, side cameras, without drift-out",

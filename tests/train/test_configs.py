@@ -53,6 +53,7 @@ def run_line(cfg) -> str:
         (t.exclude_episodes, "without " + " and ".join(t.exclude_episodes)),
         (t.views, "views " + " ".join(v.describe() for v in t.views)),
         (t.recovery_distance_m, f"returning within {t.recovery_distance_m or 0:g} m"),
+        (t.views and t.recovery_distance_m is None, f"back on the path in {t.recovery_s:g} s"),
         (cfg.extra_data, f"{len(cfg.extra_data)} extra recordings"),
         (t.init, f"from {t.init}"),
     ] if given]
@@ -199,23 +200,37 @@ def test_run_config_merges_entry_over_shared_sections(tmp_path):
 
 
 def test_a_donkeycar_tub_gets_the_tub_defaults_under_the_users_settings(tmp_path):
-    """A config that names only a tub trains the tub default (multimodal-lstm on the MAE, batch 32, Adam 3e-4);
-    what the user sets still wins, and other recordings keep the general defaults."""
+    """A config that names only a tub trains the tub defaults (donkey-linear on the whole 160x120 RGB frame, the MAE,
+    batch 32, Adam 3e-4, the views where the reader gives the full lock); what the user sets still wins, a model
+    section of the user's keeps its input and gets no views, and other recordings keep the general defaults."""
     tub = tmp_path / "tub"
     tub.mkdir()
     (tub / "manifest.json").write_text("{}")
     (tub / "catalog_0.catalog").write_text("")
-    cfg = load_config(None, [f"data={tub}"])
-    assert cfg.model.name == "multimodal-lstm"
-    assert (cfg.train.loss, cfg.train.batch_size, cfg.train.lr) == ("mae", 32, 3e-4)
+    full_lock = "reader={full_lock_deg: 25}"
+    cfg = load_config(None, [f"data={tub}", full_lock])
+    assert cfg.model.name == "donkey-linear"
+    assert (cfg.preprocess.crop, cfg.preprocess.width, cfg.preprocess.height, cfg.preprocess.color) == (
+        (0, 0, 0, 0), 160, 120, "rgb")
+    assert (cfg.train.loss, cfg.train.batch_size, cfg.train.lr, cfg.train.throttle_weight) == ("mae", 32, 3e-4, 0.5)
+    assert ([[list(v.shift_m), list(v.yaw_deg)] for v in cfg.train.views], cfg.train.recovery_s) == (
+        [[[-0.15, 0.15], [-15, 15]]], 0.3)
     assert cfg.train.epochs == 30  # the general defaults stay under it
+    cfg = load_config(None, [f"data={tub}"])  # without the full lock: no views (training says so)
+    assert (cfg.model.name, cfg.train.views) == ("donkey-linear", ())
+    cfg = load_config(None, [f"data={tub}", full_lock, "train.recovery_s=0.5"])  # a view option of the user's
+    assert (len(cfg.train.views), cfg.train.recovery_s) == (1, 0.5)
+    for own in ("train.views=[]", "train.side_cameras=false", "train.lane_weight=0"):  # a recovery of the user's
+        cfg = load_config(None, [f"data={tub}", full_lock, own])
+        assert (cfg.model.name, cfg.train.views, cfg.train.recovery_s) == ("donkey-linear", (), 1.0), own
     (tmp_path / "mine.yaml").write_text(f"data: {tub}\nmodel: {{name: pilotnet}}\ntrain: {{epochs: 4}}\n")
-    cfg = load_config(tmp_path / "mine.yaml", ["train.loss=mse"])
+    cfg = load_config(tmp_path / "mine.yaml", ["train.loss=mse", full_lock])
     assert (cfg.model.name, cfg.train.loss, cfg.train.epochs, cfg.train.batch_size) == ("pilotnet", "mse", 4, 32)
+    assert (cfg.preprocess, cfg.train.views) == (load_config(None, ["data=x"]).preprocess, ())  # its own input
     cfg = load_config(None, [f"data={tub}", "model.name=two-stream-flow"])  # trains on a loss of its own
     assert (cfg.train.loss, cfg.train.batch_size) == ("mse", 32)
     cfg = load_config(None, [f"data={tmp_path / 'ch2'}"])
-    assert (cfg.model.name, cfg.train.loss, cfg.train.batch_size) == ("pilotnet", "mse", 100)
+    assert (cfg.model.name, cfg.train.loss, cfg.train.batch_size, cfg.train.views) == ("pilotnet", "mse", 100, ())
 
 
 def test_track_best_is_the_recipe_the_closed_loop_chose(stand_in_tubs):

@@ -1,4 +1,4 @@
-"""Subcommands that train: train, experiment, tune."""
+"""Subcommands that train: train, experiment, tune, and views (what a config trains on, for another trainer)."""
 
 from __future__ import annotations
 
@@ -72,6 +72,24 @@ def cmd_tune(a) -> None:
                     if (out / f).exists()))
 
 
+def cmd_views(a) -> None:
+    from steerlab.paths import check_outputs
+    from steerlab.train.config import load_config
+    from steerlab.train.views_tub import write_views_tub
+
+    from steerlab.train.config import override_key
+
+    if given := [o for o in a.overrides if override_key(o) == "out"]:
+        raise SteerlabError(f"{given[0]}: steerlab views writes the tub --out names; a config's out (its training "
+                            "run's folder) is not used here: leave it out")
+    cfg = load_config(a.config, a.overrides)
+    check_outputs({"output folder (--out)": a.out}, inputs=cfg.inputs(), kind="recording")
+    out = write_views_tub(cfg, a.out)
+    records = f"records {cfg.range} of {cfg.data}" if cfg.range else f"every record of {cfg.data}"
+    print(f"wrote {out}: {len(cfg.train.views)} view(s) of {records}; train donkeycar on both: donkey train --tub "
+          f"{cfg.data},{out} --type linear")
+
+
 def register(sub) -> None:
     from steerlab.tune.options import TuneOptions
 
@@ -88,6 +106,14 @@ def register(sub) -> None:
     q.add_argument("overrides", nargs="*", help="section.key=value overrides for every run")
     add_options(q, "experiment", ExperimentCommand)
     q.set_defaults(func=cmd_experiment)
+
+    q = sub.add_parser("views", help="write the views a config trains on (train.views) as a donkeycar tub, for "
+                       "donkeycar's own trainer", epilog="example: steerlab views configs/donkey_tub.yaml "
+                       "data=path/to/my/tub reader.full_lock_deg=25 --out runs/my-tub-views")
+    path_option(q, "config", kind="file", help="training config of a donkeycar tub (see configs/donkey_tub.yaml)")
+    q.add_argument("overrides", nargs="*", help="section.key=value overrides, e.g. reader.full_lock_deg=25")
+    path_option(q, "--out", kind="folder", makes="recording", required=True, help="the tub to write")
+    q.set_defaults(func=cmd_views)
 
     q = sub.add_parser("tune", help="BOHB-style hyperparameter search (Optuna TPE + Hyperband) over a config's "
                        "tune: section", epilog="example: steerlab tune configs/tune_multimodal_lstm.yaml --trials 40; "

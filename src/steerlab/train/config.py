@@ -20,7 +20,7 @@ from steerlab.data.preprocess import PreprocessConfig, PreprocessOptions
 from steerlab.data.splits import Split
 from steerlab.data.tub import is_tub
 from steerlab.data.views import EXPECTED as VIEWS_EXPECTED, View
-from steerlab.errors import SteerlabError
+from steerlab.errors import SteerlabError, warn
 from steerlab.models.registry import ModelSpec, learns_lane, learns_throttle, list_models
 from steerlab import files
 from steerlab.paths import a_path, distinct, same_path
@@ -246,14 +246,18 @@ def unreadable(out: Path, name: str, e: Exception, what: str = "a run") -> Steer
                          "choose a new out directory or delete it")
 
 
-# What a config that leaves them out gets on a donkeycar tub, under the user's own settings: the model and loss
-# chosen on the selection blocks of both shared tubs (docs/results/donkeycar.md, "steerlab side by side with
-# donkeycar").
-# multimodal-lstm had the lowest mean selection MAE of the two tubs; the MAE loss suits the nearly binary
-# steering of an RC car. The general defaults (PilotNet, MSE) lose to donkeycar's linear model there. The
-# throttle is learned beside the steering, as donkeycar's linear model does (weight: "Learned throttle" there).
-TUB_DEFAULTS = {"model": {"name": "multimodal-lstm"},
-                "train": {"batch_size": 32, "lr": 3.0e-4, "loss": "mae", "throttle_weight": 0.5}}
+# What a config that leaves them out gets on a donkeycar tub, under the user's own settings: the recipe chosen on the
+# selection blocks of the three shared tubs (docs/results/donkeycar.md, "The tub defaults: linear-views"):
+# donkeycar linear's layout (donkey-linear) on the whole 160x120 RGB frame as donkeycar feeds it, the MAE loss
+# (it suits the nearly binary steering of an RC car), batch 32, Adam 3e-4, the throttle learned beside the steering
+# with weight 0.5, and every frame also seen from a car moved up to 15 cm and turned up to 15 degrees, labelled with
+# the steering back to the path in 0.3 s (TUB_VIEWS: they need the car's full-lock angle). A config with a model
+# section of its own keeps its input and gets no views: the training settings only (`tub_defaults`).
+TUB_VIEWS = {"views": [[[-0.15, 0.15], [-15, 15]]], "recovery_s": 0.3}
+TUB_DEFAULTS = {"preprocess": {"crop": [0, 0, 0, 0], "width": 160, "height": 120, "color": "rgb"},
+                "model": {"name": "donkey-linear"},
+                "train": {"batch_size": 32, "lr": 3.0e-4, "loss": "mae", "throttle_weight": 0.5, **TUB_VIEWS}}
+_SAID: set[str] = set()  # the tubs said to train without the views
 SECTIONS = [f.name for f in fields(TrainConfig)]
 
 
@@ -314,15 +318,40 @@ def layered(*layers: dict | None, overrides=()) -> dict:
     return cfg
 
 
+def tub_defaults(given: dict) -> dict:
+    """TUB_DEFAULTS as they lie under `given`, a tub's config as the user wrote it (its layers merged): a config with
+    a model section of its own keeps its input and trains without the views; so does one that chooses its own
+    recovery (train.views, side_cameras) or learns the lane (lane_weight: the lane is the recorded camera's), and one
+    whose reader gives no full-lock angle (the views' labels are steering angles; `say_without_views` says so)."""
+    train = given.get("train") if isinstance(given.get("train"), dict) else {}
+    reader = given.get("reader") if isinstance(given.get("reader"), dict) else {}
+    own = "model" in given
+    defaults = {k: v for k, v in TUB_DEFAULTS.items() if not (own and k in ("preprocess", "model"))}
+    if own or any(k in train for k in ("views", "side_cameras", "lane_weight")) or reader.get("full_lock_deg") is None:
+        return {**defaults, "train": {k: v for k, v in defaults["train"].items() if k not in TUB_VIEWS}}
+    return defaults
+
+
+def say_without_views(cfg: TrainConfig, full_lock: bool) -> None:
+    """A tub trained on the tub defaults' model without views, its reader giving no full-lock angle (`full_lock`),
+    is told what it misses, once a process."""
+    data = cfg.data or ""
+    if (not full_lock and not cfg.train.views and cfg.model.name == TUB_DEFAULTS["model"]["name"]
+            and is_tub(Path(data)) and data not in _SAID):
+        _SAID.add(data)
+        warn(f"{data}: trains without the tub defaults' views (a car moved and turned, labelled with the steering "
+             "back to its path): they need the car's full-lock angle, e.g. reader option full_lock_deg=25")
+
+
 def parse_config(*layers: dict | None, overrides=(), source: Path | None = None) -> TrainConfig:
     """Raw config layers (plain values, merged by `layered`) and overrides as a TrainConfig. Under them lie the
-    default model and, when the data is a donkeycar tub, TUB_DEFAULTS (a model with a loss of its own keeps it, a
-    model that cannot learn the throttle learns none). `source`: the config file, named in errors about the whole
-    config."""
+    default model and, when the data is a donkeycar tub, TUB_DEFAULTS as `tub_defaults` lays them (a model with a
+    loss of its own keeps it, a model that cannot learn the throttle learns none). `source`: the config file, named
+    in errors about the whole config."""
     plain = layered({"model": as_dict(ModelSpec())}, *layers, overrides=overrides)
     raw = plain
     if isinstance(plain.get("data"), str) and is_tub(Path(plain["data"])):
-        raw = layered(TUB_DEFAULTS, *layers, overrides=overrides)
+        raw = layered(tub_defaults(layered(*layers, overrides=overrides)), *layers, overrides=overrides)
         model, own = raw.get("model"), plain.get("train") if isinstance(plain.get("train"), dict) else {}
         if isinstance(model, dict) and hasattr(ModelSpec.parse_option(model, "model").cls, "loss"):
             raw["train"]["loss"] = own.get("loss", "mse")
