@@ -48,6 +48,11 @@ BAD_INPUTS = {
         lambda t, s: ["views", str(config(t, tub(t / "tub"), views=[[0.1, 0]])), "--out", str(t / "v")],
         "tub: train.views of a small car rebuild its path from the steering: normalized steering needs the car's "
         "full-lock angle"),
+    "train views of a tub with a record without its throttle": (
+        lambda t, s: ["train", str(config(t, tub(t / "tub", {0: {"user/throttle": None}}), views=[[0.1, 0]])),
+                      "reader={full_lock_deg: 25}"],
+        "tub: records neither speed nor throttle: train.views of a small car need the speed it drove at (from the "
+        "throttle, as replay takes it); train without views (train.views=[])"),
     "views with out=": (
         lambda t, s: ["views", str(config(t, tub(t / "tub"))), "out=elsewhere", "--out", str(t / "v")],
         "out=elsewhere: steerlab views writes the tub --out names; a config's out (its training run's folder) is not "

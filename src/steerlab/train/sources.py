@@ -164,7 +164,8 @@ def check_views(cfg: TrainConfig, rec: Recording, convention: SteeringConvention
         return
     if rec.speed is None and rec.throttle is None:
         raise DataError(rec.source, "records neither speed nor throttle: train.views of a small car need the speed "
-                                    "it drove at (from the throttle, as replay takes it); train without views")
+                                    "it drove at (from the throttle, as replay takes it); train without views "
+                                    "(train.views=[])")
     try:
         (convention or rec.convention).to_road_wheel_left(0.0, cfg.train.steering_ratio or 1.0)
     except SteerlabError as e:
