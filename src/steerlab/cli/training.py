@@ -74,10 +74,8 @@ def cmd_tune(a) -> None:
 
 def cmd_views(a) -> None:
     from steerlab.paths import check_outputs
-    from steerlab.train.config import load_config
+    from steerlab.train.config import load_config, override_key
     from steerlab.train.views_tub import write_views_tub
-
-    from steerlab.train.config import override_key
 
     if given := [o for o in a.overrides if override_key(o) == "out"]:
         raise SteerlabError(f"{given[0]}: steerlab views writes the tub --out names; a config's out (its training "
