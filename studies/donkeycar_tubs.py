@@ -12,8 +12,8 @@ first 80 % for that many epochs; donkeycar's trainer gets the whole first 80 % a
 and splits it itself, as its users run it (`donkey train`, default config: 80/20 random split, early
 stopping). Training time is the wall-clock time of each trainer (for steerlab both of its runs). steerlab's
 settings are its defaults for a tub (`TUB_DEFAULTS` in train/config.py: batch 32, Adam 3e-4, MAE loss, the
-throttle learned with weight 0.5 where the model can), only the model is named; multimodal-lstm is the tub
-default. `--models track-best` trains the recipe of configs/track_best.yaml (its input, network and training) on
+throttle learned with weight 0.5 where the model can), only the model is named; multimodal-lstm was the tub
+default then. `--models track-best` trains the recipe of configs/track_best.yaml (its input, network and training) on
 the same blocks instead.
 
 Each model, steerlab's and donkeycar's (its own part behind a pipe), is also replayed in closed loop on the held-out

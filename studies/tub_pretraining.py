@@ -1,9 +1,10 @@
-"""Sim-to-real for donkeycar tubs: the tub default pretrained in the track world, then trained on a real tub,
-against the same training on the tub alone and against donkeycar's own linear model, on both shared tubs.
+"""Sim-to-real for donkeycar tubs: the tub default of then (multimodal-lstm) pretrained in the track world, then
+trained on a real tub, against the same training on the tub alone and against donkeycar's own linear model, on both
+shared tubs.
 
 Pretraining: the tub default trained for 3 epochs on the track world's four expert tubs
 (`configs/track_default.yaml train.epochs=3`; the tubs are recorded first where they are missing). On each real tub and seed, the recipe of
-`configs/donkey_best.yaml` (the tub defaults, the epochs chosen on each tub's selection block: hall 25,
+`configs/donkey_best.yaml` (the tub defaults of then, the epochs chosen on each tub's selection block: hall 25,
 taped-track 12, keeping the last epoch) is trained twice: from scratch and from the pretrained checkpoint
 (`train.init`; taped-track's constant throttle drops the throttle output). donkeycar's linear model is trained
 with its own trainer on the same first 80 % (`run_donkey` of `donkeycar_tubs.py`, in donkeycar's own
