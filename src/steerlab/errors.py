@@ -24,3 +24,14 @@ class DataError(SteerlabError):
 def warn(message: str) -> None:
     """Tell the user about something that works but probably not as they intend."""
     print(f"warning: {message}", file=sys.stderr)
+
+
+_SAID: set[str] = set()  # what warn_once has said in this process
+
+
+def warn_once(message: str) -> None:
+    """`warn`, the first time in this process only: for what is read again within one command (a recording opened
+    several times, a config parsed more than once)."""
+    if message not in _SAID:
+        _SAID.add(message)
+        warn(message)

@@ -22,6 +22,12 @@ def _serve(**convention):
     return lambda tmp_path, stack: ["serve", str(made(tmp_path, **convention)), "--port", "4599"]
 
 
+def _corrupt(folder):
+    """The tub `folder` with its fourth frame no image."""
+    (folder / "images" / "3_cam_image_array_.jpg").write_bytes(b"no JPEG")
+    return folder
+
+
 # each case: a function (tmp_path, stack) -> the command's arguments, and the message's substring (builders.py)
 BAD_INPUTS = {
     "track recipe on tubs of another camera": (
@@ -53,6 +59,12 @@ BAD_INPUTS = {
                       "reader={full_lock_deg: 25}"],
         "tub: records neither speed nor throttle: train.views of a small car need the speed it drove at (from the "
         "throttle, as replay takes it); train without views (train.views=[])"),
+    "views of a recording that is not there": (
+        lambda t, s: ["views", str(config(t, t / "none")), "--out", str(t / "v")], "none: recording not found"),
+    "views of a tub with a corrupt frame": (
+        lambda t, s: ["views", str(config(t, _corrupt(tub(t / "tub")), views=[[0.1, 0]])), "reader={full_lock_deg: 25}",
+                      "--out", str(t / "v")],
+        "3_cam_image_array_.jpg: cannot decode image (corrupt or not a JPEG/PNG)", ("cache/",)),
     "views with out=": (
         lambda t, s: ["views", str(config(t, tub(t / "tub"))), "out=elsewhere", "--out", str(t / "v")],
         "out=elsewhere: steerlab views writes the tub --out names; a config's out (its training run's folder) is not "

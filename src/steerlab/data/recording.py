@@ -12,7 +12,7 @@ import cv2
 import numpy as np
 
 from steerlab.options import Range
-from steerlab.errors import DataError, SteerlabError, warn
+from steerlab.errors import DataError, SteerlabError, warn, warn_once
 
 if TYPE_CHECKING:
     from steerlab.data.fisheye import FisheyeCamera
@@ -26,9 +26,6 @@ FULL_LOCK_DEG = Range(0, 90, lo_open=True, hi_open=True, unit="degrees")  # a ca
 PLAUSIBLE_FULL_LOCK_DEG = 5.0  # cars and RC cars turn their wheels 15-35 degrees at full lock
 
 
-_SAID: set[str] = set()  # what said_full_lock said once in this process: a recording is opened several times a command
-
-
 def said_full_lock(deg: float | None, where: str, once: bool = True) -> None:
     """A full-lock angle below PLAUSIBLE_FULL_LOCK_DEG is said (`once`: the first time in the process only, as a
     reader's option is read again with every opening): radians where degrees are expected, most likely. Call it
@@ -36,9 +33,8 @@ def said_full_lock(deg: float | None, where: str, once: bool = True) -> None:
     message = (f"{where}: full_lock_deg={float(deg):g}: a car's wheels turn {PLAUSIBLE_FULL_LOCK_DEG:g} degrees or "
                "more at full lock; radians where degrees are expected? (math.degrees converts)") if deg is not None \
         and float(deg) < PLAUSIBLE_FULL_LOCK_DEG else None
-    if message and not (once and message in _SAID):
-        _SAID.add(message)
-        warn(message)
+    if message:
+        (warn_once if once else warn)(message)
 
 
 @dataclass(frozen=True)

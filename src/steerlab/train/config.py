@@ -20,7 +20,7 @@ from steerlab.data.preprocess import PreprocessConfig, PreprocessOptions
 from steerlab.data.splits import Split
 from steerlab.data.tub import is_tub
 from steerlab.data.views import EXPECTED as VIEWS_EXPECTED, View
-from steerlab.errors import SteerlabError, warn
+from steerlab.errors import SteerlabError, warn_once
 from steerlab.models.registry import ModelSpec, learns_lane, learns_throttle, list_models
 from steerlab import files
 from steerlab.paths import a_path, distinct, same_path
@@ -257,7 +257,6 @@ TUB_VIEWS = {"views": [[[-0.15, 0.15], [-15, 15]]], "recovery_s": 0.3}
 TUB_DEFAULTS = {"preprocess": {"crop": [0, 0, 0, 0], "width": 160, "height": 120, "color": "rgb"},
                 "model": {"name": "donkey-linear"},
                 "train": {"batch_size": 32, "lr": 3.0e-4, "loss": "mae", "throttle_weight": 0.5, **TUB_VIEWS}}
-_SAID: set[str] = set()  # the tubs said to train without the views
 SECTIONS = [f.name for f in fields(TrainConfig)]
 
 
@@ -337,9 +336,8 @@ def say_without_views(cfg: TrainConfig, full_lock: bool) -> None:
     is told what it misses, once a process."""
     data = cfg.data or ""
     if (not full_lock and not cfg.train.views and cfg.model.name == TUB_DEFAULTS["model"]["name"]
-            and is_tub(Path(data)) and data not in _SAID):
-        _SAID.add(data)
-        warn(f"{data}: trains without the tub defaults' views (a car moved and turned, labelled with the steering "
+            and is_tub(Path(data))):
+        warn_once(f"{data}: trains without the tub defaults' views (a car moved and turned, labelled with the steering "
              "back to its path): they need the car's full-lock angle, e.g. reader option full_lock_deg=25")
 
 

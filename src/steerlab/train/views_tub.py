@@ -25,14 +25,14 @@ def write_views_tub(cfg: TrainConfig, out: str | Path, keep: set[int] | None = N
     starts a second after the last."""
     from tqdm import tqdm
 
-    if not (isinstance(cfg.data, str) and is_tub(Path(cfg.data))):
+    rec = main_recording(cfg)  # a path that is not there is said as every command says it
+    if not is_tub(Path(cfg.data)):
         raise SteerlabError(f"{cfg.data}: the views are written as a donkeycar tub, for donkeycar's trainer; the "
                             "config's data must be a donkeycar tub")
     if not cfg.train.views:
         raise SteerlabError(f"{cfg.data}: the config has no train.views to write: give train.views (the tub "
                             "defaults have them when the config names no model and the reader gives the car's "
                             "full-lock angle, e.g. reader.full_lock_deg=25)")
-    rec = main_recording(cfg)
     check_views(cfg, rec)
     ds = prepare_dataset(cfg, progress=progress)
     lens, conv = lens_of(rec, cfg.train.calibration), SteeringConvention(**ds.meta["convention"])
