@@ -27,6 +27,14 @@ needs_ch2 = pytest.mark.skipif(not (CH2 / "CH2_final_evaluation.csv").exists(), 
 needs_sim = pytest.mark.skipif(not (SIM / "driving_log.csv").exists(), reason="../shared/data absent")
 
 
+@pytest.fixture(autouse=True)
+def _nothing_said_yet():
+    """Every test starts as a fresh process does: what `errors.warn_once` said in an earlier test is said again."""
+    from steerlab import errors
+
+    errors._SAID.clear()
+
+
 @pytest.fixture
 def ch2_folder(tmp_path):
     """A tiny CH2-layout folder (tmp_path/ch2, beside the outputs of a test): 6 frames of 640x480, answer-file

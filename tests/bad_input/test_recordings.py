@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from steerlab.cli import main
+from steerlab import errors
 from steerlab.errors import SteerlabError
 from tests.bad_input.builders import (_compile, _damaged, _renamed_column, _tub_replay, _tune_space, _with, config,
                                       refused_in_one_line, tear)
@@ -202,6 +203,19 @@ def test_torn_tub_lines_are_read_past_with_one_warning(tmp_path, capsys):
     assert "3 record(s) lost" in warning[0] and "strict: true" in warning[0]
 
 
+def test_what_a_reader_reads_past_is_said_once_however_often_the_recording_is_read(tmp_path, capsys):
+    from steerlab.data.readers import open_recording
+
+    folder = tub(tmp_path / "tub")
+    (folder / "images" / "3_cam_image_array_.jpg").unlink()
+    for _ in range(2):  # a command reads its recording more than once (its checks, then its frames)
+        assert len(open_recording(folder, options={"skip_missing": True})) == ROWS - 1
+    assert main(["compile", "--data", str(folder), "--reader", "skip_missing=true",
+                 "--cache", str(tmp_path / "cache")]) == 0
+    warning = [line for line in capsys.readouterr().err.splitlines() if line.startswith("warning:")]
+    assert warning == [f"warning: {folder}: skipped 1 record(s) whose image is missing (indexes 3)"]
+
+
 def test_torn_last_line_of_a_driving_log_is_read_past(tmp_path, capsys):
     from steerlab.data.readers import open_recording
 
@@ -247,6 +261,7 @@ def test_a_damaged_tub_catalog_is_read_past_with_the_loss_said(tmp_path, capsys)
     for what, bad in _damaged(data):
         catalog.write_bytes(bad)
         capsys.readouterr()
+        errors._SAID.clear()  # each damage read as a fresh process reads it (a loss is said once a process)
         try:
             rec = open_recording(folder)
         except SteerlabError as e:  # nothing left to read, or a record a flip made wrong: said in one line

@@ -72,6 +72,11 @@ def test_each_trained_model_is_its_recipe_on_the_fold_blocks(tmp_path):
     linear = cfg("linear-views")
     assert (linear.model.name, linear.preprocess.width, linear.preprocess.height, linear.preprocess.color,
             linear.train.loss, len(linear.train.views)) == ("donkey-linear", 160, 120, "rgb", "mae", 1)
+    for gentle in (0.6, 0.9):  # linear-views but for the point its views' labels pursue
+        other = cfg(f"linear-views-{gentle}")
+        assert other.train.recovery_s == gentle and linear.train.recovery_s == 0.3
+        assert as_dict(other.train) == as_dict(linear.train) | {"recovery_s": gentle}
+        assert (as_dict(other.model), as_dict(other.preprocess)) == (as_dict(linear.model), as_dict(linear.preprocess))
     best, shipped = cfg("track-best"), read_yaml(ROOT / "configs" / "track_best.yaml")
     assert (best.model.name, best.preprocess.width, best.train.hue_deg, best.train.flip) == (
         shipped["model"]["name"], shipped["preprocess"]["width"], shipped["train"]["hue_deg"], True)

@@ -16,7 +16,7 @@ from steerlab.data.car import CARS
 from steerlab.data.recording import Recording, SteeringConvention
 from steerlab.data.rows import (Reader, apply_range, check_images, check_increasing, check_unique, csv_header, ends_torn,
                                 number, read_rows)
-from steerlab.errors import DataError, warn
+from steerlab.errors import DataError, warn_once
 from steerlab.options import Options, option
 
 MPH_TO_MS = 0.44704
@@ -103,8 +103,8 @@ def _sim_row(log: Path, row: list[str], r: int, idx: list[int]) -> tuple[dict[st
 
 
 def read_sim_log(log: str | Path, frame_range=None, strict: bool = False) -> Recording:
-    """A simulator driving log. A torn last line (a recording cut off mid-write) is left out with a warning,
-    or refused with `strict`; a bad line anywhere else is an error."""
+    """A simulator driving log. A torn last line (a recording cut off mid-write) is left out with a warning (once a
+    process), or refused with `strict`; a bad line anywhere else is an error."""
     log = Path(log)
     rows = read_rows(log)
     if rows and rows[0][0].strip() == "center":
@@ -121,8 +121,8 @@ def read_sim_log(log: str | Path, frame_range=None, strict: bool = False) -> Rec
         try:
             _sim_row(log, rows[-1], last, idx)
         except DataError as e:
-            warn(f"{log}: row {last} is torn (the recording was cut off mid-write?): left out, 1 record lost "
-                 f"({e.message}; reader option strict: true refuses such a log)")
+            warn_once(f"{log}: row {last} is torn (the recording was cut off mid-write?): left out, 1 record "
+                      f"lost ({e.message}; reader option strict: true refuses such a log)")
             rows = rows[:-1]
     if not rows:
         raise DataError(log, "the driving log has no rows: record it again, or give another log")

@@ -17,7 +17,8 @@ be used for splits.
 
 A car that loses power mid-write leaves torn catalog lines (a run of NUL bytes, half a JSON record). As
 donkeycar's own reader does, they are read past, with one warning that names them and counts the records lost
-(from the gaps in `_index`); reader option `strict: true` refuses such a tub instead.
+(from the gaps in `_index`; said once a process, however often the tub is opened); reader option `strict: true`
+refuses such a tub instead.
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ from steerlab.data.rows import Reader, apply_range
 from steerlab.data.recording import FULL_LOCK_DEG, Recording, SteeringConvention, said_full_lock
 from steerlab.options import Options, option
 from steerlab.paths import regular_file
-from steerlab.errors import DataError, SteerlabError, warn
+from steerlab.errors import DataError, SteerlabError, warn_once
 from steerlab.files import unique_pairs
 
 
@@ -216,8 +217,8 @@ def read_tub(folder: str | Path, frame_range=None, full_lock_deg: float | None =
     if torn_at or cut_at:
         where = "; ".join([f"{name} row(s) {_ranges(rows)}" for name, rows in torn_at.items()]
                           + [f"{name}: {n} line(s) cut off at its end" for name, n in cut_at.items()])
-        warn(f"{folder}: read past torn catalog lines (a car that lost power mid-write?): {where}; {lost} "
-             "record(s) lost (reader option strict: true refuses such a tub)")
+        warn_once(f"{folder}: read past torn catalog lines (a car that lost power mid-write?): {where}; {lost} "
+                  "record(s) lost (reader option strict: true refuses such a tub)")
     if not records:
         raise DataError(folder, "the tub has no records (all deleted or empty catalogs): record it "
                                 "again, or give another tub")
@@ -239,8 +240,8 @@ def read_tub(folder: str | Path, frame_range=None, full_lock_deg: float | None =
             continue
         kept.append((image, (path, line, rec)))
     if missing:
-        warn(f"{folder}: skipped {len(missing)} record(s) whose image is missing (indexes "
-             f"{', '.join(map(str, missing[:10]))}{' ...' if len(missing) > 10 else ''})")
+        warn_once(f"{folder}: skipped {len(missing)} record(s) whose image is missing (indexes "
+                  f"{', '.join(map(str, missing[:10]))}{' ...' if len(missing) > 10 else ''})")
     if not kept:
         raise DataError(folder, "no record has its image: copy the tub's images folder with it")
     try:

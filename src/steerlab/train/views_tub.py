@@ -45,9 +45,8 @@ def write_views_tub(cfg: TrainConfig, out: str | Path, keep: set[int] | None = N
               disable=None if progress else True) as bar:
         for k, view in enumerate(cfg.train.views):
             view = replace(view, draw=k)
-            warped = prepare_dataset(cfg, progress=False, view=view)
-            angle = view_labels(warped, ahead, view, cfg.train, conv)  # the tub's unit: the servo, positive right
-            shift, yaw = warped.labels["view_shift_m"], warped.labels["view_yaw_deg"]
+            shift, yaw = view.offsets(len(ds))  # the draws training's compile of this view makes
+            angle = view_labels(ds, ahead, view, cfg.train, conv)  # the tub's unit: the servo, positive right
             for n, i in enumerate(records):
                 frame = warp(rec.load_frame(i), rec.geometry, lens, float(shift[i]), float(yaw[i]))
                 writer.add(frame, k * gap + int(rec.timestamps_ns[i] - t0),
