@@ -24,9 +24,9 @@ to 15 cm and turned up to 15 degrees, labelled with the steering back to the pat
 `track-best` (configs/track_best.yaml's input, network and training) and `linear-views` (donkeycar linear's layout
 written in steerlab, `donkey-linear`, on the whole 160 x 120 RGB frame as donkeycar feeds it, on the tub defaults'
 training with the views: steerlab's trainer beside donkeycar's on the same frames; chosen here, it is the tub defaults
-now, `TUB_DEFAULTS`) and `linear-views-0.6`, `linear-views-0.9` (the same, the views' labels pursuing the point 0.6 or
-0.9 s ahead on the path, `train.recovery_s`: gentler returns, replay's own is 0.9 s); every trained model gets at most
---epochs
+now, `TUB_DEFAULTS`) and `linear-views-0.2`, `-0.6`, `-0.9` (the same, the views' labels pursuing the point 0.2, 0.6 or
+0.9 s ahead on the path instead of 0.3, `train.recovery_s`: sharper or gentler returns; replay's own is 0.9 s); every
+trained model gets at most --epochs
 epochs and --patience (the runs of other values in a folder of their own), and a finished run of another recipe is
 refused (delete its folder). `--donkeycar` adds
 donkeycar's linear model by its own trainer (`donkey train --type linear`, donkeycar 5.3.0 in its own environment)
@@ -44,8 +44,8 @@ plus one; averaged over the tubs); the scored blocks only report. donkeycar's tr
 blocks (its own 80/20 split), so it has no selection score, and it chooses nothing.
 
 python -m studies.tub_replay [--seeds 2] [--epochs 10] [--patience 3] [--tubs hall,taped-track,wood-tape]
-    [--models pilotnet,pilotnet-views,tub-default,tub-default-views,track-best,linear-views,linear-views-0.6,
-    linear-views-0.9] [--donkeycar]
+    [--models pilotnet,pilotnet-views,tub-default,tub-default-views,track-best,linear-views,linear-views-0.2,
+    linear-views-0.6,linear-views-0.9] [--donkeycar]
     [--donkeycar-views]
 Every finished run is kept in runs/tub-replay/epochs-N[-patience-P]/results.json and reused by a later run of the same
 --epochs and --patience;
@@ -89,7 +89,7 @@ def track_best() -> dict:
 # the trained models: their config sections beside the tub defaults' training settings (a model named: no input or
 # views of the defaults'); linear-views is the tub defaults, written out; --epochs and --patience for all
 MULTIMODAL = {"model": {"name": "multimodal-lstm"}}  # the tub default of earlier builds
-RECOVERY_S = (0.6, 0.9)  # linear-views with the views' pursued point further ahead (gentler returns)
+RECOVERY_S = (0.2, 0.6, 0.9)  # linear-views with the views' pursued point nearer (sharper returns) or further ahead
 TRAINED = {"pilotnet": lambda: PILOTNET, "pilotnet-views": lambda: {**PILOTNET, "train": VIEW},
            "tub-default": lambda: MULTIMODAL, "tub-default-views": lambda: {**MULTIMODAL, "train": VIEW},
            "track-best": track_best,
