@@ -89,13 +89,13 @@ def track_best() -> dict:
 # the trained models: their config sections beside the tub defaults' training settings (a model named: no input or
 # views of the defaults'); linear-views is the tub defaults, written out; --epochs and --patience for all
 MULTIMODAL = {"model": {"name": "multimodal-lstm"}}  # the tub default of earlier builds
+LINEAR = {**WHOLE_FRAME, "model": {"name": "donkey-linear"}}  # donkeycar linear's layout, as donkeycar feeds it
 RECOVERY_S = (0.2, 0.6, 0.9)  # linear-views with the views' pursued point nearer (sharper returns) or further ahead
 TRAINED = {"pilotnet": lambda: PILOTNET, "pilotnet-views": lambda: {**PILOTNET, "train": VIEW},
            "tub-default": lambda: MULTIMODAL, "tub-default-views": lambda: {**MULTIMODAL, "train": VIEW},
            "track-best": track_best,
-           "linear-views": lambda: {**WHOLE_FRAME, "model": {"name": "donkey-linear"}, "train": VIEW},
-           **{f"linear-views-{s}": lambda s=s: {**WHOLE_FRAME, "model": {"name": "donkey-linear"},
-                                                "train": {**VIEW, "recovery_s": s}} for s in RECOVERY_S}}
+           "linear-views": lambda: {**LINEAR, "train": VIEW},
+           **{f"linear-views-{s}": lambda s=s: {**LINEAR, "train": {**VIEW, "recovery_s": s}} for s in RECOVERY_S}}
 MODELS = "pilotnet,pilotnet-views"  # --models by default
 DONKEY_LINEAR = "donkeycar-linear"  # donkeycar's linear model by its own trainer (--donkeycar)
 DONKEY_VIEWS = "donkeycar-linear-views"  # the same, trained on pilotnet-views's views as well (--donkeycar-views)
