@@ -15,27 +15,26 @@ scored blocks no model of that fold trained on, each several laps of its track. 
   human's path; the car is then put back on the path, heading along it, and the model's memory is cleared. The
   count per 100 m of the human's path is the measure.
 
-The models: `zero` and `train-mean` (a model that learned nothing); `pilotnet` on the tub defaults (MAE loss, batch
-32, Adam 3e-4, the throttle learned where the tub varies it); `pilotnet-views`, the same with
-`train.views=[[[-0.15, 0.15], [-15, 15]]]` and `train.recovery_s=0.3` (every frame also seen from a car moved up
-to 15 cm and turned up to 15 degrees, labelled with the steering back to the path); and `other-track`: the
-`pilotnet-views` model of fold `last` of each other tub (a model of another track, car and lens). `--models` adds
-`tub-default` (the tub default of earlier builds: multimodal-lstm), `tub-default-views` (the same with those views),
-`track-best` (configs/track_best.yaml's input, network and training) and `linear-views` (donkeycar linear's layout
-written in steerlab, `donkey-linear`, on the whole 160 x 120 RGB frame as donkeycar feeds it, on the tub defaults'
-training with the views: steerlab's trainer beside donkeycar's on the same frames; chosen here, it is the tub defaults
-now, `TUB_DEFAULTS`) and `linear-views-0.2`, `-0.6`, `-0.9` (the same, the views' labels pursuing the point 0.2, 0.6 or
-0.9 s ahead on the path instead of 0.3, `train.recovery_s`: sharper or gentler returns; replay's own is 0.9 s); every
-trained model gets at most --epochs
-epochs and --patience (the runs of other values in a folder of their own), and a finished run of another recipe is
-refused (delete its folder). `--donkeycar` adds
-donkeycar's linear model by its own trainer (`donkey train --type linear`, donkeycar 5.3.0 in its own environment)
-on each fold's training and validation blocks as one tub, which it splits 80/20 at random as its users train:
-the same records as steerlab's, `--seeds` runs (its trainer is not seeded); `--donkeycar-views` adds it trained on
+The models: `zero` and `train-mean` (a model that learned nothing); `pilotnet` on the tub defaults (MAE loss, batch 32,
+Adam 3e-4, the throttle learned where the tub varies it); `pilotnet-views`, the same with `train.views=[[[-0.15, 0.15],
+[-15, 15]]]` and `train.recovery_s=0.3` (every frame also seen from a car moved up to 15 cm and turned up to 15 degrees,
+labelled with the steering back to the path); and `other-track`: the `pilotnet-views` model of fold `last` of each other
+tub (a model of another track, car and lens). `--models` adds `tub-default` (the tub default of earlier builds:
+multimodal-lstm), `tub-default-views` (the same with those views), `track-best` (configs/track_best.yaml's input,
+network and training) and `linear-views` (donkeycar linear's layout written in steerlab, `donkey-linear`, on the whole
+160 x 120 RGB frame as donkeycar feeds it, on the tub defaults' training with the views: steerlab's trainer beside
+donkeycar's on the same frames; chosen here, it is the tub defaults now, `TUB_DEFAULTS`), `linear` (the same without the
+views: the tub defaults where a config lacks the full lock) and `linear-views-0.2`, `-0.6`, `-0.9` (the same, the views'
+labels pursuing the point 0.2, 0.6 or 0.9 s ahead on the path instead of 0.3, `train.recovery_s`: sharper or gentler
+returns; replay's own is 0.9 s); every trained model gets at most --epochs epochs and --patience (the runs of other
+values in a folder of their own), and a finished run of another recipe is refused (delete its folder). `--donkeycar`
+adds donkeycar's linear model by its own trainer (`donkey train --type linear`, donkeycar 5.3.0 in its own environment)
+on each fold's training and validation blocks as one tub, which it splits 80/20 at random as its users train: the same
+records as steerlab's, `--seeds` runs (its trainer is not seeded); `--donkeycar-views` adds it trained on
 pilotnet-views's views of those records as well, written as a second tub it reads (`views_tub`: the extra frames
-steerlab's views models see, so that what the frames give and what the trainer gives are apart). The check this
-study exists for: on every scored block the best trained model needs at most half the interventions of the best
-of the models that learned nothing and of the other tracks' models ("separates": yes / no in the table).
+steerlab's views models see, so that what the frames give and what the trainer gives are apart). The check this study
+exists for: on every scored block the best trained model needs at most half the interventions of the best of the models
+that learned nothing and of the other tracks' models ("separates": yes / no in the table).
 
 Choosing among the trained models is done on other blocks: every trained steerlab model is also scored, open loop
 and in replay, on each fold's validation block (the selection blocks: the table's second part), and the choice is
@@ -44,8 +43,8 @@ plus one; averaged over the tubs); the scored blocks only report. donkeycar's tr
 blocks (its own 80/20 split), so it has no selection score, and it chooses nothing.
 
 python -m studies.tub_replay [--seeds 2] [--epochs 10] [--patience 3] [--tubs hall,taped-track,wood-tape]
-    [--models pilotnet,pilotnet-views,tub-default,tub-default-views,track-best,linear-views,linear-views-0.2,
-    linear-views-0.6,linear-views-0.9] [--donkeycar]
+    [--models pilotnet,pilotnet-views,tub-default,tub-default-views,track-best,linear,linear-views,
+    linear-views-0.2,linear-views-0.6,linear-views-0.9] [--donkeycar]
     [--donkeycar-views]
 Every finished run is kept in runs/tub-replay/epochs-N[-patience-P]/results.json and reused by a later run of the same
 --epochs and --patience;
@@ -93,7 +92,7 @@ LINEAR = {**WHOLE_FRAME, "model": {"name": "donkey-linear"}}  # donkeycar linear
 RECOVERY_S = (0.2, 0.6, 0.9)  # linear-views with the views' pursued point nearer (sharper returns) or further ahead
 TRAINED = {"pilotnet": lambda: PILOTNET, "pilotnet-views": lambda: {**PILOTNET, "train": VIEW},
            "tub-default": lambda: MULTIMODAL, "tub-default-views": lambda: {**MULTIMODAL, "train": VIEW},
-           "track-best": track_best,
+           "track-best": track_best, "linear": lambda: LINEAR,
            "linear-views": lambda: {**LINEAR, "train": VIEW},
            **{f"linear-views-{s}": lambda s=s: {**LINEAR, "train": {**VIEW, "recovery_s": s}} for s in RECOVERY_S}}
 MODELS = "pilotnet,pilotnet-views"  # --models by default

@@ -90,8 +90,9 @@ def machine() -> str:
         return f"{model_name()} ({instruction_sets()}), no torch"
     limit = os.environ.get("ONEDNN_MAX_CPU_ISA")
     kernels = torch.backends.cpu.get_cpu_capability() + (f", oneDNN up to {limit}" if limit else "")
-    return (f"{model_name()} ({instruction_sets()}; torch's kernels {kernels}), {torch.get_num_threads()} torch "
-            f"threads, torch {torch.__version__}")
+    threads = torch.get_num_threads()
+    return (f"{model_name()} ({instruction_sets()}; torch's kernels {kernels}), {threads} torch "
+            f"thread{'s' * (threads != 1)}, torch {torch.__version__}")
 
 
 # a study's start

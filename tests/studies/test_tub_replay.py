@@ -72,6 +72,10 @@ def test_each_trained_model_is_its_recipe_on_the_fold_blocks(tmp_path):
     linear = cfg("linear-views")
     assert (linear.model.name, linear.preprocess.width, linear.preprocess.height, linear.preprocess.color,
             linear.train.loss, len(linear.train.views)) == ("donkey-linear", 160, 120, "rgb", "mae", 1)
+    bare = cfg("linear")  # the tub defaults without the views
+    assert (bare.train.views, as_dict(bare.model), as_dict(bare.preprocess)) == ((), as_dict(linear.model),
+                                                                               as_dict(linear.preprocess))
+    assert as_dict(bare.train) == as_dict(linear.train) | {"views": [], "recovery_s": 1.0}  # no views, no return
     for gentle in (0.2, 0.6, 0.9):  # linear-views but for the point its views' labels pursue
         other = cfg(f"linear-views-{gentle}")
         assert other.train.recovery_s == gentle and linear.train.recovery_s == 0.3
