@@ -115,7 +115,7 @@ KINDS = {
     "drive": Kind("drive", ("drive.json", "trajectory.csv"), ("drive.json", "trajectory.csv", "path.png", "track.png",
                                                               "frames.png")),
     "replay": Kind("replay", ("replay.md", "replay.json"), ("replay.md", "replay.json", "replay.csv", "segments.csv",
-                                                            "replay.png")),
+                                                            "replay.png", "path.png")),
     "latency": Kind("latency table", ("latency.csv",), ("latency.csv", "latency.md")),
     "demo": Kind("demo", ("report.md",), ("report.md", "summary.json", "recording", "cache", "pilotnet", "open-loop",
                                            "replay", "closed-loop")),

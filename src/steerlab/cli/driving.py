@@ -81,7 +81,7 @@ def cmd_replay(a) -> None:
     start = time.perf_counter()
     run_replay(a.checkpoints, data, a.out, o, a.video)
     print((Path(a.out) / "replay.md").read_text())
-    print(f"wrote {a.out}/replay.md, replay.csv, segments.csv, replay.png, */trajectory.csv"
+    print(f"wrote {a.out}/replay.md, replay.csv, segments.csv, replay.png, path.png, */trajectory.csv"
           + (f", {a.video}" if a.video else "") + f" in {time.perf_counter() - start:.0f} s")
 
 

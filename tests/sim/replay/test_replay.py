@@ -17,6 +17,7 @@ from steerlab.data.speed import estimate_speed
 from steerlab.pilot import Controls, Pilot
 from steerlab.sim.core.driving import Trajectory, drive_loop
 from steerlab.data.path import human_path
+from steerlab.sim.replay.plots import path_summary
 from steerlab.sim.replay.run import RESULT_FIELDS, replay_recording
 from steerlab.sim.replay.world import Replay, ReplayWorld
 from steerlab.sim.road.world import RecordOptions
@@ -61,6 +62,11 @@ def test_human_path_of_a_circle():
     np.testing.assert_allclose(np.hypot(path.x - centre[0], path.y - centre[1]), radius, rtol=1e-3)
     np.testing.assert_allclose(path.s[-1], 10.0 * t[-1], rtol=1e-9)
     np.testing.assert_allclose(path.psi[-1], path.s[-1] / radius, rtol=1e-3)
+    # in numbers: 200 m on a circle of 2 pi r = 125.7 m turn 573 degrees left, within a 2r x 2r box
+    one = path_summary(path)
+    assert one["m"] == pytest.approx(200 - 0.5, rel=1e-9) and one["turned_deg"] == pytest.approx(
+        math.degrees(199.5 / radius), rel=1e-3)
+    np.testing.assert_allclose(one["box_m"], [2 * radius, 2 * radius], rtol=1e-3)
 
 
 def test_replaying_the_human_scores_100_and_zero_steering_does_not(twisty):
@@ -191,6 +197,18 @@ def test_replay_command_writes_its_report(tiny_checkpoint, twisty, tmp_path, cap
         np.testing.assert_allclose(line.get_ydata(), Trajectory.read(out / label / "trajectory.csv").offset, atol=1e-4)
     # one epoch of training: best.pt and last.pt hold the same weights, so the last line covers the first
     assert drawn_pixels(img, ax, last.get_color()) > 200
+    # path.png: the human's path of the one segment seen from above, its numbers in the legend and replay.json, and
+    # a mark where each checkpoint was put back
+    (summary,) = json.loads((out / "replay.json").read_text())["paths"]
+    ax = saved_figures[str(out / "path.png")].axes[0]
+    line = ax.get_lines()[0]
+    assert len(line.get_xdata()) == 70  # a point per frame of 0:70
+    drawn = np.hypot(np.diff(line.get_xdata()), np.diff(line.get_ydata())).sum()
+    assert summary["m"] == pytest.approx(drawn, rel=1e-6) and summary["m"] > 10
+    assert legend_of(ax) == [f"segment 0: {summary['m']:.0f} m, turned {summary['turned_deg']:+.0f} deg, "
+                             f"{summary['box_m'][0]:.1f} x {summary['box_m'][1]:.1f} m", "best: put back",
+                             "last: put back"]
+    assert [len(m.get_xdata()) for m in ax.get_lines()[2:]] == [int(r["interventions"]) for r in rows]
     # a video per checkpoint: a frame every tick, the warped 320x160 view scaled to 640 wide over the panel
     for label in ("best", "last"):
         assert_video(tmp_path / f"r-{label}.mp4", 69, (640, 470))

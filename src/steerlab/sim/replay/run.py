@@ -1,9 +1,9 @@
 """`steerlab replay`: checkpoints replayed in closed loop on a recording (`world.py`, and `track.py` for small
 cars), in parallel worker processes, and the reports: `replay.csv` (one row per checkpoint), `segments.csv` (per
-segment), `replay.md`, `replay.json`, `replay.png` (the offset along the route, interventions marked) and
+segment), `replay.md`, `replay.json`, `replay.png` (the offset along the route, interventions marked), `path.png`
+(the human's path as rebuilt, seen from above: whether it looks like the road or track driven) and
 `LABEL/trajectory.csv`. The options of each world's replay (`ReplayOptions` here, a world's flavour such as
-`track.replay`) make
-the replay of a recording (`setup`) and refuse what they cannot replay (`check_pilot`)."""
+`track.replay`) make the replay of a recording (`setup`) and refuse what they cannot replay (`check_pilot`)."""
 
 from __future__ import annotations
 
@@ -131,12 +131,15 @@ def run_replay(checkpoints, source: Source, out: str | Path, o=ReplayOptions(), 
                          for r in rows if keep(r)])
     whole = [r for r in rows if r["segment"] == "all"]
     (out / "replay.md").write_text(markdown(whole, setup.criterion, o.smoothing))
-    write_json(out / "replay.json", {"data": source.data, "range": source.range, **setup.camera, "car": asdict(car),
-                                     "smoothing": o.smoothing, "rows": rows})
-    from steerlab.sim.replay.plots import plot_offsets  # matplotlib: imported where it draws, not with the options
+    from steerlab.sim.replay.plots import path_summary, plot_offsets, plot_paths  # matplotlib: where it draws
 
-    plot_offsets(out / "replay.png", {n: Trajectory.read(out / n / "trajectory.csv") for n in names},
-                 setup.plot_limit, f"replay on {rec.name}", setup.limit_label)
+    paths = [p for _, _, p in setup.replay.paths(rec, source.frames)]
+    write_json(out / "replay.json", {"data": source.data, "range": source.range, **setup.camera, "car": asdict(car),
+                                     "smoothing": o.smoothing, "paths": [path_summary(p) for p in paths],
+                                     "rows": rows})
+    trajs = {n: Trajectory.read(out / n / "trajectory.csv") for n in names}
+    plot_offsets(out / "replay.png", trajs, setup.plot_limit, f"replay on {rec.name}", setup.limit_label)
+    plot_paths(out / "path.png", paths, trajs, rec.name)
     return whole
 
 

@@ -177,12 +177,17 @@ class Replay:
     def world(self, rec: Recording, start: int, path: HumanPath) -> ReplayWorld:
         return ReplayWorld(rec, start, path, self.cam, self.car, self.max_heading_deg)
 
+    def paths(self, rec: Recording, frames: np.ndarray | None = None) -> list[tuple[int, int, HumanPath]]:
+        """(first frame, frames, the human's path) of every segment of `rec` (or of its `frames`) to replay: the
+        path rebuilt from the recorded steering and the speed."""
+        human = human_road_wheel(rec, self.car)
+        return [(a, b - a, human_path(human[a:b], self.speeds(rec, a, b), rec.timestamps_ns[a:b] / 1e9, self.car))
+                for a, b in replay_segments(rec, frames)]
+
     def worlds(self, rec: Recording, frames: np.ndarray | None = None):
         """(segment index, first frame, world, ticks) for every segment of `rec` (or of its `frames`) to replay."""
-        human = human_road_wheel(rec, self.car)
-        for n, (a, b) in enumerate(replay_segments(rec, frames)):
-            path = human_path(human[a:b], self.speeds(rec, a, b), rec.timestamps_ns[a:b] / 1e9, self.car)
-            yield n, a, self.world(rec, a, path), b - a
+        for n, (a, ticks, path) in enumerate(self.paths(rec, frames)):
+            yield n, a, self.world(rec, a, path), ticks
 
 
 @dataclass(frozen=True)
