@@ -50,7 +50,7 @@ from steerlab.models import list_models
 from steerlab.options import AT_LEAST_1, names_from, names_held, option
 from steerlab.train.loop import train
 from studies.common import ROOT, machine, spread
-from studies.common.donkeycar import (FULL_LOCK_DEG, READER, TUB_NAMES, TUBS, TubStudy, blocks, donkey_or_skip,
+from studies.common.donkeycar import (FULL_LOCK_DEG, TUB_NAMES, TUBS, TubStudy, blocks, donkey_or_skip, reader,
                                       run_donkey)
 
 OUT = ROOT / "runs" / "donkeycar-tubs"
@@ -83,13 +83,13 @@ def run_steerlab(tub: Path, n: int, epochs: int, work: Path, models: list[str], 
                 run_dir = work / f"{name}-{seed}-{stage}"
                 shutil.rmtree(run_dir, ignore_errors=True)  # a fresh run: its time is what is measured
                 cfg = load_config(None, base={
-                    **recipe, "data": str(tub), "reader": READER, "cache": str(OUT / "cache"), "out": str(run_dir),
+                    **recipe, "data": str(tub), "reader": reader(tub), "cache": str(OUT / "cache"), "out": str(run_dir),
                     "split": split, "train": {**recipe["train"], "epochs": n_epochs or run["epoch"], "seed": seed,
                                               "keep": "best" if n_epochs else "last"}})
                 t = time.time()
                 run = train(cfg, progress=False)  # the refit keeps its last epoch: its validation block is held out
                 seconds += time.time() - t
-            ckpt, held_out = run_dir / "best.pt", Source(str(tub), f"{b}:{n}", reader=READER)
+            ckpt, held_out = run_dir / "best.pt", Source(str(tub), f"{b}:{n}", reader=reader(tub))
             m = evaluate(ckpt, held_out, run_dir / "test", progress=False)
             r = run_replay([ckpt], held_out, run_dir / "replay", TrackReplayOptions(workers=1),
                            progress=False)[0]
@@ -152,7 +152,7 @@ def main(_, args: TubsSideBySide) -> None:
              "|---|---|---|---|---|---|---|---|---|"]
     for name in names_from(args.tubs, TUB_NAMES, "shared tubs"):
         tub = TUBS / name
-        rec = Source(str(tub), reader=READER).open()
+        rec = Source(str(tub), reader=reader(tub)).open()
         n = len(rec)
         a, b = blocks(n)
         print(f"{name}: {n} records; steerlab selects epochs on 0:{a} | {a}:{b}, then trains on 0:{b}; donkeycar "

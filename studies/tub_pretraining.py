@@ -30,7 +30,7 @@ from steerlab.sim.track.replay import TrackReplayOptions
 from steerlab.train.config import load_config
 from steerlab.train.loop import train
 from studies.common import ROOT, machine, spread, track_tubs
-from studies.common.donkeycar import FULL_LOCK_DEG, READER, TUBS, TubStudy, blocks, donkey_or_skip, run_donkey
+from studies.common.donkeycar import FULL_LOCK_DEG, TUBS, TubStudy, blocks, donkey_or_skip, reader, run_donkey
 
 OUT = ROOT / "runs" / "tub-pretraining"
 EPOCHS = {"hall": 25, "taped-track": 12}  # configs/donkey_best.yaml, and its note for taped-track
@@ -58,7 +58,7 @@ def run_arm(name: str, arm: str, seed: int, n: int, results: dict) -> None:
     train(load_config(ROOT / "configs" / "donkey_best.yaml", [
         f"data={tub}", f"split.train=0:{b}", f"split.val={b}:{n}", f"train.epochs={EPOCHS[name]}",
         f"train.seed={seed}", f"cache={OUT / 'cache'}", f"out={run}", *init]), progress=False)
-    held_out = Source(str(tub), f"{b}:{n}", reader=READER)
+    held_out = Source(str(tub), f"{b}:{n}", reader=reader(tub))
     m = evaluate(run / "best.pt", held_out, run / "test", progress=False)
     r = run_replay([run / "best.pt"], held_out, run / "replay", TrackReplayOptions(workers=1), progress=False)[0]
     results[key] = {"mae": m["mae"], "mae_deg": m["mae"] * FULL_LOCK_DEG,
@@ -104,7 +104,7 @@ def main(_, args: Pretraining) -> None:
     lines = [f"machine: {machine()}", "", "| tub | model | runs | held-out steering MAE [deg] | vs donkeycar linear | "
              "held-out throttle MAE | replay: interventions |", "|---|---|---|---|---|---|---|"]
     for name in names_from(args.tubs, tuple(EPOCHS), "shared tubs whose epochs were chosen"):
-        rec = Source(str(TUBS / name), reader=READER).open()
+        rec = Source(str(TUBS / name), reader=reader(name)).open()
         n, work = len(rec), OUT / name
         work.mkdir(parents=True, exist_ok=True)
         file = work / "results.json"

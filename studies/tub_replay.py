@@ -71,8 +71,8 @@ from steerlab.train.config import another_config, load_config
 from steerlab.train.loop import run_changes, train
 from studies._recipes import VIEW
 from studies.common import ROOT, keep_result, machine, mean_min_max
-from studies.common.donkeycar import (FULL_LOCK_DEG, READER, TUB_NAMES, TUBS, donkey_car, donkey_python, donkey_scores,
-                                      donkey_train, replay_donkey, training_tub, views_tub)
+from studies.common.donkeycar import (FULL_LOCK_DEG, TUB_NAMES, TUBS, donkey_car, donkey_python, donkey_scores,
+                                      donkey_train, reader, replay_donkey, training_tub, views_tub)
 
 OUT = ROOT / "runs" / "tub-replay"
 PILOTNET = {"model": {"name": "pilotnet"}}
@@ -117,7 +117,7 @@ def fold_config(work, tub: str, fold: str, model: str, seed: int, epochs: int, n
     split = fold_blocks(fold, n)
     recipe = {"model": {"name": model}} if model in NULL else TRAINED[model]()
     return load_config(None, base={
-        **recipe, "data": str(TUBS / tub), "reader": READER, "cache": str(OUT / "cache"),
+        **recipe, "data": str(TUBS / tub), "reader": reader(tub), "cache": str(OUT / "cache"),
         "out": str(work / tub / fold / f"{model}-{seed}"), "split": {"train": split["train"], "val": split["val"]},
         "train": {**recipe.get("train", {}), "epochs": epochs, "patience": patience, "seed": seed}})
 
@@ -137,7 +137,7 @@ def checkpoint(work, tub: str, fold: str, model: str, seed: int, epochs: int, n:
 def score(ckpt, tub: str, fold: str, n: int, where, part: str = "scored") -> dict:
     """Open loop and replay of `ckpt` on the fold's block `part` of `tub` (its scored block, or `val`: the selection
     block)."""
-    block = Source(str(TUBS / tub), fold_blocks(fold, n)[part], reader=READER)
+    block = Source(str(TUBS / tub), fold_blocks(fold, n)[part], reader=reader(tub))
     m = evaluate(ckpt, block, where / "test", progress=False)
     r = run_replay([ckpt], block, where / "replay", TrackReplayOptions(workers=1), progress=False)[0]
     return {**{k: m[k] for k in ("mae", "throttle_mae", "gamma_deg", "target_gamma_deg") if k in m},
@@ -306,7 +306,7 @@ def main(_, args: TubReplay) -> None:
     work.mkdir(parents=True, exist_ok=True)
     file = work / "results.json"
     results = json.loads(file.read_text()) if file.exists() else {}
-    recs = {t: Source(str(TUBS / t), reader=READER).open() for t in tubs}
+    recs = {t: Source(str(TUBS / t), reader=reader(t)).open() for t in tubs}
     sizes = {t: len(rec) for t, rec in recs.items()}
     python = donkey_python() if args.donkeycar or args.donkeycar_views else None
 

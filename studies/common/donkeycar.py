@@ -2,7 +2,7 @@
 donkeycar): `donkey_python`, `donkey_car`, `donkey_models` (`donkey train`'s linear models), `DonkeycarPart`,
 donkeycar's pilot part behind a pipe, and `DonkeycarLineFollower` (`cv_car`, `cv_thresholds`), its computer-vision
 line follower; donkeycar's trainer on the shared tubs (`studies/donkeycar_tubs.py`, `studies/tub_pretraining.py`,
-`studies/tub_replay.py`): `TubStudy`, their options, `TUBS`, `READER`, `blocks`, `donkey_or_skip`, `donkey_train`,
+`studies/tub_replay.py`): `TubStudy`, their options, `TUBS`, `reader`, `blocks`, `donkey_or_skip`, `donkey_train`,
 `donkey_scores`, `run_donkey`, `replay_donkey`."""
 
 from __future__ import annotations
@@ -189,8 +189,14 @@ class DonkeycarLineFollower:
 
 TUBS = SHARED / "donkeycar"
 FULL_LOCK_DEG = 25.0  # assumed: the tubs do not record it
-READER = {"skip_missing": True, "full_lock_deg": FULL_LOCK_DEG}
 TUB_NAMES = ("hall", "taped-track", "wood-tape")  # the tubs of ../shared/data/donkeycar
+MIRRORED = ("taped-track",)  # its frames turn against its steering (r = -0.87, `sense.frame_turn`): read mirrored
+
+
+def reader(tub: str | Path) -> dict:
+    """The reader options of a shared tub (its folder or name)."""
+    return {"skip_missing": True, "full_lock_deg": FULL_LOCK_DEG, **({"mirrored": True} if Path(tub).name in MIRRORED
+                                                                      else {})}
 
 
 @dataclass(frozen=True)
@@ -318,7 +324,7 @@ def replay_donkey(python: Path, car: Path, model: Path, kind: str, tub: Path, b:
     from steerlab.sim.replay.run import replay_recording
     from steerlab.sim.track.replay import TrackReplayOptions
 
-    rec = Source(str(tub), reader=READER).open()
+    rec = Source(str(tub), reader=reader(tub)).open()
     replay = TrackReplayOptions(workers=1).setup(rec).replay
     part = DonkeycarPart(python, car, model, log.with_suffix(".part.log"), 1.0, kind=kind)
     try:

@@ -8,7 +8,7 @@ from steerlab.errors import SteerlabError
 from steerlab.options import as_dict
 from steerlab.train.config import load_config
 from studies.common import ROOT
-from studies.common.donkeycar import READER, TUBS
+from studies.common.donkeycar import TUBS, reader
 from studies.tub_replay import checkpoint, fold_blocks, fold_config, rows_of
 
 
@@ -96,7 +96,7 @@ def test_the_tub_defaults_are_the_recipe_the_study_chose(tmp_path):
     """A tub's config that names no model trains what the study's chosen `linear-views` trains: the same input,
     network and training (`TUB_DEFAULTS`, docs/results/donkeycar.md "The tub defaults: linear-views")."""
     chosen = fold_config(tmp_path, "hall", "last", "linear-views", 0, 30, 1000, patience=5)
-    shipped = load_config(None, base={"data": chosen.data, "reader": dict(READER)},
+    shipped = load_config(None, base={"data": chosen.data, "reader": reader("hall")},
                           overrides=["train.epochs=30", "train.patience=5"])
     assert (as_dict(shipped.preprocess), as_dict(shipped.model)) == (as_dict(chosen.preprocess),
                                                                      as_dict(chosen.model))

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass, fields, replace
+from dataclasses import asdict, dataclass, fields, replace
 from functools import lru_cache
 from pathlib import Path
 
@@ -57,8 +57,11 @@ class FisheyeCamera:
     skew: float = 0.0         # K[0, 1] (px): fx times OpenCV's alpha
     mount_height: float = 0.15  # m above the floor
     pitch_deg: float = 20.0     # down positive
+    mirrored: bool = False      # the frames are mirror images of what the lens saw (`shift_view`; data/sense.py)
 
     def __post_init__(self):
+        if not isinstance(self.mirrored, bool):
+            raise SteerlabError(f"a fisheye camera's mirrored must be true or false, got {self.mirrored!r}")
         object.__setattr__(self, "d", tuple(float(v) for v in self.d))  # hashable: the pinhole maps are cached
         values = (self.fx, self.fy, self.cx, self.cy, self.skew, self.mount_height, self.pitch_deg, *self.d)
         if len(self.d) != 4 or not all(math.isfinite(float(v)) for v in values):
@@ -186,6 +189,11 @@ class FisheyeCamera:
 DONKEY_FISHEYE = FisheyeCamera()
 
 
+def camera_fields(cam: FisheyeCamera) -> dict:
+    """A lens's fields as a recording's metadata and cache names keep them: `mirrored` only where true."""
+    return {k: v for k, v in asdict(cam).items() if k != "mirrored" or v}
+
+
 def fisheye_from(path: Path, value) -> FisheyeCamera:
     """The fisheye camera a recording's metadata carries (its fields, as `dataclasses.asdict` writes them)."""
     names = [f.name for f in fields(FisheyeCamera)]
@@ -262,8 +270,11 @@ def view_maps(cam: FisheyeCamera, shift_m: float, yaw_deg: float) -> tuple[np.nd
 def shift_view(img: np.ndarray, cam: FisheyeCamera, shift_m: float, yaw_deg: float = 0.0) -> np.ndarray:
     """The fisheye frame as seen from the camera moved `shift_m` to the left and turned `yaw_deg` to the left
     (`view_maps`: one remap, bilinear). What the frame does not show repeats its nearest border pixels, as in
-    `geometry.shift_view`."""
+    `geometry.shift_view`. A mirrored camera's frame is turned back into what the lens saw, warped, and mirrored
+    again: the view of the car's world, as the frames show it."""
     _check_frame(img, cam)
+    if cam.mirrored:
+        return shift_view(img[:, ::-1], replace(cam, mirrored=False), shift_m, yaw_deg)[:, ::-1]
     mx, my = view_maps(cam, float(shift_m), float(yaw_deg))
     return cv2.remap(img, mx, my, cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
 

@@ -25,12 +25,12 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
-from steerlab.data.fisheye import fisheye_from
+from steerlab.data.fisheye import DONKEY_FISHEYE, fisheye_from
 from steerlab.data.rows import Reader, apply_range
 from steerlab.data.recording import FULL_LOCK_DEG, Recording, SteeringConvention, said_full_lock
 from steerlab.options import Options, option
@@ -48,6 +48,8 @@ class TubOptions(Options):
                                          "many degrees of road wheel (unknown to the tub)")
     skip_missing: bool = option(False, help="leave out the records whose image is missing (with a warning)")
     strict: bool = option(False, help="refuse torn catalog lines and lost records instead of reading past them")
+    mirrored: bool = option(False, help="its frames turn against its steering (mirror images, or a steering whose "
+                            "sign is the other way round): views and replay warp them mirrored (data/sense.py)")
 
 
 OPTIONS = TubOptions
@@ -173,8 +175,9 @@ def _in_range(value) -> bool:
 
 
 def read_tub(folder: str | Path, frame_range=None, full_lock_deg: float | None = None,
-             skip_missing: bool = False, strict: bool = False) -> Recording:
-    """Read a tub. `frame_range` ("a:b" as a tuple) counts the records that remain after deletion."""
+             skip_missing: bool = False, strict: bool = False, mirrored: bool = False) -> Recording:
+    """Read a tub. `frame_range` ("a:b" as a tuple) counts the records that remain after deletion; `mirrored`: its
+    frames are mirror images of its car's world (kept with its lens, `FisheyeCamera.mirrored`)."""
     folder = Path(folder)
     keys, catalogs, deleted, metadata = _manifest(folder)
     records, seen = [], {}  # (catalog, line, record); _index -> (catalog, line)
@@ -253,6 +256,9 @@ def read_tub(folder: str | Path, frame_range=None, full_lock_deg: float | None =
     said_full_lock(full_lock_deg, f"{folder}: reader option")
     lane = _lane([r for _, r in kept]) if all(k in keys for k in LANE_FIELDS) else {}
     recs = [r for _, (_, _, r) in kept]
+    lens = fisheye_from(folder / "manifest.json", metadata["fisheye"]) if "fisheye" in metadata else None
+    if mirrored:
+        lens = replace(lens or DONKEY_FISHEYE, mirrored=True)
     throttle = np.array([math.nan if r.get("user/throttle") is None else float(r["user/throttle"]) for r in recs])
     return Recording(
         name=folder.name, source=folder, frames={"center": [p for p, _ in kept]},
@@ -261,7 +267,7 @@ def read_tub(folder: str | Path, frame_range=None, full_lock_deg: float | None =
         frame_ids=np.array([int(r["_index"]) for r in recs], dtype=np.int64),
         throttle=throttle if np.all(np.isfinite(throttle)) else None,
         extra={"session": np.array([str(r.get("_session_id", "")) for r in recs]), **lane}, geometry="donkey",
-        fisheye=fisheye_from(folder / "manifest.json", metadata["fisheye"]) if "fisheye" in metadata else None,
+        fisheye=lens,
     )
 
 

@@ -16,13 +16,13 @@ from __future__ import annotations
 
 import hashlib
 import json
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from steerlab.data import fisheye, geometry
-from steerlab.data.fisheye import DONKEY_FISHEYE, FisheyeCamera, load_calibration
+from steerlab.data.fisheye import DONKEY_FISHEYE, FisheyeCamera, camera_fields, load_calibration
 from steerlab.errors import SteerlabError
 from steerlab.options import AT_LEAST_0, value_of
 
@@ -113,8 +113,8 @@ def lens_of(rec, calibration: str | Path | None = None) -> FisheyeCamera | None:
 
 
 def lens_name(lens: FisheyeCamera) -> str:
-    """A short digest of a lens (K, D, mount), for cache entries' names."""
-    return hashlib.sha1(json.dumps(asdict(lens), sort_keys=True).encode()).hexdigest()[:8]
+    """A short digest of a lens (K, D, mount; `mirrored` only where true), for cache entries' names."""
+    return hashlib.sha1(json.dumps(camera_fields(lens), sort_keys=True).encode()).hexdigest()[:8]
 
 
 def warp(frame: np.ndarray, geometry_name: str, lens: FisheyeCamera | None, shift_m: float,

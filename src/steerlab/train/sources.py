@@ -18,6 +18,7 @@ from steerlab.data.path import human_path, view_steering
 from steerlab.data.preprocess import CROP_PRESETS
 from steerlab.data.readers import open_recording
 from steerlab.data.recording import Recording, SteeringConvention
+from steerlab.data.sense import check_sense
 from steerlab.data.views import FISHEYE_GEOMETRY, View, lens_of
 from steerlab.errors import DataError, SteerlabError
 from steerlab.train.config import TrainConfig, TrainOptions, say_without_views
@@ -153,15 +154,17 @@ def view_labels(ds: CompiledDataset, steering: np.ndarray, view: View, t: TrainO
 
 def check_views(cfg: TrainConfig, rec: Recording, convention: SteeringConvention | None = None) -> None:
     """What views of a recording need, refused before any frame is compiled: its lens (`views.lens_of`: a
-    calibration that reads and fits), and for a small car's recording the speed or throttle and a steering that
-    becomes an angle (the reader's full lock) to rebuild its path from. A tub on the tub defaults without views is
+    calibration that reads and fits), and for a small car's recording frames that turn the way its steering says
+    (`sense.check_sense`), the speed or throttle and a steering that becomes an angle (the reader's full lock) to
+    rebuild its path from. A tub on the tub defaults without views is
     told what it misses (`say_without_views`)."""
     if not cfg.train.views:
         say_without_views(cfg, (convention or rec.convention).full_lock is not None)
         return
-    lens_of(rec, cfg.train.calibration)
+    lens = lens_of(rec, cfg.train.calibration)
     if rec.geometry != FISHEYE_GEOMETRY:
         return
+    check_sense(rec, lens.mirrored, "its views")
     if rec.speed is None and rec.throttle is None:
         raise DataError(rec.source, "records neither speed nor throttle: train.views of a small car need the speed "
                                     "it drove at (from the throttle, as replay takes it); train without views "

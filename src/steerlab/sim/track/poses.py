@@ -16,12 +16,12 @@ as DAgger's labels) and the lane values there (offset, heading, curvature). Ever
 from __future__ import annotations
 
 import math
-from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
 from tqdm import tqdm
 
+from steerlab.data.fisheye import camera_fields
 from steerlab.data.writer import TubWriter
 from steerlab.options import frames_in
 from steerlab.sim.core.driving import drive_loop
@@ -79,7 +79,7 @@ def record_poses(out: str | Path, o, progress: bool = True) -> Path:
     offset, heading = draw(poses, o.seed, len(s))
     world = TrackWorld(o.seed, o.lane_width, o.style, o.fps, camera, room=o.room, look=look)
     tub = TubWriter(out, world.car.full_lock_deg, quality=look.jpeg_quality, lane=True,
-                    metadata={"fisheye": asdict(camera), **look.metadata(), "poses": poses})
+                    metadata={"fisheye": camera_fields(camera), **look.metadata(), "poses": poses})
     for k in tqdm(range(len(s)), desc=f"poses track {o.seed}", unit="frame", disable=None if progress else True):
         set_pose(world, float(s[k]), float(offset[k]), float(heading[k]), float(speed[k]))
         wheel, throttle = world.expert_controls()

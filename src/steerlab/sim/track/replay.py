@@ -6,7 +6,8 @@ cars.
   flat-floor homography, distort again, composed into one remap per offset and heading. The fisheye is the one
   the recording carries (the track world writes its camera into the tub), else the 160-degree Raspberry Pi
   camera's default (`fisheye.DONKEY_FISHEYE`); a calibration file replaces its K and D. The warp is from the
-  car's camera (`Body.camera_forward` ahead of the rear axle) relative to the human's at that frame.
+  car's camera (`Body.camera_forward` ahead of the rear axle) relative to the human's at that frame. A recording
+  whose frames turn against its steering is refused unless read as mirrored (`sense.check_sense`).
 - **The speed**: the recorded throttle through the small car's throttle model (`car.throttle_speeds`)
   gives the human's speed, which the replayed car follows; or the model's learned throttle drives the replayed
   car (`car.speed_after` every tick; the human's path keeps the recorded throttle's speeds); or a
@@ -29,6 +30,7 @@ from steerlab.data.fisheye import DONKEY_FISHEYE, FisheyeCamera, shift_view
 from steerlab.data.geometry import CAMERAS
 from steerlab.data.path import HumanPath
 from steerlab.data.recording import Recording
+from steerlab.data.sense import check_sense
 from steerlab.data.views import lens_of
 from steerlab.errors import DataError, SteerlabError
 from steerlab.options import Options, SPEED, WORKERS, option
@@ -75,6 +77,7 @@ class TrackReplayOptions(Options):
             raise DataError(rec.source, "records no throttle to take the speed from: give one with steerlab replay "
                                         "--speed M/S")
         fisheye = lens_of(rec, self.calibration)
+        check_sense(rec, fisheye.mirrored, "its replay")
         mount = {"mount_height": self.mount_height, "pitch_deg": self.pitch}
         fisheye = replace(fisheye, **{k: v for k, v in mount.items() if v is not None})
         source = ("given (--speed)" if self.speed is not None else

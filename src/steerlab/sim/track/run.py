@@ -21,12 +21,12 @@ its look (`look`: what `look.Look.draw` drew, the jittered mount among it), its 
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from steerlab.data.fisheye import DONKEY_FISHEYE, FisheyeCamera
+from steerlab.data.fisheye import DONKEY_FISHEYE, FisheyeCamera, camera_fields
 from steerlab.data.recording import SteeringConvention
 from steerlab.data.writer import RecordingWriter, TubWriter
 from steerlab.errors import SteerlabError
@@ -92,7 +92,7 @@ def record(out: str | Path, o: TrackRecordOptions = TrackRecordOptions(), progre
     expert = RacerPilot(world, o.seed, DRIFT_EVERY_S if o.drift else None)
     car = world.car
     if o.layout == "tub":
-        tub = TubWriter(out, car.full_lock_deg, metadata={"fisheye": asdict(camera), **look.metadata()},
+        tub = TubWriter(out, car.full_lock_deg, metadata={"fisheye": camera_fields(camera), **look.metadata()},
                         quality=look.jpeg_quality, lane=True)
 
         def write(t):
@@ -114,7 +114,7 @@ def record(out: str | Path, o: TrackRecordOptions = TrackRecordOptions(), progre
         return tub.close()
     return writer.close({"world": "track", "seed": o.seed, "room": o.room, "lane_width": o.lane_width,
                          "style": o.style, "lap_m": world.track.length, "fps": o.fps, "minutes": o.minutes,
-                         "fisheye": asdict(camera), **look.metadata()})
+                         "fisheye": camera_fields(camera), **look.metadata()})
 
 
 def check_camera(pilot) -> None:
@@ -237,7 +237,7 @@ def rollout(pilot, out: str | Path, seed: int, minutes: float, style: str = "tap
     check_camera(pilot)
     world = TrackWorld(seed, style=style, fps=fps, camera=camera)
     check_steers(pilot, world.car)
-    tub = TubWriter(out, world.car.full_lock_deg, metadata={"fisheye": asdict(camera)})
+    tub = TubWriter(out, world.car.full_lock_deg, metadata={"fisheye": camera_fields(camera)})
     rng = np.random.default_rng([seed, 9])
     expert = {}
 
