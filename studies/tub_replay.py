@@ -63,7 +63,7 @@ from steerlab.cli import run_script, script_parser
 from steerlab.files import read_yaml
 from steerlab.data.readers import Source
 from steerlab.evaluate.offline import evaluate
-from steerlab.figures import COLORS, figure
+from steerlab.figures import COLORS, MANY_COLORS, figure
 from steerlab.options import AT_LEAST_1, Options, names_from, names_held, option
 from steerlab.sim.replay.run import run_replay
 from steerlab.sim.track.replay import TrackReplayOptions
@@ -276,9 +276,9 @@ def plot(path, results: dict, tubs: list[str]) -> None:
     models = [m for m in (*NULL, *TRAINED, DONKEY_LINEAR, DONKEY_VIEWS, "other-track")
               if any(k.split(" ")[2] == m for k in results)]
     blocks = [(t, f) for t in tubs for f in FOLDS if any(k.startswith(f"{t} {f} ") for k in results)]
-    with figure(path, 1, 1, figsize=(1.8 * max(len(blocks), 1) + 2, 4.5)) as (fig, ax):
+    with figure(path, 1, 1, figsize=(1.8 * max(len(blocks), 1) + 4, 4.5)) as (fig, ax):
         width = 0.8 / len(models)
-        for i, (model, color) in enumerate(zip(models, COLORS * 2)):
+        for i, (model, color) in enumerate(zip(models, COLORS if len(models) <= len(COLORS) else MANY_COLORS)):
             values = [np.mean([r["per_100m"] for k, r in results.items() if k.startswith(f"{t} {f} {model} ")] or
                               [np.nan]) for t, f in blocks]
             ax.bar(np.arange(len(blocks)) + (i - len(models) / 2 + 0.5) * width, values, width, color=color,
@@ -286,7 +286,7 @@ def plot(path, results: dict, tubs: list[str]) -> None:
         ax.set_xticks(np.arange(len(blocks)), [f"{t}\n{f} block" for t, f in blocks])
         ax.set_ylabel("replay: interventions per 100 m")
         ax.grid(alpha=0.3, axis="y")
-        ax.legend(fontsize=8)
+        ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1))
         ax.set_title(f"the small cars' replay on the shared tubs' scored blocks\n(full lock {FULL_LOCK_DEG:g} deg, "
                      "0.9 m lane)", fontsize=9)
 
