@@ -14,9 +14,10 @@ epochs and `--donkeycar-patience`, in its car's myconfig.py; `--donkeycar-runs` 
 seeded), races the same tracks behind a pipe (`_donkey_part.py`). Like with like on the same records both ways:
 `--donkeycar-ours` trains donkeycar's model on the records steerlab's recipe trains on (the first tub's validation
 block deleted), and the recipe `mae-donkey-split` trains steerlab's on donkeycar's split (the tubs merged into one,
-a random 20 % of all records validating). `--donkeycar-cv` races donkeycar's computer-vision line follower beside
-them, which needs no training (its `cv_control` template, set for each track's tape colour as its owner sets it:
-`studies/common/donkeycar.py` `cv_thresholds`).
+a random 20 % of all records validating); the same extra frames: `--donkeycar-views` trains it on the views
+(`train.views`) of a recipe with views as well, written as a tub of each tub it reads. `--donkeycar-cv` races
+donkeycar's computer-vision line follower beside them, which needs no training (its `cv_control` template, set for
+each track's tape colour as its owner sets it: `studies/common/donkeycar.py` `cv_thresholds`).
 
 Per cap, every checkpoint is summarised over the same tracks (`track.suite.summarize`): laps, clean laps and their
 share, tracks finished, off-track events per lap and the pace over the tracks that every checkpoint compared
@@ -26,7 +27,8 @@ rerun trains and drives only what is missing.
 
 python -m studies.track_recipes [--recipes donkey,gray,...] [--seeds 0,1] [--suite s1] [--caps 1,0.5]
     [--donkeycar [--donkeycar-runs 3] [--donkeycar-tubs donkey] [--donkeycar-throttle-scale 1]
-    [--donkeycar-throttle-floor 0] [--donkeycar-ours] [--donkeycar-epochs 100] [--donkeycar-patience 5]]
+    [--donkeycar-throttle-floor 0] [--donkeycar-ours] [--donkeycar-views] [--donkeycar-epochs 100]
+    [--donkeycar-patience 5]]
     [--donkeycar-cv]
     [--workers 2] [--out runs/race] [--table table]
 """
@@ -52,7 +54,7 @@ from steerlab.sim.track.world import throttle_floor_option, throttle_scale_optio
 from studies._recipes import AUGMENT, DONKEYCAR, DONKEYCAR_CV, RECIPES, TUB_MINUTES, TUBS, base
 from studies.common import ROOT, NumberList, machine, mean_min_max, mean_of, track_tub
 from studies.common.donkeycar import (DONKEY_TRAINING, DonkeycarLineFollower, DonkeycarPart, cv_car, donkey_models,
-                                      donkey_python, training_suffix, training_tub)
+                                      donkey_python, training_suffix, training_tub, views_tub)
 
 
 def record_tubs(tubs: Path, names) -> None:
@@ -73,16 +75,45 @@ def recipe_base(name: str, tubs: Path) -> dict:
     return base(tubs) | {"data": str(tubs / first), "extra_data": [str(tubs / t) for t in rest]}
 
 
+def usable_records(tub: Path) -> list[int]:
+    """The `_index` of every record of a tub that is not deleted, in the catalogs' order: the records donkeycar's
+    trainer reads."""
+    catalogs = json.loads((tub / "manifest.json").read_text().splitlines()[4])
+    gone = set(catalogs["deleted_indexes"])
+    return [i for c in catalogs["paths"] for line in (tub / c).read_text().splitlines()
+            if line.strip() and (i := json.loads(line)["_index"]) not in gone]
+
+
 def without_validation(tubs: Path, name: str, only: int) -> Path:
     """The tub `name` as steerlab's recipe trains on it: its last `only` usable records (the recipe's validation)
     deleted (`training_tub`: the images linked), so that donkeycar's trainer gets the records steerlab's does."""
-    lines = (tubs / name / "manifest.json").read_text().splitlines()
-    catalogs = json.loads(lines[4])
-    gone = set(catalogs["deleted_indexes"])
-    usable = [json.loads(line)["_index"] for c in catalogs["paths"] for line in (tubs / name / c).read_text().splitlines()
-              if line.strip() and json.loads(line)["_index"] not in gone]
     out = tubs / f"{name}-train"
-    return out if (out / "manifest.json").exists() else training_tub(tubs / name, set(usable[:-only]), out)
+    keep = set(usable_records(tubs / name)[:-only])
+    return out if (out / "manifest.json").exists() else training_tub(tubs / name, keep, out)
+
+
+def recipe_views(name: str) -> bool:
+    """Whether the recipe trains on views (`train.views`) of its frames."""
+    recipe = RECIPES[name]
+    return any(o.startswith("train.views=") for o in recipe.overrides) or bool(recipe.starts and
+                                                                              recipe_views(recipe.starts))
+
+
+def views_tubs(tubs: Path, names, recipe: str) -> tuple[str, ...]:
+    """The views the recipe `recipe` trains on (its `train.views`, through the track world's fisheye) of the records
+    donkeycar's trainer reads of each tub `names` (folders of `tubs`), written as a tub of each beside it, once
+    (`views_tub`): the same extra frames for donkeycar's trainer. Each view's draw is made over that tub's records."""
+    from steerlab.train.config import load_config
+
+    recipes = [recipe]
+    while RECIPES[recipes[-1]].starts:
+        recipes.append(RECIPES[recipes[-1]].starts)
+    overrides = [o for r in reversed(recipes) for o in RECIPES[r].overrides if o.startswith("train.")]
+    out = []
+    for name in names:
+        cfg = load_config(None, base=base(tubs) | {"data": str(tubs / name), "extra_data": []}, overrides=overrides)
+        out.append(views_tub(cfg, set(usable_records(tubs / name)), tubs / f"{name}-views-{recipe}").name)
+    return tuple(out)
 
 
 def merged_tub(tubs: Path, names, out: Path) -> Path:
@@ -231,16 +262,19 @@ def markdown(rows: list[dict], suite: str) -> str:
              "| recipe | what differs from donkeycar's recipe | cap | runs | laps | clean laps [%] | finished | "
              "off track / lap | off track | pace (tracks) | training [min] |", "|---" * 11 + "|"]
 
-    def describe(recipe):  # donkeycar's runs: donkeycar[-TUBS][-ours][-epochs-E][-patience-P][-throttle-K][-floor-F]
+    def describe(recipe):  # donkeycar's runs: donkeycar[-TUBS][-ours][-views][-epochs-E][-patience-P][-throttle-K]
+        # [-floor-F]
         if not recipe.startswith(DONKEYCAR):
             return what.get(recipe, "")
         names = "|".join(re.escape(n) for n in sorted(what, key=len, reverse=True))
         number = r"[\d.e+-]+"
-        m = re.fullmatch(rf"(?P<base>{names})(?P<ours>-ours)?(-epochs-(?P<epochs>{number}))?(-patience-(?P<patience>"
-                         rf"{number}))?(-throttle-(?P<scale>{number}))?(-floor-(?P<floor>{number}))?", recipe)
+        m = re.fullmatch(rf"(?P<base>{names})(?P<ours>-ours)?(?P<views>-views)?(-epochs-(?P<epochs>{number}))?"
+                         rf"(-patience-(?P<patience>{number}))?(-throttle-(?P<scale>{number}))?"
+                         rf"(-floor-(?P<floor>{number}))?", recipe)
         if m is None:
             return ""
         return (what.get(m["base"], "") + (", on steerlab's training records" if m["ours"] else "") +
+                (", and their views as the recipe's" if m["views"] else "") +
                 (f", at most {m['epochs']} epochs" if m["epochs"] else "") +
                 (f", early stopping after {m['patience']} epochs without a better loss" if m["patience"] else "") +
                 (f", its throttle times {m['scale']} before the cap" if m["scale"] else "") +
@@ -285,6 +319,9 @@ class Races(Options):
                                      "EARLY_STOP_PATIENCE; default its own)")
     donkeycar_ours: bool = option(False, help="donkeycar's trainer on the records steerlab's recipe trains on: the "
                                   "first tub's validation records (--donkeycar-tubs' recipe's `only`) deleted")
+    donkeycar_views: bool = option(False, help="donkeycar's trainer also on the views --donkeycar-tubs' recipe trains "
+                                   "on (its train.views) of the records it reads, written as a tub of each: the "
+                                   "same extra frames")
     workers: int = option(2, WORKERS, help="tracks driven in parallel")
     out: str = option(str(ROOT / "runs" / "race"), path="folder", help="the study's folder")
     table: str = option("table", lambda v: v and "/" not in v, "a file name without a folder",
@@ -297,6 +334,9 @@ class Races(Options):
         if v.donkeycar_ours and not (v.donkeycar_tubs in RECIPES and RECIPES[v.donkeycar_tubs].only):
             yield "donkeycar_ours", ("given with --donkeycar-tubs of a recipe that validates on a block of its first "
                                      f"tub ({', '.join(n for n, r in RECIPES.items() if r.only)})")
+        if v.donkeycar_views and not (v.donkeycar_tubs in RECIPES and recipe_views(v.donkeycar_tubs)):
+            yield "donkeycar_views", ("given with --donkeycar-tubs of a recipe that trains on views "
+                                      f"({', '.join(n for n in RECIPES if recipe_views(n))})")
 
 
 def parser():
@@ -315,7 +355,8 @@ def main(_, a: Races) -> None:
             race(ckpts, out / f"{a.suite}-max{cap:g}" / name, suite_options(name, a.suite, cap, a.workers))
     training = {"MAX_EPOCHS": a.donkeycar_epochs, "EARLY_STOP_PATIENCE": a.donkeycar_patience}
     suffix = "" if a.donkeycar_tubs == "donkey" else f"-{a.donkeycar_tubs}"  # donkeycar on another recipe's tubs
-    suffix += ("-ours" if a.donkeycar_ours else "") + training_suffix(training)
+    suffix += ("-ours" if a.donkeycar_ours else "") + ("-views" if a.donkeycar_views else "")
+    suffix += training_suffix(training)
     scaled = "" if a.donkeycar_throttle_scale == 1 else f"-throttle-{a.donkeycar_throttle_scale:g}"
     scaled += f"-floor-{a.donkeycar_throttle_floor:g}" if a.donkeycar_throttle_floor else ""
     folder, donkey = f"{DONKEYCAR}{suffix}{scaled}", None
@@ -324,6 +365,8 @@ def main(_, a: Races) -> None:
         names = recipe_tubs(a.donkeycar_tubs)
         if a.donkeycar_ours:
             names = (without_validation(tubs, names[0], RECIPES[a.donkeycar_tubs].only).name, *names[1:])
+        if a.donkeycar_views:
+            names = (*names, *views_tubs(tubs, names, a.donkeycar_tubs))
         donkey = donkey_models(out, tubs, a.donkeycar_runs, names, f"donkey{suffix}", training)
     results, minutes = [], {name: [training_minutes(name, seed, out) for seed in seeds] for name in recipes}
     for cap in caps:

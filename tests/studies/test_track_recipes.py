@@ -188,6 +188,11 @@ def test_donkeycars_runs_are_named_and_described_by_the_levers_they_were_trained
                     "at most 20 "
                     "epochs, early stopping after 3 epochs without a better loss, its throttle times 1.5 before the "
                     "cap, at least 0.2 while the car stands")
+    views = markdown([{**row, "recipe": "donkeycar-best-no-drift-views-ours-views-throttle-1.2-floor-0.2"}],
+                     "s1").splitlines()[-1].split(" | ")[1]
+    assert views == ("donkeycar's own trainer and part, on the tubs of best-no-drift-views, on steerlab's training "
+                     "records, and their views as the recipe's, its throttle times 1.2 before the cap, at least 0.2 "
+                     "while the car stands")
     plain = markdown([{**row, "recipe": "donkeycar-throttle-1.5"}], "s1").splitlines()[-1].split(" | ")[1]
     assert plain == "donkeycar's own trainer and part, its throttle times 1.5 before the cap"
     for name, said in (("donkeycar-best-floor-0.2", ""), ("donkeycar-best-floor-0.2-floor-0.2",
@@ -195,3 +200,32 @@ def test_donkeycars_runs_are_named_and_described_by_the_levers_they_were_trained
         # a recipe whose name holds "-floor-" is its tubs' name, not a floor
         got = markdown([{**row, "recipe": name}], "s1").splitlines()[-1].split(" | ")[1]
         assert got == "donkeycar's own trainer and part, on the tubs of best-floor-0.2" + said
+
+
+def test_donkeycar_gets_the_views_the_recipe_trains_on(tmp_path, capsys):
+    """`views_tubs`: the views of a recipe with train.views, of every record donkeycar reads of a tub (a deleted one
+    left out), written as a tub beside it, once: as many records, each frame warped (not the recorded one), its
+    throttle kept, its label a steering angle; --donkeycar-views only beside the tubs of a recipe with views."""
+    from steerlab.cli import script_args
+    from studies.track_recipes import parser, recipe_views, views_tubs
+
+    t = tub(tmp_path / "t", {i: {"user/throttle": 0.2 + 0.05 * i} for i in range(8)})
+    lines = (t / "manifest.json").read_text().splitlines()
+    lines[4] = json.dumps({**json.loads(lines[4]), "deleted_indexes": [6]})
+    (t / "manifest.json").write_text("\n".join(lines) + "\n")
+    assert recipe_views("best-no-drift-views") and not recipe_views("best-no-drift")
+    (name,) = views_tubs(tmp_path, ["t"], "best-no-drift-views")
+    assert name == "t-views-best-no-drift-views"
+    whole, views = (open_recording(str(tmp_path / n), options={"full_lock_deg": 25}) for n in ("t", name))
+    assert len(whole) == 7 and len(views) == 7
+    assert np.allclose(views.throttle, whole.throttle) and np.all(np.abs(views.steering) <= np.radians(25) + 1e-6)
+    assert not any(np.array_equal(views.load_frame(i), whole.load_frame(i)) for i in range(7))
+    made = (tmp_path / name / "manifest.json").stat().st_mtime_ns
+    assert views_tubs(tmp_path, ["t"], "best-no-drift-views") == (name,)
+    assert (tmp_path / name / "manifest.json").stat().st_mtime_ns == made  # written once
+    args = ["--donkeycar", "--donkeycar-tubs", "best-no-drift-views", "--donkeycar-views"]
+    assert script_args(parser(), args)[1][0].donkeycar_views
+    with pytest.raises(SystemExit):
+        script_args(parser(), ["--donkeycar", "--donkeycar-tubs", "best-no-drift", "--donkeycar-views"])
+    assert "--donkeycar-views must be given with --donkeycar-tubs of a recipe that trains on views" in \
+        capsys.readouterr().err
