@@ -19,13 +19,18 @@ a random 20 % of all records validating); the same extra frames: `--donkeycar-vi
 donkeycar's computer-vision line follower beside them, which needs no training (its `cv_control` template, set for
 each track's tape colour as its owner sets it: `studies/common/donkeycar.py` `cv_thresholds`).
 
+The drive-time lever chosen for each side by one rule: `--scales 1,1.2,1.5` races every recipe and donkeycar's
+model at each throttle scale of the grid (a recipe's own scale and --donkeycar-throttle-scale replaced, the floors
+kept) and marks the scale `SCALE_RULE` chooses for each on the unrounded means, saying where the grid does not
+bracket the choice.
+
 Per cap, every checkpoint is summarised over the same tracks (`track.suite.summarize`): laps, clean laps and their
 share, tracks finished, off-track events per lap and the pace over the tracks that every checkpoint compared
 finished. `OUT/<--table>.md`, `.csv`, `.json` (default `table`): per recipe, the mean over its seeds and each
 seed's values; `OUT/<suite>-max<cap>/`: the suite's own tables and every drive. Everything is kept and reused: a
 rerun trains and drives only what is missing.
 
-python -m studies.track_recipes [--recipes donkey,gray,...] [--seeds 0,1] [--suite s1] [--caps 1,0.5]
+python -m studies.track_recipes [--recipes donkey,gray,...] [--seeds 0,1] [--suite s1] [--caps 1,0.5] [--scales ...]
     [--donkeycar [--donkeycar-runs 3] [--donkeycar-tubs donkey] [--donkeycar-throttle-scale 1]
     [--donkeycar-throttle-floor 0] [--donkeycar-ours] [--donkeycar-views] [--donkeycar-epochs 100]
     [--donkeycar-patience 5]]
@@ -231,6 +236,16 @@ def suite_options(name: str, suite: str, cap: float, workers: int) -> TrackSuite
     return TrackSuiteOptions(suite=suite, max_throttle=cap, workers=workers, **RECIPES[name].race)
 
 
+def recipe_races(name: str, folder: Path, o: TrackSuiteOptions, grid: list[float]) -> list[tuple]:
+    """(label, folder, options) of each race of a recipe (its suite options `o`, its drives in `folder`/name): at
+    its own scale, or at each scale of `grid`, named for it (the drives at the recipe's own scale kept where they
+    are)."""
+    if not grid:
+        return [(name, folder / name, o)]
+    return [(f"{name}-x{k:g}", folder / (name if k == o.throttle_scale else f"{name}-x{k:g}"),
+             replace(o, throttle_scale=k)) for k in grid]
+
+
 def table(rows: list, cap: float, minutes: dict) -> list[dict]:
     """Per recipe (the label's first part): the mean over its runs of each overall summary value, and the runs';
     `minutes`: each recipe's training minutes, a run's each (`training_minutes`)."""
@@ -250,6 +265,18 @@ def table(rows: list, cap: float, minutes: dict) -> list[dict]:
                     "training_min": mean_of(minutes.get(name, [])), "training_each": minutes.get(name, []),
                     "each": [asdict(r) for r in runs]})
     return out
+
+
+def chosen(rows: list[dict], grids: dict[str, dict[float, str]]) -> list[dict]:
+    """The `table` rows of one cap, each row of a model raced over a grid of scales (`grids`: per model, the label of
+    each scale's row) marked with its scale, whether SCALE_RULE chooses it, and whether the grid brackets the
+    choice."""
+    by_label = {r["recipe"]: r for r in rows}
+    for labels in grids.values():
+        k, bracketed = scale_choice({s: by_label[label] for s, label in labels.items()})
+        for s, label in labels.items():
+            by_label[label] |= {"scale": s, "chosen": s == k, "bracketed": bracketed}
+    return rows
 
 
 def markdown(rows: list[dict], suite: str) -> str:
@@ -288,11 +315,36 @@ def markdown(rows: list[dict], suite: str) -> str:
                      f"{f('laps', '.1f')} | {f('clean_pct', '.1f')} | {f('finished', '.1f')} of "
                      f"{r['tracks']} | {f('off_track_per_lap', '.2f')} | {f('off_track', '.1f')} | "
                      f"{f('pace', '.3f')} ({r['pace_tracks']}) | {mean_min_max(r['training_each'], '.1f')} |")
+    picks = [r for r in rows if r.get("chosen")]
+    if picks:
+        lines += ["", f"Throttle scales chosen by the rule ({SCALE_RULE}):", ""]
+        lines += [f"- cap {r['cap']:g}: **{r['recipe']}**" + ("" if r["bracketed"] else
+                  " (the grid's largest scale: not bracketed, race a larger one)") for r in picks]
     return "\n".join(lines) + "\n"
 
 
 SEEDS = NumberList(int, SEED)
 CAPS = NumberList(float, Range(0, 1, lo_open=True))  # as --max-throttle of the track commands
+SCALES = NumberList(float, Range(0, 10, lo_open=True))  # as --throttle-scale of the track commands
+SCALE_POINTS, SCALE_OFF_TRACK = 1.3, 0.05
+SCALE_RULE = (f"the largest throttle scale of the grid whose clean-lap share (the mean over the runs, unrounded) is at "
+              f"most {SCALE_POINTS:g} points below x 1's and whose off-track events per lap are at most "
+              f"{SCALE_OFF_TRACK:.0%} above x 1's; bracketed where a larger scale of the grid fails")
+
+
+def scale_choice(grid: dict[float, dict]) -> tuple[float, bool]:
+    """SCALE_RULE over one model's `table` rows by throttle scale (x 1 among them): the scale chosen, and whether the
+    grid brackets it (a larger scale of it fails)."""
+    def share(r):
+        return r["clean_pct"] or 0.0
+
+    def per_lap(r):
+        return math.inf if r["off_track_per_lap"] is None else r["off_track_per_lap"]
+
+    ref = grid[1.0]
+    chosen = max(k for k, r in grid.items() if share(r) >= share(ref) - SCALE_POINTS
+                 and per_lap(r) <= per_lap(ref) * (1 + SCALE_OFF_TRACK))
+    return chosen, any(k > chosen for k in grid)
 
 
 @dataclass(frozen=True)
@@ -303,6 +355,11 @@ class Races(Options):
     suite: str = option("s1", lambda v: v in TRACK_SUITES, " or ".join(TRACK_SUITES),
                         help="the track suite raced (s1: selection tracks; t2 and t3 score)")
     caps: str = option("1,0.5", CAPS, CAPS.words, help="throttle caps (the learned throttle's and the expert's)")
+    scales: str = option("", lambda v: not v or (SCALES(v) and 1.0 in SCALES.of(v)), f"empty or {SCALES.words}, "
+                         "1 among them", help="a grid of drive-time throttle scales: every recipe and donkeycar's "
+                         "model raced at each (a recipe's own scale and --donkeycar-throttle-scale replaced), each "
+                         "one's chosen by the rule of the table (largest within 1.3 points of x 1's clean laps and "
+                         "5 %% of its off-track events per lap); empty: each at its own")
     donkeycar: bool = option(False, help="also donkeycar's linear model (its own trainer)")
     donkeycar_cv: bool = option(False, help="also donkeycar's computer-vision line follower (its cv_control "
                                 "template's LineFollower, set for each track's tape colour; no training), at "
@@ -349,17 +406,22 @@ def main(_, a: Races) -> None:
     tubs = out / "tubs"
     record_tubs(tubs, TUBS)
     caps, seeds = CAPS.of(a.caps), SEEDS.of(a.seeds)
+    grid = SCALES.of(a.scales) if a.scales else []
     for name in recipes:  # each recipe races as soon as it is trained
         ckpts = [train_recipe(name, seed, out, tubs) for seed in seeds]
         for cap in caps:
-            race(ckpts, out / f"{a.suite}-max{cap:g}" / name, suite_options(name, a.suite, cap, a.workers))
+            for _, folder, o in recipe_races(name, out / f"{a.suite}-max{cap:g}", suite_options(name, a.suite, cap,
+                                                                                                 a.workers), grid):
+                race(ckpts, folder, o)
     training = {"MAX_EPOCHS": a.donkeycar_epochs, "EARLY_STOP_PATIENCE": a.donkeycar_patience}
     suffix = "" if a.donkeycar_tubs == "donkey" else f"-{a.donkeycar_tubs}"  # donkeycar on another recipe's tubs
     suffix += ("-ours" if a.donkeycar_ours else "") + ("-views" if a.donkeycar_views else "")
     suffix += training_suffix(training)
-    scaled = "" if a.donkeycar_throttle_scale == 1 else f"-throttle-{a.donkeycar_throttle_scale:g}"
-    scaled += f"-floor-{a.donkeycar_throttle_floor:g}" if a.donkeycar_throttle_floor else ""
-    folder, donkey = f"{DONKEYCAR}{suffix}{scaled}", None
+
+    def scaled(k):  # the folder suffix of a drive at the throttle scale k and the floor
+        return ("" if k == 1 else f"-throttle-{k:g}") + (f"-floor-{a.donkeycar_throttle_floor:g}"
+                                                          if a.donkeycar_throttle_floor else "")
+    donkey = None
     if a.donkeycar:
         record_tubs(tubs, recipe_tubs(a.donkeycar_tubs))
         names = recipe_tubs(a.donkeycar_tubs)
@@ -372,23 +434,27 @@ def main(_, a: Races) -> None:
     for cap in caps:
         o = TrackSuiteOptions(suite=a.suite, max_throttle=cap, workers=a.workers)
         suite = out / f"{a.suite}-max{cap:g}"
-        rows = [replace(r, label=f"{name}/{r.label}") for name in recipes
-                for r in race([train_recipe(name, seed, out, tubs) for seed in seeds],
-                              suite / name, suite_options(name, a.suite, cap, a.workers))]
+        rows, grids = [], {}  # grids: per model raced over the grid, the label of each scale's rows
+        for name in recipes:
+            ckpts = [train_recipe(name, seed, out, tubs) for seed in seeds]
+            for label, folder, ro in recipe_races(name, suite, suite_options(name, a.suite, cap, a.workers), grid):
+                rows += [replace(r, label=f"{label}/{r.label}") for r in race(ckpts, folder, ro)]
+                grids.setdefault(name, {})[ro.throttle_scale] = label
         if a.donkeycar_cv:
-            rows += race_line_follower(out / "donkey-cv", suite / f"{DONKEYCAR_CV}{scaled}",
+            rows += race_line_follower(out / "donkey-cv", suite / f"{DONKEYCAR_CV}{scaled(a.donkeycar_throttle_scale)}",
                                        replace(o, throttle_scale=a.donkeycar_throttle_scale,
                                                throttle_floor=a.donkeycar_throttle_floor))
-        if donkey:
-            rows += race_donkeycar(*donkey, suite / folder, replace(o, throttle_scale=a.donkeycar_throttle_scale,
-                                                                  throttle_floor=a.donkeycar_throttle_floor),
-                                   folder)
+        for k in (grid or [a.donkeycar_throttle_scale]) if donkey else []:
+            folder = f"{DONKEYCAR}{suffix}{scaled(k)}"
+            rows += race_donkeycar(*donkey, suite / folder, replace(o, throttle_scale=k,
+                                                                  throttle_floor=a.donkeycar_throttle_floor), folder)
+            grids.setdefault(f"{DONKEYCAR}{suffix}", {})[k] = folder
         report(rows, suite, o, plots=False)
-        results += table(rows, cap, minutes)
+        results += chosen(table(rows, cap, minutes), grids if grid else {})
     (out / f"{a.table}.md").write_text(f"machine: {machine()}\n\n" + markdown(results, a.suite))
     (out / f"{a.table}.json").write_text(json.dumps(results, indent=1))
     with open(out / f"{a.table}.csv", "w", newline="") as f:
-        w = csv.DictWriter(f, [k for k in results[0] if k not in ("each", "training_each")])
+        w = csv.DictWriter(f, list(dict.fromkeys(k for r in results for k in r if k not in ("each", "training_each"))))
         w.writeheader()
         w.writerows([{k: v for k, v in r.items() if k not in ("each", "training_each")} for r in results])
     print((out / f"{a.table}.md").read_text())

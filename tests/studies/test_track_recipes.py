@@ -2,6 +2,7 @@
 records as donkeycar's trainer does (the recipe `mae-donkey-split`)."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -229,3 +230,89 @@ def test_donkeycar_gets_the_views_the_recipe_trains_on(tmp_path, capsys):
         script_args(parser(), ["--donkeycar", "--donkeycar-tubs", "best-no-drift", "--donkeycar-views"])
     assert "--donkeycar-views must be given with --donkeycar-tubs of a recipe that trains on views" in \
         capsys.readouterr().err
+
+
+def _summary(laps, clean, off):
+    return {"laps": laps, "clean_pct": 100 * clean / laps if laps else None,
+            "off_track_per_lap": off / laps if laps else None}
+
+
+def test_the_scale_rule_works_on_unrounded_numbers_and_says_when_the_grid_does_not_bracket_it():
+    """donkeycar's run 0 on s1 (docs/results/racing.md, "Like with like, step 1"): x 1 37 of 59 laps clean (62.71 %),
+    65 off-track events; x 1.2 44 of 71 (61.97 %, 0.74 points down), 79 (1.113 a lap, 1.0 % up); x 1.5 54 of 88
+    (61.36 %: 1.35 points down, past 1.3), 99. The rule takes x 1.2, bracketed by x 1.5; without x 1.5 x 1.2 is the
+    grid's top; off-track events 6 % up fail however clean the laps."""
+    from studies.track_recipes import scale_choice
+
+    grid = {1.0: _summary(59, 37, 65), 1.2: _summary(71, 44, 79), 1.5: _summary(88, 54, 99)}
+    assert scale_choice(grid) == (1.2, True)
+    assert scale_choice({k: grid[k] for k in (1.0, 1.2)}) == (1.2, False)
+    assert scale_choice({**grid, 1.2: _summary(71, 71, 65 / 59 * 71 * 1.06)}) == (1.0, True)
+    assert scale_choice({**grid, 2.0: _summary(100, 63, 110)}) == (2.0, False)  # 63.0 % and 1.10 a lap pass
+    assert scale_choice({1.0: _summary(59, 37, 65), 1.5: _summary(0, 0, 0)}) == (1.0, True)  # no lap at all fails
+
+
+def test_a_grid_races_every_model_at_each_scale_and_marks_the_rules_choice():
+    """`recipe_races`: a recipe at each scale of the grid, named for it, its drives at its own scale kept where they
+    are; `chosen` marks each grid row, and the table says the choice and whether it is bracketed."""
+    from steerlab.sim.track.suite import TrackSuiteOptions
+    from studies.track_recipes import chosen, markdown, recipe_races
+
+    o = TrackSuiteOptions(suite="s1", throttle_scale=1.2)
+    assert recipe_races("flip-mae", Path("s"), o, []) == [("flip-mae", Path("s/flip-mae"), o)]
+    races = recipe_races("flip-mae", Path("s"), o, [1.0, 1.2, 1.5])
+    assert [(label, folder, r.throttle_scale) for label, folder, r in races] == [
+        ("flip-mae-x1", Path("s/flip-mae-x1"), 1.0), ("flip-mae-x1.2", Path("s/flip-mae"), 1.2),
+        ("flip-mae-x1.5", Path("s/flip-mae-x1.5"), 1.5)]
+    base = {"cap": 1, "runs": 1, "finished": 5, "tracks": 8, "off_track": 1, "pace": 1.0, "pace_tracks": 5,
+            "each": [], "training_min": None, "training_each": []}
+    rows = [{**base, **_summary(59, 37, 65), "recipe": "donkeycar"},
+            {**base, **_summary(71, 44, 79), "recipe": "donkeycar-throttle-1.2"},
+            {**base, **_summary(88, 54, 99), "recipe": "donkeycar-throttle-1.5"}]
+    labels = {1.0: "donkeycar", 1.2: "donkeycar-throttle-1.2", 1.5: "donkeycar-throttle-1.5"}
+    marked = chosen(rows, {"donkeycar": labels})
+    assert [(r["scale"], r["chosen"], r["bracketed"]) for r in marked] == [(1.0, False, True), (1.2, True, True),
+                                                                            (1.5, False, True)]
+    assert markdown(marked, "s1").splitlines()[-1] == "- cap 1: **donkeycar-throttle-1.2**"
+    top = chosen(rows[:2], {"donkeycar": {1.0: "donkeycar", 1.2: "donkeycar-throttle-1.2"}})
+    assert markdown(top, "s1").endswith("**donkeycar-throttle-1.2** (the grid's largest scale: not bracketed, race a "
+                                        "larger one)\n")
+
+
+def test_the_study_races_the_grid_for_both_sides_and_writes_the_choice(tmp_path, monkeypatch):
+    """`main` with --scales 1,1.2,1.5: a recipe (best-no-drift, its own scale 1.2) and donkeycar's model each raced
+    at every scale, in the folders `recipe_races` and the donkeycar runs name; the tables mark the rule's choice for
+    each side (the drives stand in: laps and events from the scale, as donkeycar's run 0 drove them)."""
+    from dataclasses import replace
+
+    import studies.track_recipes as tr
+    from steerlab.sim.track.suite import SuiteDrive
+
+    drove = {1.0: (59, 37, 65), 1.2: (71, 44, 79), 1.5: (88, 54, 99)}
+    raced = []
+
+    def fake_race(pilots, out, o):
+        raced.append((Path(out).relative_to(tmp_path / "s1-max1").as_posix(), o.throttle_scale, o.throttle_floor))
+        laps, clean, off = drove[o.throttle_scale]
+        return [SuiteDrive("run0", "c", "taped", 9501, 20.0, 2.0, laps, laps, clean, 1.0, 1.0, 1.0, 1.0, 1.0, off,
+                           off / laps, 1.0, 90.0, 1.0, 1.0, 0.01, 1.0)]
+
+    monkeypatch.setattr(tr, "record_tubs", lambda *a: None)
+    monkeypatch.setattr(tr, "train_recipe", lambda name, seed, out, tubs: tmp_path / f"{name}-{seed}.pt")
+    monkeypatch.setattr(tr, "training_minutes", lambda *a: None)
+    monkeypatch.setattr(tr, "race", fake_race)
+    monkeypatch.setattr(tr, "donkey_models", lambda *a: (tmp_path / "car", [tmp_path / "linear-0.h5"]))
+    monkeypatch.setattr(tr, "race_donkeycar", lambda car, models, out, o, label: [
+        replace(d, label=f"{label}/{d.label}") for d in fake_race(models, out, o)])
+    monkeypatch.setattr(tr, "report", lambda *a, **k: None)
+    monkeypatch.setattr(tr, "machine", lambda: "m")
+
+    tr.main(None, tr.Races(recipes="best-no-drift", seeds="0", caps="1", scales="1,1.2,1.5", donkeycar=True,
+                           donkeycar_throttle_floor=0.2, out=str(tmp_path), table="t"))
+    assert set(raced) == {("best-no-drift-x1", 1.0, 0.0), ("best-no-drift", 1.2, 0.0), ("best-no-drift-x1.5", 1.5, 0.0),
+                          ("donkeycar-floor-0.2", 1.0, 0.2), ("donkeycar-throttle-1.2-floor-0.2", 1.2, 0.2),
+                          ("donkeycar-throttle-1.5-floor-0.2", 1.5, 0.2)}
+    rows = {r["recipe"]: r for r in json.loads((tmp_path / "t.json").read_text())}
+    assert {k for k, r in rows.items() if r["chosen"]} == {"best-no-drift-x1.2", "donkeycar-throttle-1.2-floor-0.2"}
+    assert (tmp_path / "t.md").read_text().endswith("- cap 1: **best-no-drift-x1.2**\n- cap 1: "
+                                                    "**donkeycar-throttle-1.2-floor-0.2**\n")

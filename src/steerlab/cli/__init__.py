@@ -123,7 +123,7 @@ def add_options(q: argparse.ArgumentParser, command: str | None, *classes: type,
             if o.key in skip:
                 continue
             kind, _ = optional(o.kind)
-            default = "" if o.default in (None, MISSING) else f" (default {o.default})"
+            default = "" if o.default in (None, MISSING, "") else f" (default {o.default})"
             helptext = (o.help or o.expected) + default
             literal = getattr(kind, "__origin__", None) is not None and str(kind).startswith("typing.Literal")
             negated = kind is bool and o.default is True
