@@ -57,7 +57,7 @@ from steerlab.options import AT_LEAST_1, SEED, WORKERS, Options, Range, names_fr
 from steerlab.sim.track.suite import TRACK_SUITES, TrackSuiteOptions, part_entrant, race, report, summarize
 from steerlab.sim.track.world import throttle_floor_option, throttle_scale_option
 from studies._recipes import AUGMENT, DONKEYCAR, DONKEYCAR_CV, RECIPES, TUB_MINUTES, TUBS, base
-from studies.common import ROOT, NumberList, machine, mean_min_max, mean_of, track_tub
+from studies.common import ROOT, Grid, NumberList, machine, mean_min_max, mean_of, track_tub
 from studies.common.donkeycar import (DONKEY_TRAINING, DonkeycarLineFollower, DonkeycarPart, cv_car, donkey_models,
                                       donkey_python, training_suffix, training_tub, views_tub)
 
@@ -325,7 +325,7 @@ def markdown(rows: list[dict], suite: str) -> str:
 
 SEEDS = NumberList(int, SEED)
 CAPS = NumberList(float, Range(0, 1, lo_open=True))  # as --max-throttle of the track commands
-SCALES = NumberList(float, Range(0, 10, lo_open=True))  # as --throttle-scale of the track commands
+SCALES = Grid(float, Range(0, 10, lo_open=True))  # as --throttle-scale of the track commands, x 1 among them
 SCALE_POINTS, SCALE_OFF_TRACK = 1.3, 0.05
 SCALE_RULE = (f"the largest throttle scale of the grid whose clean-lap share (the mean over the runs, unrounded) is at "
               f"most {SCALE_POINTS:g} points below x 1's and whose off-track events per lap are at most "
@@ -355,11 +355,10 @@ class Races(Options):
     suite: str = option("s1", lambda v: v in TRACK_SUITES, " or ".join(TRACK_SUITES),
                         help="the track suite raced (s1: selection tracks; t2 and t3 score)")
     caps: str = option("1,0.5", CAPS, CAPS.words, help="throttle caps (the learned throttle's and the expert's)")
-    scales: str = option("", lambda v: not v or (SCALES(v) and 1.0 in SCALES.of(v)), f"empty or {SCALES.words}, "
-                         "1 among them", help="a grid of drive-time throttle scales: every recipe and donkeycar's "
-                         "model raced at each (a recipe's own scale and --donkeycar-throttle-scale replaced), each "
-                         "one's chosen by the rule of the table (largest within 1.3 points of x 1's clean laps and "
-                         "5 %% of its off-track events per lap); empty: each at its own")
+    scales: str = option("", SCALES, SCALES.words, help="a grid of drive-time throttle scales: every recipe and "
+                         "donkeycar's model raced at each (a recipe's own scale and --donkeycar-throttle-scale "
+                         "replaced), each one's chosen by the rule of the table (largest within 1.3 points of x 1's "
+                         "clean laps and 5 %% of its off-track events per lap); empty: each at its own")
     donkeycar: bool = option(False, help="also donkeycar's linear model (its own trainer)")
     donkeycar_cv: bool = option(False, help="also donkeycar's computer-vision line follower (its cv_control "
                                 "template's LineFollower, set for each track's tape colour; no training), at "
@@ -406,7 +405,7 @@ def main(_, a: Races) -> None:
     tubs = out / "tubs"
     record_tubs(tubs, TUBS)
     caps, seeds = CAPS.of(a.caps), SEEDS.of(a.seeds)
-    grid = SCALES.of(a.scales) if a.scales else []
+    grid = SCALES.of(a.scales)
     for name in recipes:  # each recipe races as soon as it is trained
         ckpts = [train_recipe(name, seed, out, tubs) for seed in seeds]
         for cap in caps:

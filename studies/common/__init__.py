@@ -78,6 +78,27 @@ class NumberList:
         return f"a comma list of {each}, each once"
 
 
+@dataclass(frozen=True)
+class Grid(NumberList):
+    """A NumberList that may be empty (no grid) and, given, holds `needs` (`--scales 1,1.2,1.5`: x 1 is the rule's
+    reference); `of("")` is []."""
+
+    needs: float = 1.0
+
+    def of(self, text: str) -> list:
+        values = super().of(text) if text else []
+        if values and self.needs not in values:
+            raise ValueError(text)
+        return values
+
+    def __call__(self, text: str) -> bool:
+        return text == "" or super().__call__(text)
+
+    @property
+    def words(self) -> str:
+        return f"empty or {super().words}, {self.needs:g} among them"
+
+
 def machine() -> str:
     """The machine a result is measured on: the processor and its instruction sets, the kernels torch dispatches to
     (with oneDNN's limit where ONEDNN_MAX_CPU_ISA sets one), torch's threads and version (or that torch is not

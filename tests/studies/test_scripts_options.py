@@ -106,7 +106,7 @@ def test_every_numeric_script_option_is_refused_out_of_range(script, name, kind,
     if kind == "list":  # after a value the list takes: the bad one is what is refused
         good = next(str(v) for v, taken in _edges(check.range, check.kind) if taken)
         bad = [f"{good},{v}" for v, taken in _edges(check.range, check.kind)
-               if not taken and not isinstance(v, (bool, list))] + [f"{good},{good}", ""]
+               if not taken and not isinstance(v, (bool, list))] + [f"{good},{good}"] + ([] if check("") else [""])
     else:
         bad = [v for v, taken in _edges(check, kind) if not taken and not isinstance(v, (bool, list))]
     argv = _needed(script, tmp_path)
