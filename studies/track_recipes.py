@@ -387,6 +387,9 @@ class Races(Options):
     def related(cls, v):
         if v.recipes.strip() or not (v.donkeycar or v.donkeycar_cv):
             yield from names_held(v, "recipes", RECIPES, "recipes")
+        for flag in ("donkeycar_ours", "donkeycar_views"):  # levers of donkeycar's trainer: nothing without it
+            if getattr(v, flag) and not v.donkeycar:
+                yield flag, "given with --donkeycar (a lever of donkeycar's trainer, which races only with it)"
         if v.donkeycar_ours and not (v.donkeycar_tubs in RECIPES and RECIPES[v.donkeycar_tubs].only):
             yield "donkeycar_ours", ("given with --donkeycar-tubs of a recipe that validates on a block of its first "
                                      f"tub ({', '.join(n for n, r in RECIPES.items() if r.only)})")

@@ -230,6 +230,15 @@ def test_donkeycar_gets_the_views_the_recipe_trains_on(tmp_path, capsys):
         script_args(parser(), ["--donkeycar", "--donkeycar-tubs", "best-no-drift", "--donkeycar-views"])
     assert "--donkeycar-views must be given with --donkeycar-tubs of a recipe that trains on views" in \
         capsys.readouterr().err
+    for lever in ("--donkeycar-views", "--donkeycar-ours"):  # without --donkeycar they would do nothing
+        with pytest.raises(SystemExit):
+            script_args(parser(), ["--donkeycar-tubs", "best-no-drift-views", lever])
+        err = capsys.readouterr().err
+        assert f"error: {lever} must be given with --donkeycar (a lever of donkeycar's trainer" in err
+    for grid in ("1.2,1.5", "1,1", "1,0", "1,abc"):  # x 1 is the rule's reference; each scale once, in (0, 10]
+        with pytest.raises(SystemExit):
+            script_args(parser(), ["--scales", grid])
+        assert capsys.readouterr().err.startswith("error: --scales must be empty or a comma list")
 
 
 def _summary(laps, clean, off):
