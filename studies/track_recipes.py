@@ -15,9 +15,11 @@ seeded), races the same tracks behind a pipe (`_donkey_part.py`). Like with like
 `--donkeycar-ours` trains donkeycar's model on the records steerlab's recipe trains on (the first tub's validation
 block deleted), and the recipe `mae-donkey-split` trains steerlab's on donkeycar's split (the tubs merged into one,
 a random 20 % of all records validating); the same extra frames: `--donkeycar-views` trains it on the views
-(`train.views`) of a recipe with views as well, written as a tub of each tub it reads. `--donkeycar-cv` races
-donkeycar's computer-vision line follower beside them, which needs no training (its `cv_control` template, set for
-each track's tape colour as its owner sets it: `studies/common/donkeycar.py` `cv_thresholds`).
+(`train.views`) of a recipe with views as well, written as a tub of each tub it reads, and `--donkeycar-flip` on the
+mirror images of a recipe with `train.flip` (every record it reads, views included, mirrored left-right, its
+steering negated). `--donkeycar-cv` races donkeycar's computer-vision line follower beside them, which needs no
+training (its `cv_control` template, set for each track's tape colour as its owner sets it:
+`studies/common/donkeycar.py` `cv_thresholds`).
 
 The drive-time lever chosen for each side by one rule: `--scales 1,1.2,1.5` races every recipe and donkeycar's
 model at each throttle scale of the grid (a recipe's own scale and --donkeycar-throttle-scale replaced, the floors
@@ -32,8 +34,8 @@ rerun trains and drives only what is missing.
 
 python -m studies.track_recipes [--recipes donkey,gray,...] [--seeds 0,1] [--suite s1] [--caps 1,0.5] [--scales ...]
     [--donkeycar [--donkeycar-runs 3] [--donkeycar-tubs donkey] [--donkeycar-throttle-scale 1]
-    [--donkeycar-throttle-floor 0] [--donkeycar-ours] [--donkeycar-views] [--donkeycar-epochs 100]
-    [--donkeycar-patience 5]]
+    [--donkeycar-throttle-floor 0] [--donkeycar-ours] [--donkeycar-views] [--donkeycar-flip]
+    [--donkeycar-epochs 100] [--donkeycar-patience 5]]
     [--donkeycar-cv]
     [--workers 2] [--out runs/race] [--table table]
 """
@@ -59,7 +61,7 @@ from steerlab.sim.track.world import throttle_floor_option, throttle_scale_optio
 from studies._recipes import AUGMENT, DONKEYCAR, DONKEYCAR_CV, RECIPES, TUB_MINUTES, TUBS, base
 from studies.common import ROOT, Grid, NumberList, machine, mean_min_max, mean_of, track_tub
 from studies.common.donkeycar import (DONKEY_TRAINING, DonkeycarLineFollower, DonkeycarPart, cv_car, donkey_models,
-                                      donkey_python, training_suffix, training_tub, views_tub)
+                                      donkey_python, mirrored_tub, training_suffix, training_tub, views_tub)
 
 
 def record_tubs(tubs: Path, names) -> None:
@@ -97,11 +99,22 @@ def without_validation(tubs: Path, name: str, only: int) -> Path:
     return out if (out / "manifest.json").exists() else training_tub(tubs / name, keep, out)
 
 
+def recipe_overrides(name: str) -> list[str]:
+    """The `train.` overrides of a recipe, those of the recipe it starts from (and so on) first."""
+    recipes = [name]
+    while RECIPES[recipes[-1]].starts:
+        recipes.append(RECIPES[recipes[-1]].starts)
+    return [o for r in reversed(recipes) for o in RECIPES[r].overrides if o.startswith("train.")]
+
+
 def recipe_views(name: str) -> bool:
     """Whether the recipe trains on views (`train.views`) of its frames."""
-    recipe = RECIPES[name]
-    return any(o.startswith("train.views=") for o in recipe.overrides) or bool(recipe.starts and
-                                                                              recipe_views(recipe.starts))
+    return any(o.startswith("train.views=") for o in recipe_overrides(name))
+
+
+def recipe_flips(name: str) -> bool:
+    """Whether the recipe trains on mirror images of its frames (`train.flip`)."""
+    return "train.flip=true" in recipe_overrides(name)
 
 
 def views_tubs(tubs: Path, names, recipe: str) -> tuple[str, ...]:
@@ -110,15 +123,19 @@ def views_tubs(tubs: Path, names, recipe: str) -> tuple[str, ...]:
     (`views_tub`): the same extra frames for donkeycar's trainer. Each view's draw is made over that tub's records."""
     from steerlab.train.config import load_config
 
-    recipes = [recipe]
-    while RECIPES[recipes[-1]].starts:
-        recipes.append(RECIPES[recipes[-1]].starts)
-    overrides = [o for r in reversed(recipes) for o in RECIPES[r].overrides if o.startswith("train.")]
     out = []
     for name in names:
-        cfg = load_config(None, base=base(tubs) | {"data": str(tubs / name), "extra_data": []}, overrides=overrides)
+        cfg = load_config(None, base=base(tubs) | {"data": str(tubs / name), "extra_data": []},
+                          overrides=recipe_overrides(recipe))
         out.append(views_tub(cfg, set(usable_records(tubs / name)), tubs / f"{name}-views-{recipe}").name)
     return tuple(out)
+
+
+def mirrored_tubs(tubs: Path, names) -> tuple[str, ...]:
+    """The records donkeycar's trainer reads of each tub `names` (folders of `tubs`: the recorded ones and their
+    views) mirrored left-right, their steering negated, written as a tub of each beside it, once (`mirrored_tub`):
+    the mirror images a recipe with `train.flip` trains on, for donkeycar's trainer."""
+    return tuple(mirrored_tub(tubs / n, set(usable_records(tubs / n)), tubs / f"{n}-mirrored").name for n in names)
 
 
 def merged_tub(tubs: Path, names, out: Path) -> Path:
@@ -289,19 +306,20 @@ def markdown(rows: list[dict], suite: str) -> str:
              "| recipe | what differs from donkeycar's recipe | cap | runs | laps | clean laps [%] | finished | "
              "off track / lap | off track | pace (tracks) | training [min] |", "|---" * 11 + "|"]
 
-    def describe(recipe):  # donkeycar's runs: donkeycar[-TUBS][-ours][-views][-epochs-E][-patience-P][-throttle-K]
-        # [-floor-F]
+    def describe(recipe):  # donkeycar's runs: donkeycar[-TUBS][-ours][-views][-mirrored][-epochs-E][-patience-P]
+        # [-throttle-K][-floor-F]
         if not recipe.startswith(DONKEYCAR):
             return what.get(recipe, "")
         names = "|".join(re.escape(n) for n in sorted(what, key=len, reverse=True))
         number = r"[\d.e+-]+"
-        m = re.fullmatch(rf"(?P<base>{names})(?P<ours>-ours)?(?P<views>-views)?(-epochs-(?P<epochs>{number}))?"
-                         rf"(-patience-(?P<patience>{number}))?(-throttle-(?P<scale>{number}))?"
-                         rf"(-floor-(?P<floor>{number}))?", recipe)
+        m = re.fullmatch(rf"(?P<base>{names})(?P<ours>-ours)?(?P<views>-views)?(?P<flip>-mirrored)?"
+                         rf"(-epochs-(?P<epochs>{number}))?(-patience-(?P<patience>{number}))?"
+                         rf"(-throttle-(?P<scale>{number}))?(-floor-(?P<floor>{number}))?", recipe)
         if m is None:
             return ""
         return (what.get(m["base"], "") + (", on steerlab's training records" if m["ours"] else "") +
                 (", and their views as the recipe's" if m["views"] else "") +
+                (", and their mirror images" if m["flip"] else "") +
                 (f", at most {m['epochs']} epochs" if m["epochs"] else "") +
                 (f", early stopping after {m['patience']} epochs without a better loss" if m["patience"] else "") +
                 (f", its throttle times {m['scale']} before the cap" if m["scale"] else "") +
@@ -378,6 +396,9 @@ class Races(Options):
     donkeycar_views: bool = option(False, help="donkeycar's trainer also on the views --donkeycar-tubs' recipe trains "
                                    "on (its train.views) of the records it reads, written as a tub of each: the "
                                    "same extra frames")
+    donkeycar_flip: bool = option(False, help="donkeycar's trainer also on the mirror images (left-right, the "
+                                  "steering negated) of every record it reads, views included, written as a tub of "
+                                  "each: the frames --donkeycar-tubs' recipe's train.flip trains on")
     workers: int = option(2, WORKERS, help="tracks driven in parallel")
     out: str = option(str(ROOT / "runs" / "race"), path="folder", help="the study's folder")
     table: str = option("table", lambda v: v and "/" not in v, "a file name without a folder",
@@ -387,7 +408,7 @@ class Races(Options):
     def related(cls, v):
         if v.recipes.strip() or not (v.donkeycar or v.donkeycar_cv):
             yield from names_held(v, "recipes", RECIPES, "recipes")
-        for flag in ("donkeycar_ours", "donkeycar_views"):  # levers of donkeycar's trainer: nothing without it
+        for flag in ("donkeycar_ours", "donkeycar_views", "donkeycar_flip"):  # nothing without it
             if getattr(v, flag) and not v.donkeycar:
                 yield flag, "given with --donkeycar (a lever of donkeycar's trainer, which races only with it)"
         if v.donkeycar_ours and not (v.donkeycar_tubs in RECIPES and RECIPES[v.donkeycar_tubs].only):
@@ -396,6 +417,9 @@ class Races(Options):
         if v.donkeycar_views and not (v.donkeycar_tubs in RECIPES and recipe_views(v.donkeycar_tubs)):
             yield "donkeycar_views", ("given with --donkeycar-tubs of a recipe that trains on views "
                                       f"({', '.join(n for n in RECIPES if recipe_views(n))})")
+        if v.donkeycar_flip and not (v.donkeycar_tubs in RECIPES and recipe_flips(v.donkeycar_tubs)):
+            yield "donkeycar_flip", ("given with --donkeycar-tubs of a recipe that trains on mirror images "
+                                     f"(train.flip: {', '.join(n for n in RECIPES if recipe_flips(n))})")
 
 
 def parser():
@@ -418,6 +442,7 @@ def main(_, a: Races) -> None:
     training = {"MAX_EPOCHS": a.donkeycar_epochs, "EARLY_STOP_PATIENCE": a.donkeycar_patience}
     suffix = "" if a.donkeycar_tubs == "donkey" else f"-{a.donkeycar_tubs}"  # donkeycar on another recipe's tubs
     suffix += ("-ours" if a.donkeycar_ours else "") + ("-views" if a.donkeycar_views else "")
+    suffix += "-mirrored" if a.donkeycar_flip else ""  # not -flip: a recipe's name ends so
     suffix += training_suffix(training)
 
     def scaled(k):  # the folder suffix of a drive at the throttle scale k and the floor
@@ -431,6 +456,8 @@ def main(_, a: Races) -> None:
             names = (without_validation(tubs, names[0], RECIPES[a.donkeycar_tubs].only).name, *names[1:])
         if a.donkeycar_views:
             names = (*names, *views_tubs(tubs, names, a.donkeycar_tubs))
+        if a.donkeycar_flip:
+            names = (*names, *mirrored_tubs(tubs, names))
         donkey = donkey_models(out, tubs, a.donkeycar_runs, names, f"donkey{suffix}", training)
     results, minutes = [], {name: [training_minutes(name, seed, out) for seed in seeds] for name in recipes}
     for cap in caps:

@@ -251,6 +251,30 @@ def views_tub(cfg, keep: set[int], out: Path) -> Path:
     return out if (out / "manifest.json").exists() else write_views_tub(cfg, out, keep, progress=False)
 
 
+def mirrored_tub(tub: Path, keep: set[int], out: Path) -> Path:
+    """The records `keep` (record `_index` values) of a tub mirrored left-right, their steering negated and their
+    throttle kept, as a tub donkeycar's trainer reads beside the tub itself: the mirror images steerlab's
+    `train.flip` trains on (each sample mirrored with probability 0.5), which donkeycar's trainer cannot make. Its
+    sessions and times are the tub's. Written once; a finished tub is kept."""
+    from steerlab.data.car import CARS
+    from steerlab.data.readers import open_recording
+    from steerlab.data.writer import TubWriter
+
+    if (out / "manifest.json").exists():
+        return out
+    lock = CARS["donkey"].full_lock_deg  # the writer's unit; the servo value is negated whatever it is
+    rec = open_recording(str(tub), options={"full_lock_deg": lock})
+    left = rec.convention.to_road_wheel_left(np.asarray(rec.steering, np.float64), 1.0)
+    segments, t0 = rec.segment_ids(), int(rec.timestamps_ns[0])
+    writer, last = TubWriter(out, lock), None
+    for i in range(len(rec)):
+        if int(rec.frame_ids[i]) in keep:
+            writer.add(np.ascontiguousarray(rec.load_frame(i)[:, ::-1]), int(rec.timestamps_ns[i]) - t0,
+                       -float(left[i]), float(rec.throttle[i]), new_session=last is None or segments[i] != last)
+            last = segments[i]
+    return writer.close()
+
+
 def donkey_train(python: Path, car: Path, tub: Path | str, model: Path, kind: str, log: Path) -> float | None:
     """`donkey train` of a `kind` model on `tub` (a comma list of tubs trains on all; their deleted records left
     out, as donkeycar reads a tub) into `model`, as its users run it; its wall-clock seconds, or None (said) when

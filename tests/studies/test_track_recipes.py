@@ -241,6 +241,57 @@ def test_donkeycar_gets_the_views_the_recipe_trains_on(tmp_path, capsys):
         assert capsys.readouterr().err.startswith("error: --scales must be empty or a comma list")
 
 
+def test_donkeycar_gets_the_mirror_images_the_recipe_trains_on(tmp_path, capsys):
+    """`mirrored_tubs`: every record donkeycar reads of a tub (a deleted one left out) mirrored left-right, its
+    steering negated, its throttle kept, written as a tub beside it, once; --donkeycar-flip only beside the tubs of a
+    recipe with train.flip; the runs' folders and descriptions say it."""
+    import cv2
+
+    from steerlab.cli import script_args
+    from studies.track_recipes import markdown, mirrored_tubs, parser, recipe_flips
+
+    t = tub(tmp_path / "t", {i: {"user/throttle": 0.2 + 0.05 * i, "user/angle": 0.1 * i - 0.3} for i in range(8)})
+    ramp = np.tile(np.linspace(0, 250, 160, dtype=np.uint8)[None, :, None], (120, 1, 3))  # dark left, bright right
+    for i in range(8):
+        cv2.imwrite(str(t / "images" / f"{i}_cam_image_array_.jpg"), ramp)
+    lines = (t / "manifest.json").read_text().splitlines()
+    lines[4] = json.dumps({**json.loads(lines[4]), "deleted_indexes": [6]})
+    (t / "manifest.json").write_text("\n".join(lines) + "\n")
+    assert recipe_flips("best-no-drift-views") and recipe_flips("rooms-colour-flip") and not recipe_flips("rooms")
+    (name,) = mirrored_tubs(tmp_path, ["t"])
+    assert name == "t-mirrored"
+    whole, mirrored = (open_recording(str(tmp_path / n), options={"full_lock_deg": 25}) for n in ("t", name))
+    assert len(whole) == 7 and len(mirrored) == 7
+    assert np.allclose(mirrored.steering, -whole.steering, atol=1e-6) and np.allclose(mirrored.throttle,
+                                                                                     whole.throttle)
+    servo = [json.loads(line)["user/angle"] for c in sorted((tmp_path / name).glob("*.catalog"))
+             for line in c.read_text().splitlines()]
+    assert np.allclose(servo, [0.3, 0.2, 0.1, 0.0, -0.1, -0.2, -0.4], atol=1e-6)  # record 6 deleted
+    for i in range(7):
+        frame, back = whole.load_frame(i).astype(int), mirrored.load_frame(i).astype(int)
+        assert np.abs(back - frame[:, ::-1]).mean() < 3 < np.abs(back - frame).mean()
+    made = (tmp_path / name / "manifest.json").stat().st_mtime_ns
+    assert mirrored_tubs(tmp_path, ["t"]) == (name,)
+    assert (tmp_path / name / "manifest.json").stat().st_mtime_ns == made  # written once
+    assert script_args(parser(), ["--donkeycar", "--donkeycar-tubs", "rooms-colour-flip",
+                                  "--donkeycar-flip"])[1][0].donkeycar_flip
+    with pytest.raises(SystemExit):
+        script_args(parser(), ["--donkeycar", "--donkeycar-tubs", "rooms", "--donkeycar-flip"])
+    assert "--donkeycar-flip must be given with --donkeycar-tubs of a recipe that trains on mirror images" in \
+        capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        script_args(parser(), ["--donkeycar-tubs", "rooms-colour-flip", "--donkeycar-flip"])
+    assert "error: --donkeycar-flip must be given with --donkeycar (a lever" in capsys.readouterr().err
+    row = {"recipe": "donkeycar-best-no-drift-views-ours-views-mirrored-floor-0.2", "cap": 1, "runs": 1, "laps": 1,
+           "clean_pct": 1.0, "finished": 1, "tracks": 8, "off_track_per_lap": 0.1, "off_track": 1, "pace": 1.0,
+           "pace_tracks": 1, "each": [], "training_min": None, "training_each": []}
+    assert markdown([row], "s1").splitlines()[-1].split(" | ")[1] == (
+        "donkeycar's own trainer and part, on the tubs of best-no-drift-views, on steerlab's training records, and "
+        "their views as the recipe's, and their mirror images, at least 0.2 while the car stands")
+    plain = markdown([{**row, "recipe": "donkeycar-rooms-colour-flip"}], "s1").splitlines()[-1].split(" | ")[1]
+    assert plain == "donkeycar's own trainer and part, on the tubs of rooms-colour-flip"  # the recipe, not a lever
+
+
 def _summary(laps, clean, off):
     return {"laps": laps, "clean_pct": 100 * clean / laps if laps else None,
             "off_track_per_lap": off / laps if laps else None}
