@@ -192,6 +192,10 @@ RECIPES = {
                                   "turned within +-15 degrees (train.views, train.recovery_s 0.3), driven as "
                                   "best-floor-0.2", (*BEST, *VIEWS),
                                   {**RACE_BEST, "throttle_floor": 0.2}, ROOMS_NO_DRIFT, only=240),
+    "best-no-drift-views-p15": Recipe("best-no-drift-views trained all 15 epochs (train.patience 15: no early stop on "
+                                      "the 240-record validation block), its best epoch there kept",
+                                      (*BEST, *VIEWS, "train.patience=15"), {**RACE_BEST, "throttle_floor": 0.2},
+                                      ROOMS_NO_DRIFT, only=240),
     "best-views": Recipe("track_best + one view of every frame, its camera moved within +-0.15 m and turned within "
                          "+-15 degrees (train.views, train.recovery_s 0.3), driven as best-floor-0.2",
                          (*BEST, *VIEWS), {**RACE_BEST, "throttle_floor": 0.2}, ROOMS, only=240),
