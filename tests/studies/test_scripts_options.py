@@ -169,12 +169,11 @@ def test_what_a_script_refuses_once_it_runs_ends_in_one_line_too(tmp_path, capsy
     cases = [("studies.pruning_replay", [str(tmp_path)], f"error: {tmp_path / 'study.journal'}: holds no study"),
              ("studies.replay_references", ["--data", str(tmp_path / "nowhere")], f"error: {tmp_path / 'nowhere'}: "),
              ("studies.same_batches", ["--before", str(tmp_path)], f"error: --before {tmp_path}: no src/steerlab"),
-             ("studies.lane_drive", [str(plain), "--out", str(tmp_path / "a")],
-              f"error: {plain}: model 'pilotnet' has no lane head to look at"),
              ("studies.lane_drive", [str(tmp_path / "study.journal"), "--out", str(tmp_path / "b")],
               f"error: {tmp_path / 'study.journal'}: not a readable checkpoint"),
              ("studies.lane_drive", [str(plain), "--latency", "1", "--out", str(tmp_path / "c")],
-              "error: --latency must be 0 here (the head's lane is compared with the true lane of the frame it saw)")]
+              "error: --latency must be 0 here (the model's answers are compared with the lane and pose of the frame "
+              "it saw)")]
     for script, argv, start in cases:
         with pytest.raises(SystemExit) as e:
             run_script(parser_of(script), importlib.import_module(script).main, argv)
