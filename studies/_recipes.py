@@ -91,6 +91,8 @@ COLOUR = ("train.hue_deg=180", "train.brightness=0.25")  # the colours and light
 # the train: section's options (the tub studies) and the same as overrides (the recipes)
 VIEW = {"views": [[[-0.15, 0.15], [-15, 15]]], "recovery_s": 0.3}
 VIEWS = tuple(f"train.{key}={json.dumps(value)}" for key, value in VIEW.items())
+VIEWS_30 = tuple(f"train.{key}={json.dumps(value)}"  # turned as far as the pose frames are
+                 for key, value in {**VIEW, "views": [[[-0.15, 0.15], [-30, 30]]]}.items())
 BEST = (*COLOUR, "train.flip=true", "train.loss=mae", "train.epoch_samples=3700")  # configs/track_best.yaml
 LANE_PACE = (2.0, 3.5, 5.0, 8.0, 12.0, 20.0)  # m/s^2: the pace from the lane's lateral accelerations, chosen on s1
 RACE_BEST = {"throttle_scale": 1.2}  # its scale uncapped (and its floor at rest: best-floor-0.2)
@@ -196,6 +198,9 @@ RECIPES = {
                                       "the 240-record validation block), its best epoch there kept",
                                       (*BEST, *VIEWS, "train.patience=15"), {**RACE_BEST, "throttle_floor": 0.2},
                                       ROOMS_NO_DRIFT, only=240),
+    "best-no-drift-views-30": Recipe("best-no-drift-views with its views turned within +-30 degrees (the pose frames' "
+                                     "range) instead of +-15", (*BEST, *VIEWS_30), {**RACE_BEST, "throttle_floor": 0.2},
+                                     ROOMS_NO_DRIFT, only=240),
     "best-views": Recipe("track_best + one view of every frame, its camera moved within +-0.15 m and turned within "
                          "+-15 degrees (train.views, train.recovery_s 0.3), driven as best-floor-0.2",
                          (*BEST, *VIEWS), {**RACE_BEST, "throttle_floor": 0.2}, ROOMS, only=240),

@@ -72,3 +72,34 @@ def test_the_frames_of_the_last_second_before_each_put_back_are_kept():
     assert [[i for i, _ in before] for before in seeing.before] == [[2, 3, 4, 5], [6, 7]]
     assert [int(f[0, 0]) for _, f in seeing.before[0]] == [2, 3, 4, 5]  # each frame as it was, copied
     assert seeing.seen[7] == pytest.approx((0.07, 0.0, 0.5, 0.1))
+
+
+def test_a_model_without_a_lane_head_drives_with_the_experts_steering_beside_its_own(tmp_path):
+    """An untrained donkeycar-tub model on taped track 9505 for 3 s: every frame's road-wheel angle is its steering
+    through its convention, the expert's is the driving world's own from the car's pose at that tick, the lane it
+    would see is left empty and the stretch table says "-" there."""
+    import csv
+
+    from steerlab.cli import run_script
+    from steerlab.data.recording import SteeringConvention
+    from steerlab.sim.track.world import TrackWorld
+    from studies import lane_drive
+    from tests.inputs import made
+
+    plain = made(tmp_path, "normalized", geometry="donkey", full_lock_deg=25.0)
+    out = tmp_path / "drive"
+    run_script(lane_drive.parser(), lane_drive.main, [str(plain), "--seed", "9505", "--minutes", "0.05", "--throttle",
+                                                      "0.3", "--out", str(out)])
+    rows = list(csv.DictReader(open(out / "frames.csv")))
+    ticks = list(csv.DictReader(open(out / "trajectory.csv")))
+    assert len(rows) == len(ticks) == 60 and rows[0]["seen_offset_m"] == rows[-1]["seen_curvature"] == ""
+    convention = SteeringConvention("normalized", "right", full_lock=math.radians(25.0))
+    world = TrackWorld(9505, camera=None, throttle=0.3)
+    for k, (row, tick) in enumerate(zip(rows, ticks)):  # the drive again, as the drive loop steps it
+        world.intervene(0.0)
+        assert float(row["road_wheel"]) == pytest.approx(convention.to_road_wheel_left(float(row["steering"]), 1.0))
+        assert float(row["expert_road_wheel"]) == pytest.approx(world.expert_steering(), abs=2e-3), k
+        assert float(tick["x"]) == pytest.approx(world.state.x, abs=1e-4)
+        world.step(float(row["road_wheel"]))
+    table = (out / "lane_drive.md").read_text()
+    assert "| 0-2 | " in table and " | - | " in table and sum(int(r["put_back"]) for r in rows) >= 1
