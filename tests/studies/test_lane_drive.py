@@ -16,8 +16,9 @@ def _row(place, offset, seen_offset, road_wheel=0.1, expert=0.3, put_back=0, see
 
 def test_each_stretch_of_the_lap_gives_the_true_lane_beside_the_heads_errors_and_the_experts_steering():
     """0-2 m: offsets -0.04 and +0.02 (mean |.| 0.03), seen +0.01 and +0.02 (errors 0.05 and 0: 0.025); road-wheel
-    angles 0.1 and -0.3 (mean -0.1) against the expert's 0.3 and -0.5 (mean -0.1): off by 0.2 either way; 2-4 m one frame put
-    back; 4-5 m (the lap's end) none: no row. A model without a lane head (NaN seen): "-" where its errors were."""
+    angles 0.1 and -0.3 (mean -0.1) against the expert's 0.3 and -0.5 (mean -0.1): off by 0.2 either way; 2-4 m one
+    frame put back; 4-5 m (the lap's end) none: no row. A model without a lane head (NaN seen): "-" where its errors
+    were."""
     from studies.lane_drive import stretch_rows
 
     rows = [_row(0.5, -0.04, 0.01), _row(1.9, 0.02, 0.02, -0.3, -0.5), _row(2.0, -0.2, 0.0, put_back=1)]

@@ -169,6 +169,8 @@ def test_what_a_script_refuses_once_it_runs_ends_in_one_line_too(tmp_path, capsy
     cases = [("studies.pruning_replay", [str(tmp_path)], f"error: {tmp_path / 'study.journal'}: holds no study"),
              ("studies.replay_references", ["--data", str(tmp_path / "nowhere")], f"error: {tmp_path / 'nowhere'}: "),
              ("studies.same_batches", ["--before", str(tmp_path)], f"error: --before {tmp_path}: no src/steerlab"),
+             ("studies.lane_drive", [str(plain), "--steer-by", "lane", "--out", str(tmp_path / "a")],
+              f"error: {plain}: steer_by lane steers by the lane a model's lane head sees; model 'pilotnet' has none"),
              ("studies.lane_drive", [str(tmp_path / "study.journal"), "--out", str(tmp_path / "b")],
               f"error: {tmp_path / 'study.journal'}: not a readable checkpoint"),
              ("studies.lane_drive", [str(plain), "--latency", "1", "--out", str(tmp_path / "c")],
