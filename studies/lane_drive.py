@@ -30,10 +30,9 @@ import cv2
 import numpy as np
 
 from steerlab.cli import path_option, run_script, script_parser
-from steerlab.data.car import VehicleState
 from steerlab.options import option
 from steerlab.sim.track.run import checkpoint_pilot, drive
-from steerlab.sim.track.world import TrackDriveOptions, TrackWorld
+from steerlab.sim.track.world import TrackDriveOptions
 from studies.common import ROOT, machine
 
 BIN_M = 2.0  # the lap's stretches the errors are averaged over
@@ -127,14 +126,6 @@ def strip(frames: list, rows: list[dict], path: Path) -> None:
     cv2.imwrite(str(path), np.concatenate([np.concatenate(tiles[i:i + 3], 1) for i in range(0, len(tiles), 3)], 0))
 
 
-def expert_road_wheel(world: TrackWorld, x: float, y: float, s: float, heading: float, v: float) -> float:
-    """The expert's road-wheel angle (rad, positive left) with the car of `world` at the pose of a drive's tick: the
-    rear axle at (x, y), near arc length `s`, its heading `heading` off the lane's, at speed `v`."""
-    _, _, lane_psi = world.track.project(x, y, s)
-    world.smallcar.state, world.s = VehicleState(x, y, float(lane_psi) + heading, v), s
-    return world.expert_steering()
-
-
 def parser():
     p = script_parser(__spec__.name, __doc__, LaneDrive)
     path_option(p, "checkpoint", kind="file", help="a checkpoint (.pt or .onnx); one with a lane head "
@@ -146,34 +137,32 @@ def main(a, o: LaneDrive) -> None:
     pilot = checkpoint_pilot(a.checkpoint, o)
     out = Path(o.out)
     seeing = Seeing(pilot, o.fps)
-    result = drive(seeing, out, o, progress=True, plot=False)
-    with open(out / "trajectory.csv", newline="") as f:
-        ticks = list(csv.DictReader(f))
-    world = TrackWorld(o.seed, o.lane_width, o.style, o.fps, camera=None)  # the expert's labels, posed at each tick
-    track = world.track
-    rows = []
-    for k, (tick, seen) in enumerate(zip(ticks, seeing.seen)):
-        s, heading = float(tick["s"]), float(tick["heading_error_rad"])
-        rows.append({"tick": k, "place_m": s % track.length, "speed": float(tick["speed"]),
-                     "offset_m": float(tick["lateral_offset_m"]), "heading_rad": heading,
-                     "curvature": float(track.curvature(s)), "seen_offset_m": seen[0], "seen_heading_rad": seen[1],
-                     "seen_curvature": seen[2], "steering": seen[3],
-                     "road_wheel": pilot.convention.to_road_wheel_left(seen[3], world.steering_ratio),
-                     "expert_road_wheel": expert_road_wheel(world, float(tick["x"]), float(tick["y"]), s, heading,
-                                                            float(tick["speed"])),
-                     "put_back": int(k + 1 < len(ticks) and int(ticks[k + 1]["intervention"]))})
+    ticks = []
+
+    def on_step(t):  # the pose the frame was rendered from: its true lane and the expert's steering there
+        w = t.world
+        ticks.append((w.s % w.track.length, w.state.v, t.offset, t.heading, float(w.track.curvature(w.s)), t.model,
+                      t.expert, t.intervention))
+
+    result = drive(seeing, out, o, progress=True, plot=False, on_step=on_step)
+    rows = [{"tick": k, "place_m": place, "speed": v, "offset_m": offset, "heading_rad": heading,
+             "curvature": curvature, "seen_offset_m": seen[0], "seen_heading_rad": seen[1], "seen_curvature": seen[2],
+             "steering": seen[3], "road_wheel": wheel, "expert_road_wheel": expert,
+             "put_back": int(k + 1 < len(ticks) and ticks[k + 1][-1])}
+            for k, ((place, v, offset, heading, curvature, wheel, expert, _), seen)
+            in enumerate(zip(ticks, seeing.seen))]
     with open(out / "frames.csv", "w", newline="") as f:
         w = csv.DictWriter(f, list(rows[0]))
         w.writeheader()
         w.writerows({k: "" if isinstance(v, float) and math.isnan(v) else v for k, v in r.items()} for r in rows)
     places = [f"{r['place_m']:.1f}" for r in rows if r["put_back"]]
-    lines = [f"machine: {machine()}", "", f"{a.checkpoint} on {o.style} track {o.seed} ({track.length:.1f} m lap), "
+    lines = [f"machine: {machine()}", "", f"{a.checkpoint} on {o.style} track {o.seed} ({result.lap_m:.1f} m lap), "
              f"{o.minutes:g} min, steering by its {o.steer_by}: {result.laps} laps, {result.clean_laps} clean, "
              f"{result.off_track} put back, at {', '.join(places) or '-'} m of the lap.", "",
              "| lap [m] | frames | offset [m] | seen offset error [m] | heading [rad] | seen heading error [rad] | "
              "curvature [1/m] | seen curvature error [1/m] | road wheel [rad] | the expert's [rad] | "
              "road wheel error [rad] | put back |", "|" + "---|" * 12,
-             *stretch_rows(rows, track.length)]
+             *stretch_rows(rows, result.lap_m)]
     (out / "lane_drive.md").write_text("\n".join(lines) + "\n")
     if seeing.before:
         strip(seeing.before[min(1, len(seeing.before) - 1)], rows, out / "before.png")

@@ -139,13 +139,14 @@ def result_of(label: str, o: TrackDriveOptions, t: Trajectory, world: TrackWorld
 
 def drive(pilot, out: str | Path | None, o: TrackDriveOptions = TrackDriveOptions(),
                 video: str | Path | None = None, progress: bool = True, on_tick=None, plot: bool = True,
-                meta: dict | None = None) -> TrackDrive:
+                meta: dict | None = None, on_step=None) -> TrackDrive:
     """Closed loop on a track: each tick renders the car's fisheye frame, asks `pilot.step(frame, speed)` for
     controls and applies their steering (in `pilot.convention`) and throttle (a pilot without one drives at
     `o.throttle`). The body overhanging the lane edge by more than `o.limit_m` is an off-track event: the car is
-    put back on the lane centre and `pilot.reset()` clears its memory. `on_tick(k)` is called every 100 ticks.
-    With `out`: trajectory.csv, frames.png (a frame every 5 s), drive.json (the result and `meta`) and, with
-    `plot`, track.png (the driven line on the track)."""
+    put back on the lane centre and `pilot.reset()` clears its memory. `on_tick(k)` is called every 100 ticks,
+    `on_step(tick)` every tick (`core.driving.Tick`: the world as the frame was rendered). With `out`:
+    trajectory.csv, frames.png (a frame every 5 s), drive.json (the result and `meta`) and, with `plot`, track.png
+    (the driven line on the track)."""
     check_camera(pilot)
     world = TrackWorld(o.seed, o.lane_width, o.style, o.fps, camera_of(o.calibration), constant_throttle(o.throttle),
                        look=LOOK if o.light is None else Look(light=o.light))
@@ -155,8 +156,10 @@ def drive(pilot, out: str | Path | None, o: TrackDriveOptions = TrackDriveOption
     room = o.lane_width / 2 - world.car.body.width / 2  # where the body meets a lane line on a straight
     events = 0
 
-    def on_step(t):
+    def step(t):
         nonlocal events
+        if on_step:
+            on_step(t)
         events += t.intervention
         if out is not None and t.index % int(o.fps * 5) == 0 and len(strip) < 12:
             strip.append(t.frame)
@@ -164,7 +167,7 @@ def drive(pilot, out: str | Path | None, o: TrackDriveOptions = TrackDriveOption
             movie.add(t.frame, t.model, t.expert, t.offset, f"track {o.seed}  lap {len(world.laps.crossings)}  "
                       f"{world.state.v:3.1f} m/s  off track {events}", limit=room)
 
-    t = drive_loop(world, pilot, frames_in(o.minutes, o.fps), o.limit_m, o.fps, on_step=on_step,
+    t = drive_loop(world, pilot, frames_in(o.minutes, o.fps), o.limit_m, o.fps, on_step=step,
                    desc=f"drive track {o.seed}", progress=progress, on_tick=on_tick, latency=o.latency)
     if movie:
         movie.close()
