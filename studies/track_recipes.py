@@ -469,6 +469,7 @@ def main(_, a: Races) -> None:
             for label, folder, ro in recipe_races(name, suite, suite_options(name, a.suite, cap, a.workers), grid):
                 rows += [replace(r, label=f"{label}/{r.label}") for r in race(ckpts, folder, ro)]
                 grids.setdefault(name, {})[ro.throttle_scale] = label
+                minutes[label] = minutes[name]  # the same checkpoints at every scale of the grid
         if a.donkeycar_cv:
             rows += race_line_follower(out / "donkey-cv", suite / f"{DONKEYCAR_CV}{scaled(a.donkeycar_throttle_scale)}",
                                        replace(o, throttle_scale=a.donkeycar_throttle_scale,

@@ -359,7 +359,7 @@ def test_the_study_races_the_grid_for_both_sides_and_writes_the_choice(tmp_path,
 
     monkeypatch.setattr(tr, "record_tubs", lambda *a: None)
     monkeypatch.setattr(tr, "train_recipe", lambda name, seed, out, tubs: tmp_path / f"{name}-{seed}.pt")
-    monkeypatch.setattr(tr, "training_minutes", lambda *a: None)
+    monkeypatch.setattr(tr, "training_minutes", lambda *a: 54.5)
     monkeypatch.setattr(tr, "race", fake_race)
     monkeypatch.setattr(tr, "donkey_models", lambda *a: (tmp_path / "car", [tmp_path / "linear-0.h5"]))
     monkeypatch.setattr(tr, "race_donkeycar", lambda car, models, out, o, label: [
@@ -374,5 +374,7 @@ def test_the_study_races_the_grid_for_both_sides_and_writes_the_choice(tmp_path,
                           ("donkeycar-throttle-1.5-floor-0.2", 1.5, 0.2)}
     rows = {r["recipe"]: r for r in json.loads((tmp_path / "t.json").read_text())}
     assert {k for k, r in rows.items() if r["chosen"]} == {"best-no-drift-x1.2", "donkeycar-throttle-1.2-floor-0.2"}
+    # every scale's row of the recipe gives the minutes its checkpoints trained; donkeycar's runs give none here
+    assert [r["training_min"] for k, r in rows.items() if k.startswith("best")] == [54.5] * 3
     assert (tmp_path / "t.md").read_text().endswith("- cap 1: **best-no-drift-x1.2**\n- cap 1: "
                                                     "**donkeycar-throttle-1.2-floor-0.2**\n")
