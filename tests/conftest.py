@@ -60,6 +60,7 @@ PRELOAD = ["torch", "torch._dynamo", "optuna", "steerlab.cli", "steerlab.train.l
 
 
 def pytest_configure(config):
+    config.addinivalue_line("markers", "figures: the test looks at the PNGs steerlab draws (see _figures_unrendered)")
     if hasattr(config, "workerinput") or not getattr(config.option, "numprocesses", None):  # not xdist's controller
         from multiprocessing import forkserver
 
@@ -218,6 +219,26 @@ def resaved(path, ckpt) -> None:
 
 # Plots and videos: what a test reads of them beside the file. A figure is checked where it is drawn (its lines and
 # their points, its legend) and in the PNG written from it (its size, the pixels of its lines); a video by its frames.
+
+@pytest.fixture(autouse=True)
+def _figures_unrendered(request, monkeypatch):
+    """A figure is built as steerlab builds it, but drawn into its PNG only in a test that looks at figures (one that
+    asks for `saved_figures` or is marked `figures`); elsewhere an empty file stands in for the PNG, and laying the
+    figure out (which draws its text) is left out too: a suite's plots cost their plotting calls, not their
+    rendering. Figures saved in other processes (the workers of a suite, a command run as a process) are drawn."""
+    if "saved_figures" in request.fixturenames or request.node.get_closest_marker("figures"):
+        return
+    from matplotlib.figure import Figure
+
+    def placeholder(fig, path, *args, **kwargs):
+        if hasattr(path, "write"):
+            path.write(b"")
+        else:
+            Path(path).write_bytes(b"")
+
+    monkeypatch.setattr(Figure, "savefig", placeholder)
+    monkeypatch.setattr(Figure, "tight_layout", lambda fig, *args, **kwargs: None)
+
 
 @pytest.fixture
 def saved_figures(monkeypatch):

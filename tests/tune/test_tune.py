@@ -13,6 +13,7 @@ from steerlab.train.config import load_config
 from tests.tune.tuning import ONE_THREAD, Hold, rows, run_tune, tune_config
 
 
+@pytest.mark.figures
 def test_small_study_prunes_and_writes_a_runnable_best_config(tmp_path, tiny_recording):
     out = tmp_path / "study"
     # trials far enough apart for Hyperband to stop one: validated on the recording's last frames, which the

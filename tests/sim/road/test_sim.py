@@ -156,6 +156,7 @@ def test_mixed_recording_interleaves_one_road_per_type(tmp_path):
         record(tmp_path / "x", RecordOptions(road="country,mountain", minutes=0.01), progress=False)
 
 
+@pytest.mark.figures
 def test_a_drive_plot_draws_the_intervention_limit_it_drove_with(tmp_path, monkeypatch):
     """`sim drive --limit-m 0.4`'s path.png marks +-0.4 m on the offset axis, not the default 1 m."""
     import matplotlib.axes

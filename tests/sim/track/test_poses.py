@@ -99,7 +99,7 @@ def uniform_ks(values, lo, hi) -> float:
 ])
 def test_the_poses_are_drawn_as_the_manifest_says(tmp_path, given, offset_m, heading_deg):
     tub = tmp_path / "poses"
-    assert main(["sim", "record", "--world", "track", "--seed", "31", "--minutes", "0.5", "--poses", *given,
+    assert main(["sim", "record", "--world", "track", "--seed", "31", "--minutes", "0.25", "--poses", *given,
                  "--out", str(tub)]) == 0
     poses = metadata(tub)["poses"]
     assert poses["offset_m"] == pytest.approx(offset_m) and poses["heading_deg"] == heading_deg
@@ -109,7 +109,7 @@ def test_the_poses_are_drawn_as_the_manifest_says(tmp_path, given, offset_m, hea
     heading = np.degrees([r["lane/heading"] for r in recs])
     # the lane values are the pose drawn (the rear axle's offset and heading, read back by projection: 2e-3 m, rad)
     assert np.abs(offset).max() <= offset_m + 2e-3 and np.abs(heading).max() <= heading_deg + 0.12
-    # uniform: the KS distance of 600 draws below its 1 % critical value, 1.63 / sqrt(n)
+    # uniform: the KS distance of 300 draws below its 1 % critical value, 1.63 / sqrt(n)
     assert uniform_ks(offset, -offset_m, offset_m) < 1.63 / math.sqrt(len(recs))
     assert uniform_ks(heading, -heading_deg, heading_deg) < 1.63 / math.sqrt(len(recs))
     # and independent of each other
