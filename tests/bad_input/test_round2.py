@@ -287,13 +287,26 @@ SCRIPTS = [(module, argv, said) for module, argv, said in [
 
 
 @pytest.mark.parametrize("module, argv, said", SCRIPTS, ids=[f"{m} {' '.join(a)}" for m, a, _ in SCRIPTS])
-def test_a_script_refuses_a_bad_argument_in_one_line_before_any_work(tmp_path, module, argv, said):
+def test_a_script_refuses_a_bad_argument_in_one_line_before_any_work(tmp_path, monkeypatch, capsys, module, argv,
+                                                                      said):
+    """Each script run as `python -m` runs it (its module as __main__), here in this process; the first also as a
+    process of its own, as a user starts it."""
+    import runpy
+
     ckpt = made(tmp_path)
     before = ckpt.read_bytes()
-    p = subprocess.run([sys.executable, "-m", module, *[a.format(ckpt=ckpt, tmp=tmp_path) for a in argv]],
-                       capture_output=True, text=True, timeout=60, cwd=ROOT)
-    lines = [line for line in p.stderr.splitlines() if not line.startswith("usage:") and line.strip()
+    argv = [a.format(ckpt=ckpt, tmp=tmp_path) for a in argv]
+    if module == SCRIPTS[0][0]:
+        p = subprocess.run([sys.executable, "-m", module, *argv], capture_output=True, text=True, timeout=60, cwd=ROOT)
+        code, err = p.returncode, p.stderr
+    else:
+        monkeypatch.chdir(ROOT)
+        monkeypatch.setattr(sys, "argv", [module, *argv])
+        with pytest.raises(SystemExit) as ended:
+            runpy.run_module(module, run_name="__main__", alter_sys=True)
+        code, err = ended.value.code, capsys.readouterr().err
+    lines = [line for line in err.splitlines() if not line.startswith("usage:") and line.strip()
              and not line.startswith(" ")]
-    assert p.returncode == 2 if "argument" in said or "unrecognized" in said else p.returncode in (1, 2)
-    assert len(lines) == 1 and "error: " in lines[0] and said in lines[0], p.stderr
+    assert code == 2 if "argument" in said or "unrecognized" in said else code in (1, 2)
+    assert len(lines) == 1 and "error: " in lines[0] and said in lines[0], err
     assert ckpt.read_bytes() == before
