@@ -90,9 +90,15 @@ COLOUR = ("train.hue_deg=180", "train.brightness=0.25")  # the colours and light
 # one view of every frame, the camera moved within +-0.15 m and turned within +-15 degrees, back on the path in 0.3 s:
 # the train: section's options (the tub studies) and the same as overrides (the recipes)
 VIEW = {"views": [[[-0.15, 0.15], [-15, 15]]], "recovery_s": 0.3}
-VIEWS = tuple(f"train.{key}={json.dumps(value)}" for key, value in VIEW.items())
-VIEWS_30 = tuple(f"train.{key}={json.dumps(value)}"  # turned as far as the pose frames are
-                 for key, value in {**VIEW, "views": [[[-0.15, 0.15], [-30, 30]]]}.items())
+
+
+def overrides(train: dict) -> tuple[str, ...]:
+    """A train: section's options as a recipe's overrides."""
+    return tuple(f"train.{key}={json.dumps(value)}" for key, value in train.items())
+
+
+VIEWS = overrides(VIEW)
+VIEWS_30 = overrides({**VIEW, "views": [[[-0.15, 0.15], [-30, 30]]]})  # turned as far as the pose frames are
 BEST = (*COLOUR, "train.flip=true", "train.loss=mae", "train.epoch_samples=3700")  # configs/track_best.yaml
 LANE_PACE = (2.0, 3.5, 5.0, 8.0, 12.0, 20.0)  # m/s^2: the pace from the lane's lateral accelerations, chosen on s1
 RACE_BEST = {"throttle_scale": 1.2}  # its scale uncapped (and its floor at rest: best-floor-0.2)
