@@ -287,6 +287,7 @@ SCRIPTS = [(module, argv, said) for module, argv, said in [
 
 
 @pytest.mark.parametrize("module, argv, said", SCRIPTS, ids=[f"{m} {' '.join(a)}" for m, a, _ in SCRIPTS])
+@pytest.mark.filterwarnings("ignore:.*found in sys.modules after import of package:RuntimeWarning")  # imported here
 def test_a_script_refuses_a_bad_argument_in_one_line_before_any_work(tmp_path, monkeypatch, capsys, module, argv,
                                                                       said):
     """Each script run as `python -m` runs it (its module as __main__), here in this process; the first also as a
