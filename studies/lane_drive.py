@@ -150,7 +150,7 @@ def main(a, o: LaneDrive) -> None:
              "steering": seen[3], "road_wheel": wheel, "expert_road_wheel": expert,
              "put_back": int(k + 1 < len(ticks) and ticks[k + 1][-1])}
             for k, ((place, v, offset, heading, curvature, wheel, expert, _), seen)
-            in enumerate(zip(ticks, seeing.seen))]
+            in enumerate(zip(ticks, seeing.seen, strict=True))]
     with open(out / "frames.csv", "w", newline="") as f:
         w = csv.DictWriter(f, list(rows[0]))
         w.writeheader()

@@ -290,7 +290,7 @@ SCRIPTS = [(module, argv, said) for module, argv, said in [
 @pytest.mark.filterwarnings("ignore:.*found in sys.modules after import of package:RuntimeWarning")  # imported here
 def test_a_script_refuses_a_bad_argument_in_one_line_before_any_work(tmp_path, monkeypatch, capsys, module, argv,
                                                                       said):
-    """Each script run as `python -m` runs it (its module as __main__), here in this process; the first also as a
+    """Each script run as `python -m` runs it (its module as __main__), here in this process; the first instead as a
     process of its own, as a user starts it."""
     import runpy
 

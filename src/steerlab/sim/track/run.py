@@ -144,7 +144,7 @@ def drive(pilot, out: str | Path | None, o: TrackDriveOptions = TrackDriveOption
     controls and applies their steering (in `pilot.convention`) and throttle (a pilot without one drives at
     `o.throttle`). The body overhanging the lane edge by more than `o.limit_m` is an off-track event: the car is
     put back on the lane centre and `pilot.reset()` clears its memory. `on_tick(k)` is called every 100 ticks,
-    `on_step(tick)` every tick (`core.driving.Tick`: the world as the frame was rendered). With `out`:
+    `on_step(tick)` every tick (`sim.core.driving.Tick`: the world as the frame was rendered). With `out`:
     trajectory.csv, frames.png (a frame every 5 s), drive.json (the result and `meta`) and, with `plot`, track.png
     (the driven line on the track)."""
     check_camera(pilot)
